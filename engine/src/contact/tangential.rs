@@ -1,0 +1,52 @@
+//! Tangential force with an elastic history spring and Coulomb friction (Cundall-Strack;
+//! N 1.2-1.3, RC 2.1; PHYSICS.md §2).
+//!
+//! The spring `xi` (m) accumulates the tangential relative displacement at the contact point.
+//! Each step it is first carried along with the contact: the spin of the pair about the normal
+//! turns it (twist), then it is projected onto the current tangent plane and rescaled to keep its
+//! length, so that a pair in rigid rotation keeps its tangential force (objectivity). Then
+//! `f_t = -(k_t xi + gamma_t v_t)`; if `|f_t| > mu f_n` the force is scaled back onto the Coulomb
+//! cone and the spring reset to `xi = -(f_t + gamma_t v_t) / k_t` (LAMMPS `gran/hooke/history`).
+
+use crate::math::Vec3;
+
+/// Carries the spring along with the contact frame: twist by the mean spin about `n` over `dt`,
+/// then project on the plane normal to `n`, keeping the length.
+#[inline(always)]
+pub fn carry_spring(xi: &mut Vec3, n: &Vec3, spin_n: f64, dt: f64) {
+    let len2 = xi.norm_squared();
+    if len2 == 0.0 {
+        return;
+    }
+    // Rotation about n by the angle spin_n dt (first order; exact length restored below).
+    let twist = n * (spin_n * dt);
+    *xi -= xi.cross(&twist);
+    *xi -= n * xi.dot(n);
+    let new2 = xi.norm_squared();
+    if new2 > 0.0 {
+        *xi *= (len2 / new2).sqrt();
+    }
+}
+
+/// Advances the spring by `v_t dt` (mid-step sliding velocity) and returns the tangential force
+/// on body i (N), with the dashpot acting on `v_damp` (end-of-step estimate), capped by Coulomb at
+/// `mu f_n`. `k_t` in N/m, `gamma_t` in N·s/m, `f_n` >= 0 in N.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn tangential_force(xi: &mut Vec3, v_t: &Vec3, v_damp: &Vec3, dt: f64, k_t: f64, gamma_t: f64, mu: f64, f_n: f64) -> Vec3 {
+    *xi += v_t * dt;
+    let mut f_t = -(*xi * k_t + v_damp * gamma_t);
+    let cap = mu * f_n;
+    let mag2 = f_t.norm_squared();
+    if mag2 > cap * cap {
+        if mag2 > 0.0 {
+            f_t *= cap / mag2.sqrt();
+        }
+        if k_t > 0.0 {
+            *xi = -(f_t + v_damp * gamma_t) / k_t;
+        } else {
+            *xi = Vec3::zeros();
+        }
+    }
+    f_t
+}

@@ -1,0 +1,93 @@
+//! Errors of the engine: invalid scenes and numerical failures.
+
+use crate::scene::Violation;
+
+/// Why a running simulation was judged unstable.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InstabilityCause {
+    /// A position, velocity or force became NaN or infinite.
+    NonFinite {
+        /// Index of the first particle found with a non-finite value.
+        particle: usize,
+    },
+    /// Two bodies overlap by more than the allowed fraction of the smaller radius.
+    Overlap {
+        /// Largest overlap found divided by the smaller radius of the pair.
+        fraction: f64,
+        /// The allowed fraction.
+        limit: f64,
+    },
+    /// Mechanical energy grew more than the work put in by walls and gravity allows.
+    EnergyGrowth {
+        /// Energy gained beyond the work put in, J.
+        excess: f64,
+        /// Reference energy scale the excess was compared with, J.
+        scale: f64,
+    },
+}
+
+impl std::fmt::Display for InstabilityCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NonFinite { particle } => {
+                write!(f, "non-finite position, velocity or force on particle {particle}")
+            }
+            Self::Overlap { fraction, limit } => write!(
+                f,
+                "overlap reached {:.1}% of the smaller radius (limit {:.1}%)",
+                fraction * 100.0,
+                limit * 100.0
+            ),
+            Self::EnergyGrowth { excess, scale } => write!(
+                f,
+                "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)"
+            ),
+        }
+    }
+}
+
+/// Every failure the engine reports.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// The scene breaks one or more rules; every violation is listed.
+    #[error("invalid scene: {}", crate::scene::format_violations(.0))]
+    InvalidScene(Vec<Violation>),
+    /// The scene is valid but could not be built (for example, particles do not fit).
+    #[error("cannot build scene: {field}: {reason}")]
+    Build {
+        /// Path of the field responsible.
+        field: String,
+        /// What went wrong and what to change.
+        reason: String,
+    },
+    /// The integration became unstable; results up to `step` are valid, nothing after.
+    #[error("unstable at step {step} (t = {time:.6e} s): {cause}; {suggestion}")]
+    Unstable {
+        /// Step at which the check failed.
+        step: u64,
+        /// Simulated time at that step, s.
+        time: f64,
+        /// What was detected.
+        cause: InstabilityCause,
+        /// What to change in the scene.
+        suggestion: String,
+    },
+    /// The run was cancelled from outside.
+    #[error("cancelled at step {step}")]
+    Cancelled {
+        /// Step reached when the cancellation was seen.
+        step: u64,
+    },
+}
+
+impl EngineError {
+    /// Stable machine-readable code for the error kind.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::InvalidScene(_) => "invalid_scene",
+            Self::Build { .. } => "build_failed",
+            Self::Unstable { .. } => "unstable",
+            Self::Cancelled { .. } => "cancelled",
+        }
+    }
+}

@@ -1,0 +1,284 @@
+//! Verlet neighbour list built with cell lists: O(N) construction, rebuilt only when some
+//! particle has moved more than half the skin (or the box has changed by as much).
+//!
+//! The list is a half list: each pair (i, j) with i < j appears once, sorted by i then j, stored
+//! as parallel arrays `pi`, `pj` with a CSR index `start` by i, and a reverse CSR `rev_start`,
+//! `rev` (pair indices by j) so that forces can be gathered per particle in parallel, in a fixed
+//! order, without atomics: the parallel result equals the serial one bit for bit.
+
+use rayon::prelude::*;
+
+use super::Domain;
+use crate::math::{Real, Vec3};
+
+const CHUNK: usize = 512;
+
+/// Half neighbour list with Verlet skin.
+#[derive(Debug, Clone, Default)]
+pub struct NeighborList {
+    /// First particle of each pair.
+    pub pi: Vec<u32>,
+    /// Second particle of each pair (pj > pi).
+    pub pj: Vec<u32>,
+    /// Pairs of particle i are `start[i]..start[i + 1]`.
+    pub start: Vec<u32>,
+    /// Pairs whose second particle is j are `rev[rev_start[j]..rev_start[j + 1]]`.
+    pub rev_start: Vec<u32>,
+    /// Pair indices grouped by second particle.
+    pub rev: Vec<u32>,
+    /// Pairs closer than `R_i + R_j + reach` are kept, m.
+    pub reach: Real,
+    /// Skin, m (part of `reach`).
+    pub skin: Real,
+    /// Number of builds so far.
+    pub builds: u64,
+    ref_pos: Vec<Vec3>,
+    ref_offset: Real,
+    ref_len: Vec3,
+    cell_start: Vec<u32>,
+    cell_items: Vec<u32>,
+}
+
+impl NeighborList {
+    /// An empty list keeping pairs closer than `R_i + R_j + range + skin`.
+    pub fn new(range: Real, skin: Real) -> Self {
+        Self { reach: range + skin, skin, ..Default::default() }
+    }
+
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.pi.len()
+    }
+
+    /// True if there is no pair.
+    pub fn is_empty(&self) -> bool {
+        self.pi.is_empty()
+    }
+
+    /// True if the list may miss an interacting pair: twice the largest displacement since the
+    /// last build, plus the change of Lees-Edwards offset and box lengths, exceeds the skin.
+    pub fn needs_rebuild(&self, pos: &[Vec3], domain: &Domain) -> bool {
+        if self.ref_pos.len() != pos.len() {
+            return true;
+        }
+        let max2 = pos
+            .par_iter()
+            .with_min_len(CHUNK)
+            .zip(self.ref_pos.par_iter())
+            .map(|(p, r)| domain.separation(p, r).0.norm_squared())
+            .reduce(|| 0.0, f64::max);
+        let mut drift = 2.0 * max2.sqrt();
+        if domain.sheared() {
+            let lx = domain.length(0);
+            let d = (domain.le_offset - self.ref_offset).abs();
+            drift += d.min(lx - d);
+        }
+        for a in 0..domain.dim {
+            if domain.periodic[a] {
+                drift += (domain.length(a) - self.ref_len[a]).abs();
+            }
+        }
+        drift > self.skin
+    }
+
+    /// Rebuilds the list. Returns, for each new pair, the index of the same pair in the old list
+    /// (or `u32::MAX`), so that pair histories can be carried over.
+    pub fn rebuild(&mut self, pos: &[Vec3], radius: &[Real], domain: &Domain) -> Vec<u32> {
+        let n = pos.len();
+        let rmax = radius.iter().copied().fold(0.0, f64::max);
+        let cell_size = 2.0 * rmax + self.reach;
+        // Grid extents: the box on periodic axes, the particles' bounding box elsewhere.
+        let mut lo = Vec3::zeros();
+        let mut ncell = [1usize; 3];
+        let mut width = Vec3::repeat(1.0);
+        for a in 0..domain.dim {
+            let (l0, l1) = if domain.periodic[a] {
+                (domain.lo[a], domain.hi[a])
+            } else {
+                let (mn, mx) = pos.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(mn, mx), p| (mn.min(p[a]), mx.max(p[a])));
+                if n == 0 {
+                    (0.0, 1.0)
+                } else {
+                    (mn, mx.max(mn + 1e-300))
+                }
+            };
+            let len = (l1 - l0).max(f64::MIN_POSITIVE);
+            // Cap the grid so a few particles far apart cannot ask for a huge number of cells.
+            let cap = (4 * n.max(1)) as f64;
+            let k = ((len / cell_size).floor().max(1.0)).min(cap.powf(1.0 / domain.dim as f64).max(1.0));
+            ncell[a] = k as usize;
+            lo[a] = l0;
+            width[a] = len / k;
+        }
+        let ncells = ncell[0] * ncell[1] * ncell[2];
+        let cell_of = |p: &Vec3| -> [usize; 3] {
+            let mut c = [0usize; 3];
+            for a in 0..domain.dim {
+                let k = ((p[a] - lo[a]) / width[a]).floor();
+                c[a] = (k.max(0.0) as usize).min(ncell[a] - 1);
+            }
+            c
+        };
+        let flat = |c: [usize; 3]| (c[2] * ncell[1] + c[1]) * ncell[0] + c[0];
+        // Counting sort into cells.
+        self.cell_start.clear();
+        self.cell_start.resize(ncells + 1, 0);
+        let cells: Vec<u32> = pos.iter().map(|p| flat(cell_of(p)) as u32).collect();
+        for &c in &cells {
+            self.cell_start[c as usize + 1] += 1;
+        }
+        for k in 0..ncells {
+            self.cell_start[k + 1] += self.cell_start[k];
+        }
+        self.cell_items.clear();
+        self.cell_items.resize(n, 0);
+        let mut fill = self.cell_start.clone();
+        for (i, &c) in cells.iter().enumerate() {
+            self.cell_items[fill[c as usize] as usize] = i as u32;
+            fill[c as usize] += 1;
+        }
+
+        let reach = self.reach;
+        let cell_start = &self.cell_start;
+        let cell_items = &self.cell_items;
+        let le_shift = |dy_wrap: i64| -> i64 {
+            // Image rows one period up (dy_wrap = +1) are shifted by +offset along x.
+            if !domain.sheared() || dy_wrap == 0 {
+                return 0;
+            }
+            (dy_wrap as f64 * domain.le_offset / width[0]).floor() as i64
+        };
+        let dims = domain.dim;
+        let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n)
+            .into_par_iter()
+            .chunks(CHUNK)
+            .map(|idx| {
+                let mut counts = Vec::with_capacity(idx.len());
+                let mut js = Vec::with_capacity(idx.len() * 8);
+                let mut nb_cells: Vec<usize> = Vec::with_capacity(64);
+                for &i in &idx {
+                    let ci = cell_of(&pos[i]);
+                    nb_cells.clear();
+                    let range = |a: usize| if a < dims { -1i64..=1 } else { 0i64..=0 };
+                    for dz in range(2) {
+                        for dy in range(1) {
+                            // Row index along y, wrapped; remember whether it crossed the boundary.
+                            let y = ci[1] as i64 + dy;
+                            let (y, wrap) = wrap_index(y, ncell[1], domain.periodic[1]);
+                            let Some(y) = y else { continue };
+                            let shift = le_shift(wrap);
+                            // Image x = x_j + wrap * offset must fall within one cell of i:
+                            // x_j's cell lies in [cx - 2 - shift, cx + 1 - shift].
+                            let dxs: std::ops::RangeInclusive<i64> =
+                                if wrap != 0 && domain.sheared() { -2 - shift..=1 - shift } else { -1..=1 };
+                            for dx in dxs {
+                                let (x, _) = wrap_index(ci[0] as i64 + dx, ncell[0], domain.periodic[0]);
+                                let Some(x) = x else { continue };
+                                let (z, _) = wrap_index(ci[2] as i64 + dz, ncell[2], domain.periodic[2]);
+                                let Some(z) = z else { continue };
+                                nb_cells.push(flat([x, y, z]));
+                            }
+                        }
+                    }
+                    nb_cells.sort_unstable();
+                    nb_cells.dedup();
+                    let before = js.len();
+                    for &c in &nb_cells {
+                        for &j in &cell_items[cell_start[c] as usize..cell_start[c + 1] as usize] {
+                            if (j as usize) <= i {
+                                continue;
+                            }
+                            let (d, _) = domain.separation(&pos[i], &pos[j as usize]);
+                            let cut = radius[i] + radius[j as usize] + reach;
+                            if d.norm_squared() < cut * cut {
+                                js.push(j);
+                            }
+                        }
+                    }
+                    js[before..].sort_unstable();
+                    counts.push((js.len() - before) as u32);
+                }
+                (counts, js)
+            })
+            .collect();
+
+        let old_start = std::mem::take(&mut self.start);
+        let old_pj = std::mem::take(&mut self.pj);
+        let total: usize = chunks.iter().map(|c| c.1.len()).sum();
+        self.start = Vec::with_capacity(n + 1);
+        self.start.push(0);
+        self.pi = Vec::with_capacity(total);
+        self.pj = Vec::with_capacity(total);
+        let mut i = 0u32;
+        for (counts, js) in chunks {
+            self.pj.extend_from_slice(&js);
+            for c in counts {
+                let s = *self.start.last().unwrap_or(&0);
+                self.start.push(s + c);
+                self.pi.extend(std::iter::repeat_n(i, c as usize));
+                i += 1;
+            }
+        }
+        // Reverse index by second particle.
+        self.rev_start.clear();
+        self.rev_start.resize(n + 1, 0);
+        for &j in &self.pj {
+            self.rev_start[j as usize + 1] += 1;
+        }
+        for k in 0..n {
+            self.rev_start[k + 1] += self.rev_start[k];
+        }
+        self.rev.clear();
+        self.rev.resize(total, 0);
+        let mut fill = self.rev_start.clone();
+        for (p, &j) in self.pj.iter().enumerate() {
+            self.rev[fill[j as usize] as usize] = p as u32;
+            fill[j as usize] += 1;
+        }
+        // Where each new pair sat in the old list.
+        let old_index: Vec<u32> = if old_start.len() == n + 1 {
+            self.pi
+                .par_iter()
+                .zip(self.pj.par_iter())
+                .with_min_len(CHUNK)
+                .map(|(&i, &j)| {
+                    let (s, e) = (old_start[i as usize] as usize, old_start[i as usize + 1] as usize);
+                    match old_pj[s..e].binary_search(&j) {
+                        Ok(k) => (s + k) as u32,
+                        Err(_) => u32::MAX,
+                    }
+                })
+                .collect()
+        } else {
+            vec![u32::MAX; total]
+        };
+        self.ref_pos.clear();
+        self.ref_pos.extend_from_slice(pos);
+        self.ref_offset = domain.le_offset;
+        self.ref_len = domain.hi - domain.lo;
+        self.builds += 1;
+        old_index
+    }
+
+    /// Heap bytes held by the list.
+    pub fn heap_bytes(&self) -> usize {
+        4 * (self.pi.capacity() + self.pj.capacity() + self.start.capacity() + self.rev_start.capacity() + self.rev.capacity())
+            + 4 * (self.cell_start.capacity() + self.cell_items.capacity())
+            + std::mem::size_of::<Vec3>() * self.ref_pos.capacity()
+    }
+}
+
+/// Wraps a cell index on a periodic axis; `None` outside a non-periodic grid. The second value
+/// is -1, 0 or +1: how many periods the index crossed.
+#[inline(always)]
+fn wrap_index(k: i64, n: usize, periodic: bool) -> (Option<usize>, i64) {
+    let n = n as i64;
+    if (0..n).contains(&k) {
+        (Some(k as usize), 0)
+    } else if periodic {
+        let w = k.div_euclid(n);
+        (Some(k.rem_euclid(n) as usize), w)
+    } else {
+        (None, 0)
+    }
+}

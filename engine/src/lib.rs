@@ -1,0 +1,44 @@
+//! # sable-engine
+//!
+//! The numerical core of Sable: the scene format and its validation ([`scene`]), particle
+//! storage and placement ([`particles`]), the box and neighbour search ([`geometry`]), contact
+//! laws ([`contact`]), loading ([`loading`]), simulation methods ([`methods`]), the metrics
+//! shared by all methods ([`observe`]) and the run loop ([`run`]).
+//!
+//! Data flows one way: scene JSON → [`scene::Scene`] → a method's [`run::Simulation`] →
+//! [`observe::Sample`]s. The engine does no I/O and has no async runtime.
+//!
+//! ```
+//! let json = r#"{
+//!   "dimension": 2, "method": "dem",
+//!   "materials": {"glass": {"density": 2500, "contact": {"law": "linear", "k_n": 1e5},
+//!                           "restitution": 0.5, "friction": 0.3}},
+//!   "particles": [{"material": "glass", "count": 20,
+//!                  "size": {"kind": "monodisperse", "diameter": 0.001},
+//!                  "placement": {"kind": "random"}}],
+//!   "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+//!   "gravity": [0, -9.81],
+//!   "stop": {"steps": 200}
+//! }"#;
+//! let scene = sable_engine::scene::parse_scene(json).expect("valid scene");
+//! let mut sim = sable_engine::methods::build(&scene).expect("buildable");
+//! let runner = sable_engine::run::Runner::for_scene(&scene);
+//! let summary = runner.run(sim.as_mut(), &mut |_, _| {}).expect("stable");
+//! assert_eq!(summary.steps, 200);
+//! ```
+
+pub mod contact;
+pub mod error;
+pub mod geometry;
+pub mod loading;
+pub mod math;
+pub mod methods;
+pub mod observe;
+pub mod particles;
+pub mod run;
+pub mod scene;
+
+pub use error::{EngineError, InstabilityCause};
+
+/// Version of the engine, stored with every job's results.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,53 @@
+//! Homogeneous deformation of the periodic cell: constant strain rates, or an isotropic servo to
+//! a target pressure (a Berendsen-style barostat: the strain rate is proportional to the pressure
+//! error, bounded). Positions are remapped affinely each step; velocities are left unchanged, as
+//! LAMMPS `fix deform remap x` does.
+
+use crate::geometry::Domain;
+use crate::math::{Real, Vec3};
+use crate::scene::Deformation;
+
+/// State of the imposed cell deformation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellDeformation {
+    /// What is imposed.
+    pub kind: Deformation,
+    /// Current true strain rate of each axis, 1/s.
+    pub rate: Vec3,
+}
+
+impl CellDeformation {
+    /// Starts the deformation (a pressure servo starts at rest).
+    pub fn new(kind: Deformation) -> Self {
+        let rate = match kind {
+            Deformation::StrainRate(r) => r,
+            Deformation::Pressure { .. } => Vec3::zeros(),
+        };
+        Self { kind, rate }
+    }
+
+    /// Updates the servo from the measured mean pressure (Pa); no-op for constant rates.
+    pub fn servo(&mut self, pressure: Real, domain: &Domain) {
+        if let Deformation::Pressure { target, max_strain_rate, gain } = self.kind {
+            let r = (gain * (pressure - target)).clamp(-max_strain_rate, max_strain_rate);
+            for a in 0..domain.dim {
+                self.rate[a] = if domain.periodic[a] { r } else { 0.0 };
+            }
+        }
+    }
+
+    /// Scales the box about its centre by `exp(rate dt)` per axis; returns the scale factors to
+    /// apply to positions relative to the old centre.
+    pub fn deform(&self, domain: &mut Domain, dt: Real) -> (Vec3, Vec3) {
+        let centre = 0.5 * (domain.lo + domain.hi);
+        let mut scale = Vec3::repeat(1.0);
+        for a in 0..domain.dim {
+            let s = (self.rate[a] * dt).exp();
+            scale[a] = s;
+            let half = 0.5 * domain.length(a) * s;
+            domain.lo[a] = centre[a] - half;
+            domain.hi[a] = centre[a] + half;
+        }
+        (centre, scale)
+    }
+}

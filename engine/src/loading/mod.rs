@@ -1,0 +1,8 @@
+//! Imposed loading: walls that are fixed, move at an imposed velocity or are servo-controlled
+//! to a normal stress; homogeneous deformation of the periodic cell.
+
+pub mod cell;
+pub mod walls;
+
+pub use cell::CellDeformation;
+pub use walls::Wall;

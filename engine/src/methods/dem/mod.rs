@@ -1,0 +1,611 @@
+//! Soft-contact DEM (Cundall-Strack "molecular dynamics"; N 1.1.1, RC 2.1, 2.2.1; PHYSICS.md §2):
+//! explicit velocity-Verlet integration of Newton-Euler equations with the contact laws of
+//! [`crate::contact`], cell-list Verlet neighbour search and parallel force loops.
+//!
+//! One step runs the stages of [`Stage`] in their declared order.
+
+mod forces;
+mod stability;
+pub mod timestep;
+
+use rayon::prelude::*;
+
+use crate::contact::{ContactOutput, ContactTable, NormalForce};
+use crate::error::EngineError;
+use crate::geometry::{Domain, NeighborList};
+use crate::loading::{CellDeformation, Wall};
+use crate::math::{Real, Vec3};
+use crate::observe::{measure, ContactRecord, Sample, ShearGeometry, SystemView, WallView};
+use crate::particles::{generate::place_particles, Particles};
+use crate::run::Simulation;
+use crate::scene::{DemParams, Deformation, Placement, Scene, WallMotion};
+use stability::EnergyBudget;
+use timestep::{collision_time, Bodies, CollisionTime};
+
+/// The stages of one DEM step, in execution order:
+/// 1. `InitialIntegrate`: half kick of velocities and spins, drift of positions, periodic wrap;
+/// 2. `Boundaries`: walls and periodic cell move, Lees-Edwards offset advances;
+/// 3. `NeighborUpdate`: the Verlet list is rebuilt if a particle moved more than half the skin;
+/// 4. `Force`: pair forces, gather per particle, walls, gravity;
+/// 5. `FinalIntegrate`: second half kick;
+/// 6. `Check`: every few steps, the stability guard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Half kick and drift.
+    InitialIntegrate,
+    /// Walls, cell and shear boundary move.
+    Boundaries,
+    /// Neighbour list refresh.
+    NeighborUpdate,
+    /// Forces and torques.
+    Force,
+    /// Second half kick.
+    FinalIntegrate,
+    /// Stability guard.
+    Check,
+}
+
+/// State of one pair of the neighbour list.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct PairSlot {
+    /// Tangential spring, m.
+    pub xi: Vec3,
+    /// Force and torques of the last evaluation.
+    pub out: ContactOutput,
+}
+
+/// Optional pair state (rolling spring, capillary bridge), allocated only when a law needs it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct PairExtra {
+    /// Rolling spring, rad.
+    pub roll: Vec3,
+    /// A capillary bridge joins the pair.
+    pub bridge: bool,
+}
+
+/// How often (steps) the stability guard runs and the pressure servo updates.
+const CHECK_EVERY: u64 = 20;
+const SERVO_EVERY: u64 = 10;
+
+/// A soft-contact DEM simulation.
+pub struct Dem {
+    dim: usize,
+    dt: Real,
+    gravity: Vec3,
+    params: DemParams,
+    collision: CollisionTime,
+    table: ContactTable,
+    wall_material: usize,
+    p: Particles,
+    domain: Domain,
+    walls: Vec<Wall>,
+    deformation: Option<CellDeformation>,
+    nl: NeighborList,
+    slots: Vec<PairSlot>,
+    extra: Vec<PairExtra>,
+    needs_extra: bool,
+    wall_xi: Vec<Vec3>,
+    wall_roll: Vec<Vec3>,
+    wall_f: Vec<Vec3>,
+    wall_total_f: Vec<Vec3>,
+    wall_total_t: Vec<Vec3>,
+    step: u64,
+    time: Real,
+    len0: Vec3,
+    solid_volume: Real,
+    pool: Option<rayon::ThreadPool>,
+    budget: EnergyBudget,
+}
+
+impl Dem {
+    /// Builds the simulation: places particles, chooses the time step, builds the neighbour list
+    /// and evaluates the initial forces.
+    pub fn new(scene: &Scene, params: &DemParams) -> Result<Self, EngineError> {
+        let c = &scene.container;
+        let mut domain = Domain {
+            dim: scene.dim,
+            lo: c.lo,
+            hi: c.hi,
+            periodic: c.periodic,
+            shear_rate: c.lees_edwards.map_or(0.0, |le| le.0),
+            le_offset: 0.0,
+        };
+        let mut p = place_particles(scene, &domain)?;
+        if p.is_empty() {
+            return Err(EngineError::Build { field: "particles".into(), reason: "the scene has no particle".into() });
+        }
+        if let Some((rate, true)) = c.lees_edwards {
+            let ymid = 0.5 * (domain.lo.y + domain.hi.y);
+            for (x, v) in p.pos.iter().zip(p.vel.iter_mut()) {
+                v.x += rate * (x.y - ymid);
+            }
+        }
+        sort_by_cell(&mut p, &domain);
+        let table = ContactTable::new(&scene.materials);
+        let wall_material = c.wall_material.unwrap_or(0);
+
+        // Lightest particle and smallest radius of each material, for the collision time.
+        let mut lightest: Vec<Option<(Real, Real)>> = vec![None; scene.materials.len()];
+        for k in 0..p.len() {
+            let m = p.material[k] as usize;
+            let e = lightest[m].get_or_insert((Real::INFINITY, Real::INFINITY));
+            e.0 = e.0.min(p.mass[k]);
+            e.1 = e.1.min(p.radius[k]);
+        }
+        let v_ref = params.reference_velocity.unwrap_or_else(|| reference_velocity(scene, &p));
+        let bodies = Bodies { lightest: &lightest, wall_material: (!c.walls.is_empty()).then_some(wall_material) };
+        let collision = collision_time(&table, &bodies, v_ref);
+        let dt = params.time_step.unwrap_or(params.time_step_fraction * collision.t_c);
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(EngineError::Build {
+                field: "method.time_step".into(),
+                reason: format!("could not derive a time step from the collision time {:e} s; give method.time_step", collision.t_c),
+            });
+        }
+
+        let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
+        let rmax = p.radius.iter().copied().fold(0.0, f64::max);
+        let range = table.laws().iter().map(|l| l.range()).fold(0.0, f64::max);
+        let skin = params.skin * 2.0 * rmin;
+        // Periodic boxes must be wide enough for minimum images to be unique.
+        for a in 0..scene.dim {
+            let need = 2.0 * (2.0 * rmax + range + skin);
+            if c.periodic[a] && domain.length(a) < need {
+                return Err(EngineError::Build {
+                    field: format!("container.max[{a}]"),
+                    reason: format!(
+                        "periodic length {:e} m along {} is below {need:e} m (twice the interaction reach): enlarge the box",
+                        domain.length(a),
+                        crate::math::AXES[a]
+                    ),
+                });
+            }
+        }
+        let k_eff = collision_stiffness(&collision, &p);
+        let walls: Vec<Wall> = c
+            .walls
+            .iter()
+            .map(|w| {
+                let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
+                // Default servo gain: the wall moves by at most ~5% of the overlap change that the
+                // stress error would cause in one step (stiffness per area ~ k / d^(D-1)).
+                let d = 2.0 * rmax;
+                let gain = 0.05 * d.powi(scene.dim as i32 - 1) / (k_eff * dt);
+                Wall::new(w.face, pos, w.motion, gain)
+            })
+            .collect();
+        let nw = walls.len();
+        let needs_extra = table.laws().iter().any(|l| l.rolling.is_some() || l.capillary.is_some());
+        let n = p.len();
+        let has_wall_rolling = table.laws().iter().any(|l| l.rolling.is_some());
+        let len0 = domain.hi - domain.lo;
+        let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
+        let pool = if params.threads > 0 {
+            Some(rayon::ThreadPoolBuilder::new().num_threads(params.threads).build().map_err(|e| EngineError::Build {
+                field: "method.threads".into(),
+                reason: format!("cannot start {} threads: {e}", params.threads),
+            })?)
+        } else {
+            None
+        };
+        domain.le_offset = 0.0;
+        let mut sim = Self {
+            dim: scene.dim,
+            dt,
+            gravity: scene.gravity,
+            params: params.clone(),
+            collision,
+            table,
+            wall_material,
+            p,
+            domain,
+            walls,
+            deformation: c.deformation.map(CellDeformation::new),
+            nl: NeighborList::new(range, skin),
+            slots: Vec::new(),
+            extra: Vec::new(),
+            needs_extra,
+            wall_xi: vec![Vec3::zeros(); n * nw],
+            wall_roll: if has_wall_rolling || nw > 0 { vec![Vec3::zeros(); n * nw] } else { Vec::new() },
+            wall_f: vec![Vec3::zeros(); n * nw],
+            wall_total_f: if nw > 0 { vec![Vec3::zeros(); n] } else { Vec::new() },
+            wall_total_t: if nw > 0 { vec![Vec3::zeros(); n] } else { Vec::new() },
+            step: 0,
+            time: 0.0,
+            len0,
+            solid_volume,
+            pool,
+            budget: EnergyBudget::default(),
+        };
+        sim.refresh_neighbors();
+        sim.compute_forces();
+        sim.budget = EnergyBudget::start(sim.mechanical_energy());
+        Ok(sim)
+    }
+
+    /// Time step, s.
+    pub fn time_step(&self) -> Real {
+        self.dt
+    }
+
+    /// Collision-time estimate used for the time step and messages.
+    pub fn collision_time(&self) -> &CollisionTime {
+        &self.collision
+    }
+
+    /// The particles (read only).
+    pub fn particles(&self) -> &Particles {
+        &self.p
+    }
+
+    /// Mutable access to the particles, for tests and custom set-ups. Call
+    /// [`Dem::reset_forces`] after moving particles.
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        &mut self.p
+    }
+
+    /// The box.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// The walls.
+    pub fn walls(&self) -> &[Wall] {
+        &self.walls
+    }
+
+    /// Number of neighbour-list builds so far.
+    pub fn neighbor_builds(&self) -> u64 {
+        self.nl.builds
+    }
+
+    /// Number of pairs in the neighbour list.
+    pub fn neighbor_pairs(&self) -> usize {
+        self.nl.len()
+    }
+
+    /// Recomputes neighbours and forces after the state was changed from outside, and restarts
+    /// the energy budget.
+    pub fn reset_forces(&mut self) {
+        self.refresh_neighbors();
+        self.compute_forces();
+        self.budget = EnergyBudget::start(self.mechanical_energy());
+    }
+
+    /// Heap bytes held by the simulation.
+    pub fn heap_bytes(&self) -> usize {
+        self.p.heap_bytes()
+            + self.nl.heap_bytes()
+            + self.slots.capacity() * std::mem::size_of::<PairSlot>()
+            + self.extra.capacity() * std::mem::size_of::<PairExtra>()
+            + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
+            + (self.wall_total_f.capacity() + self.wall_total_t.capacity()) * std::mem::size_of::<Vec3>()
+    }
+
+    /// Current contact forces as records (pairs and walls), for metrics and tests.
+    pub fn contacts(&self) -> Vec<ContactRecord> {
+        let mut out = Vec::new();
+        for (q, s) in self.slots.iter().enumerate() {
+            let (i, j) = (self.nl.pi[q], self.nl.pj[q]);
+            let bonded = self.extra.get(q).is_some_and(|e| e.bridge);
+            if s.out.force == Vec3::zeros() && !bonded {
+                continue;
+            }
+            let (d, _) = self.domain.separation(&self.p.pos[i as usize], &self.p.pos[j as usize]);
+            let touching = d.norm() < self.p.radius[i as usize] + self.p.radius[j as usize];
+            out.push(ContactRecord { i, j: Some(j), force: s.out.force, branch: d, touching, bonded });
+        }
+        let nw = self.walls.len();
+        for i in 0..self.p.len() {
+            for (w, wall) in self.walls.iter().enumerate() {
+                let f = self.wall_f[i * nw + w];
+                if f == Vec3::zeros() {
+                    continue;
+                }
+                let n = wall.normal();
+                let dist = (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
+                out.push(ContactRecord { i: i as u32, j: None, force: f, branch: n * dist, touching: true, bonded: false });
+            }
+        }
+        out
+    }
+
+    fn refresh_neighbors(&mut self) {
+        let old_index = self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        let old_slots = std::mem::take(&mut self.slots);
+        let old_extra = std::mem::take(&mut self.extra);
+        self.slots = old_index
+            .par_iter()
+            .map(|&k| if k == u32::MAX { PairSlot::default() } else { PairSlot { xi: old_slots[k as usize].xi, out: ContactOutput::default() } })
+            .collect();
+        if self.needs_extra {
+            self.extra = old_index
+                .par_iter()
+                .map(|&k| old_extra.get(k as usize).copied().unwrap_or_default())
+                .collect();
+        }
+    }
+
+    fn wall_area(&self, axis: usize) -> Real {
+        (0..self.dim).filter(|&a| a != axis).map(|a| self.domain.length(a)).product()
+    }
+
+    /// Mean pressure from the virial of the current forces and the kinetic part, Pa.
+    fn pressure(&self) -> Real {
+        // Partial sums over fixed blocks, added in order: the same result for any thread count.
+        const BLOCK: usize = 1024;
+        let partial: Vec<Real> = self
+            .slots
+            .par_chunks(BLOCK)
+            .enumerate()
+            .map(|(b, chunk)| {
+                let mut sum = 0.0;
+                for (k, s) in chunk.iter().enumerate() {
+                    if s.out.force == Vec3::zeros() {
+                        continue;
+                    }
+                    let q = b * BLOCK + k;
+                    let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
+                    sum += s.out.force.dot(&self.domain.separation(&self.p.pos[i], &self.p.pos[j]).0);
+                }
+                sum
+            })
+            .collect();
+        let contact: Real = partial.iter().sum();
+        let kinetic: Real = self.p.vel.iter().zip(&self.p.mass).map(|(v, m)| m * v.norm_squared()).sum();
+        (contact + kinetic) / (self.dim as Real * self.domain.volume())
+    }
+
+    fn boundaries(&mut self) {
+        let dt = self.dt;
+        for w in 0..self.walls.len() {
+            let area = self.wall_area(self.walls[w].face.axis);
+            let wall = &mut self.walls[w];
+            wall.servo(area);
+            wall.advance(dt);
+            let a = wall.face.axis;
+            if wall.face.upper {
+                self.domain.hi[a] = wall.position;
+            } else {
+                self.domain.lo[a] = wall.position;
+            }
+        }
+        self.domain.advance_shear(dt);
+        if self.deformation.is_some() {
+            if self.step % SERVO_EVERY == 0 && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. })) {
+                let pressure = self.pressure();
+                if let Some(d) = self.deformation.as_mut() {
+                    d.servo(pressure, &self.domain);
+                }
+            }
+            if let Some(d) = &self.deformation {
+                let (centre, scale) = d.deform(&mut self.domain, dt);
+                let domain = &self.domain;
+                self.p.pos.par_iter_mut().zip(self.p.vel.par_iter_mut()).with_min_len(1024).for_each(|(x, v)| {
+                    for a in 0..3 {
+                        x[a] = centre[a] + (x[a] - centre[a]) * scale[a];
+                    }
+                    domain.wrap(x, v);
+                });
+            }
+        }
+    }
+
+    fn half_kick(&mut self) {
+        let h = 0.5 * self.dt;
+        let p = &mut self.p;
+        let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
+        p.vel
+            .par_iter_mut()
+            .zip(p.omega.par_iter_mut())
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(i, (v, w))| {
+                *v += force[i] * (h * inv_mass[i]);
+                *w += torque[i] * (h * inv_inertia[i]);
+            });
+    }
+
+    fn drift(&mut self) {
+        let dt = self.dt;
+        let domain = &self.domain;
+        let p = &mut self.p;
+        p.pos.par_iter_mut().zip(p.vel.par_iter_mut()).with_min_len(1024).for_each(|(x, v)| {
+            *x += *v * dt;
+            domain.wrap(x, v);
+        });
+    }
+
+    fn shear_geometry(&self) -> Option<ShearGeometry> {
+        if self.domain.sheared() {
+            return Some(ShearGeometry { rate: self.domain.shear_rate, flow: 0, gradient: 1, streaming: true });
+        }
+        // A wall sliding tangentially against a fixed opposite wall shears the gap between them.
+        for w in &self.walls {
+            let a = w.face.axis;
+            let mut tangential = w.velocity;
+            tangential[a] = 0.0;
+            if let Some(flow) = (0..self.dim).find(|&b| b != a && tangential[b] != 0.0) {
+                let gap = self.domain.length(a);
+                let opposite = self.walls.iter().find(|o| o.face.axis == a && o.face.upper != w.face.upper);
+                let rel = tangential[flow] - opposite.map_or(0.0, |o| o.velocity[flow]);
+                return Some(ShearGeometry { rate: rel / gap, flow, gradient: a, streaming: false });
+            }
+        }
+        None
+    }
+}
+
+/// Effective stiffness of the limiting contact, N/m: m* (pi / t_c)², for servo gains.
+fn collision_stiffness(c: &CollisionTime, p: &Particles) -> Real {
+    let m = p.mass.iter().copied().fold(Real::INFINITY, f64::min);
+    0.5 * m * (std::f64::consts::PI / c.t_c).powi(2)
+}
+
+/// Impact velocity used for the Hertz collision time when none is given: the largest of the
+/// initial speeds, free fall across the box, wall speeds, the shear velocity across the box, and
+/// 0.1 m/s.
+fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
+    let c = &scene.container;
+    let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
+    let mut v: Real = 0.1;
+    v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
+    v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
+    for w in &c.walls {
+        if let WallMotion::Velocity(u) = w.motion {
+            v = v.max(u.norm());
+        }
+    }
+    if let Some((rate, _)) = c.lees_edwards {
+        v = v.max(rate.abs() * (c.hi.y - c.lo.y));
+    }
+    if scene.sets.iter().any(|s| matches!(s.placement, Placement::List { velocities: Some(_), .. })) {
+        v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
+    }
+    v
+}
+
+/// Reorders particles by cell so that neighbours sit close in memory (done once, before any
+/// history exists).
+fn sort_by_cell(p: &mut Particles, domain: &Domain) {
+    let rmax = p.radius.iter().copied().fold(0.0, f64::max);
+    let w = (4.0 * rmax).max(1e-300);
+    let key = |x: &Vec3| -> (i64, i64, i64) {
+        let k = |a: usize| ((x[a] - domain.lo[a]) / w).floor() as i64;
+        (k(2), k(1), k(0))
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by_key(|&i| key(&p.pos[i]));
+    p.permute(&order);
+}
+
+impl Simulation for Dem {
+    fn method(&self) -> &'static str {
+        "dem"
+    }
+
+    fn step(&mut self) -> Result<(), EngineError> {
+        // Stage::InitialIntegrate
+        self.half_kick();
+        self.drift();
+        // Stage::Boundaries
+        self.boundaries();
+        // Stage::NeighborUpdate
+        if self.nl.needs_rebuild(&self.p.pos, &self.domain) {
+            self.refresh_neighbors();
+        }
+        // Stage::Force
+        self.compute_forces();
+        // Stage::FinalIntegrate
+        self.half_kick();
+        self.step += 1;
+        self.time += self.dt;
+        self.record_wall_work();
+        // Stage::Check
+        if self.step % CHECK_EVERY == 0 {
+            self.check_stability()?;
+        }
+        Ok(())
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.step
+    }
+
+    fn time(&self) -> Real {
+        self.time
+    }
+
+    fn dt(&self) -> Real {
+        self.dt
+    }
+
+    fn particle_count(&self) -> usize {
+        self.p.len()
+    }
+
+    fn packing_fraction(&self) -> Real {
+        self.solid_volume / self.domain.volume()
+    }
+
+    fn strain(&self) -> Real {
+        if self.domain.sheared() {
+            return (self.domain.shear_rate * self.time).abs();
+        }
+        (0..self.dim).map(|a| (self.domain.length(a) / self.len0[a]).ln().abs()).fold(0.0, f64::max)
+    }
+
+    fn sample(&mut self) -> Result<Sample, EngineError> {
+        self.check_stability()?;
+        let contacts = self.contacts();
+        let walls: Vec<WallView> = self
+            .walls
+            .iter()
+            .map(|w| WallView {
+                name: w.face.name(),
+                position: w.position,
+                normal: w.normal(),
+                force: w.force,
+                area: self.wall_area(w.face.axis),
+            })
+            .collect();
+        let view = SystemView {
+            dim: self.dim,
+            step: self.step,
+            time: self.time,
+            particles: &self.p,
+            volume: self.domain.volume(),
+            contacts: &contacts,
+            walls: &walls,
+            shear: self.shear_geometry(),
+            elastic_energy: self.elastic_energy(),
+        };
+        let s = measure(&view);
+        if !s.is_finite() {
+            return Err(self.unstable(crate::error::InstabilityCause::NonFinite { particle: 0 }));
+        }
+        Ok(s)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.heap_bytes()
+    }
+}
+
+impl Dem {
+    /// Elastic energy stored in every contact (normal, tangential and rolling springs), J.
+    pub fn elastic_energy(&self) -> Real {
+        let mut e = 0.0;
+        for (q, s) in self.slots.iter().enumerate() {
+            let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
+            let (d, _) = self.domain.separation(&self.p.pos[i], &self.p.pos[j]);
+            let (ri, rj) = (self.p.radius[i], self.p.radius[j]);
+            let delta = ri + rj - d.norm();
+            if delta <= 0.0 {
+                continue;
+            }
+            let law = self.table.get(self.p.material[i] as usize, self.p.material[j] as usize);
+            let r_eff = ri * rj / (ri + rj);
+            e += law.normal.energy(delta, r_eff) + law.tangential.energy(s.xi.norm_squared(), delta, r_eff);
+            if let (Some(rr), Some(x)) = (law.rolling, self.extra.get(q)) {
+                e += 0.5 * rr.stiffness * x.roll.norm_squared();
+            }
+        }
+        let nw = self.walls.len();
+        for i in 0..self.p.len() {
+            let law = self.table.get(self.p.material[i] as usize, self.wall_material);
+            for (w, wall) in self.walls.iter().enumerate() {
+                let n = wall.normal();
+                let delta = self.p.radius[i] - (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
+                if delta > 0.0 {
+                    let r = self.p.radius[i];
+                    e += law.normal.energy(delta, r) + law.tangential.energy(self.wall_xi[i * nw + w].norm_squared(), delta, r);
+                    if let Some(rr) = law.rolling {
+                        e += 0.5 * rr.stiffness * self.wall_roll[i * nw + w].norm_squared();
+                    }
+                }
+            }
+        }
+        e
+    }
+}

@@ -1,0 +1,166 @@
+//! The stability guard of explicit DEM. Every few steps it checks for non-finite values,
+//! overlaps beyond a stated fraction of the smaller radius, and mechanical energy growing beyond
+//! the work put in by moving walls (gravity is part of the mechanical energy). It stops the run
+//! with [`EngineError::Unstable`] naming the step, the cause and what to change.
+//!
+//! The energy budget is skipped when the periodic cell deforms, under Lees-Edwards shear, and
+//! when gravity acts along a periodic axis: energy is then injected by the boundary in a way this
+//! guard does not account for. Non-finite values and overlaps are always checked.
+
+use rayon::prelude::*;
+
+use super::Dem;
+use crate::error::{EngineError, InstabilityCause};
+use crate::math::{Real, Vec3};
+
+/// Running account of mechanical energy and external work.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct EnergyBudget {
+    /// Mechanical energy at the start, J.
+    start: Real,
+    /// Gravitational energy at the start, J.
+    gravity0: Real,
+    /// Work done on the particles by moving walls since the start, J.
+    work_in: Real,
+    /// Largest energy scale seen (kinetic + elastic + |capillary| + |gravity change|), J.
+    scale: Real,
+}
+
+/// Fraction of the energy scale that the unexplained gain may reach before the run stops.
+/// Velocity Verlet at dt <= t_c/10 errs by well under 1% per collision; an unstable integration
+/// grows exponentially and crosses this within a few checks.
+const ENERGY_TOLERANCE: Real = 0.2;
+
+/// Parts of the mechanical energy, J.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Energies {
+    pub kinetic: Real,
+    pub elastic: Real,
+    pub gravity: Real,
+    pub capillary: Real,
+}
+
+impl Energies {
+    pub(crate) fn total(&self) -> Real {
+        self.kinetic + self.elastic + self.gravity + self.capillary
+    }
+    fn scale(&self) -> Real {
+        self.kinetic + self.elastic + self.capillary.abs()
+    }
+}
+
+impl EnergyBudget {
+    pub(crate) fn start(e: Energies) -> Self {
+        Self { start: e.total(), gravity0: e.gravity, work_in: 0.0, scale: e.scale() }
+    }
+}
+
+impl Dem {
+    /// Kinetic, elastic, capillary and gravitational energy.
+    pub(crate) fn mechanical_energy(&self) -> Energies {
+        let p = &self.p;
+        let kinetic: Real = (0..p.len())
+            .map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i])
+            .sum();
+        let elastic = self.elastic_energy();
+        let gravity: Real = -(0..p.len()).map(|i| p.mass[i] * self.gravity.dot(&p.pos[i])).sum::<Real>();
+        let mut capillary = 0.0;
+        for (q, x) in self.extra.iter().enumerate() {
+            if !x.bridge {
+                continue;
+            }
+            let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
+            if let Some(cap) = self.table.get(p.material[i] as usize, p.material[j] as usize).capillary {
+                let (d, _) = self.domain.separation(&p.pos[i], &p.pos[j]);
+                capillary += cap.energy(d.norm() - p.radius[i] - p.radius[j], p.radius[i], p.radius[j]);
+            }
+        }
+        Energies { kinetic, elastic, gravity, capillary }
+    }
+
+    /// Adds the work done by moving walls during the last step.
+    pub(crate) fn record_wall_work(&mut self) {
+        for w in &self.walls {
+            // The particles push the wall with `force`; the wall does -force·v on them.
+            self.budget.work_in -= w.force.dot(&w.velocity) * self.dt;
+        }
+    }
+
+    fn energy_check_applies(&self) -> bool {
+        let gravity_along_periodic = (0..self.dim).any(|a| self.domain.periodic[a] && self.gravity[a] != 0.0);
+        self.deformation.is_none() && !self.domain.sheared() && !gravity_along_periodic
+    }
+
+    /// Builds the typed error for `cause`, with a suggestion.
+    pub(crate) fn unstable(&self, cause: InstabilityCause) -> EngineError {
+        let c = &self.collision;
+        let step_fix = format!(
+            "dt = {:.3e} s against a collision time t_c = {:.3e} s ({}); the stable limit of velocity Verlet is about {:.3e} s: \
+             use dt <= t_c/50 = {:.3e} s (method.time_step_fraction 0.02)",
+            self.dt,
+            c.t_c,
+            c.limiting,
+            c.dt_limit,
+            c.t_c / 50.0
+        );
+        let suggestion = match &cause {
+            InstabilityCause::Overlap { .. } if self.dt <= 0.1 * c.t_c => format!(
+                "the contacts are too soft for the load: raise the stiffness (k_n or E) or lower velocities, wall speeds or stresses ({step_fix})"
+            ),
+            _ => step_fix,
+        };
+        EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
+    }
+
+    /// Runs the guard now.
+    pub(crate) fn check_stability(&mut self) -> Result<(), EngineError> {
+        let p = &self.p;
+        let bad = (0..p.len()).into_par_iter().with_min_len(1024).find_first(|&i| {
+            !(p.pos[i].iter().all(|x| x.is_finite()) && p.vel[i].iter().all(|x| x.is_finite()) && p.force[i].iter().all(|x| x.is_finite()))
+        });
+        if let Some(i) = bad {
+            return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
+        }
+        let worst = self.max_overlap_fraction();
+        if worst > self.params.max_overlap {
+            return Err(self.unstable(InstabilityCause::Overlap { fraction: worst, limit: self.params.max_overlap }));
+        }
+        if self.energy_check_applies() {
+            let e = self.mechanical_energy();
+            let b = &mut self.budget;
+            b.scale = b.scale.max(e.scale() + b.work_in.abs() + (e.gravity - b.gravity0).abs());
+            let excess = e.total() - b.start - b.work_in;
+            if excess > ENERGY_TOLERANCE * b.scale && excess > 0.0 {
+                let scale = b.scale;
+                return Err(self.unstable(InstabilityCause::EnergyGrowth { excess, scale }));
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest overlap divided by the smaller radius, over pairs and walls.
+    pub(crate) fn max_overlap_fraction(&self) -> Real {
+        let p = &self.p;
+        let pairs = (0..self.nl.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|q| {
+                let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
+                let (d, _) = self.domain.separation(&p.pos[i], &p.pos[j]);
+                let (ri, rj) = (p.radius[i], p.radius[j]);
+                ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
+            })
+            .reduce(|| 0.0, Real::max);
+        let walls = self
+            .walls
+            .iter()
+            .map(|w| {
+                let n: Vec3 = w.normal();
+                (0..p.len())
+                    .map(|i| ((p.radius[i] - (p.pos[i][w.face.axis] - w.position) * n[w.face.axis]) / p.radius[i]).max(0.0))
+                    .fold(0.0, Real::max)
+            })
+            .fold(0.0, Real::max);
+        pairs.max(walls)
+    }
+}

@@ -1,0 +1,15 @@
+//! Simulation methods. Each implements [`Simulation`](crate::run::Simulation); [`build`] picks
+//! the one a scene asks for.
+
+pub mod dem;
+
+use crate::error::EngineError;
+use crate::run::Simulation;
+use crate::scene::{Method, Scene};
+
+/// Builds the simulation of a validated scene with its method.
+pub fn build(scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
+    match &scene.method {
+        Method::Dem(params) => Ok(Box::new(dem::Dem::new(scene, params)?)),
+    }
+}

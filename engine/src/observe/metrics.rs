@@ -1,0 +1,221 @@
+//! Computation of a [`Sample`] from a method-independent view of the system.
+
+use super::sample::{Sample, Stress, WallSample};
+use crate::math::{Mat3, Real, Vec3};
+use crate::particles::Particles;
+
+/// One interaction at sampling time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactRecord {
+    /// First body (a particle).
+    pub i: u32,
+    /// Second particle, or `None` for a wall contact.
+    pub j: Option<u32>,
+    /// Force on i, N.
+    pub force: Vec3,
+    /// Branch vector, m: `r_i - r_j` (minimum image) for a pair; from the contact point to the
+    /// centre of i for a wall.
+    pub branch: Vec3,
+    /// The bodies overlap (a contact in the strict sense).
+    pub touching: bool,
+    /// A cohesive bond (capillary bridge) joins them.
+    pub bonded: bool,
+}
+
+/// A wall at sampling time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallView {
+    /// `x_min`, ...
+    pub name: String,
+    /// Coordinate along its axis, m.
+    pub position: Real,
+    /// Unit normal pointing into the box.
+    pub normal: Vec3,
+    /// Force exerted by the particles on the wall, N.
+    pub force: Vec3,
+    /// Area (length in 2D, per metre of thickness), m².
+    pub area: Real,
+}
+
+/// A shear flow: rate and axes (flow along `flow`, gradient along `gradient`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShearGeometry {
+    /// Shear rate, 1/s.
+    pub rate: Real,
+    /// Flow axis.
+    pub flow: usize,
+    /// Gradient axis.
+    pub gradient: usize,
+    /// Subtract the imposed streaming profile `rate (x_gradient - origin)` before computing
+    /// fluctuations (Lees-Edwards); false when walls drive the flow.
+    pub streaming: bool,
+}
+
+/// What a method shows of itself at sampling time.
+#[derive(Debug, Clone, Copy)]
+pub struct SystemView<'a> {
+    /// 2 or 3.
+    pub dim: usize,
+    /// Step number.
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: Real,
+    /// Particles.
+    pub particles: &'a Particles,
+    /// Container volume (area in 2D), m³.
+    pub volume: Real,
+    /// Interactions.
+    pub contacts: &'a [ContactRecord],
+    /// Walls.
+    pub walls: &'a [WallView],
+    /// Shear, where one is imposed.
+    pub shear: Option<ShearGeometry>,
+    /// Elastic energy stored in contacts, J.
+    pub elastic_energy: Real,
+}
+
+/// Computes every metric of a [`Sample`].
+pub fn measure(v: &SystemView<'_>) -> Sample {
+    let p = v.particles;
+    let n = p.len();
+    let dim = v.dim;
+    let solid: Real = p.radius.iter().map(|&r| Particles::volume_of(dim, r)).sum();
+    let phi = if v.volume > 0.0 { solid / v.volume } else { 0.0 };
+
+    // Velocity fluctuations.
+    let total_mass: Real = p.mass.iter().sum();
+    let streaming = |x: &Vec3| -> Vec3 {
+        match v.shear {
+            Some(s) if s.streaming => {
+                let mut u = Vec3::zeros();
+                u[s.flow] = s.rate * x[s.gradient];
+                u
+            }
+            _ => Vec3::zeros(),
+        }
+    };
+    let mut mean = Vec3::zeros();
+    for k in 0..n {
+        mean += (p.vel[k] - streaming(&p.pos[k])) * p.mass[k];
+    }
+    if total_mass > 0.0 {
+        mean /= total_mass;
+    }
+    let mut sigma = Mat3::zeros();
+    let mut kinetic = 0.0;
+    for k in 0..n {
+        let dv = p.vel[k] - streaming(&p.pos[k]) - mean;
+        sigma += dv * dv.transpose() * p.mass[k];
+        let vk = if v.shear.is_some_and(|s| s.streaming) { dv } else { p.vel[k] };
+        kinetic += 0.5 * p.mass[k] * vk.norm_squared() + 0.5 * p.omega[k].norm_squared() / p.inv_inertia[k];
+    }
+    for c in v.contacts {
+        sigma += c.force * c.branch.transpose();
+    }
+    if v.volume > 0.0 {
+        sigma /= v.volume;
+    }
+    let sym = |a: usize, b: usize| 0.5 * (sigma[(a, b)] + sigma[(b, a)]);
+    let stress = if dim == 2 {
+        Stress { xx: sigma[(0, 0)], yy: sigma[(1, 1)], zz: None, xy: sym(0, 1), xz: None, yz: None }
+    } else {
+        Stress { xx: sigma[(0, 0)], yy: sigma[(1, 1)], zz: Some(sigma[(2, 2)]), xy: sym(0, 1), xz: Some(sym(0, 2)), yz: Some(sym(1, 2)) }
+    };
+    let pressure = (0..dim).map(|a| sigma[(a, a)]).sum::<Real>() / dim as Real;
+    let q = if dim == 2 {
+        (0.25 * (sigma[(0, 0)] - sigma[(1, 1)]).powi(2) + sym(0, 1).powi(2)).sqrt()
+    } else {
+        let mut s = Mat3::zeros();
+        for a in 0..3 {
+            for b in 0..3 {
+                s[(a, b)] = sym(a, b) - if a == b { pressure } else { 0.0 };
+            }
+        }
+        (1.5 * s.component_mul(&s).sum()).sqrt()
+    };
+    let (mu, inertial_number) = match v.shear {
+        Some(s) => {
+            let sn = sigma[(s.gradient, s.gradient)];
+            let tau = sym(s.flow, s.gradient).abs();
+            let mu = if sn > 0.0 { tau / sn } else { 0.0 };
+            let mean_d = if n > 0 { 2.0 * p.radius.iter().sum::<Real>() / n as Real } else { 0.0 };
+            let rho = if solid > 0.0 { total_mass / solid } else { 0.0 };
+            let i = (sn > 0.0).then(|| s.rate.abs() * mean_d * (rho / sn).sqrt());
+            (mu, i)
+        }
+        None => (if pressure > 0.0 { q / pressure } else { 0.0 }, None),
+    };
+
+    let (z, z_no_rattlers) = coordination(n, dim, v.contacts);
+    let walls = v
+        .walls
+        .iter()
+        .map(|w| WallSample {
+            name: w.name.clone(),
+            position: w.position,
+            force: w.force.as_slice()[..dim].to_vec(),
+            normal_stress: if w.area > 0.0 { -w.force.dot(&w.normal) / w.area } else { 0.0 },
+        })
+        .collect();
+    Sample {
+        step: v.step,
+        time: v.time,
+        phi,
+        z,
+        z_no_rattlers,
+        mu,
+        p: pressure,
+        q,
+        stress,
+        inertial_number,
+        kinetic_energy: kinetic,
+        elastic_energy: v.elastic_energy,
+        walls,
+    }
+}
+
+/// Returns (Z, Z without rattlers). A contact counts if it carries force (touching with a
+/// non-zero force, or a cohesive bond). Rattlers, particles with fewer than D + 1 contacts
+/// (walls included), are removed recursively (REFERENCES.md §B); Z counts particle-particle
+/// contacts only: Z = 2 N_c / N.
+pub fn coordination(n: usize, dim: usize, contacts: &[ContactRecord]) -> (Real, Real) {
+    if n == 0 {
+        return (0.0, 0.0);
+    }
+    let bearing = |c: &ContactRecord| (c.touching && c.force.norm_squared() > 0.0) || c.bonded;
+    let mut count = vec![0u32; n];
+    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut pairs = 0usize;
+    for c in contacts.iter().filter(|c| bearing(c)) {
+        count[c.i as usize] += 1;
+        if let Some(j) = c.j {
+            count[j as usize] += 1;
+            adjacency[c.i as usize].push(j);
+            adjacency[j as usize].push(c.i);
+            pairs += 1;
+        }
+    }
+    let z = 2.0 * pairs as Real / n as Real;
+    let need = (dim + 1) as u32;
+    let mut removed = vec![false; n];
+    let mut stack: Vec<usize> = (0..n).filter(|&i| count[i] < need).collect();
+    while let Some(i) = stack.pop() {
+        if removed[i] {
+            continue;
+        }
+        removed[i] = true;
+        for &j in &adjacency[i] {
+            let j = j as usize;
+            if !removed[j] {
+                count[j] -= 1;
+                if count[j] < need {
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    let kept = removed.iter().filter(|r| !**r).count();
+    let backbone_pairs: usize = (0..n).filter(|&i| !removed[i]).map(|i| adjacency[i].iter().filter(|&&j| !removed[j as usize]).count()).sum::<usize>() / 2;
+    let z_nr = if kept > 0 { 2.0 * backbone_pairs as Real / kept as Real } else { 0.0 };
+    (z, z_nr)
+}

@@ -1,0 +1,12 @@
+//! Measured quantities, computed the same way for every method (PHYSICS.md §8): packing
+//! fraction, coordination with and without rattlers, Love-Weber stress, p, q, effective friction,
+//! inertial number, energies and wall loads.
+//!
+//! A method describes its state at sampling time as a [`SystemView`] (bodies and contacts) and
+//! [`measure`] turns it into a [`Sample`].
+
+pub mod metrics;
+pub mod sample;
+
+pub use metrics::{measure, ContactRecord, ShearGeometry, SystemView, WallView};
+pub use sample::{Sample, Stress, WallSample};

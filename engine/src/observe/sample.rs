@@ -1,0 +1,106 @@
+//! The `Sample` record: one row of a run's time series.
+
+use serde::{Deserialize, Serialize};
+
+/// Stress tensor components, Pa (compression positive; 2D: force per metre of thickness per
+/// metre, i.e. Pa for unit thickness). `zz`, `xz`, `yz` are absent in 2D.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stress {
+    /// σ_xx.
+    pub xx: f64,
+    /// σ_yy.
+    pub yy: f64,
+    /// σ_zz (3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zz: Option<f64>,
+    /// σ_xy.
+    pub xy: f64,
+    /// σ_xz (3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub xz: Option<f64>,
+    /// σ_yz (3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub yz: Option<f64>,
+}
+
+/// Load on one wall.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WallSample {
+    /// `x_min`, `y_max`, ...
+    pub name: String,
+    /// Coordinate of the wall along its axis, m.
+    pub position: f64,
+    /// Force exerted by the particles on the wall, N (length = dimension).
+    pub force: Vec<f64>,
+    /// Compressive normal stress on the wall, Pa.
+    pub normal_stress: f64,
+}
+
+/// The measured state at one instant (field names are part of the API: CSV columns, JSON keys,
+/// database columns).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Step number.
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Packing fraction Φ (solid volume / container volume; area fraction in 2D).
+    pub phi: f64,
+    /// Mean coordination 2 N_c / N over all particles (particle-particle force-bearing contacts).
+    pub z: f64,
+    /// Mean coordination of the force-bearing backbone, rattlers removed recursively.
+    pub z_no_rattlers: f64,
+    /// Effective friction: τ/σ_n under shear, q/p otherwise.
+    pub mu: f64,
+    /// Mean pressure p, Pa (tr σ / D).
+    pub p: f64,
+    /// Deviatoric stress q, Pa ((σ1 - σ2)/2 in 2D; von Mises sqrt(3/2 s:s) in 3D).
+    pub q: f64,
+    /// Love-Weber stress (contact and kinetic parts).
+    pub stress: Stress,
+    /// Inertial number I = γ̇ <d> sqrt(ρ / P), where a shear rate is defined.
+    pub inertial_number: Option<f64>,
+    /// Kinetic energy (translation and rotation), J.
+    pub kinetic_energy: f64,
+    /// Elastic energy stored in contacts, J.
+    pub elastic_energy: f64,
+    /// Loads on the walls.
+    pub walls: Vec<WallSample>,
+}
+
+impl Sample {
+    /// Column names of the CSV form, in order.
+    pub fn csv_header(dim: usize) -> Vec<String> {
+        let mut h: Vec<String> = ["step", "time", "phi", "z", "z_no_rattlers", "mu", "p", "q"].iter().map(|s| s.to_string()).collect();
+        let comps: &[&str] = if dim == 2 { &["xx", "yy", "xy"] } else { &["xx", "yy", "zz", "xy", "xz", "yz"] };
+        h.extend(comps.iter().map(|c| format!("stress_{c}")));
+        h.extend(["inertial_number", "kinetic_energy", "elastic_energy"].iter().map(|s| s.to_string()));
+        h
+    }
+
+    /// Values of the CSV form, matching [`Sample::csv_header`] (walls are left to JSON).
+    pub fn csv_row(&self, dim: usize) -> Vec<String> {
+        let f = |x: f64| format!("{x:e}");
+        let mut r = vec![self.step.to_string(), f(self.time), f(self.phi), f(self.z), f(self.z_no_rattlers), f(self.mu), f(self.p), f(self.q)];
+        let s = &self.stress;
+        if dim == 2 {
+            r.extend([f(s.xx), f(s.yy), f(s.xy)]);
+        } else {
+            let o = |x: Option<f64>| f(x.unwrap_or(0.0));
+            r.extend([f(s.xx), f(s.yy), o(s.zz), f(s.xy), o(s.xz), o(s.yz)]);
+        }
+        r.push(self.inertial_number.map(f).unwrap_or_default());
+        r.extend([f(self.kinetic_energy), f(self.elastic_energy)]);
+        r
+    }
+
+    /// True if every number in the sample is finite (results with NaN are never stored).
+    pub fn is_finite(&self) -> bool {
+        let s = &self.stress;
+        [self.time, self.phi, self.z, self.z_no_rattlers, self.mu, self.p, self.q, s.xx, s.yy, s.xy, self.kinetic_energy, self.elastic_energy]
+            .iter()
+            .chain([s.zz, s.xz, s.yz, self.inertial_number].iter().flatten())
+            .all(|x| x.is_finite())
+            && self.walls.iter().all(|w| w.position.is_finite() && w.normal_stress.is_finite() && w.force.iter().all(|x| x.is_finite()))
+    }
+}

@@ -1,0 +1,107 @@
+//! Struct-of-arrays storage of spherical particles (disks in 2D).
+//!
+//! In 2D a disk is a cylinder of unit thickness (1 m): mass `rho pi R²` (kg per metre of
+//! thickness), moment of inertia `m R² / 2`. In 3D a sphere has `m = rho 4/3 pi R³`,
+//! `I = 2/5 m R²` (PHYSICS.md §1).
+
+use crate::math::{Real, Vec3};
+
+/// All particles of a simulation; index `i` addresses the same particle in every array.
+#[derive(Debug, Clone, Default)]
+pub struct Particles {
+    /// Centres, m.
+    pub pos: Vec<Vec3>,
+    /// Velocities, m/s.
+    pub vel: Vec<Vec3>,
+    /// Angular velocities, rad/s (along z only in 2D).
+    pub omega: Vec<Vec3>,
+    /// Total force of the last evaluation, N.
+    pub force: Vec<Vec3>,
+    /// Total torque of the last evaluation, N·m.
+    pub torque: Vec<Vec3>,
+    /// Radii, m.
+    pub radius: Vec<Real>,
+    /// Masses, kg.
+    pub mass: Vec<Real>,
+    /// 1 / mass, 1/kg.
+    pub inv_mass: Vec<Real>,
+    /// 1 / moment of inertia, 1/(kg·m²).
+    pub inv_inertia: Vec<Real>,
+    /// Material index.
+    pub material: Vec<u16>,
+    /// Carries liquid (capillary bridges form only between wet particles).
+    pub wet: Vec<bool>,
+}
+
+impl Particles {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// True if there is no particle.
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+
+    /// Mass of a particle of radius `r` and density `rho` in `dim` dimensions, kg.
+    pub fn mass_of(dim: usize, r: Real, rho: Real) -> Real {
+        if dim == 2 {
+            rho * std::f64::consts::PI * r * r
+        } else {
+            rho * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        }
+    }
+
+    /// Volume (area in 2D) of a particle of radius `r`, m³ (m² in 2D).
+    pub fn volume_of(dim: usize, r: Real) -> Real {
+        if dim == 2 {
+            std::f64::consts::PI * r * r
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        }
+    }
+
+    /// Appends a particle.
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(&mut self, dim: usize, pos: Vec3, vel: Vec3, r: Real, density: Real, material: u16, wet: bool) {
+        let m = Self::mass_of(dim, r, density);
+        let inertia = if dim == 2 { 0.5 * m * r * r } else { 0.4 * m * r * r };
+        self.pos.push(pos);
+        self.vel.push(vel);
+        self.omega.push(Vec3::zeros());
+        self.force.push(Vec3::zeros());
+        self.torque.push(Vec3::zeros());
+        self.radius.push(r);
+        self.mass.push(m);
+        self.inv_mass.push(1.0 / m);
+        self.inv_inertia.push(1.0 / inertia);
+        self.material.push(material);
+        self.wet.push(wet);
+    }
+
+    /// Reorders every array by `order` (new index k holds old particle `order[k]`).
+    pub fn permute(&mut self, order: &[usize]) {
+        fn apply<T: Clone>(v: &mut Vec<T>, order: &[usize]) {
+            *v = order.iter().map(|&k| v[k].clone()).collect();
+        }
+        apply(&mut self.pos, order);
+        apply(&mut self.vel, order);
+        apply(&mut self.omega, order);
+        apply(&mut self.force, order);
+        apply(&mut self.torque, order);
+        apply(&mut self.radius, order);
+        apply(&mut self.mass, order);
+        apply(&mut self.inv_mass, order);
+        apply(&mut self.inv_inertia, order);
+        apply(&mut self.material, order);
+        apply(&mut self.wet, order);
+    }
+
+    /// Heap bytes held by the arrays.
+    pub fn heap_bytes(&self) -> usize {
+        let v3 = std::mem::size_of::<Vec3>();
+        let r = std::mem::size_of::<Real>();
+        5 * self.pos.capacity() * v3 + 4 * self.radius.capacity() * r + self.material.capacity() * 2 + self.wet.capacity()
+    }
+}

@@ -1,0 +1,12 @@
+//! The scene format: what users write ([`spec`]), the checked form methods build from
+//! ([`model`]), and the validation between them ([`validate`]).
+
+pub mod model;
+pub mod spec;
+pub mod validate;
+mod violation;
+
+pub use model::*;
+pub use spec::SceneSpec;
+pub use validate::{parse_scene, validate};
+pub use violation::{format_violations, Violation};

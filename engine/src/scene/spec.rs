@@ -1,0 +1,370 @@
+//! The scene file as written by users: plain serde types, SI units, unknown fields rejected.
+//!
+//! These types describe the physics of a scene, not the algorithm that simulates it. They are
+//! turned into the checked [`Scene`](super::Scene) by [`validate`](super::validate), which
+//! reports every broken rule at once. The full format is documented in `docs/scene-format.md`.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+/// Top level of a scene file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// Optional human-readable name.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// 2 (disks, plane problems; quantities per metre of thickness) or 3 (spheres).
+    pub dimension: u8,
+    /// Method name (`"dem"`) or object `{"kind": "dem", ...parameters}`.
+    pub method: serde_json::Value,
+    /// Named materials.
+    pub materials: BTreeMap<String, MaterialSpec>,
+    /// Particle sets, placed in order.
+    pub particles: Vec<ParticleSetSpec>,
+    /// The box, its walls, periodic directions and imposed deformation.
+    pub container: ContainerSpec,
+    /// Gravity vector, m/s² (length = dimension). Default: none.
+    #[serde(default)]
+    pub gravity: Option<Vec<f64>>,
+    /// When to stop; the first criterion reached ends the run.
+    pub stop: StopSpec,
+    /// How often to take a sample. Default: 100 samples over the run.
+    #[serde(default)]
+    pub sampling: Option<SamplingSpec>,
+    /// Seed of every random draw (placement, velocities). Default 0.
+    #[serde(default)]
+    pub seed: Option<u64>,
+}
+
+/// A material: density and contact law.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Density, kg/m³.
+    pub density: f64,
+    /// Elastic contact law.
+    pub contact: ContactLawSpec,
+    /// Normal coefficient of restitution in (0, 1].
+    pub restitution: f64,
+    /// Coulomb friction coefficient (>= 0). Default 0.
+    #[serde(default)]
+    pub friction: f64,
+    /// gamma_t / gamma_n for the linear law (>= 0). Default 0.5 (LAMMPS's default).
+    #[serde(default)]
+    pub tangential_damping_ratio: Option<f64>,
+    /// If true (default) damping cannot make the normal force attractive.
+    #[serde(default)]
+    pub limit_damping: Option<bool>,
+    /// Optional rolling resistance.
+    #[serde(default)]
+    pub rolling: Option<RollingSpec>,
+    /// Optional interstitial liquid (capillary bridges and lubrication).
+    #[serde(default)]
+    pub liquid: Option<LiquidSpec>,
+}
+
+/// The elastic part of the contact law.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ContactLawSpec {
+    /// Linear springs: normal stiffness `k_n` and tangential `k_t` (N/m). `k_t` defaults to 2/7 k_n.
+    Linear {
+        /// Normal stiffness, N/m.
+        k_n: f64,
+        /// Tangential stiffness, N/m.
+        #[serde(default)]
+        k_t: Option<f64>,
+    },
+    /// Hertz normal force and Mindlin tangential stiffness from Young's modulus and Poisson's ratio.
+    HertzMindlin {
+        /// Young's modulus E, Pa.
+        young_modulus: f64,
+        /// Poisson's ratio nu in (-1, 0.5).
+        poisson_ratio: f64,
+    },
+}
+
+/// Rolling resistance: elastic moment spring with a plastic threshold.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingSpec {
+    /// Rolling stiffness, N·m/rad.
+    pub stiffness: f64,
+    /// Rolling friction coefficient mu_r (moment limit mu_r R* f_n).
+    pub friction: f64,
+}
+
+/// Interstitial liquid (N 1.5-1.11).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LiquidSpec {
+    /// Liquid-vapour surface tension gamma_s, N/m.
+    pub surface_tension: f64,
+    /// Contact angle theta, radians, in [0, pi/2).
+    #[serde(default)]
+    pub contact_angle: f64,
+    /// Liquid volume of one bridge V_b, m³.
+    pub bridge_volume: f64,
+    /// Liquid viscosity eta, Pa·s (0 disables lubrication).
+    #[serde(default)]
+    pub viscosity: f64,
+    /// Roughness length h_0 that bounds the lubrication force, m (required if viscosity > 0).
+    #[serde(default)]
+    pub roughness: Option<f64>,
+}
+
+/// A set of particles sharing a material, a size distribution and a placement.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleSetSpec {
+    /// Name of the material (a key of `materials`).
+    pub material: String,
+    /// Number of particles (ignored for `list` placement, which gives its own count).
+    #[serde(default)]
+    pub count: Option<usize>,
+    /// Size distribution (not used by `list` placement with diameters).
+    #[serde(default)]
+    pub size: Option<SizeSpec>,
+    /// Where the particles start.
+    pub placement: PlacementSpec,
+    /// Initial velocities. Default: at rest.
+    #[serde(default)]
+    pub velocity: Option<VelocitySpec>,
+    /// Fraction of the set that carries liquid (0..1); default 1 if the material has a liquid.
+    #[serde(default)]
+    pub wet_fraction: Option<f64>,
+}
+
+/// Size distribution of a particle set (diameters, m).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SizeSpec {
+    /// All particles have `diameter`.
+    Monodisperse {
+        /// Diameter, m.
+        diameter: f64,
+    },
+    /// Diameters uniform between `min` and `max`.
+    Uniform {
+        /// Smallest diameter, m.
+        min: f64,
+        /// Largest diameter, m.
+        max: f64,
+    },
+    /// Two sizes: `diameter` (small) and `ratio * diameter`; `fraction_small` by number.
+    Bidisperse {
+        /// Small diameter, m.
+        diameter: f64,
+        /// Large-to-small diameter ratio (> 1).
+        ratio: f64,
+        /// Number fraction of small particles. Default 0.5.
+        #[serde(default)]
+        fraction_small: Option<f64>,
+    },
+}
+
+/// An axis-aligned region (length = dimension).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Lower corner, m.
+    pub min: Vec<f64>,
+    /// Upper corner, m.
+    pub max: Vec<f64>,
+}
+
+/// Placement of a particle set.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum PlacementSpec {
+    /// Random non-overlapping positions in a region (default: the whole container).
+    Random {
+        /// Region; default the container.
+        #[serde(default)]
+        region: Option<RegionSpec>,
+    },
+    /// Lattice sites in a region (default: the whole container).
+    Lattice {
+        /// `square` or `hexagonal` (2D), `cubic` or `fcc` (3D).
+        lattice: String,
+        /// Region; default the container.
+        #[serde(default)]
+        region: Option<RegionSpec>,
+        /// Nearest-neighbour distance, m. Default: largest diameter × 1.01.
+        #[serde(default)]
+        spacing: Option<f64>,
+        /// `first` (default) fills sites in order; `random` picks a random subset.
+        #[serde(default)]
+        select: Option<String>,
+    },
+    /// Explicit positions (and optionally diameters).
+    List {
+        /// Centres, m (each of length = dimension).
+        positions: Vec<Vec<f64>>,
+        /// Diameters, m; if absent the size distribution is used.
+        #[serde(default)]
+        diameters: Option<Vec<f64>>,
+        /// Velocities, m/s; if absent `velocity` is used.
+        #[serde(default)]
+        velocities: Option<Vec<Vec<f64>>>,
+    },
+}
+
+/// Initial velocity of a particle set.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum VelocitySpec {
+    /// Every particle at rest.
+    Zero,
+    /// The same velocity for every particle, m/s.
+    Uniform {
+        /// Velocity, m/s (length = dimension).
+        value: Vec<f64>,
+    },
+    /// Each component drawn from a zero-mean Gaussian with standard deviation `std`, m/s.
+    Gaussian {
+        /// Standard deviation per component, m/s.
+        std: f64,
+    },
+}
+
+/// The container: a box with walls on non-periodic faces.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContainerSpec {
+    /// Lower corner, m.
+    pub min: Vec<f64>,
+    /// Upper corner, m.
+    pub max: Vec<f64>,
+    /// Periodic axes (`"x"`, `"y"`, `"z"`).
+    #[serde(default)]
+    pub periodic: Vec<String>,
+    /// Wall of each non-periodic face, by name (`x_min`, `x_max`, ...). Missing faces are fixed.
+    #[serde(default)]
+    pub walls: BTreeMap<String, WallSpec>,
+    /// Material of the walls (required when the box has walls).
+    #[serde(default)]
+    pub wall_material: Option<String>,
+    /// Lees-Edwards shear: flow along x, gradient along y (both periodic).
+    #[serde(default)]
+    pub lees_edwards: Option<LeesEdwardsSpec>,
+    /// Homogeneous deformation of the periodic cell.
+    #[serde(default)]
+    pub deformation: Option<DeformationSpec>,
+}
+
+/// Motion of one wall.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum WallSpec {
+    /// Does not move.
+    Fixed,
+    /// Moves at an imposed velocity (m/s, length = dimension); the normal part moves the wall,
+    /// the tangential part slides its surface.
+    Velocity {
+        /// Velocity, m/s.
+        velocity: Vec<f64>,
+    },
+    /// Servo-controlled to an imposed compressive normal stress, Pa.
+    Stress {
+        /// Target normal stress, Pa (> 0).
+        stress: f64,
+        /// Servo gain, m/(s·Pa). Default from the contact stiffness and time step.
+        #[serde(default)]
+        gain: Option<f64>,
+        /// Largest wall speed, m/s. Default: unbounded.
+        #[serde(default)]
+        max_speed: Option<f64>,
+    },
+}
+
+/// Lees-Edwards periodic shear.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LeesEdwardsSpec {
+    /// Shear rate d u_x / d y, 1/s.
+    pub shear_rate: f64,
+    /// Start particles on the linear velocity profile. Default false.
+    #[serde(default)]
+    pub initial_profile: bool,
+}
+
+/// Homogeneous deformation of the periodic directions.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DeformationSpec {
+    /// Constant true strain rate on each axis, 1/s (negative compresses; length = dimension;
+    /// non-zero only on periodic axes).
+    StrainRate {
+        /// Rates, 1/s.
+        rate: Vec<f64>,
+    },
+    /// Isotropic servo of the periodic axes to a target mean pressure p, Pa.
+    Pressure {
+        /// Target pressure, Pa (> 0).
+        target: f64,
+        /// Largest strain rate magnitude, 1/s (> 0).
+        max_strain_rate: f64,
+        /// Gain, 1/(s·Pa). Default max_strain_rate / target.
+        #[serde(default)]
+        gain: Option<f64>,
+    },
+}
+
+/// Stop criteria; the first one reached ends the run.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopSpec {
+    /// Simulated time, s.
+    #[serde(default)]
+    pub time: Option<f64>,
+    /// Number of steps.
+    #[serde(default)]
+    pub steps: Option<u64>,
+    /// Target packing fraction: stop when Φ >= this value.
+    #[serde(default)]
+    pub packing_fraction: Option<f64>,
+    /// Target strain magnitude: shear strain with Lees-Edwards, else the largest |ln(L/L0)|.
+    #[serde(default)]
+    pub strain: Option<f64>,
+}
+
+/// Sampling interval: give exactly one.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SamplingSpec {
+    /// Sample every this many steps.
+    #[serde(default)]
+    pub every_steps: Option<u64>,
+    /// Sample every this much simulated time, s.
+    #[serde(default)]
+    pub every_time: Option<f64>,
+}
+
+/// Parameters of the `dem` method.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemParamsSpec {
+    /// Always `"dem"`.
+    pub kind: String,
+    /// Time step, s. Default: `time_step_fraction` × collision time.
+    #[serde(default)]
+    pub time_step: Option<f64>,
+    /// Fraction of the collision time used as time step. Default 0.02 (t_c / 50).
+    #[serde(default)]
+    pub time_step_fraction: Option<f64>,
+    /// Verlet skin as a fraction of the smallest diameter. Default 0.1.
+    #[serde(default)]
+    pub skin: Option<f64>,
+    /// Impact velocity used for the Hertz collision time, m/s. Default from the scene.
+    #[serde(default)]
+    pub reference_velocity: Option<f64>,
+    /// Largest allowed overlap as a fraction of the smaller radius. Default 0.1.
+    #[serde(default)]
+    pub max_overlap: Option<f64>,
+    /// Threads for the force loop (0 or absent: rayon's global pool).
+    #[serde(default)]
+    pub threads: Option<usize>,
+}

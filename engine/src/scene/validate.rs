@@ -1,0 +1,627 @@
+//! Turns a [`SceneSpec`] into a [`Scene`], reporting every broken rule at once.
+
+use super::model::*;
+use super::spec::*;
+use super::violation::{Checker, Violation};
+use crate::math::{vec_from_slice, Vec3, AXES};
+
+/// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
+pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
+/// Methods this version can run (`auto` picks among them).
+pub const AVAILABLE_METHODS: [&str; 2] = ["dem", "auto"];
+
+/// Parses scene JSON text and validates it.
+///
+/// Structural errors (bad JSON, wrong type, unknown field) are reported with their path, one at a
+/// time since the document cannot be read past them; rule violations are all reported together.
+pub fn parse_scene(json: &str) -> Result<Scene, Vec<Violation>> {
+    let de = &mut serde_json::Deserializer::from_str(json);
+    let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let field = if path == "." { String::new() } else { path };
+        vec![Violation { field, rule: e.into_inner().to_string() }]
+    })?;
+    validate(&spec)
+}
+
+/// Validates a parsed scene.
+pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
+    let mut c = Checker::default();
+    let dim = match spec.dimension {
+        2 | 3 => spec.dimension as usize,
+        d => {
+            c.fail("dimension", format!("must be 2 or 3, got {d}"));
+            // Keep checking the rest as if 3D so that more violations are reported.
+            3
+        }
+    };
+    let (method, method_reason) = check_method(&mut c, &spec.method);
+
+    // Materials.
+    let names: Vec<String> = spec.materials.keys().cloned().collect();
+    if names.is_empty() {
+        c.fail("materials", "must define at least one material");
+    }
+    let materials: Vec<Material> =
+        spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m)).collect();
+    let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
+    if let Some(first) = materials.first() {
+        for m in &materials[1..] {
+            if hertz(m) != hertz(first) {
+                c.fail(
+                    format!("materials.{}.contact.law", m.name),
+                    format!("all materials must use the same contact law ('{}' uses another one)", first.name),
+                );
+            }
+        }
+    }
+    let material_index = |c: &mut Checker, field: &str, name: &str| -> usize {
+        match names.iter().position(|n| n == name) {
+            Some(i) => i,
+            None => {
+                c.fail(field, format!("unknown material '{name}'; defined: {}", names.join(", ")));
+                0
+            }
+        }
+    };
+
+    let container = check_container(&mut c, &spec.container, dim, &material_index);
+
+    // Particle sets.
+    if spec.particles.is_empty() {
+        c.fail("particles", "must contain at least one particle set");
+    }
+    let sets: Vec<ParticleSet> = spec
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let path = format!("particles[{i}]");
+            let material = material_index(&mut c, &format!("{path}.material"), &p.material);
+            check_set(&mut c, &path, p, dim, material, &materials, &container)
+        })
+        .collect();
+
+    let gravity = match &spec.gravity {
+        Some(g) if c.vector("gravity", g, dim) => vec_from_slice(g),
+        _ => Vec3::zeros(),
+    };
+
+    let stop = check_stop(&mut c, &spec.stop, &container);
+    let sampling = check_sampling(&mut c, spec.sampling.as_ref(), &stop);
+
+    if !c.violations.is_empty() {
+        return Err(c.violations);
+    }
+    Ok(Scene {
+        name: spec.name.clone().unwrap_or_else(|| "scene".to_string()),
+        dim,
+        method,
+        method_reason,
+        materials,
+        sets,
+        container,
+        gravity,
+        stop,
+        sampling,
+        seed: spec.seed.unwrap_or(0),
+    })
+}
+
+fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
+    let fallback = (Method::Dem(DemParams::default()), String::new());
+    let (kind, params): (String, Option<DemParamsSpec>) = match v {
+        serde_json::Value::String(s) => (s.clone(), None),
+        serde_json::Value::Object(map) => {
+            let Some(kind) = map.get("kind").and_then(|k| k.as_str()) else {
+                c.fail("method.kind", "must be a string naming the method (e.g. \"dem\")");
+                return fallback;
+            };
+            if kind != "dem" {
+                (kind.to_string(), None)
+            } else {
+                match serde_path_to_error::deserialize::<_, DemParamsSpec>(v) {
+                    Ok(p) => (kind.to_string(), Some(p)),
+                    Err(e) => {
+                        c.fail(format!("method.{}", e.path()), e.into_inner().to_string());
+                        return fallback;
+                    }
+                }
+            }
+        }
+        _ => {
+            c.fail("method", "must be a method name or an object with a \"kind\"");
+            return fallback;
+        }
+    };
+    if !KNOWN_METHODS.contains(&kind.as_str()) {
+        c.fail("method.kind", format!("unknown method '{kind}'; known: {}", KNOWN_METHODS.join(", ")));
+        return fallback;
+    }
+    if !AVAILABLE_METHODS.contains(&kind.as_str()) {
+        c.fail(
+            "method.kind",
+            format!("method '{kind}' is not available in this version; available: dem, auto"),
+        );
+        return fallback;
+    }
+    let mut p = DemParams::default();
+    if let Some(s) = params {
+        if let Some(dt) = s.time_step {
+            if c.positive("method.time_step", dt) {
+                p.time_step = Some(dt);
+            }
+        }
+        if let Some(f) = s.time_step_fraction {
+            if s.time_step.is_some() {
+                c.fail("method.time_step_fraction", "give either time_step or time_step_fraction, not both");
+            } else if c.within("method.time_step_fraction", f, 1e-6, 0.5) {
+                p.time_step_fraction = f;
+            }
+        }
+        if let Some(skin) = s.skin {
+            if c.within("method.skin", skin, 1e-3, 2.0) {
+                p.skin = skin;
+            }
+        }
+        if let Some(v) = s.reference_velocity {
+            if c.positive("method.reference_velocity", v) {
+                p.reference_velocity = Some(v);
+            }
+        }
+        if let Some(o) = s.max_overlap {
+            if c.within("method.max_overlap", o, 1e-4, 1.0) {
+                p.max_overlap = o;
+            }
+        }
+        if let Some(t) = s.threads {
+            if t > 1024 {
+                c.fail("method.threads", format!("must be <= 1024, got {t}"));
+            } else {
+                p.threads = t;
+            }
+        }
+    }
+    let reason = if kind == "auto" {
+        "auto: soft-contact DEM is the only method available in this version".to_string()
+    } else {
+        "chosen by the scene".to_string()
+    };
+    (Method::Dem(p), reason)
+}
+
+fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> Material {
+    let p = format!("materials.{name}");
+    c.positive(&format!("{p}.density"), m.density);
+    let law = match m.contact {
+        ContactLawSpec::Linear { k_n, k_t } => {
+            c.positive(&format!("{p}.contact.k_n"), k_n);
+            let k_t = k_t.unwrap_or(2.0 / 7.0 * k_n);
+            c.non_negative(&format!("{p}.contact.k_t"), k_t);
+            ElasticLaw::Linear { k_n, k_t }
+        }
+        ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio } => {
+            c.positive(&format!("{p}.contact.young_modulus"), young_modulus);
+            if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
+                c.fail(
+                    format!("{p}.contact.poisson_ratio"),
+                    format!("must be > -1 and < 0.5, got {poisson_ratio}"),
+                );
+            }
+            ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
+        }
+    };
+    if !(m.restitution.is_finite() && m.restitution > 0.0 && m.restitution <= 1.0) {
+        c.fail(format!("{p}.restitution"), format!("must be > 0 and <= 1, got {}", m.restitution));
+    }
+    c.non_negative(&format!("{p}.friction"), m.friction);
+    let ratio = m.tangential_damping_ratio.unwrap_or(0.5);
+    c.non_negative(&format!("{p}.tangential_damping_ratio"), ratio);
+    let limit_damping = m.limit_damping.unwrap_or(true);
+    if limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION
+    {
+        c.fail(
+            format!("{p}.restitution"),
+            format!(
+                "must be >= {} when limit_damping is true (an overdamped contact cannot reach lower); got {}",
+                crate::contact::damping::MIN_LIMITED_RESTITUTION,
+                m.restitution
+            ),
+        );
+    }
+    let rolling = m.rolling.as_ref().map(|r| {
+        c.non_negative(&format!("{p}.rolling.stiffness"), r.stiffness);
+        c.non_negative(&format!("{p}.rolling.friction"), r.friction);
+        Rolling { stiffness: r.stiffness, friction: r.friction }
+    });
+    let liquid = m.liquid.as_ref().map(|l| {
+        let q = format!("{p}.liquid");
+        c.positive(&format!("{q}.surface_tension"), l.surface_tension);
+        c.within(&format!("{q}.contact_angle"), l.contact_angle, 0.0, std::f64::consts::FRAC_PI_2 - 1e-9);
+        c.positive(&format!("{q}.bridge_volume"), l.bridge_volume);
+        c.non_negative(&format!("{q}.viscosity"), l.viscosity);
+        let roughness = match l.roughness {
+            Some(h) => {
+                c.positive(&format!("{q}.roughness"), h);
+                h
+            }
+            None if l.viscosity > 0.0 => {
+                c.fail(format!("{q}.roughness"), "required when viscosity > 0 (it bounds the lubrication force)");
+                0.0
+            }
+            None => 0.0,
+        };
+        Liquid {
+            surface_tension: l.surface_tension,
+            contact_angle: l.contact_angle,
+            bridge_volume: l.bridge_volume,
+            viscosity: l.viscosity,
+            roughness,
+        }
+    });
+    Material {
+        name: name.to_string(),
+        density: m.density,
+        law,
+        restitution: m.restitution,
+        friction: m.friction,
+        tangential_damping_ratio: ratio,
+        limit_damping,
+        rolling,
+        liquid,
+    }
+}
+
+fn check_region(c: &mut Checker, path: &str, r: Option<&RegionSpec>, dim: usize, container: &Container) -> Aabb {
+    let Some(r) = r else {
+        return Aabb { lo: container.lo, hi: container.hi };
+    };
+    let ok = c.vector(&format!("{path}.min"), &r.min, dim) & c.vector(&format!("{path}.max"), &r.max, dim);
+    if !ok {
+        return Aabb { lo: container.lo, hi: container.hi };
+    }
+    let lo = vec_from_slice(&r.min);
+    let hi = vec_from_slice(&r.max);
+    for a in 0..dim {
+        if lo[a] >= hi[a] {
+            c.fail(format!("{path}.max[{a}]"), format!("must be > min[{a}] = {}, got {}", lo[a], hi[a]));
+        } else if lo[a] < container.lo[a] - 1e-12 || hi[a] > container.hi[a] + 1e-12 {
+            c.fail(
+                path.to_string(),
+                format!(
+                    "must lie inside the container along {} ([{}, {}]), got [{}, {}]",
+                    AXES[a], container.lo[a], container.hi[a], lo[a], hi[a]
+                ),
+            );
+        }
+    }
+    Aabb { lo, hi }
+}
+
+fn check_set(
+    c: &mut Checker,
+    path: &str,
+    p: &ParticleSetSpec,
+    dim: usize,
+    material: usize,
+    materials: &[Material],
+    container: &Container,
+) -> ParticleSet {
+    let size = match &p.size {
+        Some(SizeSpec::Monodisperse { diameter }) => {
+            c.positive(&format!("{path}.size.diameter"), *diameter);
+            SizeDist::Monodisperse(*diameter)
+        }
+        Some(SizeSpec::Uniform { min, max }) => {
+            c.positive(&format!("{path}.size.min"), *min);
+            if !(max.is_finite() && max >= min) {
+                c.fail(format!("{path}.size.max"), format!("must be >= size.min = {min}, got {max}"));
+            }
+            SizeDist::Uniform { min: *min, max: *max }
+        }
+        Some(SizeSpec::Bidisperse { diameter, ratio, fraction_small }) => {
+            c.positive(&format!("{path}.size.diameter"), *diameter);
+            if !(ratio.is_finite() && *ratio >= 1.0) {
+                c.fail(format!("{path}.size.ratio"), format!("must be >= 1, got {ratio}"));
+            }
+            let f = fraction_small.unwrap_or(0.5);
+            c.within(&format!("{path}.size.fraction_small"), f, 0.0, 1.0);
+            SizeDist::Bidisperse { small: *diameter, ratio: *ratio, fraction_small: f }
+        }
+        None => {
+            let has_diameters = matches!(&p.placement, PlacementSpec::List { diameters: Some(_), .. });
+            if !has_diameters {
+                c.fail(format!("{path}.size"), "required (unless a list placement gives diameters)");
+            }
+            SizeDist::Monodisperse(1.0)
+        }
+    };
+    let placement = match &p.placement {
+        PlacementSpec::Random { region } => {
+            Placement::Random(check_region(c, &format!("{path}.placement.region"), region.as_ref(), dim, container))
+        }
+        PlacementSpec::Lattice { lattice, region, spacing, select } => {
+            let kind = match (lattice.as_str(), dim) {
+                ("square", 2) => LatticeKind::Square,
+                ("hexagonal", 2) => LatticeKind::Hexagonal,
+                ("cubic", 3) => LatticeKind::Cubic,
+                ("fcc", 3) => LatticeKind::Fcc,
+                (other, d) => {
+                    c.fail(
+                        format!("{path}.placement.lattice"),
+                        format!(
+                            "must be one of {} in {d}D, got '{other}'",
+                            if d == 2 { "square, hexagonal" } else { "cubic, fcc" }
+                        ),
+                    );
+                    LatticeKind::Cubic
+                }
+            };
+            if let Some(s) = spacing {
+                c.positive(&format!("{path}.placement.spacing"), *s);
+            }
+            let random_select = match select.as_deref() {
+                None | Some("first") => false,
+                Some("random") => true,
+                Some(o) => {
+                    c.fail(format!("{path}.placement.select"), format!("must be 'first' or 'random', got '{o}'"));
+                    false
+                }
+            };
+            Placement::Lattice {
+                kind,
+                region: check_region(c, &format!("{path}.placement.region"), region.as_ref(), dim, container),
+                spacing: *spacing,
+                random_select,
+            }
+        }
+        PlacementSpec::List { positions, diameters, velocities } => {
+            let mut pos = Vec::with_capacity(positions.len());
+            for (i, x) in positions.iter().enumerate() {
+                if c.vector(&format!("{path}.placement.positions[{i}]"), x, dim) {
+                    pos.push(vec_from_slice(x));
+                }
+            }
+            if let Some(d) = diameters {
+                if d.len() != positions.len() {
+                    c.fail(
+                        format!("{path}.placement.diameters"),
+                        format!("must have one diameter per position ({}), got {}", positions.len(), d.len()),
+                    );
+                }
+                for (i, di) in d.iter().enumerate() {
+                    c.positive(&format!("{path}.placement.diameters[{i}]"), *di);
+                }
+            }
+            let vel = velocities.as_ref().map(|vs| {
+                if vs.len() != positions.len() {
+                    c.fail(
+                        format!("{path}.placement.velocities"),
+                        format!("must have one velocity per position ({}), got {}", positions.len(), vs.len()),
+                    );
+                }
+                vs.iter()
+                    .enumerate()
+                    .map(|(i, v)| {
+                        c.vector(&format!("{path}.placement.velocities[{i}]"), v, dim);
+                        vec_from_slice(v)
+                    })
+                    .collect()
+            });
+            Placement::List { positions: pos, diameters: diameters.clone(), velocities: vel }
+        }
+    };
+    let count = match (&placement, p.count) {
+        (Placement::List { positions, .. }, Some(n)) if n != positions.len() => {
+            c.fail(format!("{path}.count"), format!("must equal the number of listed positions ({})", positions.len()));
+            n
+        }
+        (Placement::List { positions, .. }, _) => positions.len(),
+        (_, Some(n)) => n,
+        (_, None) => {
+            c.fail(format!("{path}.count"), "required for random and lattice placement");
+            0
+        }
+    };
+    if count == 0 && !matches!(placement, Placement::List { .. }) && p.count.is_some() {
+        c.fail(format!("{path}.count"), "must be >= 1");
+    }
+    let velocity = match &p.velocity {
+        None | Some(VelocitySpec::Zero) => InitialVelocity::Uniform(Vec3::zeros()),
+        Some(VelocitySpec::Uniform { value }) => {
+            c.vector(&format!("{path}.velocity.value"), value, dim);
+            InitialVelocity::Uniform(vec_from_slice(value))
+        }
+        Some(VelocitySpec::Gaussian { std }) => {
+            c.non_negative(&format!("{path}.velocity.std"), *std);
+            InitialVelocity::Gaussian(*std)
+        }
+    };
+    let has_liquid = materials.get(material).is_some_and(|m| m.liquid.is_some());
+    let wet_fraction = match p.wet_fraction {
+        Some(f) => {
+            if c.within(&format!("{path}.wet_fraction"), f, 0.0, 1.0) && f > 0.0 && !has_liquid {
+                c.fail(format!("{path}.wet_fraction"), "must be 0 when the material has no liquid");
+            }
+            f
+        }
+        None if has_liquid => 1.0,
+        None => 0.0,
+    };
+    ParticleSet { material, count, size, placement, velocity, wet_fraction }
+}
+
+fn check_container(
+    c: &mut Checker,
+    s: &ContainerSpec,
+    dim: usize,
+    material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
+) -> Container {
+    let ok = c.vector("container.min", &s.min, dim) & c.vector("container.max", &s.max, dim);
+    let (lo, mut hi) = if ok {
+        (vec_from_slice(&s.min), vec_from_slice(&s.max))
+    } else {
+        (Vec3::zeros(), Vec3::repeat(1.0))
+    };
+    if dim == 2 {
+        hi.z = 0.0;
+    }
+    for a in 0..dim {
+        if ok && lo[a] >= hi[a] {
+            c.fail(format!("container.max[{a}]"), format!("must be > container.min[{a}] = {}, got {}", lo[a], hi[a]));
+        }
+    }
+    let mut periodic = [false; 3];
+    for (i, name) in s.periodic.iter().enumerate() {
+        match AXES[..dim].iter().position(|a| a == name) {
+            Some(a) => periodic[a] = true,
+            None => c.fail(
+                format!("container.periodic[{i}]"),
+                format!("must be one of {} in {dim}D, got '{name}'", AXES[..dim].join(", ")),
+            ),
+        }
+    }
+    let mut walls = Vec::new();
+    for axis in 0..dim {
+        if periodic[axis] {
+            continue;
+        }
+        for upper in [false, true] {
+            let face = Face { axis, upper };
+            let motion = match s.walls.get(&face.name()) {
+                None | Some(WallSpec::Fixed) => WallMotion::Fixed,
+                Some(WallSpec::Velocity { velocity }) => {
+                    let path = format!("container.walls.{}.velocity", face.name());
+                    if c.vector(&path, velocity, dim) {
+                        WallMotion::Velocity(vec_from_slice(velocity))
+                    } else {
+                        WallMotion::Fixed
+                    }
+                }
+                Some(WallSpec::Stress { stress, gain, max_speed }) => {
+                    let path = format!("container.walls.{}", face.name());
+                    c.positive(&format!("{path}.stress"), *stress);
+                    if let Some(g) = gain {
+                        c.positive(&format!("{path}.gain"), *g);
+                    }
+                    if let Some(v) = max_speed {
+                        c.positive(&format!("{path}.max_speed"), *v);
+                    }
+                    WallMotion::Stress { stress: *stress, gain: *gain, max_speed: max_speed.unwrap_or(f64::INFINITY) }
+                }
+            };
+            walls.push(WallDef { face, motion });
+        }
+    }
+    for key in s.walls.keys() {
+        let known = (0..dim).any(|a| [false, true].iter().any(|&u| Face { axis: a, upper: u }.name() == *key));
+        if !known {
+            c.fail(format!("container.walls.{key}"), "unknown wall; names are x_min, x_max, y_min, y_max (and z_min, z_max in 3D)");
+        } else if (0..dim).any(|a| periodic[a] && key.starts_with(AXES[a])) {
+            c.fail(format!("container.walls.{key}"), "this axis is periodic: it has no walls");
+        }
+    }
+    let wall_material = match (&s.wall_material, walls.is_empty()) {
+        (Some(name), _) => Some(material_index(c, "container.wall_material", name)),
+        (None, false) => {
+            c.fail("container.wall_material", "required: the container has walls on its non-periodic faces");
+            None
+        }
+        (None, true) => None,
+    };
+    let lees_edwards = s.lees_edwards.as_ref().map(|le| {
+        if !(le.shear_rate.is_finite()) {
+            c.fail("container.lees_edwards.shear_rate", "must be a finite number");
+        }
+        if !(periodic[0] && periodic[1]) {
+            c.fail("container.lees_edwards", "requires x and y to be periodic (flow along x, gradient along y)");
+        }
+        (le.shear_rate, le.initial_profile)
+    });
+    let deformation = s.deformation.as_ref().map(|d| match d {
+        DeformationSpec::StrainRate { rate } => {
+            if c.vector("container.deformation.rate", rate, dim) {
+                for (a, r) in rate.iter().enumerate() {
+                    if *r != 0.0 && !periodic[a] {
+                        c.fail(
+                            format!("container.deformation.rate[{a}]"),
+                            "must be 0 on a non-periodic axis (move its walls instead)",
+                        );
+                    }
+                }
+            }
+            Deformation::StrainRate(vec_from_slice(rate))
+        }
+        DeformationSpec::Pressure { target, max_strain_rate, gain } => {
+            c.positive("container.deformation.target", *target);
+            c.positive("container.deformation.max_strain_rate", *max_strain_rate);
+            if let Some(g) = gain {
+                c.positive("container.deformation.gain", *g);
+            }
+            if !periodic[..dim].iter().all(|&p| p) {
+                c.fail("container.deformation", "a pressure-controlled cell must be periodic on every axis");
+            }
+            Deformation::Pressure {
+                target: *target,
+                max_strain_rate: *max_strain_rate,
+                gain: gain.unwrap_or(max_strain_rate / target),
+            }
+        }
+    });
+    if lees_edwards.is_some() && deformation.is_some() {
+        c.fail("container.deformation", "cannot be combined with lees_edwards in this version");
+    }
+    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation }
+}
+
+fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
+    if s.time.is_none() && s.steps.is_none() && s.packing_fraction.is_none() && s.strain.is_none() {
+        c.fail("stop", "give at least one of time, steps, packing_fraction, strain");
+    }
+    if let Some(t) = s.time {
+        c.positive("stop.time", t);
+    }
+    if s.steps == Some(0) {
+        c.fail("stop.steps", "must be >= 1");
+    }
+    if let Some(phi) = s.packing_fraction {
+        c.within("stop.packing_fraction", phi, 0.0, 1.0);
+    }
+    if let Some(e) = s.strain {
+        c.positive("stop.strain", e);
+        let deforms = container.lees_edwards.is_some()
+            || container.deformation.is_some()
+            || container.walls.iter().any(|w| w.motion != WallMotion::Fixed);
+        if !deforms {
+            c.fail("stop.strain", "the container never deforms (no moving wall, deformation or Lees-Edwards shear)");
+        }
+    }
+    if (s.packing_fraction.is_some() || s.strain.is_some()) && s.time.is_none() && s.steps.is_none() {
+        c.fail("stop", "a packing_fraction or strain target also needs a time or steps limit, in case it is never reached");
+    }
+    Stop { time: s.time, steps: s.steps, packing_fraction: s.packing_fraction, strain: s.strain }
+}
+
+fn check_sampling(c: &mut Checker, s: Option<&SamplingSpec>, stop: &Stop) -> Sampling {
+    match s {
+        Some(SamplingSpec { every_steps: Some(n), every_time: None }) => {
+            if *n == 0 {
+                c.fail("sampling.every_steps", "must be >= 1");
+            }
+            Sampling::Steps((*n).max(1))
+        }
+        Some(SamplingSpec { every_steps: None, every_time: Some(t) }) => {
+            c.positive("sampling.every_time", *t);
+            Sampling::Time(*t)
+        }
+        Some(_) => {
+            c.fail("sampling", "give exactly one of every_steps, every_time");
+            Sampling::Steps(1000)
+        }
+        None => match (stop.steps, stop.time) {
+            (Some(n), _) => Sampling::Steps((n / 100).max(1)),
+            (None, Some(t)) => Sampling::Time(t / 100.0),
+            _ => Sampling::Steps(1000),
+        },
+    }
+}

@@ -1,0 +1,79 @@
+//! One broken rule of a scene, with the path of the field that breaks it.
+
+use serde::{Deserialize, Serialize};
+
+/// A rule broken by a field, e.g. `materials.glass.friction: must be >= 0, got -0.2`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Violation {
+    /// Dotted path of the field (`particles[0].count`), or `""` for the whole document.
+    pub field: String,
+    /// The rule, stated so that it says what to change.
+    pub rule: String,
+}
+
+impl std::fmt::Display for Violation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.field.is_empty() {
+            write!(f, "{}", self.rule)
+        } else {
+            write!(f, "{}: {}", self.field, self.rule)
+        }
+    }
+}
+
+/// Joins violations with `; ` for one-line messages.
+pub fn format_violations(v: &[Violation]) -> String {
+    v.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
+}
+
+/// Collects violations while a scene is checked.
+#[derive(Debug, Default)]
+pub(crate) struct Checker {
+    pub(crate) violations: Vec<Violation>,
+}
+
+impl Checker {
+    pub(crate) fn fail(&mut self, field: impl Into<String>, rule: impl Into<String>) {
+        self.violations.push(Violation { field: field.into(), rule: rule.into() });
+    }
+
+    /// Requires a finite value > 0.
+    pub(crate) fn positive(&mut self, field: &str, v: f64) -> bool {
+        if !(v.is_finite() && v > 0.0) {
+            self.fail(field, format!("must be > 0, got {v}"));
+            return false;
+        }
+        true
+    }
+
+    /// Requires a finite value >= 0.
+    pub(crate) fn non_negative(&mut self, field: &str, v: f64) -> bool {
+        if !(v.is_finite() && v >= 0.0) {
+            self.fail(field, format!("must be >= 0, got {v}"));
+            return false;
+        }
+        true
+    }
+
+    /// Requires `lo <= v <= hi` (finite).
+    pub(crate) fn within(&mut self, field: &str, v: f64, lo: f64, hi: f64) -> bool {
+        if !(v.is_finite() && v >= lo && v <= hi) {
+            self.fail(field, format!("must be between {lo} and {hi}, got {v}"));
+            return false;
+        }
+        true
+    }
+
+    /// Requires a vector of length `dim` with finite components.
+    pub(crate) fn vector(&mut self, field: &str, v: &[f64], dim: usize) -> bool {
+        if v.len() != dim {
+            self.fail(field, format!("must have {dim} components (the scene's dimension), got {}", v.len()));
+            return false;
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            self.fail(format!("{field}[{i}]"), "must be a finite number");
+            return false;
+        }
+        true
+    }
+}
