@@ -32,16 +32,12 @@ impl std::fmt::Display for InstabilityCause {
             Self::NonFinite { particle } => {
                 write!(f, "non-finite position, velocity or force on particle {particle}")
             }
-            Self::Overlap { fraction, limit } => write!(
-                f,
-                "overlap reached {:.1}% of the smaller radius (limit {:.1}%)",
-                fraction * 100.0,
-                limit * 100.0
-            ),
-            Self::EnergyGrowth { excess, scale } => write!(
-                f,
-                "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)"
-            ),
+            Self::Overlap { fraction, limit } => {
+                write!(f, "overlap reached {:.1}% of the smaller radius (limit {:.1}%)", fraction * 100.0, limit * 100.0)
+            }
+            Self::EnergyGrowth { excess, scale } => {
+                write!(f, "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)")
+            }
         }
     }
 }

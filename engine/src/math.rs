@@ -18,9 +18,5 @@ pub const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Builds a [`Vec3`] from a slice of length 2 or 3 (missing z is zero).
 pub fn vec_from_slice(v: &[Real]) -> Vec3 {
-    Vec3::new(
-        v.first().copied().unwrap_or(0.0),
-        v.get(1).copied().unwrap_or(0.0),
-        v.get(2).copied().unwrap_or(0.0),
-    )
+    Vec3::new(v.first().copied().unwrap_or(0.0), v.get(1).copied().unwrap_or(0.0), v.get(2).copied().unwrap_or(0.0))
 }

@@ -129,11 +129,7 @@ impl Runner {
 
     /// Runs to the end, calling `on_sample` with the initial sample, every sample at the
     /// interval and the final one.
-    pub fn run(
-        &self,
-        sim: &mut dyn Simulation,
-        on_sample: &mut dyn FnMut(&Sample, &Progress),
-    ) -> Result<RunSummary, EngineError> {
+    pub fn run(&self, sim: &mut dyn Simulation, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
         let started = std::time::Instant::now();
         let phi0 = sim.packing_fraction();
         let progress = |sim: &dyn Simulation| {
@@ -157,7 +153,7 @@ impl Runner {
             }
             sim.step()?;
             let due = match self.sampling {
-                Sampling::Steps(n) => sim.steps_done() % n == 0,
+                Sampling::Steps(n) => sim.steps_done().is_multiple_of(n),
                 Sampling::Time(t) => {
                     if sim.time() >= next_time - 0.5 * sim.dt() {
                         next_time += t;
@@ -176,12 +172,6 @@ impl Runner {
             last = sim.sample()?;
             on_sample(&last, &progress(sim));
         }
-        Ok(RunSummary {
-            reason,
-            steps: sim.steps_done(),
-            time: sim.time(),
-            wall_seconds: started.elapsed().as_secs_f64(),
-            last,
-        })
+        Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last })
     }
 }

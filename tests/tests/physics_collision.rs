@@ -26,12 +26,7 @@ fn collide(dim: usize, contact: serde_json::Value, e: f64, limit_damping: bool, 
     let (min, max, pos, vel) = if dim == 2 {
         (json!([0, 0]), json!([l, l]), json!([[0.009, 0.01], [0.011 + 1e-4, 0.01]]), json!([[v, 0], [-v, 0]]))
     } else {
-        (
-            json!([0, 0, 0]),
-            json!([l, l, l]),
-            json!([[0.009, 0.01, 0.01], [0.011 + 1e-4, 0.01, 0.01]]),
-            json!([[v, 0, 0], [-v, 0, 0]]),
-        )
+        (json!([0, 0, 0]), json!([l, l, l]), json!([[0.009, 0.01, 0.01], [0.011 + 1e-4, 0.01, 0.01]]), json!([[v, 0, 0], [-v, 0, 0]]))
     };
     let periodic = if dim == 2 { json!(["x", "y"]) } else { json!(["x", "y", "z"]) };
     let s = common::scene(json!({

@@ -86,8 +86,9 @@ mod tests {
         for e in [0.2, 0.5, 0.7, 0.9, 0.99] {
             let z = zeta_limited(e);
             assert!((restitution_limited(z).0 - e).abs() < 1e-9, "e {e}");
-            // Flooring the force removes the attractive phase, so less damping is needed.
-            assert!(z < zeta_unlimited(e));
+            // Flooring the force lets the grains part before the dashpot has taken as much energy
+            // (REFERENCES.md check 1, Schwager & Pöschel), so more damping is needed.
+            assert!(z > zeta_unlimited(e), "e {e}: {z} vs {}", zeta_unlimited(e));
         }
     }
 }

@@ -180,18 +180,14 @@ impl PairLaw {
                 let zeta = if limit_damping { zeta_limited(e) } else { zeta_unlimited(e) };
                 (
                     NormalLaw::Linear(NormalLinear { k_n: gm(kna, knb), zeta }),
-                    TangentialLaw::Linear {
-                        k_t: gm(kta, ktb),
-                        damping_ratio: gm(a.tangential_damping_ratio, b.tangential_damping_ratio),
-                    },
+                    TangentialLaw::Linear { k_t: gm(kta, ktb), damping_ratio: gm(a.tangential_damping_ratio, b.tangential_damping_ratio) },
                 )
             }
         };
         let rolling = match (a.rolling, b.rolling) {
-            (Some(ra), Some(rb)) => Some(RollingResistance {
-                stiffness: gm(ra.stiffness, rb.stiffness),
-                friction: gm(ra.friction, rb.friction),
-            }),
+            (Some(ra), Some(rb)) => {
+                Some(RollingResistance { stiffness: gm(ra.stiffness, rb.stiffness), friction: gm(ra.friction, rb.friction) })
+            }
             _ => None,
         };
         let (capillary, lubrication) = match (a.liquid, b.liquid) {
@@ -220,14 +216,7 @@ impl PairLaw {
     /// the bridge state `bridge` (both `None` when the law has no such part) and returns the
     /// force and torques. Springs are reset when the grains separate.
     #[inline(always)]
-    pub fn compute(
-        &self,
-        c: &ContactInput,
-        xi: &mut Vec3,
-        roll: Option<&mut Vec3>,
-        bridge: Option<&mut bool>,
-        dt: f64,
-    ) -> ContactOutput {
+    pub fn compute(&self, c: &ContactInput, xi: &mut Vec3, roll: Option<&mut Vec3>, bridge: Option<&mut bool>, dt: f64) -> ContactOutput {
         let n = c.n;
         let vn = c.v_damp.dot(&n);
         let delta_dot = -vn;
@@ -271,11 +260,7 @@ impl PairLaw {
             }
         }
         let nxf = n.cross(&f_t);
-        ContactOutput {
-            force: n * f_normal + f_t,
-            torque_i: -nxf * c.a_i + moment,
-            torque_j: -nxf * c.a_j - moment,
-        }
+        ContactOutput { force: n * f_normal + f_t, torque_i: -nxf * c.a_i + moment, torque_j: -nxf * c.a_j - moment }
     }
 }
 

@@ -2,9 +2,12 @@
 //! particle has moved more than half the skin (or the box has changed by as much).
 //!
 //! The list is a half list: each pair (i, j) with i < j appears once, sorted by i then j, stored
-//! as parallel arrays `pi`, `pj` with a CSR index `start` by i, and a reverse CSR `rev_start`,
-//! `rev` (pair indices by j) so that forces can be gathered per particle in parallel, in a fixed
-//! order, without atomics: the parallel result equals the serial one bit for bit.
+//! as `pi` (first particle) and `pair` (second particle and its periodic image) with a CSR index
+//! `start` by i, so that the pairs of a block of particles form one contiguous range.
+//!
+//! As in LAMMPS, particles are wrapped into the box only when the list is rebuilt; in between,
+//! each pair keeps the periodic image chosen at build time (`image`), so the force loop needs no
+//! minimum-image arithmetic: `r_i - r_j - domain.image_shift(k)`.
 
 use rayon::prelude::*;
 
@@ -13,19 +16,24 @@ use crate::math::{Real, Vec3};
 
 const CHUNK: usize = 512;
 
+/// The second member of a listed pair.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PairRef {
+    /// Index of the second particle.
+    pub j: u32,
+    /// Periods crossed along x, y, z to reach the image of j that interacts with i.
+    pub image: [i8; 3],
+}
+
 /// Half neighbour list with Verlet skin.
 #[derive(Debug, Clone, Default)]
 pub struct NeighborList {
     /// First particle of each pair.
     pub pi: Vec<u32>,
-    /// Second particle of each pair (pj > pi).
-    pub pj: Vec<u32>,
+    /// Second particle of each pair (j > i) and the periodic image of it that i sees.
+    pub pair: Vec<PairRef>,
     /// Pairs of particle i are `start[i]..start[i + 1]`.
     pub start: Vec<u32>,
-    /// Pairs whose second particle is j are `rev[rev_start[j]..rev_start[j + 1]]`.
-    pub rev_start: Vec<u32>,
-    /// Pair indices grouped by second particle.
-    pub rev: Vec<u32>,
     /// Pairs closer than `R_i + R_j + reach` are kept, m.
     pub reach: Real,
     /// Skin, m (part of `reach`).
@@ -45,6 +53,15 @@ impl NeighborList {
         Self { reach: range + skin, skin, ..Default::default() }
     }
 
+    /// Separation `r_i - r_j'` of pair `q` with its build-time image, and the x-velocity of that
+    /// image relative to j (Lees-Edwards).
+    #[inline(always)]
+    pub fn separation(&self, q: usize, pos: &[Vec3], domain: &Domain) -> (Vec3, Real) {
+        let PairRef { j, image } = self.pair[q];
+        let d = pos[self.pi[q] as usize] - pos[j as usize] - domain.image_shift(image);
+        (d, domain.image_velocity(image[1]))
+    }
+
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.pi.len()
@@ -61,11 +78,11 @@ impl NeighborList {
         if self.ref_pos.len() != pos.len() {
             return true;
         }
+        // Positions are not wrapped between builds, so plain differences are displacements.
         let max2 = pos
-            .par_iter()
-            .with_min_len(CHUNK)
-            .zip(self.ref_pos.par_iter())
-            .map(|(p, r)| domain.separation(p, r).0.norm_squared())
+            .par_chunks(4 * CHUNK)
+            .zip(self.ref_pos.par_chunks(4 * CHUNK))
+            .map(|(ps, rs)| ps.iter().zip(rs).map(|(p, r)| (p - r).norm_squared()).fold(0.0, f64::max))
             .reduce(|| 0.0, f64::max);
         let mut drift = 2.0 * max2.sqrt();
         if domain.sheared() {
@@ -81,7 +98,7 @@ impl NeighborList {
         drift > self.skin
     }
 
-    /// Rebuilds the list. Returns, for each new pair, the index of the same pair in the old list
+    /// Rebuilds the list; `pos` must be wrapped into the box. Returns, for each new pair, the index of the same pair in the old list
     /// (or `u32::MAX`), so that pair histories can be carried over.
     pub fn rebuild(&mut self, pos: &[Vec3], radius: &[Real], domain: &Domain) -> Vec<u32> {
         let n = pos.len();
@@ -149,7 +166,7 @@ impl NeighborList {
             (dy_wrap as f64 * domain.le_offset / width[0]).floor() as i64
         };
         let dims = domain.dim;
-        let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n)
+        let chunks: Vec<(Vec<u32>, Vec<PairRef>)> = (0..n)
             .into_par_iter()
             .chunks(CHUNK)
             .map(|idx| {
@@ -188,14 +205,14 @@ impl NeighborList {
                             if (j as usize) <= i {
                                 continue;
                             }
-                            let (d, _) = domain.separation(&pos[i], &pos[j as usize]);
+                            let (d, k) = domain.image(&pos[i], &pos[j as usize]);
                             let cut = radius[i] + radius[j as usize] + reach;
                             if d.norm_squared() < cut * cut {
-                                js.push(j);
+                                js.push(PairRef { j, image: k });
                             }
                         }
                     }
-                    js[before..].sort_unstable();
+                    js[before..].sort_unstable_by_key(|e| e.j);
                     counts.push((js.len() - before) as u32);
                 }
                 (counts, js)
@@ -203,15 +220,15 @@ impl NeighborList {
             .collect();
 
         let old_start = std::mem::take(&mut self.start);
-        let old_pj = std::mem::take(&mut self.pj);
+        let old_pair = std::mem::take(&mut self.pair);
         let total: usize = chunks.iter().map(|c| c.1.len()).sum();
         self.start = Vec::with_capacity(n + 1);
         self.start.push(0);
         self.pi = Vec::with_capacity(total);
-        self.pj = Vec::with_capacity(total);
+        self.pair = Vec::with_capacity(total);
         let mut i = 0u32;
         for (counts, js) in chunks {
-            self.pj.extend_from_slice(&js);
+            self.pair.extend_from_slice(&js);
             for c in counts {
                 let s = *self.start.last().unwrap_or(&0);
                 self.start.push(s + c);
@@ -219,31 +236,15 @@ impl NeighborList {
                 i += 1;
             }
         }
-        // Reverse index by second particle.
-        self.rev_start.clear();
-        self.rev_start.resize(n + 1, 0);
-        for &j in &self.pj {
-            self.rev_start[j as usize + 1] += 1;
-        }
-        for k in 0..n {
-            self.rev_start[k + 1] += self.rev_start[k];
-        }
-        self.rev.clear();
-        self.rev.resize(total, 0);
-        let mut fill = self.rev_start.clone();
-        for (p, &j) in self.pj.iter().enumerate() {
-            self.rev[fill[j as usize] as usize] = p as u32;
-            fill[j as usize] += 1;
-        }
         // Where each new pair sat in the old list.
         let old_index: Vec<u32> = if old_start.len() == n + 1 {
             self.pi
                 .par_iter()
-                .zip(self.pj.par_iter())
+                .zip(self.pair.par_iter())
                 .with_min_len(CHUNK)
-                .map(|(&i, &j)| {
+                .map(|(&i, r)| {
                     let (s, e) = (old_start[i as usize] as usize, old_start[i as usize + 1] as usize);
-                    match old_pj[s..e].binary_search(&j) {
+                    match old_pair[s..e].binary_search_by_key(&r.j, |o| o.j) {
                         Ok(k) => (s + k) as u32,
                         Err(_) => u32::MAX,
                     }
@@ -262,7 +263,8 @@ impl NeighborList {
 
     /// Heap bytes held by the list.
     pub fn heap_bytes(&self) -> usize {
-        4 * (self.pi.capacity() + self.pj.capacity() + self.start.capacity() + self.rev_start.capacity() + self.rev.capacity())
+        4 * (self.pi.capacity() + self.start.capacity())
+            + std::mem::size_of::<PairRef>() * self.pair.capacity()
             + 4 * (self.cell_start.capacity() + self.cell_items.capacity())
             + std::mem::size_of::<Vec3>() * self.ref_pos.capacity()
     }

@@ -26,10 +26,16 @@ impl CellDeformation {
         Self { kind, rate }
     }
 
-    /// Updates the servo from the measured mean pressure (Pa); no-op for constant rates.
-    pub fn servo(&mut self, pressure: Real, domain: &Domain) {
+    /// Updates the servo from the measured mean pressure `pressure` (Pa) and an estimate of the
+    /// packing's bulk stiffness `bulk` (Pa per unit volumetric strain; 0 for a gas); no-op for
+    /// constant rates. The rate is `gain (p - target)`, bounded by `max_strain_rate`, with the gain
+    /// lowered once the grains touch so that one step changes the pressure by at most 2% of the
+    /// error: a stiff packing would otherwise overshoot every update (bang-bang oscillation).
+    pub fn servo(&mut self, pressure: Real, bulk: Real, dt: Real, domain: &Domain) {
         if let Deformation::Pressure { target, max_strain_rate, gain } = self.kind {
-            let r = (gain * (pressure - target)).clamp(-max_strain_rate, max_strain_rate);
+            let d = domain.dim as Real;
+            let g = if bulk > 0.0 { gain.min(0.02 / (bulk * d * dt)) } else { gain };
+            let r = (g * (pressure - target)).clamp(-max_strain_rate, max_strain_rate);
             for a in 0..domain.dim {
                 self.rate[a] = if domain.periodic[a] { r } else { 0.0 };
             }

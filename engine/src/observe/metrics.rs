@@ -72,6 +72,19 @@ pub struct SystemView<'a> {
     pub shear: Option<ShearGeometry>,
     /// Elastic energy stored in contacts, J.
     pub elastic_energy: Real,
+    /// A particle with fewer force-bearing contacts than this is a rattler: D + 1 for
+    /// frictionless grains (needed for force balance without friction), 2 with friction (one
+    /// contact alone cannot balance any force). See [`rattler_threshold`].
+    pub rattler_threshold: usize,
+}
+
+/// Contacts a particle needs not to be a rattler, in `dim` dimensions, with or without friction.
+pub fn rattler_threshold(dim: usize, frictional: bool) -> usize {
+    if frictional {
+        2
+    } else {
+        dim + 1
+    }
 }
 
 /// Computes every metric of a [`Sample`].
@@ -146,7 +159,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         None => (if pressure > 0.0 { q / pressure } else { 0.0 }, None),
     };
 
-    let (z, z_no_rattlers) = coordination(n, dim, v.contacts);
+    let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
     let walls = v
         .walls
         .iter()
@@ -175,10 +188,10 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
 }
 
 /// Returns (Z, Z without rattlers). A contact counts if it carries force (touching with a
-/// non-zero force, or a cohesive bond). Rattlers, particles with fewer than D + 1 contacts
+/// non-zero force, or a cohesive bond). Rattlers, particles with fewer than `threshold` contacts
 /// (walls included), are removed recursively (REFERENCES.md §B); Z counts particle-particle
 /// contacts only: Z = 2 N_c / N.
-pub fn coordination(n: usize, dim: usize, contacts: &[ContactRecord]) -> (Real, Real) {
+pub fn coordination(n: usize, threshold: usize, contacts: &[ContactRecord]) -> (Real, Real) {
     if n == 0 {
         return (0.0, 0.0);
     }
@@ -196,7 +209,7 @@ pub fn coordination(n: usize, dim: usize, contacts: &[ContactRecord]) -> (Real, 
         }
     }
     let z = 2.0 * pairs as Real / n as Real;
-    let need = (dim + 1) as u32;
+    let need = threshold as u32;
     let mut removed = vec![false; n];
     let mut stack: Vec<usize> = (0..n).filter(|&i| count[i] < need).collect();
     while let Some(i) = stack.pop() {
@@ -215,7 +228,8 @@ pub fn coordination(n: usize, dim: usize, contacts: &[ContactRecord]) -> (Real, 
         }
     }
     let kept = removed.iter().filter(|r| !**r).count();
-    let backbone_pairs: usize = (0..n).filter(|&i| !removed[i]).map(|i| adjacency[i].iter().filter(|&&j| !removed[j as usize]).count()).sum::<usize>() / 2;
+    let backbone_pairs: usize =
+        (0..n).filter(|&i| !removed[i]).map(|i| adjacency[i].iter().filter(|&&j| !removed[j as usize]).count()).sum::<usize>() / 2;
     let z_nr = if kept > 0 { 2.0 * backbone_pairs as Real / kept as Real } else { 0.0 };
     (z, z_nr)
 }

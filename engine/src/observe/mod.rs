@@ -8,5 +8,5 @@
 pub mod metrics;
 pub mod sample;
 
-pub use metrics::{measure, ContactRecord, ShearGeometry, SystemView, WallView};
+pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
 pub use sample::{Sample, Stress, WallSample};

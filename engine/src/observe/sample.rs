@@ -81,7 +81,8 @@ impl Sample {
     /// Values of the CSV form, matching [`Sample::csv_header`] (walls are left to JSON).
     pub fn csv_row(&self, dim: usize) -> Vec<String> {
         let f = |x: f64| format!("{x:e}");
-        let mut r = vec![self.step.to_string(), f(self.time), f(self.phi), f(self.z), f(self.z_no_rattlers), f(self.mu), f(self.p), f(self.q)];
+        let mut r =
+            vec![self.step.to_string(), f(self.time), f(self.phi), f(self.z), f(self.z_no_rattlers), f(self.mu), f(self.p), f(self.q)];
         let s = &self.stress;
         if dim == 2 {
             r.extend([f(s.xx), f(s.yy), f(s.xy)]);
@@ -97,10 +98,23 @@ impl Sample {
     /// True if every number in the sample is finite (results with NaN are never stored).
     pub fn is_finite(&self) -> bool {
         let s = &self.stress;
-        [self.time, self.phi, self.z, self.z_no_rattlers, self.mu, self.p, self.q, s.xx, s.yy, s.xy, self.kinetic_energy, self.elastic_energy]
-            .iter()
-            .chain([s.zz, s.xz, s.yz, self.inertial_number].iter().flatten())
-            .all(|x| x.is_finite())
+        [
+            self.time,
+            self.phi,
+            self.z,
+            self.z_no_rattlers,
+            self.mu,
+            self.p,
+            self.q,
+            s.xx,
+            s.yy,
+            s.xy,
+            self.kinetic_energy,
+            self.elastic_energy,
+        ]
+        .iter()
+        .chain([s.zz, s.xz, s.yz, self.inertial_number].iter().flatten())
+        .all(|x| x.is_finite())
             && self.walls.iter().all(|w| w.position.is_finite() && w.normal_stress.is_finite() && w.force.iter().all(|x| x.is_finite()))
     }
 }

@@ -241,10 +241,7 @@ fn lattice_sites(kind: LatticeKind, region: &Aabb, s: Real, r: Real, domain: &Do
         LatticeKind::Fcc => {
             let a = s * 2f64.sqrt();
             let h = 0.5 * a;
-            (
-                Vec3::repeat(a),
-                vec![Vec3::zeros(), Vec3::new(h, h, 0.0), Vec3::new(h, 0.0, h), Vec3::new(0.0, h, h)],
-            )
+            (Vec3::repeat(a), vec![Vec3::zeros(), Vec3::new(h, h, 0.0), Vec3::new(h, 0.0, h), Vec3::new(0.0, h, h)])
         }
     };
     let mut lo = Vec3::zeros();

@@ -2,6 +2,7 @@
 //! ([`model`]), and the validation between them ([`validate`]).
 
 pub mod model;
+pub mod presets;
 pub mod spec;
 pub mod validate;
 mod violation;

@@ -61,6 +61,8 @@ pub struct DemParams {
     pub max_overlap: Real,
     /// Threads for the force loop; 0 = rayon's global pool.
     pub threads: usize,
+    /// Cundall's local damping coefficient in [0, 1).
+    pub local_damping: Real,
 }
 
 impl Default for DemParams {
@@ -72,6 +74,7 @@ impl Default for DemParams {
             reference_velocity: None,
             max_overlap: 0.1,
             threads: 0,
+            local_damping: 0.0,
         }
     }
 }

@@ -157,7 +157,7 @@ pub enum SizeSpec {
     Bidisperse {
         /// Small diameter, m.
         diameter: f64,
-        /// Large-to-small diameter ratio (> 1).
+        /// Large-to-small diameter ratio (>= 1).
         ratio: f64,
         /// Number fraction of small particles. Default 0.5.
         #[serde(default)]
@@ -367,4 +367,9 @@ pub struct DemParamsSpec {
     /// Threads for the force loop (0 or absent: rayon's global pool).
     #[serde(default)]
     pub threads: Option<usize>,
+    /// Cundall's local (non-viscous) damping coefficient in [0, 1): each force and torque
+    /// component is reduced by this fraction of its magnitude against the motion. Default 0.
+    /// For quasi-static preparation only: it is not a physical law.
+    #[serde(default)]
+    pub local_damping: Option<f64>,
 }

@@ -18,7 +18,7 @@ pub fn parse_scene(json: &str) -> Result<Scene, Vec<Violation>> {
     let de = &mut serde_json::Deserializer::from_str(json);
     let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
-        let field = if path == "." { String::new() } else { path };
+        let field = if path == "." || path == "?" { String::new() } else { path };
         vec![Violation { field, rule: e.into_inner().to_string() }]
     })?;
     validate(&spec)
@@ -42,8 +42,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     if names.is_empty() {
         c.fail("materials", "must define at least one material");
     }
-    let materials: Vec<Material> =
-        spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m)).collect();
+    let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m)).collect();
     let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
     if let Some(first) = materials.first() {
         for m in &materials[1..] {
@@ -110,18 +109,21 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
 
 fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
     let fallback = (Method::Dem(DemParams::default()), String::new());
-    let (kind, params): (String, Option<DemParamsSpec>) = match v {
-        serde_json::Value::String(s) => (s.clone(), None),
+    // A plain name is reported at `method`, an object's name at `method.kind`.
+    let (kind, kind_path, params): (String, &str, Option<DemParamsSpec>) = match v {
+        serde_json::Value::String(s) => (s.clone(), "method", None),
         serde_json::Value::Object(map) => {
             let Some(kind) = map.get("kind").and_then(|k| k.as_str()) else {
                 c.fail("method.kind", "must be a string naming the method (e.g. \"dem\")");
                 return fallback;
             };
-            if kind != "dem" {
-                (kind.to_string(), None)
+            if kind != "dem" && kind != "auto" {
+                (kind.to_string(), "method.kind", None)
             } else {
+                // `auto` picks among the available methods; today that is DEM, so it takes
+                // DEM's parameters (and rejects unknown ones like any other object).
                 match serde_path_to_error::deserialize::<_, DemParamsSpec>(v) {
-                    Ok(p) => (kind.to_string(), Some(p)),
+                    Ok(p) => (kind.to_string(), "method.kind", Some(p)),
                     Err(e) => {
                         c.fail(format!("method.{}", e.path()), e.into_inner().to_string());
                         return fallback;
@@ -135,14 +137,11 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
         }
     };
     if !KNOWN_METHODS.contains(&kind.as_str()) {
-        c.fail("method.kind", format!("unknown method '{kind}'; known: {}", KNOWN_METHODS.join(", ")));
+        c.fail(kind_path, format!("unknown method '{kind}'; known: {}", KNOWN_METHODS.join(", ")));
         return fallback;
     }
     if !AVAILABLE_METHODS.contains(&kind.as_str()) {
-        c.fail(
-            "method.kind",
-            format!("method '{kind}' is not available in this version; available: dem, auto"),
-        );
+        c.fail(kind_path, format!("method '{kind}' is not available in this version; available: dem, auto"));
         return fallback;
     }
     let mut p = DemParams::default();
@@ -174,6 +173,13 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
                 p.max_overlap = o;
             }
         }
+        if let Some(a) = s.local_damping {
+            if !(a.is_finite() && (0.0..1.0).contains(&a)) {
+                c.fail("method.local_damping", format!("must be >= 0 and < 1, got {a}"));
+            } else {
+                p.local_damping = a;
+            }
+        }
         if let Some(t) = s.threads {
             if t > 1024 {
                 c.fail("method.threads", format!("must be <= 1024, got {t}"));
@@ -203,10 +209,7 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> Material {
         ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio } => {
             c.positive(&format!("{p}.contact.young_modulus"), young_modulus);
             if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
-                c.fail(
-                    format!("{p}.contact.poisson_ratio"),
-                    format!("must be > -1 and < 0.5, got {poisson_ratio}"),
-                );
+                c.fail(format!("{p}.contact.poisson_ratio"), format!("must be > -1 and < 0.5, got {poisson_ratio}"));
             }
             ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
         }
@@ -218,8 +221,7 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> Material {
     let ratio = m.tangential_damping_ratio.unwrap_or(0.5);
     c.non_negative(&format!("{p}.tangential_damping_ratio"), ratio);
     let limit_damping = m.limit_damping.unwrap_or(true);
-    if limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION
-    {
+    if limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
         c.fail(
             format!("{p}.restitution"),
             format!(
@@ -349,10 +351,7 @@ fn check_set(
                 (other, d) => {
                     c.fail(
                         format!("{path}.placement.lattice"),
-                        format!(
-                            "must be one of {} in {d}D, got '{other}'",
-                            if d == 2 { "square, hexagonal" } else { "cubic, fcc" }
-                        ),
+                        format!("must be one of {} in {d}D, got '{other}'", if d == 2 { "square, hexagonal" } else { "cubic, fcc" }),
                     );
                     LatticeKind::Cubic
                 }
@@ -458,11 +457,7 @@ fn check_container(
     material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
 ) -> Container {
     let ok = c.vector("container.min", &s.min, dim) & c.vector("container.max", &s.max, dim);
-    let (lo, mut hi) = if ok {
-        (vec_from_slice(&s.min), vec_from_slice(&s.max))
-    } else {
-        (Vec3::zeros(), Vec3::repeat(1.0))
-    };
+    let (lo, mut hi) = if ok { (vec_from_slice(&s.min), vec_from_slice(&s.max)) } else { (Vec3::zeros(), Vec3::repeat(1.0)) };
     if dim == 2 {
         hi.z = 0.0;
     }
@@ -475,17 +470,13 @@ fn check_container(
     for (i, name) in s.periodic.iter().enumerate() {
         match AXES[..dim].iter().position(|a| a == name) {
             Some(a) => periodic[a] = true,
-            None => c.fail(
-                format!("container.periodic[{i}]"),
-                format!("must be one of {} in {dim}D, got '{name}'", AXES[..dim].join(", ")),
-            ),
+            None => {
+                c.fail(format!("container.periodic[{i}]"), format!("must be one of {} in {dim}D, got '{name}'", AXES[..dim].join(", ")))
+            }
         }
     }
     let mut walls = Vec::new();
-    for axis in 0..dim {
-        if periodic[axis] {
-            continue;
-        }
+    for axis in (0..dim).filter(|&a| !periodic[a]) {
         for upper in [false, true] {
             let face = Face { axis, upper };
             let motion = match s.walls.get(&face.name()) {
@@ -543,10 +534,7 @@ fn check_container(
             if c.vector("container.deformation.rate", rate, dim) {
                 for (a, r) in rate.iter().enumerate() {
                     if *r != 0.0 && !periodic[a] {
-                        c.fail(
-                            format!("container.deformation.rate[{a}]"),
-                            "must be 0 on a non-periodic axis (move its walls instead)",
-                        );
+                        c.fail(format!("container.deformation.rate[{a}]"), "must be 0 on a non-periodic axis (move its walls instead)");
                     }
                 }
             }
@@ -561,11 +549,7 @@ fn check_container(
             if !periodic[..dim].iter().all(|&p| p) {
                 c.fail("container.deformation", "a pressure-controlled cell must be periodic on every axis");
             }
-            Deformation::Pressure {
-                target: *target,
-                max_strain_rate: *max_strain_rate,
-                gain: gain.unwrap_or(max_strain_rate / target),
-            }
+            Deformation::Pressure { target: *target, max_strain_rate: *max_strain_rate, gain: gain.unwrap_or(max_strain_rate / target) }
         }
     });
     if lees_edwards.is_some() && deformation.is_some() {
@@ -589,11 +573,23 @@ fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
     }
     if let Some(e) = s.strain {
         c.positive("stop.strain", e);
-        let deforms = container.lees_edwards.is_some()
-            || container.deformation.is_some()
-            || container.walls.iter().any(|w| w.motion != WallMotion::Fixed);
+        let wall_moves = |w: &WallDef| match w.motion {
+            WallMotion::Fixed => false,
+            WallMotion::Velocity(v) => v[w.face.axis] != 0.0,
+            WallMotion::Stress { .. } => true,
+        };
+        let deforms = container.lees_edwards.is_some_and(|(rate, _)| rate != 0.0)
+            || container.deformation.is_some_and(|d| match d {
+                Deformation::StrainRate(r) => r != Vec3::zeros(),
+                Deformation::Pressure { .. } => true,
+            })
+            || container.walls.iter().any(wall_moves);
         if !deforms {
-            c.fail("stop.strain", "the container never deforms (no moving wall, deformation or Lees-Edwards shear)");
+            c.fail(
+                "stop.strain",
+                "the container never changes shape (no wall moving along its normal, no cell deformation, \
+                 no Lees-Edwards shear rate): strain would stay 0",
+            );
         }
     }
     if (s.packing_fraction.is_some() || s.strain.is_some()) && s.time.is_none() && s.steps.is_none() {

@@ -15,10 +15,11 @@ use crate::error::EngineError;
 use crate::geometry::{Domain, NeighborList};
 use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
-use crate::observe::{measure, ContactRecord, Sample, ShearGeometry, SystemView, WallView};
+use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, SystemView, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::run::Simulation;
-use crate::scene::{DemParams, Deformation, Placement, Scene, WallMotion};
+use crate::scene::{Deformation, DemParams, Placement, Scene, WallMotion};
+use forces::LOOP_CHUNK;
 use stability::EnergyBudget;
 use timestep::{collision_time, Bodies, CollisionTime};
 
@@ -45,15 +46,6 @@ pub enum Stage {
     Check,
 }
 
-/// State of one pair of the neighbour list.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct PairSlot {
-    /// Tangential spring, m.
-    pub xi: Vec3,
-    /// Force and torques of the last evaluation.
-    pub out: ContactOutput,
-}
-
 /// Optional pair state (rolling spring, capillary bridge), allocated only when a law needs it.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct PairExtra {
@@ -61,6 +53,22 @@ pub(crate) struct PairExtra {
     pub roll: Vec3,
     /// A capillary bridge joins the pair.
     pub bridge: bool,
+}
+
+/// Wall-clock seconds spent in each stage (collected only when enabled with
+/// [`Dem::set_profiling`]; `sable bench --profile` prints them).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// Half kicks and drift.
+    pub integrate: f64,
+    /// Walls, cell deformation, Lees-Edwards offset.
+    pub boundaries: f64,
+    /// Rebuild test and rebuilds.
+    pub neighbors: f64,
+    /// Pair and wall forces, gather.
+    pub forces: f64,
+    /// Stability guard.
+    pub check: f64,
 }
 
 /// How often (steps) the stability guard runs and the pressure servo updates.
@@ -81,8 +89,17 @@ pub struct Dem {
     walls: Vec<Wall>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
-    slots: Vec<PairSlot>,
+    /// Per pair of the neighbour list: tangential spring (m), whether the pair interacted at
+    /// the last evaluation, and its force and torques (valid only where active). Separate arrays
+    /// so that the ~95% of listed pairs that do not touch cost one byte of traffic per step.
+    pair_xi: Vec<Vec3>,
+    pair_active: Vec<bool>,
+    pair_out: Vec<ContactOutput>,
     extra: Vec<PairExtra>,
+    /// Interacting pairs found by each particle block at the last evaluation.
+    active_lists: Vec<Vec<u32>>,
+    /// Scratch: position and radius of each particle, packed for the pair loop.
+    xr: Vec<[Real; 4]>,
     needs_extra: bool,
     wall_xi: Vec<Vec3>,
     wall_roll: Vec<Vec3>,
@@ -95,6 +112,7 @@ pub struct Dem {
     solid_volume: Real,
     pool: Option<rayon::ThreadPool>,
     budget: EnergyBudget,
+    profile: Option<StageTimes>,
 }
 
 impl Dem {
@@ -133,7 +151,8 @@ impl Dem {
             e.1 = e.1.min(p.radius[k]);
         }
         let v_ref = params.reference_velocity.unwrap_or_else(|| reference_velocity(scene, &p));
-        let bodies = Bodies { lightest: &lightest, wall_material: (!c.walls.is_empty()).then_some(wall_material) };
+        let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+        let bodies = Bodies { lightest: &lightest, names: &names, wall_material: (!c.walls.is_empty()).then_some(wall_material) };
         let collision = collision_time(&table, &bodies, v_ref);
         let dt = params.time_step.unwrap_or(params.time_step_fraction * collision.t_c);
         if !(dt.is_finite() && dt > 0.0) {
@@ -202,8 +221,12 @@ impl Dem {
             walls,
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
-            slots: Vec::new(),
+            pair_xi: Vec::new(),
+            pair_active: Vec::new(),
+            pair_out: Vec::new(),
             extra: Vec::new(),
+            active_lists: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            xr: vec![[0.0; 4]; n],
             needs_extra,
             wall_xi: vec![Vec3::zeros(); n * nw],
             wall_roll: if has_wall_rolling || nw > 0 { vec![Vec3::zeros(); n * nw] } else { Vec::new() },
@@ -216,6 +239,7 @@ impl Dem {
             solid_volume,
             pool,
             budget: EnergyBudget::default(),
+            profile: None,
         };
         sim.refresh_neighbors();
         sim.compute_forces();
@@ -259,6 +283,30 @@ impl Dem {
         self.nl.builds
     }
 
+    /// Replaces the imposed deformation of the periodic cell (`None`: the cell keeps its size
+    /// from now on). For multi-stage protocols, e.g. compress, then servo to a pressure, then
+    /// relax at fixed volume. Deformation is only allowed on periodic axes.
+    pub fn set_deformation(&mut self, deformation: Option<Deformation>) {
+        self.deformation = deformation.map(CellDeformation::new);
+        // The energy budget restarts from here (it only applies to a fixed cell).
+        self.budget = EnergyBudget::start(self.mechanical_energy());
+    }
+
+    /// Starts (or stops) timing the stages of each step.
+    pub fn set_profiling(&mut self, on: bool) {
+        self.profile = on.then(StageTimes::default);
+    }
+
+    /// Time spent per stage since profiling started.
+    pub fn stage_times(&self) -> Option<StageTimes> {
+        self.profile
+    }
+
+    /// Number of pairs that interacted at the last force evaluation.
+    pub fn interacting_pairs(&self) -> usize {
+        self.active_lists.iter().map(Vec::len).sum()
+    }
+
     /// Number of pairs in the neighbour list.
     pub fn neighbor_pairs(&self) -> usize {
         self.nl.len()
@@ -276,7 +324,11 @@ impl Dem {
     pub fn heap_bytes(&self) -> usize {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
-            + self.slots.capacity() * std::mem::size_of::<PairSlot>()
+            + self.pair_xi.capacity() * std::mem::size_of::<Vec3>()
+            + self.pair_active.capacity()
+            + self.pair_out.capacity() * std::mem::size_of::<ContactOutput>()
+            + self.active_lists.iter().map(|l| l.capacity() * 4).sum::<usize>()
+            + self.xr.capacity() * 32
             + self.extra.capacity() * std::mem::size_of::<PairExtra>()
             + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
             + (self.wall_total_f.capacity() + self.wall_total_t.capacity()) * std::mem::size_of::<Vec3>()
@@ -284,16 +336,16 @@ impl Dem {
 
     /// Current contact forces as records (pairs and walls), for metrics and tests.
     pub fn contacts(&self) -> Vec<ContactRecord> {
-        let mut out = Vec::new();
-        for (q, s) in self.slots.iter().enumerate() {
-            let (i, j) = (self.nl.pi[q], self.nl.pj[q]);
+        let mut records = Vec::new();
+        for (q, out) in self.pair_out.iter().enumerate() {
+            let (i, j) = (self.nl.pi[q], self.nl.pair[q].j);
             let bonded = self.extra.get(q).is_some_and(|e| e.bridge);
-            if s.out.force == Vec3::zeros() && !bonded {
+            if !self.pair_active[q] || (out.force == Vec3::zeros() && !bonded) {
                 continue;
             }
-            let (d, _) = self.domain.separation(&self.p.pos[i as usize], &self.p.pos[j as usize]);
+            let (d, _) = self.nl.separation(q, &self.p.pos, &self.domain);
             let touching = d.norm() < self.p.radius[i as usize] + self.p.radius[j as usize];
-            out.push(ContactRecord { i, j: Some(j), force: s.out.force, branch: d, touching, bonded });
+            records.push(ContactRecord { i, j: Some(j), force: out.force, branch: d, touching, bonded });
         }
         let nw = self.walls.len();
         for i in 0..self.p.len() {
@@ -304,25 +356,27 @@ impl Dem {
                 }
                 let n = wall.normal();
                 let dist = (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
-                out.push(ContactRecord { i: i as u32, j: None, force: f, branch: n * dist, touching: true, bonded: false });
+                records.push(ContactRecord { i: i as u32, j: None, force: f, branch: n * dist, touching: true, bonded: false });
             }
         }
-        out
+        records
     }
 
     fn refresh_neighbors(&mut self) {
+        let domain = &self.domain;
+        self.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
+            for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
+                domain.wrap(x, v);
+            }
+        });
         let old_index = self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
-        let old_slots = std::mem::take(&mut self.slots);
+        let old_xi = std::mem::take(&mut self.pair_xi);
         let old_extra = std::mem::take(&mut self.extra);
-        self.slots = old_index
-            .par_iter()
-            .map(|&k| if k == u32::MAX { PairSlot::default() } else { PairSlot { xi: old_slots[k as usize].xi, out: ContactOutput::default() } })
-            .collect();
+        self.pair_xi = old_index.par_iter().map(|&k| old_xi.get(k as usize).copied().unwrap_or_default()).collect();
+        self.pair_active = vec![false; old_index.len()];
+        self.pair_out = vec![ContactOutput::default(); old_index.len()];
         if self.needs_extra {
-            self.extra = old_index
-                .par_iter()
-                .map(|&k| old_extra.get(k as usize).copied().unwrap_or_default())
-                .collect();
+            self.extra = old_index.par_iter().map(|&k| old_extra.get(k as usize).copied().unwrap_or_default()).collect();
         }
     }
 
@@ -330,30 +384,40 @@ impl Dem {
         (0..self.dim).filter(|&a| a != axis).map(|a| self.domain.length(a)).product()
     }
 
-    /// Mean pressure from the virial of the current forces and the kinetic part, Pa.
-    fn pressure(&self) -> Real {
+    /// Mean pressure from the virial of the current forces and the kinetic part (Pa), and the
+    /// affine estimate of the bulk stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
+    fn pressure_and_stiffness(&self) -> (Real, Real) {
         // Partial sums over fixed blocks, added in order: the same result for any thread count.
         const BLOCK: usize = 1024;
-        let partial: Vec<Real> = self
-            .slots
+        let p = &self.p;
+        let partial: Vec<(Real, Real)> = self
+            .pair_out
             .par_chunks(BLOCK)
             .enumerate()
             .map(|(b, chunk)| {
-                let mut sum = 0.0;
-                for (k, s) in chunk.iter().enumerate() {
-                    if s.out.force == Vec3::zeros() {
+                let (mut virial, mut stiff) = (0.0, 0.0);
+                for (k, out) in chunk.iter().enumerate() {
+                    let q = b * BLOCK + k;
+                    if !self.pair_active[q] {
                         continue;
                     }
-                    let q = b * BLOCK + k;
-                    let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
-                    sum += s.out.force.dot(&self.domain.separation(&self.p.pos[i], &self.p.pos[j]).0);
+                    let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
+                    let l = self.nl.separation(q, &p.pos, &self.domain).0;
+                    virial += out.force.dot(&l);
+                    let (ri, rj) = (p.radius[i], p.radius[j]);
+                    let delta = ri + rj - l.norm();
+                    if delta > 0.0 {
+                        let law = self.table.get(p.material[i] as usize, p.material[j] as usize);
+                        stiff += law.normal.stiffness(delta, ri * rj / (ri + rj)) * l.norm_squared();
+                    }
                 }
-                sum
+                (virial, stiff)
             })
             .collect();
-        let contact: Real = partial.iter().sum();
-        let kinetic: Real = self.p.vel.iter().zip(&self.p.mass).map(|(v, m)| m * v.norm_squared()).sum();
-        (contact + kinetic) / (self.dim as Real * self.domain.volume())
+        let (virial, stiff) = partial.iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let kinetic: Real = p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum();
+        let (d, v) = (self.dim as Real, self.domain.volume());
+        ((virial + kinetic) / (d * v), stiff / (d * d * v))
     }
 
     fn boundaries(&mut self) {
@@ -372,20 +436,20 @@ impl Dem {
         }
         self.domain.advance_shear(dt);
         if self.deformation.is_some() {
-            if self.step % SERVO_EVERY == 0 && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. })) {
-                let pressure = self.pressure();
+            if self.step.is_multiple_of(SERVO_EVERY) && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. })) {
+                let (pressure, bulk) = self.pressure_and_stiffness();
                 if let Some(d) = self.deformation.as_mut() {
-                    d.servo(pressure, &self.domain);
+                    d.servo(pressure, bulk, dt, &self.domain);
                 }
             }
             if let Some(d) = &self.deformation {
                 let (centre, scale) = d.deform(&mut self.domain, dt);
-                let domain = &self.domain;
-                self.p.pos.par_iter_mut().zip(self.p.vel.par_iter_mut()).with_min_len(1024).for_each(|(x, v)| {
-                    for a in 0..3 {
-                        x[a] = centre[a] + (x[a] - centre[a]) * scale[a];
+                self.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
+                    for x in xs {
+                        for a in 0..3 {
+                            x[a] = centre[a] + (x[a] - centre[a]) * scale[a];
+                        }
                     }
-                    domain.wrap(x, v);
                 });
             }
         }
@@ -393,26 +457,32 @@ impl Dem {
 
     fn half_kick(&mut self) {
         let h = 0.5 * self.dt;
+        let alpha = self.params.local_damping;
         let p = &mut self.p;
         let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
-        p.vel
-            .par_iter_mut()
-            .zip(p.omega.par_iter_mut())
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(i, (v, w))| {
-                *v += force[i] * (h * inv_mass[i]);
-                *w += torque[i] * (h * inv_inertia[i]);
-            });
+        p.vel.par_chunks_mut(LOOP_CHUNK).zip(p.omega.par_chunks_mut(LOOP_CHUNK)).enumerate().for_each(|(c, (vs, ws))| {
+            let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
+            let parts = force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r]);
+            for ((v, w), (((f, t), im), ii)) in vs.iter_mut().zip(ws.iter_mut()).zip(parts) {
+                if alpha > 0.0 {
+                    *v += local_damping(f, v, alpha) * (h * im);
+                    *w += local_damping(t, w, alpha) * (h * ii);
+                } else {
+                    *v += f * (h * im);
+                    *w += t * (h * ii);
+                }
+            }
+        });
     }
 
     fn drift(&mut self) {
         let dt = self.dt;
-        let domain = &self.domain;
         let p = &mut self.p;
-        p.pos.par_iter_mut().zip(p.vel.par_iter_mut()).with_min_len(1024).for_each(|(x, v)| {
-            *x += *v * dt;
-            domain.wrap(x, v);
+        // No wrap here: particles return into the box at the next neighbour build.
+        p.pos.par_chunks_mut(LOOP_CHUNK).zip(p.vel.par_chunks(LOOP_CHUNK)).for_each(|(xs, vs)| {
+            for (x, v) in xs.iter_mut().zip(vs) {
+                *x += v * dt;
+            }
         });
     }
 
@@ -434,6 +504,25 @@ impl Dem {
         }
         None
     }
+}
+
+/// Cundall's local damping (Cundall & Strack 1979; Yade's `NewtonIntegrator.damping`): each
+/// component of the force is reduced by `alpha` times its magnitude when it drives the motion
+/// and increased when it opposes it, `F_k (1 - alpha sign(F_k v_k))`.
+#[inline(always)]
+fn local_damping(f: &Vec3, v: &Vec3, alpha: Real) -> Vec3 {
+    let damp = |fk: Real, vk: Real| {
+        let s = fk * vk;
+        let sign = if s > 0.0 {
+            1.0
+        } else if s < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        fk * (1.0 - alpha * sign)
+    };
+    Vec3::new(damp(f.x, v.x), damp(f.y, v.y), damp(f.z, v.z))
 }
 
 /// Effective stiffness of the limiting contact, N/m: m* (pi / t_c)², for servo gains.
@@ -485,27 +574,15 @@ impl Simulation for Dem {
     }
 
     fn step(&mut self) -> Result<(), EngineError> {
-        // Stage::InitialIntegrate
-        self.half_kick();
-        self.drift();
-        // Stage::Boundaries
-        self.boundaries();
-        // Stage::NeighborUpdate
-        if self.nl.needs_rebuild(&self.p.pos, &self.domain) {
-            self.refresh_neighbors();
+        // Every parallel loop of the step runs on the simulation's own pool when it has one.
+        match self.pool.take() {
+            Some(pool) => {
+                let r = pool.install(|| self.step_stages());
+                self.pool = Some(pool);
+                r
+            }
+            None => self.step_stages(),
         }
-        // Stage::Force
-        self.compute_forces();
-        // Stage::FinalIntegrate
-        self.half_kick();
-        self.step += 1;
-        self.time += self.dt;
-        self.record_wall_work();
-        // Stage::Check
-        if self.step % CHECK_EVERY == 0 {
-            self.check_stability()?;
-        }
-        Ok(())
     }
 
     fn steps_done(&self) -> u64 {
@@ -559,6 +636,7 @@ impl Simulation for Dem {
             walls: &walls,
             shear: self.shear_geometry(),
             elastic_energy: self.elastic_energy(),
+            rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
         };
         let s = measure(&view);
         if !s.is_finite() {
@@ -573,12 +651,54 @@ impl Simulation for Dem {
 }
 
 impl Dem {
+    /// The stages of one step, in the order of [`Stage`].
+    fn step_stages(&mut self) -> Result<(), EngineError> {
+        let mut clock = self.profile.map(|_| std::time::Instant::now());
+        let mut lap = |slot: fn(&mut StageTimes) -> &mut f64, profile: &mut Option<StageTimes>| {
+            if let (Some(c), Some(p)) = (clock.as_mut(), profile.as_mut()) {
+                let now = std::time::Instant::now();
+                *slot(p) += (now - *c).as_secs_f64();
+                *c = now;
+            }
+        };
+        // Stage::InitialIntegrate
+        self.half_kick();
+        self.drift();
+        lap(|t| &mut t.integrate, &mut self.profile);
+        // Stage::Boundaries
+        self.boundaries();
+        lap(|t| &mut t.boundaries, &mut self.profile);
+        // Stage::NeighborUpdate
+        if self.nl.needs_rebuild(&self.p.pos, &self.domain) {
+            self.refresh_neighbors();
+        }
+        lap(|t| &mut t.neighbors, &mut self.profile);
+        // Stage::Force
+        self.compute_forces();
+        lap(|t| &mut t.forces, &mut self.profile);
+        // Stage::FinalIntegrate
+        self.half_kick();
+        self.step += 1;
+        self.time += self.dt;
+        self.record_wall_work();
+        lap(|t| &mut t.integrate, &mut self.profile);
+        // Stage::Check
+        if self.step.is_multiple_of(CHECK_EVERY) {
+            self.check_stability()?;
+        }
+        lap(|t| &mut t.check, &mut self.profile);
+        Ok(())
+    }
+
     /// Elastic energy stored in every contact (normal, tangential and rolling springs), J.
     pub fn elastic_energy(&self) -> Real {
         let mut e = 0.0;
-        for (q, s) in self.slots.iter().enumerate() {
-            let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
-            let (d, _) = self.domain.separation(&self.p.pos[i], &self.p.pos[j]);
+        for (q, xi) in self.pair_xi.iter().enumerate() {
+            if !self.pair_active[q] {
+                continue;
+            }
+            let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
+            let (d, _) = self.nl.separation(q, &self.p.pos, &self.domain);
             let (ri, rj) = (self.p.radius[i], self.p.radius[j]);
             let delta = ri + rj - d.norm();
             if delta <= 0.0 {
@@ -586,7 +706,7 @@ impl Dem {
             }
             let law = self.table.get(self.p.material[i] as usize, self.p.material[j] as usize);
             let r_eff = ri * rj / (ri + rj);
-            e += law.normal.energy(delta, r_eff) + law.tangential.energy(s.xi.norm_squared(), delta, r_eff);
+            e += law.normal.energy(delta, r_eff) + law.tangential.energy(xi.norm_squared(), delta, r_eff);
             if let (Some(rr), Some(x)) = (law.rolling, self.extra.get(q)) {
                 e += 0.5 * rr.stiffness * x.roll.norm_squared();
             }

@@ -59,9 +59,8 @@ impl Dem {
     /// Kinetic, elastic, capillary and gravitational energy.
     pub(crate) fn mechanical_energy(&self) -> Energies {
         let p = &self.p;
-        let kinetic: Real = (0..p.len())
-            .map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i])
-            .sum();
+        let kinetic: Real =
+            (0..p.len()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i]).sum();
         let elastic = self.elastic_energy();
         let gravity: Real = -(0..p.len()).map(|i| p.mass[i] * self.gravity.dot(&p.pos[i])).sum::<Real>();
         let mut capillary = 0.0;
@@ -69,9 +68,9 @@ impl Dem {
             if !x.bridge {
                 continue;
             }
-            let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
+            let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
             if let Some(cap) = self.table.get(p.material[i] as usize, p.material[j] as usize).capillary {
-                let (d, _) = self.domain.separation(&p.pos[i], &p.pos[j]);
+                let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
                 capillary += cap.energy(d.norm() - p.radius[i] - p.radius[j], p.radius[i], p.radius[j]);
             }
         }
@@ -145,8 +144,8 @@ impl Dem {
             .into_par_iter()
             .with_min_len(1024)
             .map(|q| {
-                let (i, j) = (self.nl.pi[q] as usize, self.nl.pj[q] as usize);
-                let (d, _) = self.domain.separation(&p.pos[i], &p.pos[j]);
+                let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
+                let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
                 let (ri, rj) = (p.radius[i], p.radius[j]);
                 ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
             })

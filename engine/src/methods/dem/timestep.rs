@@ -26,6 +26,8 @@ pub struct CollisionTime {
 pub struct Bodies<'a> {
     /// Per material index: (lightest mass, smallest radius), or `None` if unused.
     pub lightest: &'a [Option<(Real, Real)>],
+    /// Material names, by index.
+    pub names: &'a [&'a str],
     /// Wall material index.
     pub wall_material: Option<usize>,
 }
@@ -56,10 +58,14 @@ pub fn collision_time(table: &ContactTable, bodies: &Bodies<'_>, v_ref: Real) ->
         let Some((ma, ra)) = la else { continue };
         for (b, lb) in bodies.lightest.iter().enumerate() {
             let Some((mb, rb)) = lb else { continue };
-            consider(table.get(a, b), ma * mb / (ma + mb), ra * rb / (ra + rb), format!("particle-particle contact of materials {a} and {b}"));
+            let (na, nb) = (bodies.names.get(a).unwrap_or(&"?"), bodies.names.get(b).unwrap_or(&"?"));
+            let what =
+                if a == b { format!("contact between '{na}' particles") } else { format!("contact between '{na}' and '{nb}' particles") };
+            consider(table.get(a, b), ma * mb / (ma + mb), ra * rb / (ra + rb), what);
         }
         if let Some(w) = bodies.wall_material {
-            consider(table.get(a, w), *ma, *ra, format!("wall contact of material {a}"));
+            let (na, nw) = (bodies.names.get(a).unwrap_or(&"?"), bodies.names.get(w).unwrap_or(&"?"));
+            consider(table.get(a, w), *ma, *ra, format!("contact of a '{na}' particle with a '{nw}' wall"));
         }
     }
     best

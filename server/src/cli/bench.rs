@@ -1,0 +1,147 @@
+//! `sable bench dem`: throughput of soft-contact DEM on the standard scene, in particle-steps
+//! per second, with memory per particle. Never a pass/fail test.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use sable_engine::methods::dem::Dem;
+use sable_engine::run::Simulation;
+use sable_engine::scene::{parse_scene, presets::dem_benchmark, Method};
+use serde::Serialize;
+
+/// Methods that have a benchmark.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BenchMethod {
+    /// Soft-contact DEM on the standard 3D periodic scene.
+    Dem,
+}
+
+/// Arguments of `sable bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Method to measure.
+    pub method: BenchMethod,
+    /// Number of particles.
+    #[arg(long, default_value_t = 20_000)]
+    pub particles: usize,
+    /// Number of steps.
+    #[arg(long, default_value_t = 2_000)]
+    pub steps: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Also report the time spent in each stage of the step.
+    #[arg(long)]
+    pub profile: bool,
+    /// Also write the initial state as a LAMMPS data file (atom_style sphere), for
+    /// benches/peers/run_lammps.sh.
+    #[arg(long)]
+    pub lammps_data: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct BenchResult {
+    method: &'static str,
+    particles: usize,
+    steps: u64,
+    threads: usize,
+    wall_seconds: f64,
+    particle_steps_per_second: f64,
+    bytes_per_particle: f64,
+    neighbor_pairs: usize,
+    interacting_pairs: usize,
+    neighbor_builds: u64,
+    kinetic_energy_start: f64,
+    kinetic_energy_end: f64,
+}
+
+/// `sable bench`.
+pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
+    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let scene = parse_scene(&dem_benchmark(a.particles, a.steps, threads).to_string())
+        .map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
+    let Method::Dem(params) = &scene.method;
+    let mut sim = Dem::new(&scene, params)?;
+    if let Some(path) = &a.lammps_data {
+        write_lammps_data(&sim, path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let ke0 = sim.sample()?.kinetic_energy;
+    sim.set_profiling(a.profile);
+    let start = std::time::Instant::now();
+    for _ in 0..a.steps {
+        sim.step()?;
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let ke1 = sim.sample()?.kinetic_energy;
+    let r = BenchResult {
+        method: "dem",
+        particles: sim.particle_count(),
+        steps: a.steps,
+        threads,
+        wall_seconds: wall,
+        particle_steps_per_second: sim.particle_count() as f64 * a.steps as f64 / wall,
+        bytes_per_particle: sim.memory_bytes() as f64 / sim.particle_count() as f64,
+        neighbor_pairs: sim.neighbor_pairs(),
+        interacting_pairs: sim.interacting_pairs(),
+        neighbor_builds: sim.neighbor_builds(),
+        kinetic_energy_start: ke0,
+        kinetic_energy_end: ke1,
+    };
+    if let Some(t) = sim.stage_times() {
+        eprintln!(
+            "stages (s): integrate {:.3}, boundaries {:.3}, neighbours {:.3}, forces {:.3}, check {:.3}",
+            t.integrate, t.boundaries, t.neighbors, t.forces, t.check
+        );
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "dem: {} particles x {} steps on {} thread(s): {:.3} s, {:.3e} particle-steps/s, {:.0} bytes/particle \
+             ({} pairs listed, {} interacting, {} neighbour builds; kinetic energy {:.4e} -> {:.4e} J)",
+            r.particles,
+            r.steps,
+            r.threads,
+            r.wall_seconds,
+            r.particle_steps_per_second,
+            r.bytes_per_particle,
+            r.neighbor_pairs,
+            r.interacting_pairs,
+            r.neighbor_builds,
+            r.kinetic_energy_start,
+            r.kinetic_energy_end
+        );
+    }
+    Ok(())
+}
+
+/// Writes the current state as a LAMMPS data file (atom_style sphere: id type diameter density
+/// x y z; velocities with angular velocities).
+fn write_lammps_data(sim: &Dem, path: &PathBuf) -> anyhow::Result<()> {
+    let p = sim.particles();
+    let d = sim.domain();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(f, "LAMMPS data file written by sable bench dem\n")?;
+    writeln!(f, "{} atoms\n1 atom types\n", p.len())?;
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        writeln!(f, "{:.16e} {:.16e} {name}lo {name}hi", d.lo[a], d.hi[a])?;
+    }
+    writeln!(f, "\nAtoms # sphere\n")?;
+    for i in 0..p.len() {
+        let r = p.radius[i];
+        let vol = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+        writeln!(f, "{} 1 {:.16e} {:.16e} {:.16e} {:.16e} {:.16e}", i + 1, 2.0 * r, p.mass[i] / vol, p.pos[i].x, p.pos[i].y, p.pos[i].z)?;
+    }
+    writeln!(f, "\nVelocities\n")?;
+    for i in 0..p.len() {
+        let (v, w) = (p.vel[i], p.omega[i]);
+        writeln!(f, "{} {:.16e} {:.16e} {:.16e} {:.16e} {:.16e} {:.16e}", i + 1, v.x, v.y, v.z, w.x, w.y, w.z)?;
+    }
+    f.flush()?;
+    Ok(())
+}

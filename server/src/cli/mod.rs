@@ -1,0 +1,4 @@
+//! Subcommands of the `sable` binary.
+
+pub mod bench;
+pub mod run;

@@ -1,0 +1,149 @@
+//! `sable run SCENE.json` and `sable validate SCENE.json`.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use sable_engine::observe::Sample;
+use sable_engine::run::{Progress, Runner};
+use sable_engine::scene::{parse_scene, Scene};
+
+/// Output format of the samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// Comma-separated values with a header row (walls omitted).
+    Csv,
+    /// One JSON object per line (every field, walls included).
+    Jsonl,
+}
+
+/// Arguments of `sable run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Scene file (JSON).
+    pub scene: PathBuf,
+    /// Sample format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: Format,
+    /// Write samples to this file (default: standard output, unless --final-json).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the last sample as one JSON object on standard output.
+    #[arg(long)]
+    pub final_json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `sable validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// Scene file (JSON).
+    pub scene: PathBuf,
+}
+
+/// Reads and validates a scene file; the error lists every violation, one per line.
+pub fn load_scene(path: &PathBuf) -> anyhow::Result<Scene> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse_scene(&text).map_err(|v| {
+        let lines: Vec<String> = v.iter().map(|x| format!("  {x}")).collect();
+        anyhow::anyhow!("{} is not a valid scene ({} violation(s)):\n{}", path.display(), v.len(), lines.join("\n"))
+    })
+}
+
+/// `sable validate`.
+pub fn validate(a: ValidateArgs) -> anyhow::Result<()> {
+    let s = load_scene(&a.scene)?;
+    let n: usize = s.sets.iter().map(|x| x.count).sum();
+    println!("{}: valid {}D scene '{}', method {} ({}), {n} particles", a.scene.display(), s.dim, s.name, s.method.name(), s.method_reason);
+    Ok(())
+}
+
+/// Where samples go.
+struct SampleWriter {
+    out: Option<Box<dyn Write>>,
+    format: Format,
+    dim: usize,
+    wrote_header: bool,
+}
+
+impl SampleWriter {
+    fn write(&mut self, s: &Sample) -> anyhow::Result<()> {
+        let Some(out) = self.out.as_mut() else { return Ok(()) };
+        match self.format {
+            Format::Jsonl => {
+                serde_json::to_writer(&mut *out, s)?;
+                writeln!(out)?;
+            }
+            Format::Csv => {
+                if !self.wrote_header {
+                    writeln!(out, "{}", Sample::csv_header(self.dim).join(","))?;
+                    self.wrote_header = true;
+                }
+                writeln!(out, "{}", s.csv_row(self.dim).join(","))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `sable run`.
+pub fn run(a: RunArgs) -> anyhow::Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let out: Option<Box<dyn Write>> = match (&a.out, a.final_json) {
+        (Some(p), _) => {
+            Some(Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?)))
+        }
+        (None, true) => None,
+        (None, false) => Some(Box::new(std::io::BufWriter::new(std::io::stdout()))),
+    };
+    let mut writer = SampleWriter { out, format: a.format, dim: scene.dim, wrote_header: false };
+    let show_bar = !a.quiet && std::io::stderr().is_terminal();
+    let bar = show_bar.then(|| {
+        let b = indicatif::ProgressBar::new(1000);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {percent:>3}% eta {eta} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let runner = Runner::for_scene(&scene);
+    let mut write_error: Option<anyhow::Error> = None;
+    let mut on_sample = |s: &Sample, p: &Progress| {
+        if write_error.is_none() {
+            if let Err(e) = writer.write(s) {
+                write_error = Some(e);
+            }
+        }
+        if let Some(b) = &bar {
+            b.set_position((p.fraction * 1000.0) as u64);
+            b.set_message(format!("t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
+        }
+    };
+    let result = sable_worker::run_scene(&scene, &runner, &mut on_sample);
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    if let Some(e) = write_error {
+        return Err(e.context("cannot write samples"));
+    }
+    if let Some(out) = writer.out.as_mut() {
+        out.flush()?;
+    }
+    let summary = match result {
+        Ok(s) => s,
+        Err(e) => bail!("{e}"),
+    };
+    if a.final_json {
+        println!("{}", serde_json::to_string(&summary.last)?);
+    }
+    if !a.quiet {
+        eprintln!(
+            "finished: {:?} after {} steps, t = {:.6e} s, {:.2} s wall clock",
+            summary.reason, summary.steps, summary.time, summary.wall_seconds
+        );
+    }
+    Ok(())
+}
