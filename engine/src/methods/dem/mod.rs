@@ -436,7 +436,9 @@ impl Dem {
         }
         self.domain.advance_shear(dt);
         if self.deformation.is_some() {
-            if self.step.is_multiple_of(SERVO_EVERY) && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. })) {
+            if self.step.is_multiple_of(SERVO_EVERY)
+                && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. }))
+            {
                 let (pressure, bulk) = self.pressure_and_stiffness();
                 if let Some(d) = self.deformation.as_mut() {
                     d.servo(pressure, bulk, dt, &self.domain);
@@ -475,15 +477,25 @@ impl Dem {
         });
     }
 
+    /// Moves the particles by `v dt` and tells the neighbour list the largest move.
     fn drift(&mut self) {
         let dt = self.dt;
         let p = &mut self.p;
         // No wrap here: particles return into the box at the next neighbour build.
-        p.pos.par_chunks_mut(LOOP_CHUNK).zip(p.vel.par_chunks(LOOP_CHUNK)).for_each(|(xs, vs)| {
-            for (x, v) in xs.iter_mut().zip(vs) {
-                *x += v * dt;
-            }
-        });
+        let v2 = p
+            .pos
+            .par_chunks_mut(LOOP_CHUNK)
+            .zip(p.vel.par_chunks(LOOP_CHUNK))
+            .map(|(xs, vs)| {
+                let mut v2: Real = 0.0;
+                for (x, v) in xs.iter_mut().zip(vs) {
+                    *x += v * dt;
+                    v2 = v2.max(v.norm_squared());
+                }
+                v2
+            })
+            .reduce(|| 0.0, Real::max);
+        self.nl.add_drift(v2.sqrt() * dt);
     }
 
     fn shear_geometry(&self) -> Option<ShearGeometry> {
@@ -693,10 +705,8 @@ impl Dem {
     /// Elastic energy stored in every contact (normal, tangential and rolling springs), J.
     pub fn elastic_energy(&self) -> Real {
         let mut e = 0.0;
-        for (q, xi) in self.pair_xi.iter().enumerate() {
-            if !self.pair_active[q] {
-                continue;
-            }
+        for q in self.active_lists.iter().flatten().map(|&q| q as usize) {
+            let xi = &self.pair_xi[q];
             let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
             let (d, _) = self.nl.separation(q, &self.p.pos, &self.domain);
             let (ri, rj) = (self.p.radius[i], self.p.radius[j]);

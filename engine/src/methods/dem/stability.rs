@@ -140,14 +140,20 @@ impl Dem {
     /// Largest overlap divided by the smaller radius, over pairs and walls.
     pub(crate) fn max_overlap_fraction(&self) -> Real {
         let p = &self.p;
-        let pairs = (0..self.nl.len())
-            .into_par_iter()
-            .with_min_len(1024)
-            .map(|q| {
-                let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
-                let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
-                let (ri, rj) = (p.radius[i], p.radius[j]);
-                ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
+        // Only interacting pairs can overlap: the others were found apart at the last force stage.
+        let pairs = self
+            .active_lists
+            .par_iter()
+            .map(|list| {
+                list.iter()
+                    .map(|&q| {
+                        let q = q as usize;
+                        let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
+                        let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
+                        let (ri, rj) = (p.radius[i], p.radius[j]);
+                        ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
+                    })
+                    .fold(0.0, Real::max)
             })
             .reduce(|| 0.0, Real::max);
         let walls = self
