@@ -4,8 +4,11 @@
 //!
 //! Protocol (see `jam`): a random gas (Φ = 0.30 in 3D, 0.45 in 2D) in a fully periodic cell,
 //! frictionless, strongly damped (e = 0.2), no gravity, is compressed past jamming, then unloaded
-//! by the pressure servo of the cell to `p* = 1e-5 k_n / d^(D-2)` (the packing is then within
-//! ~1e-4 of Φ_J, so the excess coordination 7.7 sqrt(ΔΦ) stays below ~0.1), then relaxed at rest. CI-sized
+//! by the pressure servo of the cell to `p* = 1e-4 k_n / d^(D-2)`, then relaxed at rest at fixed
+//! volume. At that pressure the packing is ~1e-4 above Φ_J (p ∝ k ΔΦ / d^(D-2)), so the excess
+//! coordination (≈ 7.7 sqrt(ΔΦ), O'Hern et al. 2003) is below ~0.1 — within the tolerances below —
+//! while the packing stays rigid enough not to unjam during the fixed-volume relaxation (at
+//! 1e-5 k_n the 2D packing was seen to creep and lose its pressure). CI-sized
 //! samples (N = 1000, one seed): the finite-size spread of Φ_J is about ±0.005 at this N
 //! (REFERENCES.md §B), and fast compression adds protocol dependence of about the same size
 //! (Chaudhuri, Berthier & Sastry 2010), hence the tolerances below.
@@ -47,7 +50,7 @@ fn run_until(sim: &mut Dem, max_blocks: usize, done: impl Fn(&Sample) -> bool) -
 #[allow(clippy::too_many_arguments)]
 fn jam(dim: usize, n: usize, size: serde_json::Value, mean_vol: f64, d_mean: f64, phi0: f64, phi_over: f64, k_n: f64) -> Jammed {
     let side = (n as f64 * mean_vol / phi0).powf(1.0 / dim as f64);
-    let target = 1e-5 * k_n / d_mean.powi(dim as i32 - 2);
+    let target = 1e-4 * k_n / d_mean.powi(dim as i32 - 2);
     let (min, max, periodic, rate) = if dim == 3 {
         (json!([0, 0, 0]), json!([side, side, side]), json!(["x", "y", "z"]), json!([-10.0, -10.0, -10.0]))
     } else {

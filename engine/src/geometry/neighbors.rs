@@ -41,8 +41,6 @@ pub struct NeighborList {
     /// Number of builds so far.
     pub builds: u64,
     ref_pos: Vec<Vec3>,
-    /// Upper bound of the largest displacement since the last build, m.
-    moved_bound: Real,
     ref_offset: Real,
     ref_len: Vec3,
     cell_start: Vec<u32>,
@@ -76,27 +74,9 @@ impl NeighborList {
 
     /// True if the list may miss an interacting pair: twice the largest displacement since the
     /// last build, plus the change of Lees-Edwards offset and box lengths, exceeds the skin.
-    ///
-    /// `moved_bound` is an upper bound of the largest displacement since the last build (the sum
-    /// of `max |v| dt` over the steps, see [`NeighborList::add_drift`]); while it alone cannot
-    /// exceed the skin, the exact scan of all displacements is skipped.
-    pub fn needs_rebuild(&mut self, pos: &[Vec3], domain: &Domain) -> bool {
+    pub fn needs_rebuild(&self, pos: &[Vec3], domain: &Domain) -> bool {
         if self.ref_pos.len() != pos.len() {
             return true;
-        }
-        let mut boundary = 0.0;
-        if domain.sheared() {
-            let lx = domain.length(0);
-            let d = (domain.le_offset - self.ref_offset).abs();
-            boundary += d.min(lx - d);
-        }
-        for a in 0..domain.dim {
-            if domain.periodic[a] {
-                boundary += (domain.length(a) - self.ref_len[a]).abs();
-            }
-        }
-        if 2.0 * self.moved_bound + boundary <= self.skin {
-            return false;
         }
         // Positions are not wrapped between builds, so plain differences are displacements.
         let max2 = pos
@@ -104,16 +84,18 @@ impl NeighborList {
             .zip(self.ref_pos.par_chunks(4 * CHUNK))
             .map(|(ps, rs)| ps.iter().zip(rs).map(|(p, r)| (p - r).norm_squared()).fold(0.0, f64::max))
             .reduce(|| 0.0, f64::max);
-        // The exact value is a tighter bound from here on.
-        self.moved_bound = max2.sqrt();
-        let drift = 2.0 * self.moved_bound + boundary;
+        let mut drift = 2.0 * max2.sqrt();
+        if domain.sheared() {
+            let lx = domain.length(0);
+            let d = (domain.le_offset - self.ref_offset).abs();
+            drift += d.min(lx - d);
+        }
+        for a in 0..domain.dim {
+            if domain.periodic[a] {
+                drift += (domain.length(a) - self.ref_len[a]).abs();
+            }
+        }
         drift > self.skin
-    }
-
-    /// Records that no particle moved by more than `distance` (m) in the last step (drift only;
-    /// affine moves of a deforming cell are accounted for by the box-length term).
-    pub fn add_drift(&mut self, distance: Real) {
-        self.moved_bound += distance;
     }
 
     /// Rebuilds the list; `pos` must be wrapped into the box. Returns, for each new pair, the index of the same pair in the old list
@@ -273,7 +255,6 @@ impl NeighborList {
         };
         self.ref_pos.clear();
         self.ref_pos.extend_from_slice(pos);
-        self.moved_bound = 0.0;
         self.ref_offset = domain.le_offset;
         self.ref_len = domain.hi - domain.lo;
         self.builds += 1;

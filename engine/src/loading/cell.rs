@@ -16,6 +16,11 @@ pub struct CellDeformation {
     pub rate: Vec3,
 }
 
+/// Largest fraction of the pressure error that one step of the servo may remove once the grains
+/// touch: 0.2%, i.e. a response time of about 500 steps, ten collision times at the default
+/// dt = t_c/50 — slow against the contacts, so the packing follows quasi-statically.
+pub const SERVO_STEP_FRACTION: Real = 0.002;
+
 impl CellDeformation {
     /// Starts the deformation (a pressure servo starts at rest).
     pub fn new(kind: Deformation) -> Self {
@@ -29,12 +34,14 @@ impl CellDeformation {
     /// Updates the servo from the measured mean pressure `pressure` (Pa) and an estimate of the
     /// packing's bulk stiffness `bulk` (Pa per unit volumetric strain; 0 for a gas); no-op for
     /// constant rates. The rate is `gain (p - target)`, bounded by `max_strain_rate`, with the gain
-    /// lowered once the grains touch so that one step changes the pressure by at most 2% of the
-    /// error: a stiff packing would otherwise overshoot every update (bang-bang oscillation).
+    /// lowered once the grains touch so that one step changes the pressure by at most
+    /// [`SERVO_STEP_FRACTION`] of the error: a stiff packing would otherwise overshoot every update
+    /// (bang-bang oscillation), and a servo as fast as the collisions drives the packing
+    /// dynamically and keeps feeding it kinetic energy.
     pub fn servo(&mut self, pressure: Real, bulk: Real, dt: Real, domain: &Domain) {
         if let Deformation::Pressure { target, max_strain_rate, gain } = self.kind {
             let d = domain.dim as Real;
-            let g = if bulk > 0.0 { gain.min(0.02 / (bulk * d * dt)) } else { gain };
+            let g = if bulk > 0.0 { gain.min(SERVO_STEP_FRACTION / (bulk * d * dt)) } else { gain };
             let r = (g * (pressure - target)).clamp(-max_strain_rate, max_strain_rate);
             for a in 0..domain.dim {
                 self.rate[a] = if domain.periodic[a] { r } else { 0.0 };
