@@ -1,6 +1,221 @@
 //! # sable-client
 //!
-//! Typed async client of the Sable gRPC service, added with the service issue.
+//! Typed async client of the Sable gRPC service (`sable.v1.Simulations`): submit a scene, get,
+//! list and cancel jobs, follow a job's events as a [`Stream`](tokio_stream::Stream) that resumes
+//! by itself after a dropped connection, and read its samples.
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), sable_client::ClientError> {
+//! use tokio_stream::StreamExt;
+//! let mut client = sable_client::Client::connect("http://127.0.0.1:50051").await?;
+//! let scene = std::fs::read_to_string("scenes/quickstart.json").expect("scene file");
+//! let job = client.submit(&scene, sable_client::SubmitOptions::default()).await?;
+//! let mut events = client.watch(job.id, 0);
+//! while let Some(event) = events.next().await {
+//!     println!("{:?}", event?);
+//! }
+//! let samples = client.samples(job.id, 0, None, None).await?;
+//! println!("{} samples, final phi = {}", samples.len(), samples.last().map_or(0.0, |s| s.phi));
+//! # Ok(()) }
+//! ```
+
+use std::time::Duration;
+
+pub use sable_engine::observe::Sample;
+use sable_proto::v1 as pb;
+use sable_proto::v1::simulations_client::SimulationsClient;
+pub use sable_proto::v1::{Job, JobEvent, JobState};
+use tokio_stream::Stream;
+use tonic::transport::{Channel, Endpoint};
 
 /// Default server address of the client commands.
 pub const DEFAULT_SERVER: &str = "http://127.0.0.1:50051";
+
+/// Errors of the client.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// The server address is malformed.
+    #[error("bad server address '{url}': {reason}")]
+    Address {
+        /// The address given.
+        url: String,
+        /// Why it is wrong.
+        reason: String,
+    },
+    /// The server could not be reached.
+    #[error("cannot reach the server at {url}: {reason}")]
+    Connect {
+        /// The address.
+        url: String,
+        /// Why.
+        reason: String,
+    },
+    /// The server answered with an error (invalid scene, unknown job, ...).
+    #[error("{}", .0.message())]
+    Status(#[from] tonic::Status),
+    /// The server sent something that is not a sample.
+    #[error("malformed sample from the server: {0}")]
+    Decode(String),
+}
+
+impl ClientError {
+    /// The gRPC code, for errors the server returned.
+    pub fn code(&self) -> Option<tonic::Code> {
+        match self {
+            Self::Status(s) => Some(s.code()),
+            _ => None,
+        }
+    }
+}
+
+/// Options of [`Client::submit`].
+#[derive(Debug, Clone, Default)]
+pub struct SubmitOptions {
+    /// Job name (default: the scene's).
+    pub name: Option<String>,
+    /// Higher runs first.
+    pub priority: i32,
+    /// Idempotency key: submitting again with it returns the same job.
+    pub request_id: Option<String>,
+    /// Attempts allowed (default: the server's).
+    pub max_attempts: Option<u32>,
+}
+
+/// Filters of [`Client::list`].
+#[derive(Debug, Clone, Default)]
+pub struct ListOptions {
+    /// Only this state.
+    pub state: Option<JobState>,
+    /// Only this exact name.
+    pub name: Option<String>,
+    /// Only this method.
+    pub method: Option<String>,
+    /// Page size (server default 50).
+    pub page_size: u32,
+    /// Token from the previous page.
+    pub page_token: Option<String>,
+}
+
+/// A connected client. Cheap to clone.
+#[derive(Debug, Clone)]
+pub struct Client {
+    inner: SimulationsClient<Channel>,
+}
+
+impl Client {
+    /// Connects to the server at `url` (e.g. `http://127.0.0.1:50051`).
+    pub async fn connect(url: &str) -> Result<Self, ClientError> {
+        let endpoint = Endpoint::from_shared(url.to_string())
+            .map_err(|e| ClientError::Address { url: url.into(), reason: e.to_string() })?
+            .connect_timeout(Duration::from_secs(5))
+            .http2_keep_alive_interval(Duration::from_secs(30))
+            .keep_alive_while_idle(true);
+        let channel = endpoint.connect().await.map_err(|e| ClientError::Connect { url: url.into(), reason: e.to_string() })?;
+        Ok(Self { inner: SimulationsClient::new(channel) })
+    }
+
+    /// Validates and queues a scene given as JSON text.
+    pub async fn submit(&mut self, scene_json: &str, opts: SubmitOptions) -> Result<Job, ClientError> {
+        let req = pb::SubmitJobRequest {
+            scene_json: scene_json.to_string(),
+            name: opts.name.unwrap_or_default(),
+            priority: opts.priority,
+            request_id: opts.request_id.unwrap_or_default(),
+            max_attempts: opts.max_attempts.unwrap_or(0),
+        };
+        Ok(self.inner.submit_job(req).await?.into_inner())
+    }
+
+    /// One job.
+    pub async fn get(&mut self, id: i64) -> Result<Job, ClientError> {
+        Ok(self.inner.get_job(pb::GetJobRequest { id }).await?.into_inner())
+    }
+
+    /// One page of jobs, newest first, and the token of the next page (None at the end).
+    pub async fn list(&mut self, opts: ListOptions) -> Result<(Vec<Job>, Option<String>), ClientError> {
+        let mut req = pb::ListJobsRequest {
+            name: opts.name.unwrap_or_default(),
+            method: opts.method.unwrap_or_default(),
+            page_size: opts.page_size,
+            page_token: opts.page_token.unwrap_or_default(),
+            ..Default::default()
+        };
+        if let Some(s) = opts.state {
+            req.set_state(s);
+        }
+        let r = self.inner.list_jobs(req).await?.into_inner();
+        Ok((r.jobs, (!r.next_page_token.is_empty()).then_some(r.next_page_token)))
+    }
+
+    /// Cancels a queued or running job.
+    pub async fn cancel(&mut self, id: i64) -> Result<Job, ClientError> {
+        Ok(self.inner.cancel_job(pb::CancelJobRequest { id }).await?.into_inner())
+    }
+
+    /// The job's samples in a step range, at most `max_points` of them evenly spread.
+    pub async fn samples(
+        &mut self,
+        id: i64,
+        from_step: u64,
+        to_step: Option<u64>,
+        max_points: Option<u32>,
+    ) -> Result<Vec<Sample>, ClientError> {
+        let req = pb::GetSamplesRequest { id, from_step, to_step: to_step.unwrap_or(0), max_points: max_points.unwrap_or(0) };
+        let r = self.inner.get_samples(req).await?.into_inner();
+        r.samples_json.iter().map(|s| serde_json::from_str(s).map_err(|e| ClientError::Decode(e.to_string()))).collect()
+    }
+
+    /// The job's events after `after_seq`, live, until its final state. Heartbeats are passed
+    /// on. A dropped connection is resumed from the last event seen (up to 5 tries in a row).
+    pub fn watch(&self, id: i64, after_seq: u64) -> impl Stream<Item = Result<JobEvent, ClientError>> + Send + 'static {
+        let mut inner = self.inner.clone();
+        let (tx, rx) = tokio::sync::mpsc::channel(32);
+        tokio::spawn(async move {
+            let mut last = after_seq;
+            let mut failures = 0;
+            loop {
+                let mut stream = match inner.watch_job(pb::WatchJobRequest { id, after_seq: last }).await {
+                    Ok(s) => s.into_inner(),
+                    Err(s) if retryable(&s) && failures < 5 => {
+                        failures += 1;
+                        tokio::time::sleep(Duration::from_millis(200 << failures)).await;
+                        continue;
+                    }
+                    Err(s) => {
+                        let _ = tx.send(Err(s.into())).await;
+                        return;
+                    }
+                };
+                loop {
+                    match stream.message().await {
+                        Ok(Some(ev)) => {
+                            failures = 0;
+                            if ev.seq > 0 {
+                                last = ev.seq;
+                            }
+                            if tx.send(Ok(ev)).await.is_err() {
+                                return;
+                            }
+                        }
+                        // The server ends the stream after the final state.
+                        Ok(None) => return,
+                        Err(s) if retryable(&s) && failures < 5 => {
+                            failures += 1;
+                            tokio::time::sleep(Duration::from_millis(200 << failures)).await;
+                            break;
+                        }
+                        Err(s) => {
+                            let _ = tx.send(Err(s.into())).await;
+                            return;
+                        }
+                    }
+                }
+            }
+        });
+        tokio_stream::wrappers::ReceiverStream::new(rx)
+    }
+}
+
+fn retryable(s: &tonic::Status) -> bool {
+    matches!(s.code(), tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Internal | tonic::Code::Cancelled)
+}

@@ -1,5 +1,6 @@
-//! `sable`: the one entry point for users. Today: `sable run` (a scene locally, no server) and
-//! `sable bench` (throughput of a method on its standard scene).
+//! `sable`: the one entry point for users: run a scene locally (`run`, `validate`, `bench`),
+//! run the service (`serve`, `worker`), and talk to it (`submit`, `show`, `jobs`, `cancel`,
+//! `samples`).
 
 mod cli;
 
@@ -20,7 +21,24 @@ enum Command {
     /// Check a scene file and print every violation.
     Validate(cli::run::ValidateArgs),
     /// Measure a method's throughput on its standard scene.
-    Bench(cli::bench::BenchArgs),
+    #[command(subcommand)]
+    Bench(cli::bench::BenchCommand),
+    /// Run the service: REST, gRPC, the SQLite job store and a local worker pool.
+    Serve(cli::service::ServeArgs),
+    /// Run a worker pool that leases jobs from a server over gRPC.
+    Worker(cli::service::WorkerArgs),
+    /// Submit a scene file to a server (optionally following it to the end).
+    Submit(cli::service::SubmitArgs),
+    /// Show one job.
+    #[command(alias = "status")]
+    Show(cli::service::StatusArgs),
+    /// List jobs, newest first.
+    #[command(alias = "list")]
+    Jobs(cli::service::ListArgs),
+    /// Cancel a queued or running job.
+    Cancel(cli::service::CancelArgs),
+    /// Print a job's samples.
+    Samples(cli::service::SamplesArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -28,7 +46,14 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Run(a) => cli::run::run(a),
         Command::Validate(a) => cli::run::validate(a),
-        Command::Bench(a) => cli::bench::bench(a),
+        Command::Bench(c) => cli::bench::run(c),
+        Command::Serve(a) => cli::service::serve(a),
+        Command::Worker(a) => cli::service::worker(a),
+        Command::Submit(a) => cli::service::submit(a),
+        Command::Show(a) => cli::service::status(a),
+        Command::Jobs(a) => cli::service::list(a),
+        Command::Cancel(a) => cli::service::cancel(a),
+        Command::Samples(a) => cli::service::samples(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,15 +1,20 @@
 //! # sable-worker
 //!
-//! The worker pool that leases queued jobs and drives the engine. This crate is filled by the
-//! service issue; today it holds the one piece the service and the CLI share: running a scene
-//! to completion with a sample callback.
+//! The worker pool of the Sable service. Workers lease queued jobs from a [`JobSource`] — the
+//! server's own job store when the pool runs inside `sable serve`, or a server reached over gRPC
+//! ([`remote::RemoteSource`]) for `sable worker --server URL` — build the scene with the engine,
+//! step it on a dedicated thread with its own thread budget, and report samples and progress in
+//! batches, so the physics never waits on the database.
+//!
+//! Leases are renewed by every report; a report that finds the job cancelled stops the engine
+//! (it checks its cancel flag every step), and a lost lease (the job was given to another
+//! worker) stops it without writing anything more.
 
-use sable_engine::run::{Progress, RunSummary, Runner};
-use sable_engine::scene::Scene;
-use sable_engine::{observe::Sample, EngineError};
+pub mod execute;
+pub mod pool;
+pub mod remote;
+pub mod source;
 
-/// Builds the scene's method and runs it to its stop criteria with `runner`.
-pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
-    let mut sim = sable_engine::methods::build(scene)?;
-    runner.run(sim.as_mut(), on_sample)
-}
+pub use execute::run_scene;
+pub use pool::{Pool, PoolConfig, PoolStats};
+pub use source::{JobSource, Lease, Outcome, Report, SourceError};

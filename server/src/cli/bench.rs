@@ -5,24 +5,32 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::{Args, Subcommand};
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
 use sable_engine::scene::{parse_scene, presets::dem_benchmark, Method};
 use serde::Serialize;
 
-/// Methods that have a benchmark.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum BenchMethod {
-    /// Soft-contact DEM on the standard 3D periodic scene.
-    Dem,
+/// What `sable bench` measures.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Soft-contact DEM on the standard 3D periodic scene (particle-steps per second).
+    Dem(BenchArgs),
+    /// The service: submission latency and throughput, WatchJob fan-out.
+    Service(super::bench_service::ServiceBenchArgs),
 }
 
-/// Arguments of `sable bench`.
+/// Runs the chosen benchmark.
+pub fn run(c: BenchCommand) -> anyhow::Result<()> {
+    match c {
+        BenchCommand::Dem(a) => bench(a),
+        BenchCommand::Service(a) => super::bench_service::bench(a),
+    }
+}
+
+/// Arguments of `sable bench dem`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Method to measure.
-    pub method: BenchMethod,
     /// Number of particles.
     #[arg(long, default_value_t = 20_000)]
     pub particles: usize,
@@ -60,7 +68,7 @@ struct BenchResult {
     kinetic_energy_end: f64,
 }
 
-/// `sable bench`.
+/// `sable bench dem`.
 pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let scene = parse_scene(&dem_benchmark(a.particles, a.steps, threads).to_string())

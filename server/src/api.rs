@@ -1,0 +1,426 @@
+//! The operations of the service, shared by REST and gRPC: input checks, the job view, and
+//! one error type mapped to HTTP statuses and gRPC codes.
+
+use sable_engine::observe::Sample;
+use sable_engine::scene::{parse_scene, Violation};
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+use crate::store::{JobRow, JobState, JobStore, ListFilter, NewJob, StoreError};
+
+/// Every error the APIs return. Messages name the field and the rule, never internals.
+#[derive(Debug, thiserror::Error)]
+pub enum ApiError {
+    /// The request cannot be read at all (not JSON, unparseable query or id).
+    #[error("{}", sable_engine::scene::format_violations(.0))]
+    Malformed(Vec<Violation>),
+    /// The request (or its scene) breaks one or more rules; every violation is listed.
+    #[error("invalid request: {}", sable_engine::scene::format_violations(.0))]
+    InvalidArgument(Vec<Violation>),
+    /// The body is larger than the server accepts.
+    #[error("the request body is larger than the limit of {0} bytes")]
+    TooLarge(usize),
+    /// A server limit is reached (for example concurrent watchers); try again later.
+    #[error("{0}")]
+    Exhausted(String),
+    /// No such job.
+    #[error("{0}")]
+    NotFound(String),
+    /// Conflicts with the job's state or with an earlier request.
+    #[error("{0}")]
+    Conflict(String),
+    /// The server failed; the message is logged, the client gets a generic one.
+    #[error("internal error")]
+    Internal(String),
+}
+
+impl ApiError {
+    /// One violation.
+    pub fn invalid(field: impl Into<String>, rule: impl Into<String>) -> Self {
+        Self::InvalidArgument(vec![Violation { field: field.into(), rule: rule.into() }])
+    }
+
+    /// A request that cannot be read, naming the part.
+    pub fn malformed(field: impl Into<String>, rule: impl Into<String>) -> Self {
+        Self::Malformed(vec![Violation { field: field.into(), rule: rule.into() }])
+    }
+
+    /// The violations, if any.
+    pub fn details(&self) -> &[Violation] {
+        match self {
+            Self::Malformed(v) | Self::InvalidArgument(v) => v,
+            _ => &[],
+        }
+    }
+
+    /// Stable code of the error kind.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::Malformed(_) => "malformed",
+            Self::InvalidArgument(_) => "invalid_argument",
+            Self::TooLarge(_) => "too_large",
+            Self::Exhausted(_) => "resource_exhausted",
+            Self::NotFound(_) => "not_found",
+            Self::Conflict(_) => "conflict",
+            Self::Internal(_) => "internal",
+        }
+    }
+}
+
+impl From<StoreError> for ApiError {
+    fn from(e: StoreError) -> Self {
+        match e {
+            StoreError::NotFound(id) => Self::NotFound(format!("job {id} not found")),
+            StoreError::Conflict(m) => Self::Conflict(m),
+            e => {
+                eprintln!("store error: {e}");
+                Self::Internal(e.to_string())
+            }
+        }
+    }
+}
+
+/// Limits of the submission fields.
+pub const MAX_NAME: usize = 200;
+/// Largest |priority|.
+pub const MAX_PRIORITY: i64 = 1000;
+/// Largest max_attempts.
+pub const MAX_ATTEMPTS: u32 = 20;
+/// Default max_attempts.
+pub const DEFAULT_ATTEMPTS: u32 = 3;
+/// Default and largest page sizes of lists.
+pub const PAGE_SIZE: (u32, u32) = (50, 500);
+/// Largest scene document accepted, bytes.
+pub const MAX_SCENE_BYTES: usize = 16 << 20;
+
+/// Limits on what one request may ask for (`sable serve` flags).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Particles in one scene.
+    pub max_particles: usize,
+    /// `stop.steps` of one scene.
+    pub max_steps: u64,
+    /// Request body, bytes.
+    pub max_body_bytes: usize,
+    /// Event streams open at once (WatchJob and SSE together).
+    pub max_watchers: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self { max_particles: 2_000_000, max_steps: 10_000_000_000, max_body_bytes: MAX_SCENE_BYTES, max_watchers: 1024 }
+    }
+}
+
+/// A submission, from either API.
+#[derive(Debug, Clone, Default)]
+pub struct Submission {
+    /// The scene (JSON).
+    pub scene: serde_json::Value,
+    /// Prefix of the scene's field paths in violations (`"scene."` when it was wrapped).
+    pub scene_path: &'static str,
+    /// Name (default: the scene's name).
+    pub name: Option<String>,
+    /// Priority (default 0).
+    pub priority: Option<i64>,
+    /// Attempts allowed (default 3).
+    pub max_attempts: Option<u32>,
+    /// Idempotency key.
+    pub idempotency_key: Option<String>,
+}
+
+/// A job as the APIs show it.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct JobView {
+    /// Id.
+    pub id: i64,
+    /// Name.
+    pub name: String,
+    /// `queued`, `running`, `succeeded`, `failed` or `cancelled`.
+    pub state: String,
+    /// Method used.
+    pub method: String,
+    /// Why that method.
+    pub method_reason: String,
+    /// Priority.
+    pub priority: i64,
+    /// RFC 3339 times.
+    pub created_at: String,
+    /// Start of the first attempt.
+    pub started_at: Option<String>,
+    /// End.
+    pub finished_at: Option<String>,
+    /// Leases taken.
+    pub attempts: i64,
+    /// Leases allowed.
+    pub max_attempts: i64,
+    /// Fraction done, 0..1.
+    pub progress: f64,
+    /// Why it failed.
+    pub error: Option<ErrorView>,
+    /// The scene as stored (canonical JSON: keys sorted).
+    pub scene: serde_json::Value,
+    /// SHA-256 of the stored scene, hex.
+    pub scene_hash: String,
+    /// Engine version that ran (or will run) it.
+    pub engine_version: String,
+    /// Random seed.
+    pub seed: u64,
+    /// Steps done.
+    pub steps: i64,
+    /// Wall-clock seconds of the run.
+    pub wall_seconds: f64,
+    /// Samples stored.
+    pub sample_count: i64,
+    /// A cancellation was asked and has not reached the worker yet.
+    pub cancel_requested: bool,
+}
+
+/// Error of a failed job.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ErrorView {
+    /// Stable code.
+    pub code: String,
+    /// Message.
+    pub message: String,
+}
+
+/// RFC 3339 form of a time in ms.
+pub fn rfc3339(ms: i64) -> String {
+    let t = std::time::UNIX_EPOCH + std::time::Duration::from_millis(ms.max(0) as u64);
+    humantime::format_rfc3339_millis(t).to_string()
+}
+
+/// Parses an RFC 3339 time into ms, naming `field` on error.
+pub fn parse_time(field: &str, s: &str) -> Result<i64, ApiError> {
+    let t = humantime::parse_rfc3339_weak(s)
+        .map_err(|e| ApiError::invalid(field, format!("must be an RFC 3339 time such as 2026-01-31T12:00:00Z ({e})")))?;
+    Ok(t.duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as i64))
+}
+
+impl From<JobRow> for JobView {
+    fn from(r: JobRow) -> Self {
+        let error = r.error_code.clone().map(|code| ErrorView { code, message: r.error_message.clone().unwrap_or_default() });
+        Self {
+            id: r.id,
+            name: r.name,
+            state: r.state,
+            method: r.method,
+            method_reason: r.method_reason,
+            priority: r.priority,
+            created_at: rfc3339(r.created_at),
+            started_at: r.started_at.map(rfc3339),
+            finished_at: r.finished_at.map(rfc3339),
+            attempts: r.attempts,
+            max_attempts: r.max_attempts,
+            progress: r.progress,
+            error,
+            scene: serde_json::from_str(&r.scene).unwrap_or(serde_json::Value::Null),
+            scene_hash: r.scene_hash,
+            engine_version: r.engine_version,
+            seed: r.seed as u64,
+            steps: r.steps,
+            wall_seconds: r.wall_seconds,
+            sample_count: r.sample_count,
+            cancel_requested: r.cancel_requested != 0,
+        }
+    }
+}
+
+/// Checks a submission and queues it. Returns the job and whether it was created now (false:
+/// an earlier request with the same idempotency key created it). Nothing is written when a
+/// rule is broken.
+pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<(JobView, bool), ApiError> {
+    let mut violations = Vec::new();
+    if let Some(n) = &s.name {
+        if n.trim().is_empty() || n.chars().count() > MAX_NAME || n.chars().any(char::is_control) {
+            violations.push(Violation { field: "name".into(), rule: format!("must be 1 to {MAX_NAME} printable characters") });
+        }
+    }
+    if let Some(p) = s.priority {
+        if p.abs() > MAX_PRIORITY {
+            violations
+                .push(Violation { field: "priority".into(), rule: format!("must be between -{MAX_PRIORITY} and {MAX_PRIORITY}, got {p}") });
+        }
+    }
+    if let Some(m) = s.max_attempts {
+        if !(1..=MAX_ATTEMPTS).contains(&m) {
+            violations.push(Violation { field: "max_attempts".into(), rule: format!("must be between 1 and {MAX_ATTEMPTS}, got {m}") });
+        }
+    }
+    if let Some(k) = &s.idempotency_key {
+        if k.is_empty() || k.len() > 200 || !k.chars().all(|c| c.is_ascii_graphic()) {
+            violations.push(Violation { field: "idempotency_key".into(), rule: "must be 1 to 200 visible ASCII characters".into() });
+        }
+    }
+    let text = serde_json::to_string(&s.scene).map_err(|e| ApiError::Internal(e.to_string()))?;
+    if text.len() > limits.max_body_bytes {
+        return Err(ApiError::TooLarge(limits.max_body_bytes));
+    }
+    let scene = match parse_scene(&text) {
+        Ok(scene) => {
+            let n: usize = scene.sets.iter().map(|x| x.count).sum();
+            if n > limits.max_particles {
+                violations.push(Violation {
+                    field: format!("{}particles", s.scene_path),
+                    rule: format!("at most {} particles in all on this server, got {n}", limits.max_particles),
+                });
+            }
+            if let Some(steps) = scene.stop.steps.filter(|&k| k > limits.max_steps) {
+                violations.push(Violation {
+                    field: format!("{}stop.steps", s.scene_path),
+                    rule: format!("must be at most {} on this server, got {steps}", limits.max_steps),
+                });
+            }
+            Some(scene)
+        }
+        Err(v) => {
+            violations.extend(v.into_iter().map(|v| Violation {
+                field: if v.field.is_empty() {
+                    s.scene_path.trim_end_matches('.').to_string()
+                } else {
+                    format!("{}{}", s.scene_path, v.field)
+                },
+                rule: v.rule,
+            }));
+            None
+        }
+    };
+    let scene: sable_engine::scene::Scene = match (scene, violations.is_empty()) {
+        (Some(scene), true) => scene,
+        _ => return Err(ApiError::InvalidArgument(violations)),
+    };
+    let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
+    let new = NewJob {
+        name: s.name.unwrap_or_else(|| scene.name.clone()),
+        scene: text,
+        scene_hash: hash,
+        method: scene.method.name().to_string(),
+        method_reason: scene.method_reason.clone(),
+        seed: scene.seed,
+        priority: s.priority.unwrap_or(0),
+        max_attempts: s.max_attempts.unwrap_or(DEFAULT_ATTEMPTS),
+        idempotency_key: s.idempotency_key,
+    };
+    let (row, created) = store.submit(new).await?;
+    Ok((row.into(), created))
+}
+
+/// Query of a job list, as both APIs receive it.
+#[derive(Debug, Clone, Default)]
+pub struct ListQuery {
+    /// State name.
+    pub state: Option<String>,
+    /// Exact name.
+    pub name: Option<String>,
+    /// Method name.
+    pub method: Option<String>,
+    /// RFC 3339 lower bound of created_at.
+    pub created_after: Option<String>,
+    /// RFC 3339 upper bound of created_at.
+    pub created_before: Option<String>,
+    /// Page size.
+    pub page_size: Option<u32>,
+    /// Token of the next page.
+    pub page_token: Option<String>,
+}
+
+/// Lists jobs, newest first; returns the page and the token of the next one (None at the end).
+pub async fn list(store: &JobStore, q: ListQuery) -> Result<(Vec<JobView>, Option<String>), ApiError> {
+    let mut f = ListFilter::default();
+    let mut violations = Vec::new();
+    if let Some(s) = q.state.filter(|s| !s.is_empty()) {
+        match JobState::parse(&s) {
+            Some(st) => f.state = Some(st),
+            None => violations.push(Violation {
+                field: "state".into(),
+                rule: format!("must be one of queued, running, succeeded, failed, cancelled; got '{s}'"),
+            }),
+        }
+    }
+    f.name = q.name.filter(|s| !s.is_empty());
+    f.method = q.method.filter(|s| !s.is_empty());
+    for (field, v, slot) in
+        [("created_after", q.created_after, &mut f.created_after), ("created_before", q.created_before, &mut f.created_before)]
+    {
+        if let Some(v) = v.filter(|s| !s.is_empty()) {
+            match parse_time(field, &v) {
+                Ok(t) => *slot = Some(t),
+                Err(ApiError::InvalidArgument(v)) => violations.extend(v),
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    let size = q.page_size.filter(|&s| s > 0).unwrap_or(PAGE_SIZE.0);
+    if size > PAGE_SIZE.1 {
+        violations.push(Violation { field: "page_size".into(), rule: format!("must be at most {}, got {size}", PAGE_SIZE.1) });
+    }
+    f.limit = size.min(PAGE_SIZE.1) + 1;
+    if let Some(t) = q.page_token.filter(|s| !s.is_empty()) {
+        match t.strip_prefix("before-").and_then(|n| n.parse::<i64>().ok()) {
+            Some(id) => f.before_id = Some(id),
+            None => violations
+                .push(Violation { field: "page_token".into(), rule: "must be a next_page_token returned by an earlier list".into() }),
+        }
+    }
+    if !violations.is_empty() {
+        return Err(ApiError::InvalidArgument(violations));
+    }
+    let mut rows = store.list(&f).await?;
+    let more = rows.len() > size as usize;
+    rows.truncate(size as usize);
+    let next = if more { rows.last().map(|r| format!("before-{}", r.id)) } else { None };
+    Ok((rows.into_iter().map(JobView::from).collect(), next))
+}
+
+/// A job's samples in a step range, keeping at most `max_points` evenly spread (the last one
+/// always kept). Returns the scene's dimension with them.
+pub async fn samples(
+    store: &JobStore,
+    id: i64,
+    from_step: u64,
+    to_step: Option<u64>,
+    max_points: Option<u32>,
+) -> Result<(usize, Vec<Sample>), ApiError> {
+    if let Some(to) = to_step {
+        if to < from_step {
+            return Err(ApiError::invalid("to_step", format!("must be >= from_step ({from_step}), got {to}")));
+        }
+    }
+    let job = store.get(id).await?;
+    let dim =
+        serde_json::from_str::<serde_json::Value>(&job.scene).ok().and_then(|v| v.get("dimension").and_then(|d| d.as_u64())).unwrap_or(3)
+            as usize;
+    let all = store.samples(id, from_step, to_step).await?;
+    Ok((dim, downsample(all, max_points.unwrap_or(0) as usize)))
+}
+
+/// Keeps at most `max` of `v` (0 = all), evenly spread, first and last included.
+pub fn downsample<T>(v: Vec<T>, max: usize) -> Vec<T> {
+    if max == 0 || v.len() <= max {
+        return v;
+    }
+    if max == 1 {
+        return v.into_iter().last().into_iter().collect();
+    }
+    let n = v.len();
+    let keep: Vec<usize> = (0..max).map(|k| (k * (n - 1) + (max - 1) / 2) / (max - 1)).collect();
+    v.into_iter().enumerate().filter(|(i, _)| keep.binary_search(i).is_ok()).map(|(_, x)| x).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn downsample_keeps_ends_and_count() {
+        let v: Vec<usize> = (0..101).collect();
+        let d = downsample(v.clone(), 11);
+        assert_eq!(d.len(), 11);
+        assert_eq!(d[0], 0);
+        assert_eq!(d[10], 100);
+        assert_eq!(d[5], 50);
+        assert_eq!(downsample(v.clone(), 0).len(), 101);
+        assert_eq!(downsample(v, 1), vec![100]);
+    }
+}

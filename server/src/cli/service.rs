@@ -1,0 +1,435 @@
+//! The service commands: `sable serve`, `sable worker`, and the client commands `submit`,
+//! `show`, `jobs`, `cancel` and `samples` (over gRPC, through sable-client).
+
+use std::io::{IsTerminal, Write};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use sable_client::{Client, JobState, ListOptions, SubmitOptions, DEFAULT_SERVER};
+use sable_engine::observe::Sample;
+use sable_proto::v1::job_event::Kind;
+use sable_server::{ServeConfig, Server};
+use tokio_stream::StreamExt;
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build().context("cannot start the async runtime")
+}
+
+/// Arguments of `sable serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// SQLite database file (created if missing).
+    #[arg(long, default_value = "sable.db", env = "SABLE_DB")]
+    pub db: PathBuf,
+    /// REST address.
+    #[arg(long, default_value = "127.0.0.1:8080", env = "SABLE_HTTP")]
+    pub http: SocketAddr,
+    /// gRPC address.
+    #[arg(long, default_value = "127.0.0.1:50051", env = "SABLE_GRPC")]
+    pub grpc: SocketAddr,
+    /// Local workers (default: the number of cores; 0 = leave the jobs to `sable worker`).
+    #[arg(long)]
+    pub workers: Option<usize>,
+    /// Threads per job (default: cores / workers).
+    #[arg(long, default_value_t = 0)]
+    pub threads_per_job: usize,
+    /// Seconds a lease lasts without a report from its worker.
+    #[arg(long, default_value_t = 30.0)]
+    pub lease_seconds: f64,
+    /// Largest number of particles in one scene.
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_particles)]
+    pub max_particles: usize,
+    /// Largest `stop.steps` of one scene.
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_steps)]
+    pub max_steps: u64,
+    /// Largest request body (scene), bytes.
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_body_bytes)]
+    pub max_body_bytes: usize,
+    /// Largest number of event streams open at once.
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_watchers)]
+    pub max_watchers: usize,
+}
+
+/// Waits for SIGINT (Ctrl-C) or SIGTERM.
+async fn stop_signal() {
+    #[cfg(unix)]
+    {
+        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(s) => s,
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+                return;
+            }
+        };
+        tokio::select! {
+            _ = tokio::signal::ctrl_c() => {}
+            _ = term.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+/// `sable serve`.
+pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    if !(a.lease_seconds.is_finite() && a.lease_seconds >= 1.0) {
+        bail!("--lease-seconds: must be at least 1, got {}", a.lease_seconds);
+    }
+    let mut cfg = ServeConfig { db: a.db.clone(), http: a.http, grpc: a.grpc, threads_per_job: a.threads_per_job, ..Default::default() };
+    if let Some(w) = a.workers {
+        cfg.workers = w;
+    }
+    cfg.lease_ttl = Duration::from_secs_f64(a.lease_seconds);
+    cfg.limits = sable_server::api::Limits {
+        max_particles: a.max_particles,
+        max_steps: a.max_steps,
+        max_body_bytes: a.max_body_bytes,
+        max_watchers: a.max_watchers,
+    };
+    runtime()?.block_on(async move {
+        let server = Server::start(cfg.clone()).await.with_context(|| format!("cannot start the server on {}", a.db.display()))?;
+        eprintln!(
+            "sable serve: REST on http://{}, gRPC on {}, database {}, {} local worker(s); Ctrl-C to stop",
+            server.http_addr,
+            server.grpc_addr,
+            a.db.display(),
+            cfg.workers
+        );
+        stop_signal().await;
+        eprintln!("sable serve: stopping (running jobs go back to the queue)");
+        server.shutdown(Duration::from_secs(5)).await;
+        Ok(())
+    })
+}
+
+/// Arguments of `sable worker`.
+#[derive(Debug, Args)]
+pub struct WorkerArgs {
+    /// gRPC address of the server to lease jobs from.
+    #[arg(long, env = "SABLE_SERVER")]
+    pub server: String,
+    /// Jobs run at once (default: the number of cores).
+    #[arg(long)]
+    pub workers: Option<usize>,
+    /// Threads per job (default: cores / workers).
+    #[arg(long, default_value_t = 0)]
+    pub threads_per_job: usize,
+    /// Name of this worker pool, as shown in the job store (default: host name and process id).
+    #[arg(long)]
+    pub name: Option<String>,
+}
+
+/// `sable worker --server URL`.
+pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let name = a.name.clone().unwrap_or_else(|| {
+        let host = std::fs::read_to_string("/etc/hostname").map(|s| s.trim().to_string()).unwrap_or_else(|_| "worker".into());
+        format!("{host}-{}", std::process::id())
+    });
+    runtime()?.block_on(async move {
+        let source = sable_worker::remote::RemoteSource::new(&a.server)?;
+        let mut pc = sable_worker::PoolConfig::new(name.clone(), a.workers.unwrap_or(cores));
+        if a.threads_per_job > 0 {
+            pc.threads_per_job = a.threads_per_job;
+        }
+        let workers = pc.workers;
+        let pool = sable_worker::Pool::start(Arc::new(source), pc, Arc::new(tokio::sync::Notify::new()));
+        eprintln!("sable worker {name}: {workers} worker(s) leasing from {}; Ctrl-C to stop", a.server);
+        stop_signal().await;
+        eprintln!("sable worker: stopping (running jobs go back to the queue)");
+        pool.shutdown(Duration::from_secs(5)).await;
+        Ok(())
+    })
+}
+
+/// Arguments shared by the client commands.
+#[derive(Debug, Args)]
+pub struct ServerArg {
+    /// gRPC address of the server.
+    #[arg(long, default_value = DEFAULT_SERVER, env = "SABLE_SERVER")]
+    pub server: String,
+}
+
+/// Arguments of `sable submit`.
+#[derive(Debug, Args)]
+pub struct SubmitArgs {
+    /// Scene file (JSON).
+    pub scene: PathBuf,
+    #[command(flatten)]
+    server: ServerArg,
+    /// Job name (default: the scene's).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Priority (higher runs first).
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub priority: i32,
+    /// Idempotency key: submitting again with it returns the same job.
+    #[arg(long)]
+    pub key: Option<String>,
+    /// Follow the job to its end with a progress bar; exit non-zero if it does not succeed.
+    #[arg(long)]
+    pub watch: bool,
+    /// Print the job as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn state_name(s: JobState) -> &'static str {
+    match s {
+        JobState::Queued => "queued",
+        JobState::Running => "running",
+        JobState::Succeeded => "succeeded",
+        JobState::Failed => "failed",
+        JobState::Cancelled => "cancelled",
+        JobState::Unspecified => "unknown",
+    }
+}
+
+fn job_json(j: &sable_client::Job) -> serde_json::Value {
+    serde_json::json!({
+        "id": j.id, "name": j.name, "state": state_name(j.state()), "method": j.method, "method_reason": j.method_reason,
+        "priority": j.priority, "created_at": j.created_at, "started_at": j.started_at, "finished_at": j.finished_at,
+        "attempts": j.attempts, "max_attempts": j.max_attempts, "progress": j.progress,
+        "error": if j.error_code.is_empty() { serde_json::Value::Null } else { serde_json::json!({"code": j.error_code, "message": j.error_message}) },
+        "scene_hash": j.scene_hash, "engine_version": j.engine_version, "seed": j.seed, "steps": j.steps,
+        "wall_seconds": j.wall_seconds, "sample_count": j.sample_count,
+    })
+}
+
+fn job_line(j: &sable_client::Job) -> String {
+    let err = if j.error_message.is_empty() { String::new() } else { format!("  ({}: {})", j.error_code, j.error_message) };
+    format!("{:>6}  {:<9}  {:>5.1}%  {:<4}  {}{}", j.id, state_name(j.state()), 100.0 * j.progress, j.method, j.name, err)
+}
+
+/// `sable submit`.
+pub fn submit(a: SubmitArgs) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(&a.scene).with_context(|| format!("cannot read {}", a.scene.display()))?;
+    runtime()?.block_on(async move {
+        let mut client = Client::connect(&a.server.server).await?;
+        let opts = SubmitOptions { name: a.name.clone(), priority: a.priority, request_id: a.key.clone(), max_attempts: None };
+        let job = client.submit(&text, opts).await.with_context(|| format!("{} was not accepted", a.scene.display()))?;
+        if !a.watch {
+            if a.json {
+                println!("{}", job_json(&job));
+            } else {
+                println!("job {} queued: {}", job.id, job.name);
+            }
+            return Ok(());
+        }
+        eprintln!("job {} queued: {}", job.id, job.name);
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let b = indicatif::ProgressBar::new(1000);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {percent:>3}% {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        });
+        let mut events = client.watch(job.id, 0);
+        while let Some(ev) = events.next().await {
+            match ev?.kind {
+                Some(Kind::Sample(s)) => {
+                    if let (Some(b), Some(x)) = (&bar, &s.sample) {
+                        b.set_position((s.fraction * 1000.0) as u64);
+                        b.set_message(format!("step {}  Φ={:.4}  Z={:.2}  μ={:.3}", x.step, x.phi, x.z, x.mu));
+                    }
+                }
+                Some(Kind::State(s)) => {
+                    let msg = format!(
+                        "job {}: {}{}",
+                        job.id,
+                        state_name(s.state()),
+                        if s.error_message.is_empty() { String::new() } else { format!(": {}", s.error_message) }
+                    );
+                    match &bar {
+                        Some(b) => b.println(msg),
+                        None => eprintln!("{msg}"),
+                    }
+                }
+                _ => {}
+            }
+        }
+        if let Some(b) = &bar {
+            b.finish_and_clear();
+        }
+        let done = client.get(job.id).await?;
+        if a.json {
+            println!("{}", job_json(&done));
+        } else {
+            println!("{}", job_line(&done));
+        }
+        if done.state() != JobState::Succeeded {
+            bail!("job {} ended {}", done.id, state_name(done.state()));
+        }
+        Ok(())
+    })
+}
+
+/// Arguments of `sable show`.
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    /// Job id.
+    pub id: i64,
+    #[command(flatten)]
+    server: ServerArg,
+    /// Print the job as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `sable show ID`.
+pub fn status(a: StatusArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let job = Client::connect(&a.server.server).await?.get(a.id).await?;
+        if a.json {
+            println!("{}", job_json(&job));
+        } else {
+            println!("{}", job_line(&job));
+        }
+        Ok(())
+    })
+}
+
+/// Arguments of `sable cancel`.
+#[derive(Debug, Args)]
+pub struct CancelArgs {
+    /// Job id.
+    pub id: i64,
+    #[command(flatten)]
+    server: ServerArg,
+}
+
+/// `sable cancel ID`.
+pub fn cancel(a: CancelArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let job = Client::connect(&a.server.server).await?.cancel(a.id).await?;
+        println!("{}", job_line(&job));
+        Ok(())
+    })
+}
+
+/// States accepted by `sable jobs --state`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StateArg {
+    /// Waiting for a worker.
+    Queued,
+    /// Running.
+    Running,
+    /// Finished.
+    Succeeded,
+    /// Failed.
+    Failed,
+    /// Cancelled.
+    Cancelled,
+}
+
+/// Arguments of `sable jobs`.
+#[derive(Debug, Args)]
+pub struct ListArgs {
+    #[command(flatten)]
+    server: ServerArg,
+    /// Only jobs in this state.
+    #[arg(long, value_enum)]
+    pub state: Option<StateArg>,
+    /// Only jobs with this name.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// At most this many jobs.
+    #[arg(long, default_value_t = 50)]
+    pub limit: u32,
+    /// One JSON object per line.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `sable jobs`.
+pub fn list(a: ListArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let mut client = Client::connect(&a.server.server).await?;
+        let state = a.state.map(|s| match s {
+            StateArg::Queued => JobState::Queued,
+            StateArg::Running => JobState::Running,
+            StateArg::Succeeded => JobState::Succeeded,
+            StateArg::Failed => JobState::Failed,
+            StateArg::Cancelled => JobState::Cancelled,
+        });
+        let mut left = a.limit;
+        let mut token = None;
+        while left > 0 {
+            let opts = ListOptions { state, name: a.name.clone(), method: None, page_size: left.min(500), page_token: token.take() };
+            let (jobs, next) = client.list(opts).await?;
+            for j in &jobs {
+                if a.json {
+                    println!("{}", job_json(j));
+                } else {
+                    println!("{}", job_line(j));
+                }
+            }
+            left = left.saturating_sub(jobs.len() as u32);
+            match next {
+                Some(t) => token = Some(t),
+                None => break,
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Arguments of `sable samples`.
+#[derive(Debug, Args)]
+pub struct SamplesArgs {
+    /// Job id.
+    pub id: i64,
+    #[command(flatten)]
+    server: ServerArg,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: super::run::Format,
+    /// CSV (the default; same as --format csv).
+    #[arg(long, conflicts_with = "format")]
+    pub csv: bool,
+    /// At most this many samples, evenly spread.
+    #[arg(long)]
+    pub max_points: Option<u32>,
+    /// Write to this file instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `sable samples ID`.
+pub fn samples(a: SamplesArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let mut client = Client::connect(&a.server.server).await?;
+        let job = client.get(a.id).await?;
+        let dim =
+            serde_json::from_str::<serde_json::Value>(&job.scene_json).ok().and_then(|v| v["dimension"].as_u64()).unwrap_or(3) as usize;
+        let samples: Vec<Sample> = client.samples(a.id, 0, None, a.max_points).await?;
+        let mut out: Box<dyn Write> = match &a.out {
+            Some(p) => {
+                Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?))
+            }
+            None => Box::new(std::io::BufWriter::new(std::io::stdout())),
+        };
+        match a.format {
+            super::run::Format::Csv => {
+                writeln!(out, "{}", Sample::csv_header(dim).join(","))?;
+                for s in &samples {
+                    writeln!(out, "{}", s.csv_row(dim).join(","))?;
+                }
+            }
+            super::run::Format::Jsonl => {
+                for s in &samples {
+                    writeln!(out, "{}", serde_json::to_string(s)?)?;
+                }
+            }
+        }
+        out.flush()?;
+        Ok(())
+    })
+}

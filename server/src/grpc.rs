@@ -1,0 +1,307 @@
+//! The gRPC API (tonic): `sable.v1.Simulations` for users and `sable.v1.Workers` for remote
+//! worker pools. The operations are those of [`crate::api`], as REST serves them.
+
+use std::pin::Pin;
+use std::time::Duration;
+
+use sable_engine::observe::Sample;
+use sable_proto::v1 as pb;
+use sable_proto::v1::finish_job_request::Outcome as PbOutcome;
+use sable_worker::{Lease, Outcome, Report};
+use tokio_stream::Stream;
+use tonic::{Request, Response, Status};
+
+use crate::api::{self, ApiError, JobView, ListQuery, Submission};
+use crate::store::{EventRow, JobState, JobStore, StoreError};
+use crate::watch::{watch, WatchItem};
+
+impl From<ApiError> for Status {
+    fn from(e: ApiError) -> Self {
+        match e {
+            ApiError::InvalidArgument(_) | ApiError::Malformed(_) | ApiError::TooLarge(_) => Status::invalid_argument(e.to_string()),
+            ApiError::Exhausted(m) => Status::resource_exhausted(m),
+            ApiError::NotFound(m) => Status::not_found(m),
+            ApiError::Conflict(m) => Status::failed_precondition(m),
+            ApiError::Internal(_) => Status::internal("internal error"),
+        }
+    }
+}
+
+fn pb_state(s: &str) -> pb::JobState {
+    match JobState::parse(s) {
+        Some(JobState::Queued) => pb::JobState::Queued,
+        Some(JobState::Running) => pb::JobState::Running,
+        Some(JobState::Succeeded) => pb::JobState::Succeeded,
+        Some(JobState::Failed) => pb::JobState::Failed,
+        Some(JobState::Cancelled) => pb::JobState::Cancelled,
+        None => pb::JobState::Unspecified,
+    }
+}
+
+/// The proto form of a job.
+pub fn pb_job(j: JobView) -> pb::Job {
+    let mut out = pb::Job {
+        id: j.id,
+        name: j.name,
+        state: 0,
+        method: j.method,
+        method_reason: j.method_reason,
+        priority: j.priority as i32,
+        created_at: j.created_at,
+        started_at: j.started_at.unwrap_or_default(),
+        finished_at: j.finished_at.unwrap_or_default(),
+        attempts: j.attempts as u32,
+        max_attempts: j.max_attempts as u32,
+        progress: j.progress,
+        error_code: j.error.as_ref().map(|e| e.code.clone()).unwrap_or_default(),
+        error_message: j.error.map(|e| e.message).unwrap_or_default(),
+        scene_json: j.scene.to_string(),
+        scene_hash: j.scene_hash,
+        engine_version: j.engine_version,
+        seed: j.seed,
+        steps: j.steps as u64,
+        wall_seconds: j.wall_seconds,
+        sample_count: j.sample_count as u64,
+    };
+    out.set_state(pb_state(&j.state));
+    out
+}
+
+/// The summary of a sample carried by watch events.
+pub fn pb_sample(s: &Sample) -> pb::SampleSummary {
+    let st = &s.stress;
+    pb::SampleSummary {
+        step: s.step,
+        time: s.time,
+        phi: s.phi,
+        z: s.z,
+        mu: s.mu,
+        p: s.p,
+        q: s.q,
+        stress: Some(pb::Stress {
+            xx: st.xx,
+            yy: st.yy,
+            zz: st.zz.unwrap_or(0.0),
+            xy: st.xy,
+            xz: st.xz.unwrap_or(0.0),
+            yz: st.yz.unwrap_or(0.0),
+        }),
+    }
+}
+
+/// The proto form of a stored event.
+pub fn pb_event(e: &EventRow) -> pb::JobEvent {
+    let v: serde_json::Value = serde_json::from_str(&e.payload).unwrap_or_default();
+    let kind = if e.kind == "sample" {
+        let sample: Option<Sample> = v.get("sample").and_then(|s| serde_json::from_value(s.clone()).ok());
+        pb::job_event::Kind::Sample(pb::SampleEvent {
+            fraction: v.get("fraction").and_then(|x| x.as_f64()).unwrap_or(0.0),
+            remaining_seconds: v.get("remaining_seconds").and_then(|x| x.as_f64()).unwrap_or(-1.0),
+            sample: sample.as_ref().map(pb_sample),
+        })
+    } else {
+        let mut sc = pb::StateChange {
+            state: 0,
+            error_code: v.get("error_code").and_then(|x| x.as_str()).unwrap_or_default().to_string(),
+            error_message: v.get("error_message").and_then(|x| x.as_str()).unwrap_or_default().to_string(),
+            attempt: v.get("attempt").and_then(|x| x.as_u64()).unwrap_or(0) as u32,
+        };
+        sc.set_state(pb_state(v.get("state").and_then(|x| x.as_str()).unwrap_or_default()));
+        pb::job_event::Kind::State(sc)
+    };
+    pb::JobEvent { seq: e.seq as u64, job_id: e.job_id, at: api::rfc3339(e.at), kind: Some(kind) }
+}
+
+/// `sable.v1.Simulations`.
+#[derive(Debug, Clone)]
+pub struct SimulationsService {
+    /// The job store.
+    pub store: JobStore,
+    /// Idle interval between heartbeats of WatchJob.
+    pub heartbeat: Duration,
+    /// Request limits.
+    pub limits: api::Limits,
+    /// Open event streams (REST and gRPC share it).
+    pub watchers: std::sync::Arc<tokio::sync::Semaphore>,
+}
+
+type EventStream = Pin<Box<dyn Stream<Item = Result<pb::JobEvent, Status>> + Send + 'static>>;
+
+#[tonic::async_trait]
+impl pb::simulations_server::Simulations for SimulationsService {
+    async fn submit_job(&self, req: Request<pb::SubmitJobRequest>) -> Result<Response<pb::Job>, Status> {
+        let r = req.into_inner();
+        let scene: serde_json::Value = serde_json::from_str(&r.scene_json)
+            .map_err(|e| Status::from(ApiError::invalid("scene_json", format!("must be a JSON object: {e}"))))?;
+        if !scene.is_object() {
+            return Err(ApiError::invalid("scene_json", "must be a JSON object (a scene)").into());
+        }
+        let sub = Submission {
+            scene,
+            scene_path: "scene_json.",
+            name: (!r.name.is_empty()).then_some(r.name),
+            priority: Some(r.priority as i64),
+            max_attempts: (r.max_attempts > 0).then_some(r.max_attempts),
+            idempotency_key: (!r.request_id.is_empty()).then_some(r.request_id),
+        };
+        let (job, _) = api::submit(&self.store, &self.limits, sub).await?;
+        Ok(Response::new(pb_job(job)))
+    }
+
+    async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::Job>, Status> {
+        let row = self.store.get(req.into_inner().id).await.map_err(ApiError::from)?;
+        Ok(Response::new(pb_job(row.into())))
+    }
+
+    async fn list_jobs(&self, req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
+        let r = req.into_inner();
+        let state = match r.state() {
+            pb::JobState::Unspecified => None,
+            s => Some(s.as_str_name().trim_start_matches("JOB_STATE_").to_lowercase()),
+        };
+        let (jobs, next) = api::list(
+            &self.store,
+            ListQuery {
+                state,
+                name: Some(r.name),
+                method: Some(r.method),
+                created_after: Some(r.created_after),
+                created_before: Some(r.created_before),
+                page_size: Some(r.page_size),
+                page_token: Some(r.page_token),
+            },
+        )
+        .await?;
+        Ok(Response::new(pb::ListJobsResponse { jobs: jobs.into_iter().map(pb_job).collect(), next_page_token: next.unwrap_or_default() }))
+    }
+
+    async fn cancel_job(&self, req: Request<pb::CancelJobRequest>) -> Result<Response<pb::Job>, Status> {
+        let row = self.store.cancel(req.into_inner().id).await.map_err(ApiError::from)?;
+        Ok(Response::new(pb_job(row.into())))
+    }
+
+    type WatchJobStream = EventStream;
+
+    async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
+        let r = req.into_inner();
+        let after = i64::try_from(r.after_seq).map_err(|_| Status::from(ApiError::invalid("after_seq", "is too large")))?;
+        let permit = self.watchers.clone().try_acquire_owned().map_err(|_| {
+            Status::resource_exhausted(format!("too many open event streams (limit {}); try again later", self.limits.max_watchers))
+        })?;
+        let mut rx = watch(&self.store, r.id, after, self.heartbeat).await?;
+        let id = r.id;
+        let (tx, out) = tokio::sync::mpsc::channel(16);
+        tokio::spawn(async move {
+            let _permit = permit;
+            loop {
+                // Leave as soon as the client goes, even while the job is quiet.
+                let item = tokio::select! {
+                    item = rx.recv() => item,
+                    _ = tx.closed() => return,
+                };
+                let Some(item) = item else { return };
+                let msg = match item {
+                    Ok(WatchItem::Event(e)) => Ok(pb_event(&e)),
+                    Ok(WatchItem::Heartbeat) => Ok(pb::JobEvent {
+                        seq: 0,
+                        job_id: id,
+                        at: api::rfc3339(crate::store::now_ms()),
+                        kind: Some(pb::job_event::Kind::Heartbeat(pb::Heartbeat {})),
+                    }),
+                    Err(e) => Err(Status::from(e)),
+                };
+                if tx.send(msg).await.is_err() {
+                    return;
+                }
+            }
+        });
+        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(out))))
+    }
+
+    async fn get_samples(&self, req: Request<pb::GetSamplesRequest>) -> Result<Response<pb::GetSamplesResponse>, Status> {
+        let r = req.into_inner();
+        let to = (r.to_step > 0).then_some(r.to_step);
+        let (_, samples) = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?;
+        let samples_json = samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
+        Ok(Response::new(pb::GetSamplesResponse { samples_json }))
+    }
+}
+
+/// `sable.v1.Workers`: leases for remote worker pools.
+#[derive(Debug, Clone)]
+pub struct WorkersService {
+    /// The job store.
+    pub store: JobStore,
+    /// Lease duration, for the reply.
+    pub lease_seconds: f64,
+}
+
+fn lease_of(job_id: i64, lease_id: String) -> Lease {
+    Lease { job_id, lease_id, scene_json: String::new(), attempt: 0 }
+}
+
+fn worker_status(e: StoreError) -> Status {
+    match e {
+        StoreError::Conflict(m) => Status::failed_precondition(m),
+        StoreError::NotFound(id) => Status::not_found(format!("job {id} not found")),
+        e => {
+            eprintln!("store error: {e}");
+            Status::unavailable("job store unavailable")
+        }
+    }
+}
+
+#[tonic::async_trait]
+impl pb::workers_server::Workers for WorkersService {
+    async fn lease_job(&self, req: Request<pb::LeaseJobRequest>) -> Result<Response<pb::LeaseJobResponse>, Status> {
+        let worker = req.into_inner().worker;
+        if worker.is_empty() || worker.len() > 200 || worker.starts_with("local:") {
+            return Err(Status::invalid_argument("worker: must be 1 to 200 characters and not start with 'local:' (reserved)"));
+        }
+        let lease = self.store.lease_next(&format!("remote:{worker}")).await.map_err(worker_status)?;
+        Ok(Response::new(pb::LeaseJobResponse {
+            lease: lease.map(|l| pb::Lease {
+                job_id: l.job_id,
+                lease_id: l.lease_id,
+                scene_json: l.scene_json,
+                attempt: l.attempt,
+                lease_seconds: self.lease_seconds,
+            }),
+        }))
+    }
+
+    async fn report_progress(&self, req: Request<pb::ReportProgressRequest>) -> Result<Response<pb::ReportProgressResponse>, Status> {
+        let r = req.into_inner();
+        let mut samples = Vec::with_capacity(r.samples_json.len());
+        for (i, s) in r.samples_json.iter().enumerate() {
+            let s: Sample =
+                serde_json::from_str(s).map_err(|e| Status::invalid_argument(format!("samples_json[{i}]: not a sample: {e}")))?;
+            if !s.is_finite() {
+                return Err(Status::invalid_argument(format!("samples_json[{i}]: non-finite values are never stored")));
+            }
+            samples.push(s);
+        }
+        let report =
+            Report { fraction: r.fraction, remaining_seconds: (r.remaining_seconds >= 0.0).then_some(r.remaining_seconds), samples };
+        let cancel = self.store.report(&lease_of(r.job_id, r.lease_id), &report).await.map_err(worker_status)?;
+        Ok(Response::new(pb::ReportProgressResponse { cancel_requested: cancel }))
+    }
+
+    async fn finish_job(&self, req: Request<pb::FinishJobRequest>) -> Result<Response<pb::FinishJobResponse>, Status> {
+        let r = req.into_inner();
+        let outcome = match r.outcome() {
+            PbOutcome::Succeeded => Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds },
+            PbOutcome::Failed => Outcome::Failed {
+                code: r.error_code.clone(),
+                message: r.error_message.clone(),
+                steps: r.steps,
+                wall_seconds: r.wall_seconds,
+            },
+            PbOutcome::Cancelled => Outcome::Cancelled,
+            PbOutcome::Released => Outcome::Released,
+            PbOutcome::Unspecified => return Err(Status::invalid_argument("outcome: must be set")),
+        };
+        self.store.finish(&lease_of(r.job_id, r.lease_id), &outcome).await.map_err(worker_status)?;
+        Ok(Response::new(pb::FinishJobResponse {}))
+    }
+}

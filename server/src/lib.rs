@@ -1,0 +1,17 @@
+//! # sable-server
+//!
+//! The Sable service: the SQLite job store ([`store`]), the operations shared by both APIs
+//! ([`api`]), the REST API ([`rest`]), the gRPC API ([`grpc`]), event streams ([`watch`]),
+//! Prometheus metrics ([`metrics`]) and the server that runs them with a local worker pool
+//! ([`serve`]). The `sable` binary is built from this crate.
+
+pub mod api;
+pub mod grpc;
+pub mod metrics;
+pub mod openapi;
+pub mod rest;
+pub mod serve;
+pub mod store;
+pub mod watch;
+
+pub use serve::{ServeConfig, Server};

@@ -1,0 +1,312 @@
+//! The REST API (axum): the same operations as gRPC, as JSON over HTTP, plus Server-Sent Events,
+//! health and Prometheus metrics. Routes:
+//!
+//! | method | path | what |
+//! |---|---|---|
+//! | POST | `/v1/jobs` | submit (body: a scene, or `{"scene", "name", "priority", "max_attempts"}`; `Idempotency-Key` header) |
+//! | GET | `/v1/jobs` | list (`state, name, method, created_after, created_before, page_size, page_token`) |
+//! | GET | `/v1/jobs/{id}` | one job |
+//! | POST | `/v1/jobs/{id}:cancel` | cancel |
+//! | GET | `/v1/jobs/{id}/samples` | samples (`from_step, to_step, max_points, format=json|csv`) |
+//! | GET | `/v1/jobs/{id}/events` | Server-Sent Events (`after_seq` or `Last-Event-ID` to resume) |
+//! | GET | `/v1/openapi.json` | the OpenAPI document |
+//! | GET | `/healthz`, `/metrics` | liveness, Prometheus text |
+
+use std::convert::Infallible;
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::body::Bytes;
+use axum::extract::rejection::{BytesRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use sable_engine::observe::Sample;
+use serde::Deserialize;
+use serde_json::json;
+
+use crate::api::{self, ApiError, ListQuery, Submission};
+use crate::store::JobStore;
+use crate::watch::{watch, WatchItem};
+
+/// What the handlers share.
+#[derive(Debug, Clone)]
+pub struct AppState {
+    /// The job store.
+    pub store: JobStore,
+    /// Busy/total worker counters of the local pool, if any.
+    pub pool: Option<Arc<sable_worker::PoolStats>>,
+    /// Idle interval between heartbeats of event streams.
+    pub heartbeat: Duration,
+    /// Request limits.
+    pub limits: api::Limits,
+    /// Open event streams (REST and gRPC share it).
+    pub watchers: Arc<tokio::sync::Semaphore>,
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let status = match &self {
+            ApiError::Malformed(_) => StatusCode::BAD_REQUEST,
+            ApiError::InvalidArgument(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ApiError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            ApiError::Exhausted(_) => StatusCode::TOO_MANY_REQUESTS,
+            ApiError::NotFound(_) => StatusCode::NOT_FOUND,
+            ApiError::Conflict(_) => StatusCode::CONFLICT,
+            ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        };
+        (status, Json(json!({"code": self.code(), "message": self.to_string(), "details": self.details()}))).into_response()
+    }
+}
+
+/// The router of the REST API.
+pub fn router(state: AppState) -> Router {
+    let limit = state.limits.max_body_bytes;
+    Router::new()
+        .route("/v1/jobs", post(submit).get(list))
+        .route("/v1/jobs/{id}", get(get_job).post(job_action))
+        .route("/v1/jobs/{id}/samples", get(samples))
+        .route("/v1/jobs/{id}/events", get(events))
+        .route("/v1/openapi.json", get(openapi))
+        .route("/healthz", get(healthz))
+        .route("/metrics", get(metrics))
+        .fallback(not_found)
+        .layer(axum::extract::DefaultBodyLimit::max(limit))
+        .with_state(state)
+}
+
+async fn not_found() -> ApiError {
+    ApiError::NotFound("no such route; see GET /v1/openapi.json".into())
+}
+
+fn parse_id(s: &str) -> Result<i64, ApiError> {
+    s.parse::<i64>()
+        .ok()
+        .filter(|&i| i > 0)
+        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer job id, got '{s}'")))
+}
+
+fn query<T>(q: Result<Query<T>, QueryRejection>) -> Result<T, ApiError> {
+    q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))
+}
+
+/// `POST /v1/jobs`.
+async fn submit(State(st): State<AppState>, headers: HeaderMap, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let body = body.map_err(|e| match e.status() {
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
+        _ => ApiError::malformed("", e.body_text()),
+    })?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    let mut sub = Submission::default();
+    match value {
+        serde_json::Value::Object(mut m) if m.contains_key("scene") => {
+            sub.scene = m.remove("scene").unwrap_or_default();
+            sub.scene_path = "scene.";
+            let mut violations = Vec::new();
+            for (k, v) in m {
+                match k.as_str() {
+                    "name" => match v.as_str() {
+                        Some(s) => sub.name = Some(s.to_string()),
+                        None => violations.push(("name", "must be a string")),
+                    },
+                    "priority" => match v.as_i64() {
+                        Some(p) => sub.priority = Some(p),
+                        None => violations.push(("priority", "must be an integer")),
+                    },
+                    "max_attempts" => match v.as_u64().and_then(|x| u32::try_from(x).ok()) {
+                        Some(p) => sub.max_attempts = Some(p),
+                        None => violations.push(("max_attempts", "must be a positive integer")),
+                    },
+                    _ => {
+                        return Err(ApiError::invalid(k.clone(), "unknown field: expected scene, name, priority or max_attempts"));
+                    }
+                }
+            }
+            if !violations.is_empty() {
+                return Err(ApiError::InvalidArgument(
+                    violations.into_iter().map(|(f, r)| sable_engine::scene::Violation { field: f.into(), rule: r.into() }).collect(),
+                ));
+            }
+        }
+        v @ serde_json::Value::Object(_) => sub.scene = v,
+        _ => return Err(ApiError::malformed("", "the body must be a JSON object: a scene, or {\"scene\": ..., \"name\": ...}")),
+    }
+    if let Some(k) = headers.get("idempotency-key") {
+        sub.idempotency_key = Some(k.to_str().map_err(|_| ApiError::invalid("Idempotency-Key", "must be visible ASCII"))?.to_string());
+    }
+    let (job, created) = api::submit(&st.store, &st.limits, sub).await?;
+    let status = if created { StatusCode::CREATED } else { StatusCode::OK };
+    Ok((status, [(header::LOCATION, format!("/v1/jobs/{}", job.id))], Json(job)).into_response())
+}
+
+/// Query of `GET /v1/jobs`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ListParams {
+    state: Option<String>,
+    name: Option<String>,
+    method: Option<String>,
+    created_after: Option<String>,
+    created_before: Option<String>,
+    page_size: Option<u32>,
+    page_token: Option<String>,
+}
+
+/// `GET /v1/jobs`.
+async fn list(State(st): State<AppState>, q: Result<Query<ListParams>, QueryRejection>) -> Result<Response, ApiError> {
+    let p = query(q)?;
+    let (jobs, next) = api::list(
+        &st.store,
+        ListQuery {
+            state: p.state,
+            name: p.name,
+            method: p.method,
+            created_after: p.created_after,
+            created_before: p.created_before,
+            page_size: p.page_size,
+            page_token: p.page_token,
+        },
+    )
+    .await?;
+    Ok(Json(json!({"jobs": jobs, "next_page_token": next.unwrap_or_default()})).into_response())
+}
+
+/// `GET /v1/jobs/{id}`.
+async fn get_job(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let id = parse_id(&id)?;
+    Ok(Json(api::JobView::from(st.store.get(id).await?)).into_response())
+}
+
+/// `POST /v1/jobs/{id}:cancel` (the one action so far).
+async fn job_action(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let Some(id) = id.strip_suffix(":cancel") else {
+        return Err(ApiError::NotFound(format!("no action in '/v1/jobs/{id}': use POST /v1/jobs/{{id}}:cancel")));
+    };
+    let id = parse_id(id)?;
+    Ok(Json(api::JobView::from(st.store.cancel(id).await?)).into_response())
+}
+
+/// Query of `GET /v1/jobs/{id}/samples`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SampleParams {
+    from_step: Option<u64>,
+    to_step: Option<u64>,
+    max_points: Option<u32>,
+    format: Option<String>,
+}
+
+/// `GET /v1/jobs/{id}/samples`.
+async fn samples(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    q: Result<Query<SampleParams>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    let id = parse_id(&id)?;
+    let p = query(q)?;
+    let csv = match p.format.as_deref() {
+        None | Some("json") => false,
+        Some("csv") => true,
+        Some(f) => return Err(ApiError::invalid("format", format!("must be json or csv, got '{f}'"))),
+    };
+    let (dim, samples) = api::samples(&st.store, id, p.from_step.unwrap_or(0), p.to_step, p.max_points).await?;
+    if csv {
+        Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(dim, &samples)).into_response())
+    } else {
+        Ok(Json(json!({"job_id": id, "samples": samples})).into_response())
+    }
+}
+
+/// Samples as CSV with the engine's column names.
+pub fn samples_csv(dim: usize, samples: &[Sample]) -> String {
+    let mut out = Sample::csv_header(dim).join(",");
+    out.push('\n');
+    for s in samples {
+        out.push_str(&s.csv_row(dim).join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// Query of `GET /v1/jobs/{id}/events`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EventParams {
+    after_seq: Option<i64>,
+}
+
+/// `GET /v1/jobs/{id}/events`: Server-Sent Events, `id:` = sequence number, `event:` = kind.
+async fn events(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    q: Result<Query<EventParams>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    let id = parse_id(&id)?;
+    let p = query(q)?;
+    let resume = headers.get("last-event-id").and_then(|v| v.to_str().ok()).and_then(|s| s.parse::<i64>().ok());
+    let after = p.after_seq.or(resume).unwrap_or(0);
+    if after < 0 {
+        return Err(ApiError::invalid("after_seq", "must be >= 0"));
+    }
+    let permit = st
+        .watchers
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| ApiError::Exhausted(format!("too many open event streams (limit {}); try again later", st.limits.max_watchers)))?;
+    let mut rx = watch(&st.store, id, after, st.heartbeat).await?;
+    let stream = async_stream_from(move |tx| async move {
+        let _permit = permit;
+        loop {
+            let item = tokio::select! {
+                item = rx.recv() => item,
+                _ = tx.closed() => return,
+            };
+            let Some(item) = item else { return };
+            let ev = match item {
+                Ok(WatchItem::Event(e)) => Event::default().id(e.seq.to_string()).event(e.kind.clone()).data(e.payload),
+                Ok(WatchItem::Heartbeat) => Event::default().event("heartbeat").data("{}"),
+                Err(e) => Event::default().event("error").data(json!({"code": e.code(), "message": e.to_string()}).to_string()),
+            };
+            if tx.send(Ok::<_, Infallible>(ev)).await.is_err() {
+                return;
+            }
+        }
+    });
+    Ok(Sse::new(stream).keep_alive(KeepAlive::default()).into_response())
+}
+
+/// A stream fed by a task through a small channel.
+fn async_stream_from<T, F, Fut>(f: F) -> tokio_stream::wrappers::ReceiverStream<T>
+where
+    T: Send + 'static,
+    F: FnOnce(tokio::sync::mpsc::Sender<T>) -> Fut,
+    Fut: std::future::Future<Output = ()> + Send + 'static,
+{
+    let (tx, rx) = tokio::sync::mpsc::channel(16);
+    tokio::spawn(f(tx));
+    tokio_stream::wrappers::ReceiverStream::new(rx)
+}
+
+/// `GET /healthz`: the database answers.
+async fn healthz(State(st): State<AppState>) -> Response {
+    match st.store.count_by_state().await {
+        Ok(_) => (StatusCode::OK, Json(json!({"status": "ok"}))).into_response(),
+        Err(e) => (StatusCode::SERVICE_UNAVAILABLE, Json(json!({"status": "unavailable", "reason": e.to_string()}))).into_response(),
+    }
+}
+
+/// `GET /v1/openapi.json`.
+async fn openapi() -> Response {
+    Json(crate::openapi::document()).into_response()
+}
+
+/// `GET /metrics`: Prometheus text format.
+async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
+    let body = crate::metrics::render(&st.store, st.pool.as_deref()).await?;
+    Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], body).into_response())
+}

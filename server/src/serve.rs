@@ -1,0 +1,207 @@
+//! `sable serve`: the job store, the local worker pool, the lease reaper, and the REST and gRPC
+//! listeners, started together and stopped together.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use sable_proto::v1::simulations_server::SimulationsServer;
+use sable_proto::v1::workers_server::WorkersServer;
+use sable_worker::{Pool, PoolConfig};
+use tokio::net::TcpListener;
+use tokio::task::JoinSet;
+use tokio_util::sync::CancellationToken;
+
+use crate::grpc::{SimulationsService, WorkersService};
+use crate::rest::{router, AppState};
+use crate::store::{JobStore, LeaseConfig, StoreError};
+
+/// Settings of a server.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    /// SQLite database file (created if missing).
+    pub db: PathBuf,
+    /// REST address (port 0: any free port).
+    pub http: SocketAddr,
+    /// gRPC address (port 0: any free port).
+    pub grpc: SocketAddr,
+    /// Local workers (0: none; jobs then wait for `sable worker` processes).
+    pub workers: usize,
+    /// Threads per job (0: cores / workers).
+    pub threads_per_job: usize,
+    /// Lease duration without a report.
+    pub lease_ttl: Duration,
+    /// Interval of worker reports (samples, lease renewal, cancellation check).
+    pub report_interval: Duration,
+    /// Heartbeat interval of idle event streams.
+    pub heartbeat: Duration,
+    /// Request limits.
+    pub limits: crate::api::Limits,
+}
+
+impl Default for ServeConfig {
+    fn default() -> Self {
+        Self {
+            db: PathBuf::from("sable.db"),
+            http: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            grpc: SocketAddr::from(([127, 0, 0, 1], 50051)),
+            workers: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            threads_per_job: 0,
+            lease_ttl: Duration::from_secs(30),
+            report_interval: Duration::from_millis(250),
+            heartbeat: Duration::from_secs(15),
+            limits: crate::api::Limits::default(),
+        }
+    }
+}
+
+/// Why a server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The database could not be opened or migrated.
+    #[error("cannot open the database: {0}")]
+    Store(#[from] StoreError),
+    /// A listener could not bind.
+    #[error("cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// gRPC reflection could not be set up.
+    #[error("gRPC reflection: {0}")]
+    Reflection(#[from] tonic_reflection::server::Error),
+}
+
+/// A running server.
+#[derive(Debug)]
+pub struct Server {
+    /// Bound REST address.
+    pub http_addr: SocketAddr,
+    /// Bound gRPC address.
+    pub grpc_addr: SocketAddr,
+    /// The job store.
+    pub store: JobStore,
+    stop: CancellationToken,
+    tasks: JoinSet<()>,
+    pool: Option<Pool>,
+}
+
+impl Server {
+    /// Opens the store, puts back in the queue the jobs that a previous run of the local pool
+    /// left running, starts the workers, the reaper and both listeners.
+    pub async fn start(cfg: ServeConfig) -> Result<Self, ServeError> {
+        let store = JobStore::open(&cfg.db, LeaseConfig { ttl: cfg.lease_ttl }).await?;
+        // A local worker of an earlier run of this server cannot be alive any more.
+        let requeued = store.requeue_expired(Some("local:")).await?;
+        if requeued > 0 {
+            eprintln!("sable serve: {requeued} job(s) left running by a previous run put back in the queue");
+        }
+        let stop = CancellationToken::new();
+        let mut tasks = JoinSet::new();
+
+        let reaper_store = store.clone();
+        let reaper_stop = stop.clone();
+        let every = (cfg.lease_ttl / 4).max(Duration::from_millis(50));
+        tasks.spawn(async move {
+            loop {
+                tokio::select! {
+                    _ = tokio::time::sleep(every) => {}
+                    _ = reaper_stop.cancelled() => return,
+                }
+                if let Err(e) = reaper_store.requeue_expired(None).await {
+                    eprintln!("sable serve: lease reaper: {e}");
+                }
+            }
+        });
+
+        let pool = (cfg.workers > 0).then(|| {
+            let mut pc = PoolConfig::new(format!("local:{:08x}", rand::random::<u32>()), cfg.workers);
+            if cfg.threads_per_job > 0 {
+                pc.threads_per_job = cfg.threads_per_job;
+            }
+            pc.report_interval = cfg.report_interval;
+            Pool::start(Arc::new(store.clone()), pc, store.queued.clone())
+        });
+
+        let http = TcpListener::bind(cfg.http).await.map_err(|source| ServeError::Bind { addr: cfg.http, source })?;
+        let http_addr = http.local_addr().map_err(|source| ServeError::Bind { addr: cfg.http, source })?;
+        let grpc = TcpListener::bind(cfg.grpc).await.map_err(|source| ServeError::Bind { addr: cfg.grpc, source })?;
+        let grpc_addr = grpc.local_addr().map_err(|source| ServeError::Bind { addr: cfg.grpc, source })?;
+
+        let watchers = Arc::new(tokio::sync::Semaphore::new(cfg.limits.max_watchers));
+        let state = AppState {
+            store: store.clone(),
+            pool: pool.as_ref().map(|p| p.stats.clone()),
+            heartbeat: cfg.heartbeat,
+            limits: cfg.limits,
+            watchers: watchers.clone(),
+        };
+        let app = router(state);
+        let http_stop = stop.clone();
+        tasks.spawn(async move {
+            let shutdown = async move { http_stop.cancelled().await };
+            if let Err(e) = axum::serve(http, app).with_graceful_shutdown(shutdown).await {
+                eprintln!("sable serve: HTTP server: {e}");
+            }
+        });
+
+        let (health, health_service) = tonic_health::server::health_reporter();
+        health.set_serving::<SimulationsServer<SimulationsService>>().await;
+        health.set_serving::<WorkersServer<WorkersService>>().await;
+        let reflection = tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(sable_proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+            .build_v1()?;
+        let sims = SimulationsService { store: store.clone(), heartbeat: cfg.heartbeat, limits: cfg.limits, watchers };
+        let workers = WorkersService { store: store.clone(), lease_seconds: cfg.lease_ttl.as_secs_f64() };
+        let grpc_stop = stop.clone();
+        // Room for the largest scene accepted plus the rest of the request.
+        let max_message = cfg.limits.max_body_bytes + 64 * 1024;
+        tasks.spawn(async move {
+            let incoming = tokio_stream::wrappers::TcpListenerStream::new(grpc);
+            let r = tonic::transport::Server::builder()
+                .http2_keepalive_interval(Some(Duration::from_secs(30)))
+                .add_service(health_service)
+                .add_service(reflection)
+                .add_service(SimulationsServer::new(sims).max_decoding_message_size(max_message))
+                .add_service(WorkersServer::new(workers))
+                .serve_with_incoming_shutdown(incoming, async move { grpc_stop.cancelled().await })
+                .await;
+            if let Err(e) = r {
+                eprintln!("sable serve: gRPC server: {e}");
+            }
+        });
+        Ok(Self { http_addr, grpc_addr, store, stop, tasks, pool })
+    }
+
+    /// Stops: ends event streams, hands running jobs back to the queue (they are not counted as
+    /// attempts), stops the listeners and closes the database; waits at most about `grace`.
+    pub async fn shutdown(mut self, grace: Duration) {
+        self.store.closing.cancel();
+        if let Some(pool) = self.pool.take() {
+            pool.shutdown(grace).await;
+        }
+        self.stop.cancel();
+        let all = async { while self.tasks.join_next().await.is_some() {} };
+        if tokio::time::timeout(grace, all).await.is_err() {
+            self.tasks.abort_all();
+        }
+        self.store.close().await;
+    }
+
+    /// Simulates a crash for tests: stops everything at once without handing jobs back or
+    /// writing anything (the database is left as a killed process would leave it).
+    pub async fn abort(mut self) {
+        self.store.closing.cancel();
+        if let Some(pool) = self.pool.take() {
+            pool.abort();
+        }
+        self.stop.cancel();
+        self.tasks.abort_all();
+        while self.tasks.join_next().await.is_some() {}
+        self.store.close().await;
+    }
+}

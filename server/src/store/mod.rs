@@ -1,0 +1,544 @@
+//! The job store: jobs, their samples and their events in SQLite (WAL mode), with the queue
+//! operations workers use (lease, report, finish) fenced by lease ids. Schema: migrations/.
+//!
+//! All writes go through one connection (SQLite has one writer) in `BEGIN IMMEDIATE`
+//! transactions, so a read-then-write never fails with SQLITE_BUSY; reads use a pool of their
+//! own. Every committed change that adds events notifies [`JobStore::subscribe`]rs with the job id.
+
+mod rows;
+
+use std::path::Path;
+use std::time::Duration;
+
+use sable_engine::observe::Sample;
+use sable_worker::{JobSource, Lease, Outcome, Report, SourceError};
+use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
+use sqlx::{Row, Sqlite, Transaction};
+use tokio::sync::{broadcast, Notify};
+
+pub use rows::{EventRow, JobRow, JobState};
+
+/// The migrations of migrations/, embedded at build time.
+pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../migrations");
+
+/// Failures of the store.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// No job with that id.
+    #[error("job {0} not found")]
+    NotFound(i64),
+    /// The request conflicts with the job's state or an earlier request.
+    #[error("{0}")]
+    Conflict(String),
+    /// The database failed.
+    #[error("database error: {0}")]
+    Db(#[from] sqlx::Error),
+    /// A migration failed.
+    #[error("migration failed: {0}")]
+    Migrate(#[from] sqlx::migrate::MigrateError),
+}
+
+/// A job to insert.
+#[derive(Debug, Clone)]
+pub struct NewJob {
+    /// Display name.
+    pub name: String,
+    /// Canonical scene JSON.
+    pub scene: String,
+    /// SHA-256 of `scene`, hex.
+    pub scene_hash: String,
+    /// Method actually used, and why.
+    pub method: String,
+    /// Why that method.
+    pub method_reason: String,
+    /// Seed of the scene.
+    pub seed: u64,
+    /// Higher first.
+    pub priority: i64,
+    /// Leases allowed before the job fails.
+    pub max_attempts: u32,
+    /// Idempotency key, if given.
+    pub idempotency_key: Option<String>,
+}
+
+/// Filters of [`JobStore::list`].
+#[derive(Debug, Clone, Default)]
+pub struct ListFilter {
+    /// Only jobs in this state.
+    pub state: Option<JobState>,
+    /// Only jobs with this exact name.
+    pub name: Option<String>,
+    /// Only jobs of this method.
+    pub method: Option<String>,
+    /// Created at or after (ms).
+    pub created_after: Option<i64>,
+    /// Created before (ms).
+    pub created_before: Option<i64>,
+    /// Jobs with an id below this (the page token).
+    pub before_id: Option<i64>,
+    /// Page size.
+    pub limit: u32,
+}
+
+/// Lease settings.
+#[derive(Debug, Clone, Copy)]
+pub struct LeaseConfig {
+    /// How long a lease lasts without a report.
+    pub ttl: Duration,
+}
+
+/// The SQLite job store.
+#[derive(Debug, Clone)]
+pub struct JobStore {
+    writer: SqlitePool,
+    reader: SqlitePool,
+    events: broadcast::Sender<i64>,
+    /// Notified when a job is queued (wakes idle local workers).
+    pub queued: std::sync::Arc<Notify>,
+    /// Cancelled when the server shuts down: ends every event stream.
+    pub closing: tokio_util::sync::CancellationToken,
+    lease: LeaseConfig,
+}
+
+/// Milliseconds since the Unix epoch.
+pub fn now_ms() -> i64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as i64)
+}
+
+fn new_lease_id() -> String {
+    format!("{:032x}", rand::random::<u128>())
+}
+
+impl JobStore {
+    /// Opens (creating if needed) the database file at `path` and applies the migrations.
+    pub async fn open(path: &Path, lease: LeaseConfig) -> Result<Self, StoreError> {
+        let options = SqliteConnectOptions::new()
+            .filename(path)
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .busy_timeout(Duration::from_secs(30))
+            .foreign_keys(true);
+        let writer = SqlitePoolOptions::new().max_connections(1).connect_with(options.clone()).await?;
+        MIGRATOR.run(&writer).await?;
+        let reader = SqlitePoolOptions::new().max_connections(8).connect_with(options.read_only(true)).await?;
+        let (events, _) = broadcast::channel(1024);
+        Ok(Self { writer, reader, events, queued: Default::default(), closing: Default::default(), lease })
+    }
+
+    /// Closes both pools.
+    pub async fn close(&self) {
+        self.writer.close().await;
+        self.reader.close().await;
+    }
+
+    /// Receives the id of every job that gets new events.
+    pub fn subscribe(&self) -> broadcast::Receiver<i64> {
+        self.events.subscribe()
+    }
+
+    async fn begin(&self) -> Result<Transaction<'static, Sqlite>, StoreError> {
+        Ok(self.writer.begin_with("BEGIN IMMEDIATE").await?)
+    }
+
+    async fn append_event(
+        tx: &mut Transaction<'static, Sqlite>,
+        job: i64,
+        kind: &str,
+        payload: &serde_json::Value,
+    ) -> Result<i64, StoreError> {
+        let seq: i64 =
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) + 1 FROM job_events WHERE job_id = ?").bind(job).fetch_one(&mut **tx).await?;
+        sqlx::query("INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES (?, ?, ?, ?, ?)")
+            .bind(job)
+            .bind(seq)
+            .bind(now_ms())
+            .bind(kind)
+            .bind(payload.to_string())
+            .execute(&mut **tx)
+            .await?;
+        Ok(seq)
+    }
+
+    async fn state_event(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<(), StoreError> {
+        let r =
+            sqlx::query("SELECT state, attempts, error_code, error_message FROM jobs WHERE id = ?").bind(job).fetch_one(&mut **tx).await?;
+        let payload = serde_json::json!({
+            "state": r.get::<String, _>("state"),
+            "attempt": r.get::<i64, _>("attempts"),
+            "error_code": r.get::<Option<String>, _>("error_code"),
+            "error_message": r.get::<Option<String>, _>("error_message"),
+        });
+        Self::append_event(tx, job, "state", &payload).await?;
+        Ok(())
+    }
+
+    fn notify(&self, job: i64) {
+        let _ = self.events.send(job);
+    }
+
+    /// Inserts a job, or returns the job that an earlier request with the same idempotency key
+    /// created (`false` as second value). The same key with another scene is a conflict.
+    pub async fn submit(&self, new: NewJob) -> Result<(JobRow, bool), StoreError> {
+        let mut tx = self.begin().await?;
+        if let Some(key) = &new.idempotency_key {
+            let existing: Option<(i64, String)> =
+                sqlx::query_as("SELECT id, scene_hash FROM jobs WHERE idempotency_key = ?").bind(key).fetch_optional(&mut *tx).await?;
+            if let Some((id, hash)) = existing {
+                tx.rollback().await?;
+                if hash != new.scene_hash {
+                    return Err(StoreError::Conflict(format!(
+                        "Idempotency-Key '{key}' was used for job {id} with a different scene; use a new key for a new job"
+                    )));
+                }
+                return Ok((self.get(id).await?, false));
+            }
+        }
+        let id: i64 = sqlx::query_scalar(
+            "INSERT INTO jobs (name, state, priority, method, method_reason, scene, scene_hash, engine_version, seed, \
+             idempotency_key, max_attempts, created_at) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        )
+        .bind(&new.name)
+        .bind(new.priority)
+        .bind(&new.method)
+        .bind(&new.method_reason)
+        .bind(&new.scene)
+        .bind(&new.scene_hash)
+        .bind(sable_engine::VERSION)
+        .bind(new.seed as i64)
+        .bind(&new.idempotency_key)
+        .bind(new.max_attempts as i64)
+        .bind(now_ms())
+        .fetch_one(&mut *tx)
+        .await?;
+        Self::state_event(&mut tx, id).await?;
+        tx.commit().await?;
+        self.notify(id);
+        self.queued.notify_one();
+        Ok((self.get(id).await?, true))
+    }
+
+    /// One job.
+    pub async fn get(&self, id: i64) -> Result<JobRow, StoreError> {
+        let sql = format!("{} WHERE j.id = ?", rows::JOB_SELECT);
+        sqlx::query_as::<_, JobRow>(&sql).bind(id).fetch_optional(&self.reader).await?.ok_or(StoreError::NotFound(id))
+    }
+
+    /// Jobs matching the filter, newest first.
+    pub async fn list(&self, f: &ListFilter) -> Result<Vec<JobRow>, StoreError> {
+        let mut q = sqlx::QueryBuilder::<Sqlite>::new(rows::JOB_SELECT);
+        q.push(" WHERE 1 = 1");
+        if let Some(s) = f.state {
+            q.push(" AND j.state = ").push_bind(s.as_str());
+        }
+        if let Some(n) = &f.name {
+            q.push(" AND j.name = ").push_bind(n.clone());
+        }
+        if let Some(m) = &f.method {
+            q.push(" AND j.method = ").push_bind(m.clone());
+        }
+        if let Some(t) = f.created_after {
+            q.push(" AND j.created_at >= ").push_bind(t);
+        }
+        if let Some(t) = f.created_before {
+            q.push(" AND j.created_at < ").push_bind(t);
+        }
+        if let Some(id) = f.before_id {
+            q.push(" AND j.id < ").push_bind(id);
+        }
+        q.push(" ORDER BY j.id DESC LIMIT ").push_bind(f.limit as i64);
+        Ok(q.build_query_as::<JobRow>().fetch_all(&self.reader).await?)
+    }
+
+    /// Cancels a job: a queued one at once, a running one at its worker's next report.
+    pub async fn cancel(&self, id: i64) -> Result<JobRow, StoreError> {
+        let mut tx = self.begin().await?;
+        let state: Option<String> = sqlx::query_scalar("SELECT state FROM jobs WHERE id = ?").bind(id).fetch_optional(&mut *tx).await?;
+        let state = state.ok_or(StoreError::NotFound(id))?;
+        match JobState::parse(&state) {
+            Some(JobState::Queued) => {
+                sqlx::query("UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1 WHERE id = ?")
+                    .bind(now_ms())
+                    .bind(id)
+                    .execute(&mut *tx)
+                    .await?;
+                Self::state_event(&mut tx, id).await?;
+            }
+            Some(JobState::Running) => {
+                sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ?").bind(id).execute(&mut *tx).await?;
+            }
+            _ => {
+                tx.rollback().await?;
+                return Err(StoreError::Conflict(format!(
+                    "job {id} has already ended ({state}); only queued or running jobs can be cancelled"
+                )));
+            }
+        }
+        tx.commit().await?;
+        self.notify(id);
+        self.get(id).await
+    }
+
+    /// Samples of a job in a step range, in order.
+    pub async fn samples(&self, id: i64, from_step: u64, to_step: Option<u64>) -> Result<Vec<Sample>, StoreError> {
+        self.get(id).await?;
+        let rows: Vec<String> = sqlx::query_scalar("SELECT data FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
+            .bind(id)
+            .bind(from_step as i64)
+            .bind(to_step.map_or(i64::MAX, |s| s.min(i64::MAX as u64) as i64))
+            .fetch_all(&self.reader)
+            .await?;
+        let mut out = Vec::with_capacity(rows.len());
+        for r in rows {
+            out.push(serde_json::from_str(&r).map_err(|e| sqlx::Error::Decode(Box::new(e)))?);
+        }
+        Ok(out)
+    }
+
+    /// Events of a job with seq > `after`, in order (at most `limit`).
+    pub async fn events_after(&self, id: i64, after: i64, limit: i64) -> Result<Vec<EventRow>, StoreError> {
+        Ok(sqlx::query_as::<_, EventRow>(
+            "SELECT job_id, seq, at, kind, payload FROM job_events WHERE job_id = ? AND seq > ? ORDER BY seq LIMIT ?",
+        )
+        .bind(id)
+        .bind(after)
+        .bind(limit)
+        .fetch_all(&self.reader)
+        .await?)
+    }
+
+    /// Jobs by state, for metrics.
+    pub async fn count_by_state(&self) -> Result<Vec<(String, i64)>, StoreError> {
+        Ok(sqlx::query_as("SELECT state, COUNT(*) FROM jobs GROUP BY state").fetch_all(&self.reader).await?)
+    }
+
+    /// Run durations (s) of finished jobs, for metrics.
+    pub async fn durations(&self) -> Result<Vec<(String, f64)>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT state, (finished_at - started_at) / 1000.0 FROM jobs WHERE finished_at IS NOT NULL AND started_at IS NOT NULL",
+        )
+        .fetch_all(&self.reader)
+        .await?)
+    }
+
+    /// Puts back in the queue every running job whose lease has expired (or, with
+    /// `owner_prefix`, that is held by a worker of that name: the local pool of a server that
+    /// stopped without handing its jobs back). A job out of attempts fails with `worker_lost`.
+    pub async fn requeue_expired(&self, owner_prefix: Option<&str>) -> Result<usize, StoreError> {
+        let mut tx = self.begin().await?;
+        let ids: Vec<(i64, i64, i64)> = match owner_prefix {
+            None => {
+                sqlx::query_as("SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND lease_expires_at < ?")
+                    .bind(now_ms())
+                    .fetch_all(&mut *tx)
+                    .await?
+            }
+            Some(p) => {
+                sqlx::query_as(
+                    "SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND substr(lease_owner, 1, length(?)) = ?",
+                )
+                .bind(p)
+                .bind(p)
+                .fetch_all(&mut *tx)
+                .await?
+            }
+        };
+        for &(id, attempts, max) in &ids {
+            if attempts < max {
+                sqlx::query("UPDATE jobs SET state = 'queued', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL WHERE id = ?")
+                    .bind(id)
+                    .execute(&mut *tx)
+                    .await?;
+            } else {
+                sqlx::query(
+                    "UPDATE jobs SET state = 'failed', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL, finished_at = ?, \
+                     error_code = 'worker_lost', error_message = ? WHERE id = ?",
+                )
+                .bind(now_ms())
+                .bind(format!("the worker running the job stopped answering, {attempts} time(s) out of {max} allowed attempts"))
+                .bind(id)
+                .execute(&mut *tx)
+                .await?;
+            }
+            Self::state_event(&mut tx, id).await?;
+        }
+        tx.commit().await?;
+        for &(id, _, _) in &ids {
+            self.notify(id);
+        }
+        if !ids.is_empty() {
+            self.queued.notify_waiters();
+        }
+        Ok(ids.len())
+    }
+
+    /// Leases the next queued job (highest priority, then oldest) to `owner`.
+    pub async fn lease_next(&self, owner: &str) -> Result<Option<Lease>, StoreError> {
+        let mut tx = self.begin().await?;
+        let lease_id = new_lease_id();
+        let now = now_ms();
+        let row: Option<(i64, String, i64)> = sqlx::query_as(
+            "UPDATE jobs SET state = 'running', lease_id = ?, lease_owner = ?, lease_expires_at = ?, attempts = attempts + 1, \
+             started_at = COALESCE(started_at, ?), progress = 0 \
+             WHERE id = (SELECT id FROM jobs WHERE state = 'queued' ORDER BY priority DESC, id LIMIT 1) \
+             RETURNING id, scene, attempts",
+        )
+        .bind(&lease_id)
+        .bind(owner)
+        .bind(now + self.lease.ttl.as_millis() as i64)
+        .bind(now)
+        .fetch_optional(&mut *tx)
+        .await?;
+        let Some((id, scene, attempts)) = row else {
+            tx.rollback().await?;
+            return Ok(None);
+        };
+        // A new attempt starts from scratch: samples of an earlier attempt are dropped.
+        sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
+        Self::state_event(&mut tx, id).await?;
+        tx.commit().await?;
+        self.notify(id);
+        Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32 }))
+    }
+
+    /// Checks the lease inside a transaction; renews it.
+    async fn hold(&self, tx: &mut Transaction<'static, Sqlite>, lease: &Lease) -> Result<bool, StoreError> {
+        let r: Option<i64> = sqlx::query_scalar(
+            "UPDATE jobs SET lease_expires_at = ? WHERE id = ? AND lease_id = ? AND state = 'running' RETURNING cancel_requested",
+        )
+        .bind(now_ms() + self.lease.ttl.as_millis() as i64)
+        .bind(lease.job_id)
+        .bind(&lease.lease_id)
+        .fetch_optional(&mut **tx)
+        .await?;
+        r.map(|c| c != 0).ok_or_else(|| StoreError::Conflict(format!("lease {} of job {} is no longer held", lease.lease_id, lease.job_id)))
+    }
+
+    /// Stores a worker's report (fenced by its lease). Returns true if the job was cancelled.
+    pub async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, StoreError> {
+        let mut tx = self.begin().await?;
+        let cancel = self.hold(&mut tx, lease).await?;
+        let mut seq: i64 =
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM samples WHERE job_id = ?").bind(lease.job_id).fetch_one(&mut *tx).await?;
+        for s in &report.samples {
+            seq += 1;
+            let data = serde_json::to_string(s).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
+            sqlx::query(
+                "INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, mu, p, q, inertial_number, kinetic_energy, \
+                 elastic_energy, data) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(lease.job_id)
+            .bind(seq)
+            .bind(s.step as i64)
+            .bind(s.time)
+            .bind(s.phi)
+            .bind(s.z)
+            .bind(s.z_no_rattlers)
+            .bind(s.mu)
+            .bind(s.p)
+            .bind(s.q)
+            .bind(s.inertial_number)
+            .bind(s.kinetic_energy)
+            .bind(s.elastic_energy)
+            .bind(data)
+            .execute(&mut *tx)
+            .await?;
+        }
+        // One sample event per sample, carrying the progress of the batch.
+        for s in &report.samples {
+            let payload = serde_json::json!({"fraction": report.fraction, "remaining_seconds": report.remaining_seconds, "sample": s});
+            Self::append_event(&mut tx, lease.job_id, "sample", &payload).await?;
+        }
+        sqlx::query("UPDATE jobs SET progress = ?, steps = MAX(steps, ?) WHERE id = ?")
+            .bind(report.fraction.clamp(0.0, 1.0))
+            .bind(report.samples.last().map_or(0, |s| s.step as i64))
+            .bind(lease.job_id)
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        if !report.samples.is_empty() {
+            self.notify(lease.job_id);
+        }
+        Ok(cancel)
+    }
+
+    /// Ends a lease with its outcome (fenced by the lease).
+    pub async fn finish(&self, lease: &Lease, outcome: &Outcome) -> Result<(), StoreError> {
+        let mut tx = self.begin().await?;
+        self.hold(&mut tx, lease).await?;
+        let now = now_ms();
+        let clear = "lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL";
+        match outcome {
+            Outcome::Succeeded { steps, wall_seconds } => {
+                sqlx::query(&format!(
+                    "UPDATE jobs SET state = 'succeeded', progress = 1, steps = ?, wall_seconds = ?, finished_at = ?, {clear} WHERE id = ?"
+                ))
+                .bind(*steps as i64)
+                .bind(wall_seconds)
+                .bind(now)
+                .bind(lease.job_id)
+                .execute(&mut *tx)
+                .await?;
+            }
+            Outcome::Failed { code, message, steps, wall_seconds } => {
+                sqlx::query(&format!(
+                    "UPDATE jobs SET state = 'failed', error_code = ?, error_message = ?, steps = ?, wall_seconds = ?, finished_at = ?, {clear} WHERE id = ?"
+                ))
+                .bind(code)
+                .bind(message)
+                .bind(*steps as i64)
+                .bind(wall_seconds)
+                .bind(now)
+                .bind(lease.job_id)
+                .execute(&mut *tx)
+                .await?;
+            }
+            Outcome::Cancelled => {
+                sqlx::query(&format!(
+                    "UPDATE jobs SET state = 'cancelled', error_code = 'cancelled', error_message = 'cancelled by the user', finished_at = ?, {clear} WHERE id = ?"
+                ))
+                .bind(now)
+                .bind(lease.job_id)
+                .execute(&mut *tx)
+                .await?;
+            }
+            Outcome::Released => {
+                // Handed back by a worker that is shutting down: not the job's fault.
+                sqlx::query(&format!(
+                    "UPDATE jobs SET state = 'queued', attempts = MAX(attempts - 1, 0), progress = 0, {clear} WHERE id = ?"
+                ))
+                .bind(lease.job_id)
+                .execute(&mut *tx)
+                .await?;
+            }
+        }
+        Self::state_event(&mut tx, lease.job_id).await?;
+        tx.commit().await?;
+        self.notify(lease.job_id);
+        if matches!(outcome, Outcome::Released) {
+            self.queued.notify_one();
+        }
+        Ok(())
+    }
+}
+
+fn source_error(e: StoreError, lease: Option<&Lease>) -> SourceError {
+    match (e, lease) {
+        (StoreError::Conflict(_), Some(l)) => SourceError::LeaseLost { job_id: l.job_id, lease_id: l.lease_id.clone() },
+        (e, _) => SourceError::Unavailable(e.to_string()),
+    }
+}
+
+impl JobSource for JobStore {
+    async fn lease(&self, worker: &str) -> Result<Option<Lease>, SourceError> {
+        self.lease_next(worker).await.map_err(|e| source_error(e, None))
+    }
+
+    async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, SourceError> {
+        JobStore::report(self, lease, report).await.map_err(|e| source_error(e, Some(lease)))
+    }
+
+    async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {
+        JobStore::finish(self, lease, &outcome).await.map_err(|e| source_error(e, Some(lease)))
+    }
+}

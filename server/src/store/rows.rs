@@ -1,0 +1,119 @@
+//! Rows of the job store as Rust values.
+
+/// The state of a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JobState {
+    /// Waiting for a worker.
+    Queued,
+    /// Leased by a worker.
+    Running,
+    /// Ran to its stop criteria.
+    Succeeded,
+    /// Stopped with an error, or ran out of attempts.
+    Failed,
+    /// Cancelled by the user.
+    Cancelled,
+}
+
+impl JobState {
+    /// All states.
+    pub const ALL: [JobState; 5] = [Self::Queued, Self::Running, Self::Succeeded, Self::Failed, Self::Cancelled];
+
+    /// Name as stored and as shown by the APIs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Queued => "queued",
+            Self::Running => "running",
+            Self::Succeeded => "succeeded",
+            Self::Failed => "failed",
+            Self::Cancelled => "cancelled",
+        }
+    }
+
+    /// Parses a state name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|x| x.as_str() == s)
+    }
+
+    /// True for succeeded, failed and cancelled.
+    pub fn is_terminal(self) -> bool {
+        matches!(self, Self::Succeeded | Self::Failed | Self::Cancelled)
+    }
+}
+
+/// The columns of a job the APIs show.
+pub(crate) const JOB_SELECT: &str = "SELECT j.id, j.name, j.state, j.priority, j.method, j.method_reason, j.scene, j.scene_hash, \
+     j.engine_version, j.seed, j.attempts, j.max_attempts, j.progress, j.created_at, j.started_at, j.finished_at, j.error_code, \
+     j.error_message, j.steps, j.wall_seconds, j.cancel_requested, \
+     (SELECT COUNT(*) FROM samples s WHERE s.job_id = j.id) AS sample_count FROM jobs j";
+
+/// One job.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct JobRow {
+    /// Id.
+    pub id: i64,
+    /// Name.
+    pub name: String,
+    /// State name (see [`JobState`]).
+    pub state: String,
+    /// Priority (higher first).
+    pub priority: i64,
+    /// Method used.
+    pub method: String,
+    /// Why that method.
+    pub method_reason: String,
+    /// Canonical scene JSON.
+    pub scene: String,
+    /// SHA-256 of the scene, hex.
+    pub scene_hash: String,
+    /// Engine version.
+    pub engine_version: String,
+    /// Seed (stored as the bits of a u64).
+    pub seed: i64,
+    /// Leases taken.
+    pub attempts: i64,
+    /// Leases allowed.
+    pub max_attempts: i64,
+    /// Fraction done.
+    pub progress: f64,
+    /// Times, ms since the epoch.
+    pub created_at: i64,
+    /// Start of the first attempt.
+    pub started_at: Option<i64>,
+    /// End.
+    pub finished_at: Option<i64>,
+    /// Error code.
+    pub error_code: Option<String>,
+    /// Error message.
+    pub error_message: Option<String>,
+    /// Steps done.
+    pub steps: i64,
+    /// Wall-clock seconds of the run.
+    pub wall_seconds: f64,
+    /// Cancellation asked.
+    pub cancel_requested: i64,
+    /// Samples stored.
+    pub sample_count: i64,
+}
+
+impl JobRow {
+    /// The state, typed.
+    pub fn job_state(&self) -> JobState {
+        JobState::parse(&self.state).unwrap_or(JobState::Failed)
+    }
+}
+
+/// One stored event.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct EventRow {
+    /// Job.
+    pub job_id: i64,
+    /// Sequence number within the job, from 1.
+    pub seq: i64,
+    /// When, ms since the epoch.
+    pub at: i64,
+    /// `state` or `sample`.
+    pub kind: String,
+    /// JSON payload.
+    pub payload: String,
+}

@@ -1,0 +1,97 @@
+//! Following a job's events: the stored events after a sequence number, then live ones as they
+//! are committed, with heartbeats while idle, until the job's final state. Shared by gRPC
+//! `WatchJob` and the REST Server-Sent Events mirror.
+//!
+//! Only stored events go on the wire, so a watcher that falls behind, or reconnects with the
+//! last sequence number it saw, misses nothing: it subscribes to notifications first, then reads
+//! the table, and every notification (or a lagged channel) means "read the table again".
+
+use std::time::Duration;
+
+use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::mpsc;
+
+use crate::api::ApiError;
+use crate::store::{EventRow, JobState, JobStore};
+
+/// What a watcher receives.
+#[derive(Debug, Clone, PartialEq)]
+pub enum WatchItem {
+    /// A stored event.
+    Event(EventRow),
+    /// Nothing happened for a while (not stored, no sequence number).
+    Heartbeat,
+}
+
+/// True if the event is a change to a final state (the last event a job has).
+pub fn is_final(e: &EventRow) -> bool {
+    e.kind == "state"
+        && serde_json::from_str::<serde_json::Value>(&e.payload)
+            .ok()
+            .and_then(|v| v.get("state").and_then(|s| s.as_str()).and_then(JobState::parse))
+            .is_some_and(JobState::is_terminal)
+}
+
+/// Starts following job `id` from events after `after`. Fails at once if the job does not exist.
+pub async fn watch(
+    store: &JobStore,
+    id: i64,
+    after: i64,
+    heartbeat: Duration,
+) -> Result<mpsc::Receiver<Result<WatchItem, ApiError>>, ApiError> {
+    let mut notices = store.subscribe();
+    let job = store.get(id).await?;
+    let (tx, rx) = mpsc::channel(32);
+    let store = store.clone();
+    tokio::spawn(async move {
+        let mut last = after;
+        let mut first = true;
+        loop {
+            let events = match store.events_after(id, last, 256).await {
+                Ok(e) => e,
+                Err(e) => {
+                    let _ = tx.send(Err(e.into())).await;
+                    return;
+                }
+            };
+            let full = events.len() == 256;
+            for e in events {
+                last = e.seq;
+                let done = is_final(&e);
+                if tx.send(Ok(WatchItem::Event(e))).await.is_err() || done {
+                    return;
+                }
+            }
+            if full {
+                continue;
+            }
+            if first && job.job_state().is_terminal() && last >= after {
+                // Watching a finished job from past its last event: nothing will come.
+                let max = store.events_after(id, last, 1).await.map(|v| v.is_empty()).unwrap_or(true);
+                if max {
+                    return;
+                }
+            }
+            first = false;
+            // Wait for news of this job, a heartbeat, or the watcher leaving.
+            loop {
+                tokio::select! {
+                    n = notices.recv() => match n {
+                        Ok(j) if j == id => break,
+                        Ok(_) => {}
+                        Err(RecvError::Lagged(_)) => break,
+                        Err(RecvError::Closed) => return,
+                    },
+                    _ = tokio::time::sleep(heartbeat) => {
+                        if tx.send(Ok(WatchItem::Heartbeat)).await.is_err() {
+                            return;
+                        }
+                    }
+                    _ = tx.closed() => return,
+                    _ = store.closing.cancelled() => return,
+                }
+            }
+        }
+    });
+    Ok(rx)
+}

@@ -1,0 +1,489 @@
+//! End-to-end tests of the service: a server started in-process on free ports with a temporary
+//! database, driven over HTTP and gRPC as users and remote workers would.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use sable_proto::v1 as pb;
+use sable_proto::v1::simulations_client::SimulationsClient;
+use sable_server::{ServeConfig, Server};
+use serde_json::{json, Value};
+use tonic::transport::Channel;
+
+/// A small 2D scene: `steps` steps of a few disks settling, a sample every 100 steps.
+fn scene(steps: u64, seed: u64) -> Value {
+    json!({
+        "name": "settle",
+        "dimension": 2,
+        "method": "dem",
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "glass", "count": 30, "size": {"kind": "monodisperse", "diameter": 1e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+        "gravity": [0, -9.81],
+        "stop": {"steps": steps},
+        "sampling": {"every_steps": 100},
+        "seed": seed
+    })
+}
+
+struct Harness {
+    server: Option<Server>,
+    dir: tempfile::TempDir,
+    http: reqwest::Client,
+    base: String,
+}
+
+fn config(dir: &tempfile::TempDir, workers: usize) -> ServeConfig {
+    ServeConfig {
+        db: dir.path().join("sable.db"),
+        http: "127.0.0.1:0".parse().expect("addr"),
+        grpc: "127.0.0.1:0".parse().expect("addr"),
+        workers,
+        threads_per_job: 1,
+        lease_ttl: Duration::from_secs(2),
+        report_interval: Duration::from_millis(100),
+        heartbeat: Duration::from_millis(500),
+        limits: sable_server::api::Limits { max_particles: 10_000, max_steps: 2_000_000_000, max_body_bytes: 64 * 1024, max_watchers: 2 },
+    }
+}
+
+impl Harness {
+    async fn start(workers: usize) -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        Self::start_in(dir, workers).await
+    }
+
+    async fn start_in(dir: tempfile::TempDir, workers: usize) -> Self {
+        let server = Server::start(config(&dir, workers)).await.expect("server starts");
+        let base = format!("http://{}", server.http_addr);
+        Self { server: Some(server), dir, http: reqwest::Client::new(), base }
+    }
+
+    fn server(&self) -> &Server {
+        self.server.as_ref().expect("running")
+    }
+
+    async fn grpc(&self) -> SimulationsClient<Channel> {
+        SimulationsClient::connect(format!("http://{}", self.server().grpc_addr)).await.expect("gRPC connects")
+    }
+
+    async fn post(&self, path: &str, body: &Value, key: Option<&str>) -> (u16, Value) {
+        let mut r = self.http.post(format!("{}{path}", self.base)).json(body);
+        if let Some(k) = key {
+            r = r.header("Idempotency-Key", k);
+        }
+        let resp = r.send().await.expect("HTTP answers");
+        let status = resp.status().as_u16();
+        (status, resp.json().await.unwrap_or(Value::Null))
+    }
+
+    async fn get(&self, path: &str) -> (u16, Value) {
+        let resp = self.http.get(format!("{}{path}", self.base)).send().await.expect("HTTP answers");
+        let status = resp.status().as_u16();
+        (status, resp.json().await.unwrap_or(Value::Null))
+    }
+
+    async fn wait_state(&self, id: i64, states: &[&str], timeout: Duration) -> Value {
+        let start = Instant::now();
+        loop {
+            let (_, job) = self.get(&format!("/v1/jobs/{id}")).await;
+            if states.contains(&job["state"].as_str().unwrap_or_default()) {
+                return job;
+            }
+            assert!(start.elapsed() < timeout, "job {id} did not reach {states:?} in {timeout:?}: {job}");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
+    async fn jobs_in_db(&self) -> i64 {
+        let url = format!("sqlite://{}?mode=ro", self.dir.path().join("sable.db").display());
+        let pool = sqlx::SqlitePool::connect(&url).await.expect("open db");
+        let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs").fetch_one(&pool).await.expect("count");
+        pool.close().await;
+        n
+    }
+}
+
+async fn watch_all(client: &mut SimulationsClient<Channel>, id: i64, after: u64) -> Vec<pb::JobEvent> {
+    let mut stream = client.watch_job(pb::WatchJobRequest { id, after_seq: after }).await.expect("watch starts").into_inner();
+    let mut out = Vec::new();
+    while let Some(ev) =
+        tokio::time::timeout(Duration::from_secs(60), stream.message()).await.expect("events keep coming").expect("stream ok")
+    {
+        out.push(ev);
+    }
+    out
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn submit_over_http_watch_over_grpc_and_read_samples() {
+    let h = Harness::start(1).await;
+    let (status, job) = h.post("/v1/jobs", &json!({"scene": scene(1000, 1), "name": "first", "priority": 2}), None).await;
+    assert_eq!(status, 201, "{job}");
+    assert_eq!(job["state"], "queued");
+    assert_eq!(job["name"], "first");
+    assert_eq!(job["method"], "dem");
+    let id = job["id"].as_i64().expect("id");
+
+    let mut client = h.grpc().await;
+    let events = watch_all(&mut client, id, 0).await;
+    let seqs: Vec<u64> = events.iter().map(|e| e.seq).collect();
+    assert_eq!(seqs, (1..=seqs.len() as u64).collect::<Vec<_>>(), "numbered without gaps");
+    let states: Vec<i32> = events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            Some(pb::job_event::Kind::State(s)) => Some(s.state),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(states, vec![pb::JobState::Queued as i32, pb::JobState::Running as i32, pb::JobState::Succeeded as i32]);
+    let sample_events: Vec<&pb::SampleEvent> = events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            Some(pb::job_event::Kind::Sample(s)) => Some(s),
+            _ => None,
+        })
+        .collect();
+    // Samples at steps 0, 100, ..., 1000.
+    assert_eq!(sample_events.len(), 11);
+    assert_eq!(sample_events.last().and_then(|s| s.sample.as_ref()).map(|s| s.step), Some(1000));
+    assert!((sample_events.last().map_or(0.0, |s| s.fraction) - 1.0).abs() < 1e-12);
+
+    let (status, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    assert_eq!(status, 200);
+    let samples = body["samples"].as_array().expect("samples");
+    assert_eq!(samples.len(), 11);
+    for key in ["step", "time", "phi", "z", "z_no_rattlers", "mu", "p", "q", "stress", "kinetic_energy", "elastic_energy", "walls"] {
+        assert!(samples[0].get(key).is_some(), "sample has {key}");
+    }
+    let (_, down) = h.get(&format!("/v1/jobs/{id}/samples?max_points=3&from_step=100")).await;
+    let steps: Vec<u64> = down["samples"].as_array().expect("samples").iter().map(|s| s["step"].as_u64().unwrap_or(0)).collect();
+    // 10 samples from step 100 kept at indices round(k 9 / 2), halves rounded up: 0, 5, 9.
+    assert_eq!(steps, vec![100, 600, 1000]);
+    let csv = h.http.get(format!("{}/v1/jobs/{id}/samples?format=csv", h.base)).send().await.expect("csv").text().await.expect("text");
+    let mut lines = csv.lines();
+    assert!(lines.next().unwrap_or_default().starts_with("step,time,phi,z,z_no_rattlers,mu,p,q,stress_xx"));
+    assert_eq!(lines.count(), 11);
+
+    // The same numbers are in the database file, readable with any SQLite tool.
+    let url = format!("sqlite://{}?mode=ro", h.dir.path().join("sable.db").display());
+    let pool = sqlx::SqlitePool::connect(&url).await.expect("open db");
+    let (n, last_step): (i64, i64) =
+        sqlx::query_as("SELECT COUNT(*), MAX(step) FROM samples WHERE job_id = ?").bind(id).fetch_one(&pool).await.expect("query");
+    assert_eq!((n, last_step), (11, 1000));
+    pool.close().await;
+
+    let (_, job) = h.get(&format!("/v1/jobs/{id}")).await;
+    assert_eq!(job["state"], "succeeded");
+    assert_eq!(job["steps"], 1000);
+    assert_eq!(job["attempts"], 1);
+    assert_eq!(job["sample_count"], 11);
+    assert!(job["finished_at"].is_string());
+    let grpc_job = client.get_job(pb::GetJobRequest { id }).await.expect("get").into_inner();
+    assert_eq!(grpc_job.state(), pb::JobState::Succeeded);
+    assert_eq!(grpc_job.sample_count, 11);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_same_idempotency_key_returns_the_same_job() {
+    let h = Harness::start(0).await;
+    let (s1, j1) = h.post("/v1/jobs", &scene(100, 1), Some("key-1")).await;
+    let (s2, j2) = h.post("/v1/jobs", &scene(100, 1), Some("key-1")).await;
+    assert_eq!((s1, s2), (201, 200));
+    assert_eq!(j1["id"], j2["id"]);
+    let (s3, err) = h.post("/v1/jobs", &scene(100, 2), Some("key-1")).await;
+    assert_eq!(s3, 409, "{err}");
+    assert_eq!(err["code"], "conflict");
+    // gRPC request_id is the same key space.
+    let mut client = h.grpc().await;
+    let j = client
+        .submit_job(pb::SubmitJobRequest { scene_json: scene(100, 1).to_string(), request_id: "key-1".into(), ..Default::default() })
+        .await
+        .expect("submit")
+        .into_inner();
+    assert_eq!(Some(j.id), j1["id"].as_i64());
+    assert_eq!(h.jobs_in_db().await, 1);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancelling_a_running_job_stops_it_within_a_second() {
+    let h = Harness::start(1).await;
+    let (_, job) = h.post("/v1/jobs", &scene(1_000_000_000, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    h.wait_state(id, &["running"], Duration::from_secs(10)).await;
+    let asked = Instant::now();
+    let (status, job) = h.post(&format!("/v1/jobs/{id}:cancel"), &json!({}), None).await;
+    assert_eq!(status, 200, "{job}");
+    let job = h.wait_state(id, &["cancelled"], Duration::from_secs(5)).await;
+    let took = asked.elapsed();
+    assert!(took < Duration::from_secs(1), "cancellation took {took:?}");
+    assert_eq!(job["error"]["code"], "cancelled");
+    // A finished job cannot be cancelled again.
+    let (status, err) = h.post(&format!("/v1/jobs/{id}:cancel"), &json!({}), None).await;
+    assert_eq!(status, 409, "{err}");
+    // A queued job is cancelled at once.
+    let h0 = Harness::start(0).await;
+    let (_, q) = h0.post("/v1/jobs", &scene(100, 1), None).await;
+    let (_, c) = h0.post(&format!("/v1/jobs/{}:cancel", q["id"]), &json!({}), None).await;
+    assert_eq!(c["state"], "cancelled");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_that_stops_reporting_loses_its_job_to_another() {
+    // No local workers: a "remote" worker leases the job and goes silent.
+    let h = Harness::start(0).await;
+    let (_, job) = h.post("/v1/jobs", &scene(500, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    let store = h.server().store.clone();
+    let dead = store.lease_next("remote:dead").await.expect("lease").expect("a job");
+    assert_eq!(dead.job_id, id);
+    // The lease (2 s) expires; the reaper puts the job back in the queue.
+    h.wait_state(id, &["queued"], Duration::from_secs(6)).await;
+    // A live remote worker pool, over gRPC, takes it and finishes it.
+    let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
+    let mut pc = sable_worker::PoolConfig::new("alive", 1);
+    pc.report_interval = Duration::from_millis(100);
+    let pool = sable_worker::Pool::start(Arc::new(remote), pc, Arc::new(tokio::sync::Notify::new()));
+    let job = h.wait_state(id, &["succeeded"], Duration::from_secs(20)).await;
+    assert_eq!(job["attempts"], 2);
+    assert_eq!(job["sample_count"], 6);
+    // The silent worker's late writes are refused (fenced by its lease).
+    let late = store.report(&dead, &sable_worker::Report { fraction: 1.0, ..Default::default() }).await;
+    assert!(late.is_err(), "a lost lease must not write");
+    pool.shutdown(Duration::from_secs(2)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_server_finishes_the_job_that_was_running() {
+    let h = Harness::start(1).await;
+    let (_, job) = h.post("/v1/jobs", &scene(3000, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    h.wait_state(id, &["running"], Duration::from_secs(10)).await;
+    // Crash: nothing is handed back.
+    let Harness { server, dir, .. } = h;
+    server.expect("running").abort().await;
+    let h = Harness::start_in(dir, 1).await;
+    let job = h.wait_state(id, &["succeeded"], Duration::from_secs(30)).await;
+    assert_eq!(job["attempts"], 2);
+    assert_eq!(job["steps"], 3000);
+    // Samples of the interrupted attempt were replaced, not duplicated.
+    assert_eq!(job["sample_count"], 31);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stopped_server_hands_back_its_running_job_without_counting_an_attempt() {
+    let h = Harness::start(1).await;
+    let (_, job) = h.post("/v1/jobs", &scene(1_000_000_000, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    h.wait_state(id, &["running"], Duration::from_secs(10)).await;
+    let mut client = h.grpc().await;
+    let mut watch = client.watch_job(pb::WatchJobRequest { id, after_seq: 0 }).await.expect("watch").into_inner();
+    let Harness { server, dir, .. } = h;
+    let stopping = Instant::now();
+    server.expect("running").shutdown(Duration::from_secs(5)).await;
+    assert!(stopping.elapsed() < Duration::from_secs(5), "shutdown took {:?}", stopping.elapsed());
+    // Open streams are closed by the shutdown.
+    let ended = tokio::time::timeout(Duration::from_secs(5), async { while let Ok(Some(_)) = watch.message().await {} }).await;
+    assert!(ended.is_ok(), "the watch stream stayed open after shutdown");
+    let h = Harness::start_in(dir, 0).await;
+    let (_, job) = h.get(&format!("/v1/jobs/{id}")).await;
+    assert_eq!(job["state"], "queued", "{job}");
+    assert_eq!(job["attempts"], 0, "a hand-back is not an attempt: {job}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fifty_concurrent_submissions_all_finish_once() {
+    let h = Arc::new(Harness::start(2).await);
+    let mut tasks = Vec::new();
+    for k in 0..50u64 {
+        let h = h.clone();
+        tasks.push(tokio::spawn(async move {
+            let (s, j) = h.post("/v1/jobs", &scene(200, k), Some(&format!("batch-{k}"))).await;
+            assert_eq!(s, 201, "{j}");
+            j["id"].as_i64().expect("id")
+        }));
+    }
+    let mut ids = BTreeSet::new();
+    for t in tasks {
+        ids.insert(t.await.expect("task"));
+    }
+    assert_eq!(ids.len(), 50);
+    for &id in &ids {
+        let job = h.wait_state(id, &["succeeded", "failed", "cancelled"], Duration::from_secs(120)).await;
+        assert_eq!(job["state"], "succeeded", "{job}");
+        assert_eq!(job["attempts"], 1);
+        assert_eq!(job["sample_count"], 3);
+    }
+    assert_eq!(h.jobs_in_db().await, 50);
+    let (_, page) = h.get("/v1/jobs?state=succeeded&page_size=20").await;
+    assert_eq!(page["jobs"].as_array().map(Vec::len), Some(20));
+    let mut seen = 0;
+    let mut token = String::new();
+    loop {
+        let (_, page) = h.get(&format!("/v1/jobs?page_size=20&page_token={token}")).await;
+        seen += page["jobs"].as_array().map_or(0, Vec::len);
+        token = page["next_page_token"].as_str().unwrap_or_default().to_string();
+        if token.is_empty() {
+            break;
+        }
+    }
+    assert_eq!(seen, 50);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
+    let h = Harness::start(1).await;
+    let (_, job) = h.post("/v1/jobs", &scene(1000, 3), None).await;
+    let id = job["id"].as_i64().expect("id");
+    let mut client = h.grpc().await;
+    // Resume from 4 while the job runs; then read it all once it is done.
+    let tail = watch_all(&mut client, id, 4).await;
+    let all = watch_all(&mut client, id, 0).await;
+    assert_eq!(tail.first().map(|e| e.seq), Some(5));
+    assert_eq!(all[4..].iter().map(|e| e.seq).collect::<Vec<_>>(), tail.iter().map(|e| e.seq).collect::<Vec<_>>());
+    assert_eq!(all[4..], tail[..]);
+    // SSE mirrors it.
+    let text = h.http.get(format!("{}/v1/jobs/{id}/events?after_seq=4", h.base)).send().await.expect("sse").text().await.expect("body");
+    let ids: Vec<u64> = text.lines().filter_map(|l| l.strip_prefix("id:")).filter_map(|s| s.trim().parse().ok()).collect();
+    assert_eq!(ids, tail.iter().map(|e| e.seq).collect::<Vec<_>>());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_input_gets_a_clear_error_and_writes_nothing() {
+    let h = Harness::start(0).await;
+    // Rule violations: 422 with every violation in `details`, one error body everywhere.
+    let cases: Vec<(Value, &str)> = vec![
+        (json!({"scene": scene(10, 1), "colour": "red"}), "colour"),
+        (json!({"scene": scene(10, 1), "priority": 5000}), "priority"),
+        (json!({"scene": scene(10, 1), "max_attempts": 0}), "max_attempts"),
+        (json!({"scene": scene(10, 1), "name": ""}), "name"),
+        (json!({"scene": scene(3_000_000_000, 1)}), "scene.stop.steps"),
+    ];
+    for (body, field) in cases {
+        let (status, err) = h.post("/v1/jobs", &body, None).await;
+        assert_eq!(status, 422, "{body}: {err}");
+        assert_eq!(err["code"], "invalid_argument");
+        let fields: Vec<&str> = err["details"].as_array().expect("details").iter().filter_map(|v| v["field"].as_str()).collect();
+        assert!(fields.contains(&field), "{body}: expected a violation on '{field}', got {err}");
+    }
+    let mut many = scene(10, 1);
+    many["particles"][0]["count"] = json!(20_000);
+    let (status, err) = h.post("/v1/jobs", &many, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert_eq!(err["details"][0]["field"], "particles");
+    // A scene with several broken rules: every one is reported, with its path.
+    let mut bad = scene(10, 1);
+    bad["materials"]["glass"]["friction"] = json!(-0.2);
+    bad["materials"]["glass"]["density"] = json!(0);
+    let (status, err) = h.post("/v1/jobs", &json!({"scene": bad}), None).await;
+    assert_eq!(status, 422);
+    let details = err["details"].as_array().expect("details");
+    assert!(details.iter().any(|d| d["field"] == "scene.materials.glass.friction" && d["rule"] == "must be >= 0, got -0.2"), "{err}");
+    assert!(details.iter().any(|d| d["field"] == "scene.materials.glass.density"), "{err}");
+    // Not JSON, not an object, too large.
+    let resp = h.http.post(format!("{}/v1/jobs", h.base)).body("{not json").send().await.expect("answers");
+    assert_eq!(resp.status().as_u16(), 400);
+    let (status, err) = h.post("/v1/jobs", &json!([1, 2]), None).await;
+    assert_eq!((status, err["code"].as_str()), (400, Some("malformed")));
+    let mut huge = scene(10, 1);
+    huge["name"] = json!("x".repeat(100_000));
+    let (status, err) = h.post("/v1/jobs", &huge, None).await;
+    assert_eq!(status, 413, "{err}");
+    // Queries and ids.
+    for (path, status) in [
+        ("/v1/jobs?state=sleeping", 422),
+        ("/v1/jobs?page_token=xyz", 422),
+        ("/v1/jobs?page_size=100000", 422),
+        ("/v1/jobs?created_after=yesterday", 422),
+        ("/v1/jobs?colour=red", 400),
+        ("/v1/jobs?page_size=-1", 400),
+        ("/v1/jobs/abc", 400),
+        ("/v1/jobs/999", 404),
+        ("/v1/jobs/999/samples", 404),
+        ("/v1/jobs/999/events", 404),
+        ("/v1/jobs/1/samples?format=xml", 422),
+        ("/nowhere", 404),
+    ] {
+        let (s, body) = h.get(path).await;
+        assert_eq!(s, status, "{path}: {body}");
+        assert!(body["code"].is_string() && body["message"].is_string() && body["details"].is_array(), "{path}: {body}");
+    }
+    let (s, _) = h.post("/v1/jobs/999:cancel", &json!({}), None).await;
+    assert_eq!(s, 404);
+    let (s, _) = h.post("/v1/jobs/1:launch", &json!({}), None).await;
+    assert_eq!(s, 404);
+    // gRPC maps the same errors to status codes.
+    let mut client = h.grpc().await;
+    let e = client.submit_job(pb::SubmitJobRequest { scene_json: "{".into(), ..Default::default() }).await.expect_err("invalid");
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    let mut four_d = scene(10, 1);
+    four_d["dimension"] = json!(4);
+    let e = client.submit_job(pb::SubmitJobRequest { scene_json: four_d.to_string(), ..Default::default() }).await.expect_err("invalid");
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    assert!(e.message().contains("scene_json.dimension"), "{}", e.message());
+    let e = client.get_job(pb::GetJobRequest { id: 999 }).await.expect_err("missing");
+    assert_eq!(e.code(), tonic::Code::NotFound);
+    let e = client.watch_job(pb::WatchJobRequest { id: 999, after_seq: 0 }).await.expect_err("missing");
+    assert_eq!(e.code(), tonic::Code::NotFound);
+    assert_eq!(h.jobs_in_db().await, 0, "nothing is written for a rejected request");
+
+    // Event streams are limited (2 in this harness); a third is refused until one closes.
+    let (_, job) = h.post("/v1/jobs", &scene(10, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    let s1 = client.watch_job(pb::WatchJobRequest { id, after_seq: 0 }).await.expect("first watcher");
+    let s2 = h.http.get(format!("{}/v1/jobs/{id}/events", h.base)).send().await.expect("second watcher");
+    assert_eq!(s2.status().as_u16(), 200);
+    let (s, err) = h.get(&format!("/v1/jobs/{id}/events")).await;
+    assert_eq!((s, err["code"].as_str()), (429, Some("resource_exhausted")), "{err}");
+    let e = client.watch_job(pb::WatchJobRequest { id, after_seq: 0 }).await.expect_err("over the limit");
+    assert_eq!(e.code(), tonic::Code::ResourceExhausted);
+    drop(s1);
+    drop(s2);
+    let start = Instant::now();
+    loop {
+        match client.watch_job(pb::WatchJobRequest { id, after_seq: 0 }).await {
+            Ok(_) => break,
+            Err(e) => {
+                assert_eq!(e.code(), tonic::Code::ResourceExhausted);
+                assert!(start.elapsed() < Duration::from_secs(5), "closed streams must free their slots");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn health_metrics_and_openapi_describe_the_service() {
+    let h = Harness::start(1).await;
+    let (s, _) = h.get("/healthz").await;
+    assert_eq!(s, 200);
+    let (_, job) = h.post("/v1/jobs", &scene(200, 1), None).await;
+    h.wait_state(job["id"].as_i64().expect("id"), &["succeeded"], Duration::from_secs(20)).await;
+    let text = h.http.get(format!("{}/metrics", h.base)).send().await.expect("metrics").text().await.expect("text");
+    assert!(text.contains("sable_jobs{state=\"succeeded\"} 1"), "{text}");
+    assert!(text.contains("sable_queue_depth 0"), "{text}");
+    assert!(text.contains("sable_job_duration_seconds_count 1"), "{text}");
+    assert!(text.contains("sable_workers 1"), "{text}");
+    let (_, doc) = h.get("/v1/openapi.json").await;
+    for path in [
+        "/v1/jobs",
+        "/v1/jobs/{id}",
+        "/v1/jobs/{id}:cancel",
+        "/v1/jobs/{id}/samples",
+        "/v1/jobs/{id}/events",
+        "/healthz",
+        "/metrics",
+        "/v1/openapi.json",
+    ] {
+        assert!(doc["paths"].get(path).is_some(), "OpenAPI lacks {path}");
+    }
+    // gRPC health answers SERVING for both services.
+    let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");
+    let mut health = tonic_health::pb::health_client::HealthClient::new(channel);
+    for service in ["sable.v1.Simulations", "sable.v1.Workers"] {
+        let r = health.check(tonic_health::pb::HealthCheckRequest { service: service.into() }).await.expect("health").into_inner();
+        assert_eq!(r.status(), tonic_health::pb::health_check_response::ServingStatus::Serving, "{service}");
+    }
+}

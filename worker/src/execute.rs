@@ -1,0 +1,189 @@
+//! Running one leased job: the engine on a blocking thread, the reports on the async side.
+
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use sable_engine::observe::Sample;
+use sable_engine::run::{Progress, RunSummary, Runner};
+use sable_engine::scene::{format_violations, parse_scene, Method, Scene};
+use sable_engine::EngineError;
+use tokio_util::sync::CancellationToken;
+
+use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
+
+/// Builds the scene's method and runs it to its stop criteria with `runner`.
+pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
+    let mut sim = sable_engine::methods::build(scene)?;
+    runner.run(sim.as_mut(), on_sample)
+}
+
+/// Limits the threads a scene's method may use to `budget` (the scene's own smaller setting
+/// stays).
+pub fn apply_thread_budget(scene: &mut Scene, budget: usize) {
+    let budget = budget.max(1);
+    match &mut scene.method {
+        Method::Dem(p) => {
+            if p.threads == 0 || p.threads > budget {
+                p.threads = budget;
+            }
+        }
+    }
+}
+
+/// Sets the engine's cancel flag when dropped.
+struct CancelOnDrop(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// What the engine thread sends to the async side.
+enum Msg {
+    Sample(Sample, Progress),
+}
+
+/// Timing of the reports of one job.
+#[derive(Debug, Clone, Copy)]
+pub struct ReportTiming {
+    /// Samples and progress are flushed (and the lease renewed) at this interval.
+    pub interval: Duration,
+}
+
+/// Runs a leased job to its end and reports its outcome. Returns the outcome reported (or
+/// `None` if the lease was lost and nothing more could be written).
+pub async fn execute<S: JobSource>(
+    source: &S,
+    lease: &Lease,
+    threads: usize,
+    timing: ReportTiming,
+    shutdown: &CancellationToken,
+) -> Option<Outcome> {
+    let mut scene = match parse_scene(&lease.scene_json) {
+        Ok(s) => s,
+        Err(v) => {
+            // The server validated it at submission; only an engine upgrade can make it invalid.
+            let outcome = Outcome::Failed {
+                code: "invalid_scene".into(),
+                message: format!("the stored scene is no longer valid: {}", format_violations(&v)),
+                steps: 0,
+                wall_seconds: 0.0,
+            };
+            return finish(source, lease, outcome).await;
+        }
+    };
+    apply_thread_budget(&mut scene, threads);
+    let runner = Runner::for_scene(&scene);
+    let cancel = runner.cancel.clone();
+    // If this future is dropped (the pool aborted), the engine stops too.
+    let _guard = CancelOnDrop(cancel.clone());
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Msg>();
+    let started = Instant::now();
+    let mut engine = tokio::task::spawn_blocking(move || {
+        std::panic::catch_unwind(AssertUnwindSafe(|| {
+            run_scene(&scene, &runner, &mut |s, p| {
+                // Never blocks: the physics does not wait for the reports.
+                let _ = tx.send(Msg::Sample(s.clone(), *p));
+            })
+        }))
+    });
+
+    let mut pending = Report::default();
+    let mut tick = tokio::time::interval(timing.interval);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut released = false;
+    let mut lost = false;
+    let result = loop {
+        tokio::select! {
+            r = &mut engine => break r,
+            Some(Msg::Sample(s, p)) = rx.recv() => {
+                pending.fraction = p.fraction;
+                pending.remaining_seconds = p.remaining;
+                pending.samples.push(s);
+            }
+            _ = tick.tick() => {
+                if lost {
+                    continue;
+                }
+                match flush(source, lease, &mut pending).await {
+                    Ok(true) => cancel.store(true, Ordering::Relaxed),
+                    Ok(false) => {}
+                    Err(SourceError::LeaseLost { .. }) => {
+                        lost = true;
+                        cancel.store(true, Ordering::Relaxed);
+                    }
+                    // Transient: keep the samples and try again at the next tick; the lease
+                    // outlives several ticks.
+                    Err(SourceError::Unavailable(_)) => {}
+                }
+            }
+            _ = shutdown.cancelled(), if !released => {
+                released = true;
+                cancel.store(true, Ordering::Relaxed);
+            }
+        }
+    };
+    while let Ok(Msg::Sample(s, p)) = rx.try_recv() {
+        pending.fraction = p.fraction;
+        pending.remaining_seconds = p.remaining;
+        pending.samples.push(s);
+    }
+    if lost {
+        return None;
+    }
+    let wall_seconds = started.elapsed().as_secs_f64();
+    let outcome = match result {
+        Ok(Ok(Ok(summary))) => {
+            pending.fraction = 1.0;
+            pending.remaining_seconds = Some(0.0);
+            Outcome::Succeeded { steps: summary.steps, wall_seconds }
+        }
+        Ok(Ok(Err(EngineError::Cancelled { .. }))) if released => Outcome::Released,
+        Ok(Ok(Err(EngineError::Cancelled { .. }))) => Outcome::Cancelled,
+        Ok(Ok(Err(e))) => {
+            let steps = pending.samples.last().map_or(0, |s| s.step);
+            Outcome::Failed { code: e.code().into(), message: e.to_string(), steps, wall_seconds }
+        }
+        Ok(Err(panic)) => Outcome::Failed { code: "internal".into(), message: panic_message(&panic), steps: 0, wall_seconds },
+        Err(join) => {
+            Outcome::Failed { code: "internal".into(), message: format!("the engine thread failed: {join}"), steps: 0, wall_seconds }
+        }
+    };
+    if outcome != Outcome::Released {
+        // The last samples go in before the outcome; retried while the store is unreachable.
+        for attempt in 0..20 {
+            match flush(source, lease, &mut pending).await {
+                Ok(_) => break,
+                Err(SourceError::LeaseLost { .. }) => return None,
+                Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
+            }
+        }
+    }
+    finish(source, lease, outcome).await
+}
+
+/// Sends the pending samples and progress (also when there is no sample: the report renews the
+/// lease and brings back cancellation). Keeps the samples if the call fails.
+async fn flush<S: JobSource>(source: &S, lease: &Lease, pending: &mut Report) -> Result<bool, SourceError> {
+    let cancelled = source.report(lease, pending).await?;
+    pending.samples.clear();
+    Ok(cancelled)
+}
+
+async fn finish<S: JobSource>(source: &S, lease: &Lease, outcome: Outcome) -> Option<Outcome> {
+    for attempt in 0..20 {
+        match source.finish(lease, outcome.clone()).await {
+            Ok(()) => return Some(outcome),
+            Err(SourceError::LeaseLost { .. }) => return None,
+            Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
+        }
+    }
+    None
+}
+
+fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
+    let what = p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_default();
+    format!("the engine panicked (a bug in Sable; please report it with the scene): {what}")
+}

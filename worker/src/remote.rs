@@ -1,0 +1,77 @@
+//! A job source on another machine: the `Workers` gRPC service of a Sable server.
+
+use sable_proto::v1::finish_job_request::Outcome as ProtoOutcome;
+use sable_proto::v1::workers_client::WorkersClient;
+use sable_proto::v1::{FinishJobRequest, LeaseJobRequest, ReportProgressRequest};
+use tonic::transport::{Channel, Endpoint};
+
+use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
+
+/// Leases jobs from a Sable server over gRPC.
+#[derive(Debug, Clone)]
+pub struct RemoteSource {
+    client: WorkersClient<Channel>,
+}
+
+impl RemoteSource {
+    /// Connects lazily to the server at `url` (e.g. `http://host:50051`).
+    pub fn new(url: &str) -> Result<Self, SourceError> {
+        let endpoint = Endpoint::from_shared(url.to_string())
+            .map_err(|e| SourceError::Unavailable(format!("bad server URL '{url}': {e}")))?
+            .connect_timeout(std::time::Duration::from_secs(5))
+            .timeout(std::time::Duration::from_secs(30));
+        Ok(Self { client: WorkersClient::new(endpoint.connect_lazy()) })
+    }
+}
+
+fn status_error(s: tonic::Status, lease: Option<&Lease>) -> SourceError {
+    match (s.code(), lease) {
+        (tonic::Code::FailedPrecondition, Some(l)) => SourceError::LeaseLost { job_id: l.job_id, lease_id: l.lease_id.clone() },
+        _ => SourceError::Unavailable(format!("{}: {}", s.code(), s.message())),
+    }
+}
+
+impl JobSource for RemoteSource {
+    async fn lease(&self, worker: &str) -> Result<Option<Lease>, SourceError> {
+        let r = self.client.clone().lease_job(LeaseJobRequest { worker: worker.to_string() }).await.map_err(|s| status_error(s, None))?;
+        Ok(r.into_inner().lease.map(|l| Lease { job_id: l.job_id, lease_id: l.lease_id, scene_json: l.scene_json, attempt: l.attempt }))
+    }
+
+    async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, SourceError> {
+        let mut samples_json = Vec::with_capacity(report.samples.len());
+        for s in &report.samples {
+            samples_json.push(serde_json::to_string(s).map_err(|e| SourceError::Unavailable(e.to_string()))?);
+        }
+        let req = ReportProgressRequest {
+            job_id: lease.job_id,
+            lease_id: lease.lease_id.clone(),
+            fraction: report.fraction,
+            remaining_seconds: report.remaining_seconds.unwrap_or(-1.0),
+            samples_json,
+        };
+        let r = self.client.clone().report_progress(req).await.map_err(|s| status_error(s, Some(lease)))?;
+        Ok(r.into_inner().cancel_requested)
+    }
+
+    async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {
+        let mut req = FinishJobRequest { job_id: lease.job_id, lease_id: lease.lease_id.clone(), ..Default::default() };
+        match outcome {
+            Outcome::Succeeded { steps, wall_seconds } => {
+                req.set_outcome(ProtoOutcome::Succeeded);
+                req.steps = steps;
+                req.wall_seconds = wall_seconds;
+            }
+            Outcome::Failed { code, message, steps, wall_seconds } => {
+                req.set_outcome(ProtoOutcome::Failed);
+                req.error_code = code;
+                req.error_message = message;
+                req.steps = steps;
+                req.wall_seconds = wall_seconds;
+            }
+            Outcome::Cancelled => req.set_outcome(ProtoOutcome::Cancelled),
+            Outcome::Released => req.set_outcome(ProtoOutcome::Released),
+        }
+        self.client.clone().finish_job(req).await.map_err(|s| status_error(s, Some(lease)))?;
+        Ok(())
+    }
+}

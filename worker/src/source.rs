@@ -1,0 +1,87 @@
+//! Where workers get jobs from, and what they tell it: the one extension point between the
+//! worker pool and the job store.
+
+use std::future::Future;
+
+use sable_engine::observe::Sample;
+
+/// A job leased by one worker. Every report and the final outcome carry the lease id, and the
+/// store ignores them once the lease is gone (fencing).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lease {
+    /// Job id.
+    pub job_id: i64,
+    /// Lease id, unique to this attempt.
+    pub lease_id: String,
+    /// The scene JSON as submitted.
+    pub scene_json: String,
+    /// Attempt number, from 1.
+    pub attempt: u32,
+}
+
+/// A batch of progress: the samples taken since the last report and where the run stands.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Report {
+    /// Fraction of the run done, 0..1.
+    pub fraction: f64,
+    /// Estimated wall-clock seconds left.
+    pub remaining_seconds: Option<f64>,
+    /// New samples, in order.
+    pub samples: Vec<Sample>,
+}
+
+/// How a leased job ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Ran to its stop criteria.
+    Succeeded {
+        /// Steps done.
+        steps: u64,
+        /// Wall-clock seconds of the run.
+        wall_seconds: f64,
+    },
+    /// Stopped with an error (unstable integration, scene that cannot be built, crash).
+    Failed {
+        /// Stable code: `unstable`, `build_failed`, `invalid_scene`, `internal`.
+        code: String,
+        /// What happened and what to change.
+        message: String,
+        /// Steps done before the failure.
+        steps: u64,
+        /// Wall-clock seconds of the run.
+        wall_seconds: f64,
+    },
+    /// Stopped because the user cancelled it.
+    Cancelled,
+    /// Handed back to the queue unfinished (the worker is shutting down); does not count as an
+    /// attempt.
+    Released,
+}
+
+/// Why a call to the source failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// The lease expired and the job was given back to the queue or to another worker.
+    #[error("lease {lease_id} of job {job_id} is no longer held")]
+    LeaseLost {
+        /// Job id.
+        job_id: i64,
+        /// The lost lease.
+        lease_id: String,
+    },
+    /// The store or the server could not be reached; the call may be retried.
+    #[error("job source unavailable: {0}")]
+    Unavailable(String),
+}
+
+/// A queue of jobs that workers lease from. Implemented by the server's SQLite store and by the
+/// gRPC client of a remote server.
+pub trait JobSource: Send + Sync + 'static {
+    /// Leases the next queued job for `worker`, if there is one.
+    fn lease(&self, worker: &str) -> impl Future<Output = Result<Option<Lease>, SourceError>> + Send;
+    /// Stores the samples, updates progress and renews the lease. Returns true if the job was
+    /// cancelled and the run must stop.
+    fn report(&self, lease: &Lease, report: &Report) -> impl Future<Output = Result<bool, SourceError>> + Send;
+    /// Ends the lease with its outcome.
+    fn finish(&self, lease: &Lease, outcome: Outcome) -> impl Future<Output = Result<(), SourceError>> + Send;
+}
