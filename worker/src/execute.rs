@@ -18,17 +18,28 @@ pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Samp
     runner.run(sim.as_mut(), on_sample)
 }
 
-/// Limits the threads a scene's method may use to `budget` (the scene's own smaller setting
-/// stays).
-pub fn apply_thread_budget(scene: &mut Scene, budget: usize) {
+/// The threads a scene's method will use under a budget of `budget` threads: the scene's own
+/// smaller setting stays. The method's own setting is cleared: the caller runs the whole job
+/// inside a pool of that size ([`job_pool`]), so the method's parallel loops use it without a
+/// hand-off to another pool at every step.
+pub fn apply_thread_budget(scene: &mut Scene, budget: usize) -> usize {
     let budget = budget.max(1);
     match &mut scene.method {
         Method::Dem(p) => {
-            if p.threads == 0 || p.threads > budget {
-                p.threads = budget;
-            }
+            let n = if p.threads == 0 { budget } else { p.threads.min(budget) };
+            p.threads = 0;
+            n
         }
     }
+}
+
+/// A pool of `threads` threads for one job.
+pub fn job_pool(threads: usize) -> Result<rayon::ThreadPool, String> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .thread_name(|i| format!("sable-job-{i}"))
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))
 }
 
 /// Sets the engine's cancel flag when dropped.
@@ -74,7 +85,13 @@ pub async fn execute<S: JobSource>(
             return finish(source, lease, outcome).await;
         }
     };
-    apply_thread_budget(&mut scene, threads);
+    let threads = apply_thread_budget(&mut scene, threads);
+    let pool = match job_pool(threads) {
+        Ok(p) => p,
+        Err(message) => {
+            return finish(source, lease, Outcome::Failed { code: "internal".into(), message, steps: 0, wall_seconds: 0.0 }).await
+        }
+    };
     let runner = Runner::for_scene(&scene);
     let cancel = runner.cancel.clone();
     // If this future is dropped (the pool aborted), the engine stops too.
@@ -83,9 +100,11 @@ pub async fn execute<S: JobSource>(
     let started = Instant::now();
     let mut engine = tokio::task::spawn_blocking(move || {
         std::panic::catch_unwind(AssertUnwindSafe(|| {
-            run_scene(&scene, &runner, &mut |s, p| {
-                // Never blocks: the physics does not wait for the reports.
-                let _ = tx.send(Msg::Sample(s.clone(), *p));
+            pool.install(|| {
+                run_scene(&scene, &runner, &mut |s, p| {
+                    // Never blocks: the physics does not wait for the reports.
+                    let _ = tx.send(Msg::Sample(s.clone(), *p));
+                })
             })
         }))
     });

@@ -71,19 +71,20 @@ struct BenchResult {
 /// `sable bench dem`.
 pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let scene = parse_scene(&dem_benchmark(a.particles, a.steps, threads).to_string())
+    let mut scene = parse_scene(&dem_benchmark(a.particles, a.steps, threads).to_string())
         .map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
+    // As in a job: the whole run inside one pool, not a hand-off to the method's pool per step.
+    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
+    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
     let Method::Dem(params) = &scene.method;
-    let mut sim = Dem::new(&scene, params)?;
+    let mut sim = pool.install(|| Dem::new(&scene, params))?;
     if let Some(path) = &a.lammps_data {
         write_lammps_data(&sim, path).with_context(|| format!("cannot write {}", path.display()))?;
     }
     let ke0 = sim.sample()?.kinetic_energy;
     sim.set_profiling(a.profile);
     let start = std::time::Instant::now();
-    for _ in 0..a.steps {
-        sim.step()?;
-    }
+    pool.install(|| (0..a.steps).try_for_each(|_| sim.step()))?;
     let wall = start.elapsed().as_secs_f64();
     let ke1 = sim.sample()?.kinetic_energy;
     let r = BenchResult {

@@ -63,7 +63,7 @@ pub fn validate(a: ValidateArgs) -> anyhow::Result<()> {
 
 /// Where samples go.
 struct SampleWriter {
-    out: Option<Box<dyn Write>>,
+    out: Option<Box<dyn Write + Send>>,
     format: Format,
     dim: usize,
     wrote_header: bool,
@@ -92,7 +92,7 @@ impl SampleWriter {
 /// `sable run`.
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&a.scene)?;
-    let out: Option<Box<dyn Write>> = match (&a.out, a.final_json) {
+    let out: Option<Box<dyn Write + Send>> = match (&a.out, a.final_json) {
         (Some(p), _) => {
             Some(Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?)))
         }
@@ -109,6 +109,12 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         );
         b
     });
+    // Same threading as a service job: the whole run inside one pool of the scene's threads
+    // (all cores by default).
+    let mut scene = scene;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = sable_worker::execute::apply_thread_budget(&mut scene, cores);
+    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
     let runner = Runner::for_scene(&scene);
     let mut write_error: Option<anyhow::Error> = None;
     let mut on_sample = |s: &Sample, p: &Progress| {
@@ -122,7 +128,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
             b.set_message(format!("t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
         }
     };
-    let result = sable_worker::run_scene(&scene, &runner, &mut on_sample);
+    let result = pool.install(|| sable_worker::run_scene(&scene, &runner, &mut on_sample));
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
