@@ -80,6 +80,24 @@ impl From<StoreError> for ApiError {
     }
 }
 
+/// The one error body of the REST API.
+#[derive(Debug, Clone, Serialize, PartialEq, utoipa::ToSchema)]
+pub struct ErrorBody {
+    /// `malformed`, `invalid_argument`, `too_large`, `resource_exhausted`, `not_found`,
+    /// `conflict` or `internal`.
+    pub code: String,
+    /// What is wrong, in one line.
+    pub message: String,
+    /// Every broken rule, with the path of its field.
+    pub details: Vec<Violation>,
+}
+
+impl From<&ApiError> for ErrorBody {
+    fn from(e: &ApiError) -> Self {
+        Self { code: e.code().to_string(), message: e.to_string(), details: e.details().to_vec() }
+    }
+}
+
 /// Limits of the submission fields.
 pub const MAX_NAME: usize = 200;
 /// Largest |priority|.
@@ -130,13 +148,14 @@ pub struct Submission {
 }
 
 /// A job as the APIs show it.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, PartialEq, utoipa::ToSchema)]
 pub struct JobView {
     /// Id.
     pub id: i64,
     /// Name.
     pub name: String,
     /// `queued`, `running`, `succeeded`, `failed` or `cancelled`.
+    #[schema(example = "running")]
     pub state: String,
     /// Method used.
     pub method: String,
@@ -158,7 +177,8 @@ pub struct JobView {
     pub progress: f64,
     /// Why it failed.
     pub error: Option<ErrorView>,
-    /// The scene as stored (canonical JSON: keys sorted).
+    /// The scene as stored (canonical JSON: keys sorted; docs/scene-format.md).
+    #[schema(value_type = Object)]
     pub scene: serde_json::Value,
     /// SHA-256 of the stored scene, hex.
     pub scene_hash: String,
@@ -177,7 +197,7 @@ pub struct JobView {
 }
 
 /// Error of a failed job.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, PartialEq, utoipa::ToSchema)]
 pub struct ErrorView {
     /// Stable code.
     pub code: String,

@@ -58,7 +58,7 @@ impl IntoResponse for ApiError {
             ApiError::Conflict(_) => StatusCode::CONFLICT,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
-        (status, Json(json!({"code": self.code(), "message": self.to_string(), "details": self.details()}))).into_response()
+        (status, Json(api::ErrorBody::from(&self))).into_response()
     }
 }
 
@@ -94,7 +94,27 @@ fn query<T>(q: Result<Query<T>, QueryRejection>) -> Result<T, ApiError> {
 }
 
 /// `POST /v1/jobs`.
-async fn submit(State(st): State<AppState>, headers: HeaderMap, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+#[utoipa::path(
+    post,
+    path = "/v1/jobs",
+    tag = "jobs",
+    summary = "Validate and queue a scene",
+    request_body(content = crate::openapi::SubmitBody, description = "A scene (docs/scene-format.md), or {\"scene\", \"name\", \"priority\", \"max_attempts\"}"),
+    params(("Idempotency-Key" = Option<String>, Header, description = "The same key returns the first job (200); with another scene it is a 409")),
+    responses(
+        (status = 201, description = "Queued", body = api::JobView),
+        (status = 200, description = "Already submitted with this Idempotency-Key", body = api::JobView),
+        (status = 400, description = "The body is not a JSON object", body = api::ErrorBody),
+        (status = 409, description = "Idempotency-Key reused with another scene", body = api::ErrorBody),
+        (status = 413, description = "The body is larger than the server's limit", body = api::ErrorBody),
+        (status = 422, description = "The scene or a field breaks a rule; every violation is in details", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn submit(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Response, ApiError> {
     let body = body.map_err(|e| match e.status() {
         StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
         _ => ApiError::malformed("", e.body_text()),
@@ -144,20 +164,49 @@ async fn submit(State(st): State<AppState>, headers: HeaderMap, body: Result<Byt
 }
 
 /// Query of `GET /v1/jobs`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
 #[serde(deny_unknown_fields)]
-struct ListParams {
+#[into_params(parameter_in = Query)]
+pub(crate) struct ListParams {
+    /// queued, running, succeeded, failed or cancelled.
     state: Option<String>,
+    /// Exact name.
     name: Option<String>,
+    /// Method name, e.g. dem.
     method: Option<String>,
+    /// RFC 3339 time (inclusive).
     created_after: Option<String>,
+    /// RFC 3339 time (exclusive).
     created_before: Option<String>,
+    /// 1 to 500, default 50.
     page_size: Option<u32>,
+    /// next_page_token of the previous page.
     page_token: Option<String>,
 }
 
+/// A page of jobs.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub(crate) struct JobPage {
+    /// Newest first.
+    jobs: Vec<api::JobView>,
+    /// Token of the next page; empty on the last.
+    next_page_token: String,
+}
+
 /// `GET /v1/jobs`.
-async fn list(State(st): State<AppState>, q: Result<Query<ListParams>, QueryRejection>) -> Result<Response, ApiError> {
+#[utoipa::path(
+    get,
+    path = "/v1/jobs",
+    tag = "jobs",
+    summary = "Jobs, newest first",
+    params(ListParams),
+    responses(
+        (status = 200, description = "A page", body = JobPage),
+        (status = 400, description = "A query parameter cannot be read", body = api::ErrorBody),
+        (status = 422, description = "A filter breaks a rule", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn list(State(st): State<AppState>, q: Result<Query<ListParams>, QueryRejection>) -> Result<Response, ApiError> {
     let p = query(q)?;
     let (jobs, next) = api::list(
         &st.store,
@@ -172,17 +221,41 @@ async fn list(State(st): State<AppState>, q: Result<Query<ListParams>, QueryReje
         },
     )
     .await?;
-    Ok(Json(json!({"jobs": jobs, "next_page_token": next.unwrap_or_default()})).into_response())
+    Ok(Json(JobPage { jobs, next_page_token: next.unwrap_or_default() }).into_response())
 }
 
 /// `GET /v1/jobs/{id}`.
-async fn get_job(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}",
+    tag = "jobs",
+    summary = "One job",
+    params(("id" = i64, Path, description = "Job id")),
+    responses(
+        (status = 200, description = "The job", body = api::JobView),
+        (status = 400, description = "The id is not a positive integer", body = api::ErrorBody),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn get_job(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
     let id = parse_id(&id)?;
     Ok(Json(api::JobView::from(st.store.get(id).await?)).into_response())
 }
 
 /// `POST /v1/jobs/{id}:cancel` (the one action so far).
-async fn job_action(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+#[utoipa::path(
+    post,
+    path = "/v1/jobs/{id}:cancel",
+    tag = "jobs",
+    summary = "Cancel a queued or running job (a running one stops within a second)",
+    params(("id" = i64, Path, description = "Job id")),
+    responses(
+        (status = 200, description = "The job after the request", body = api::JobView),
+        (status = 404, description = "No such job or action", body = api::ErrorBody),
+        (status = 409, description = "The job has already ended", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn job_action(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
     let Some(id) = id.strip_suffix(":cancel") else {
         return Err(ApiError::NotFound(format!("no action in '/v1/jobs/{id}': use POST /v1/jobs/{{id}}:cancel")));
     };
@@ -191,17 +264,44 @@ async fn job_action(State(st): State<AppState>, Path(id): Path<String>) -> Resul
 }
 
 /// Query of `GET /v1/jobs/{id}/samples`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
 #[serde(deny_unknown_fields)]
-struct SampleParams {
+#[into_params(parameter_in = Query)]
+pub(crate) struct SampleParams {
+    /// First step (inclusive).
     from_step: Option<u64>,
+    /// Last step (inclusive).
     to_step: Option<u64>,
+    /// Keep at most this many samples, evenly spread (first and last kept).
     max_points: Option<u32>,
+    /// json (default) or csv.
     format: Option<String>,
 }
 
+/// A job's samples.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub(crate) struct SamplePage {
+    /// The job.
+    job_id: i64,
+    /// In step order, with the engine's field names.
+    samples: Vec<Sample>,
+}
+
 /// `GET /v1/jobs/{id}/samples`.
-async fn samples(
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}/samples",
+    tag = "jobs",
+    summary = "The job's measured time series (JSON, or CSV with format=csv)",
+    params(("id" = i64, Path, description = "Job id"), SampleParams),
+    responses(
+        (status = 200, description = "Samples", body = SamplePage, content_type = "application/json"),
+        (status = 400, description = "A parameter cannot be read", body = api::ErrorBody),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+        (status = 422, description = "A parameter breaks a rule", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn samples(
     State(st): State<AppState>,
     Path(id): Path<String>,
     q: Result<Query<SampleParams>, QueryRejection>,
@@ -217,7 +317,7 @@ async fn samples(
     if csv {
         Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(dim, &samples)).into_response())
     } else {
-        Ok(Json(json!({"job_id": id, "samples": samples})).into_response())
+        Ok(Json(SamplePage { job_id: id, samples }).into_response())
     }
 }
 
@@ -233,14 +333,29 @@ pub fn samples_csv(dim: usize, samples: &[Sample]) -> String {
 }
 
 /// Query of `GET /v1/jobs/{id}/events`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
 #[serde(deny_unknown_fields)]
-struct EventParams {
+#[into_params(parameter_in = Query)]
+pub(crate) struct EventParams {
+    /// Send the events after this sequence number (or give the Last-Event-ID header).
     after_seq: Option<i64>,
 }
 
 /// `GET /v1/jobs/{id}/events`: Server-Sent Events, `id:` = sequence number, `event:` = kind.
-async fn events(
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}/events",
+    tag = "jobs",
+    summary = "Server-Sent Events: state changes and samples, ending after the final state",
+    description = "Each event has id = sequence number, event = state | sample | heartbeat, and JSON data. Resume with after_seq or Last-Event-ID.",
+    params(("id" = i64, Path, description = "Job id"), EventParams),
+    responses(
+        (status = 200, description = "The event stream", body = String, content_type = "text/event-stream"),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+        (status = 429, description = "Too many open event streams", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn events(
     State(st): State<AppState>,
     Path(id): Path<String>,
     headers: HeaderMap,
@@ -293,7 +408,9 @@ where
 }
 
 /// `GET /healthz`: the database answers.
-async fn healthz(State(st): State<AppState>) -> Response {
+#[utoipa::path(get, path = "/healthz", tag = "service", summary = "Liveness: the database answers",
+    responses((status = 200, description = "Healthy"), (status = 503, description = "The database does not answer")))]
+pub(crate) async fn healthz(State(st): State<AppState>) -> Response {
     match st.store.count_by_state().await {
         Ok(_) => (StatusCode::OK, Json(json!({"status": "ok"}))).into_response(),
         Err(e) => (StatusCode::SERVICE_UNAVAILABLE, Json(json!({"status": "unavailable", "reason": e.to_string()}))).into_response(),
@@ -301,12 +418,17 @@ async fn healthz(State(st): State<AppState>) -> Response {
 }
 
 /// `GET /v1/openapi.json`.
-async fn openapi() -> Response {
+#[utoipa::path(get, path = "/v1/openapi.json", tag = "service", summary = "This document (OpenAPI 3.1)",
+    responses((status = 200, description = "The OpenAPI document", content_type = "application/json")))]
+pub(crate) async fn openapi() -> Response {
     Json(crate::openapi::document()).into_response()
 }
 
 /// `GET /metrics`: Prometheus text format.
-async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
+#[utoipa::path(get, path = "/metrics", tag = "service",
+    summary = "Prometheus metrics: jobs by state, queue depth, job durations, worker use",
+    responses((status = 200, description = "Prometheus text format", body = String, content_type = "text/plain")))]
+pub(crate) async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
     let body = crate::metrics::render(&st.store, st.pool.as_deref()).await?;
     Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], body).into_response())
 }

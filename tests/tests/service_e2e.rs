@@ -258,7 +258,10 @@ async fn a_worker_that_stops_reporting_loses_its_job_to_another() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_restarted_server_finishes_the_job_that_was_running() {
     let h = Harness::start(1).await;
-    let (_, job) = h.post("/v1/jobs", &scene(3000, 1), None).await;
+    // Long enough (about 2 s) to be caught running; a sample every 20,000 steps.
+    let mut long = scene(600_000, 1);
+    long["sampling"] = json!({"every_steps": 20_000});
+    let (_, job) = h.post("/v1/jobs", &long, None).await;
     let id = job["id"].as_i64().expect("id");
     h.wait_state(id, &["running"], Duration::from_secs(10)).await;
     // Crash: nothing is handed back.
@@ -267,7 +270,7 @@ async fn a_restarted_server_finishes_the_job_that_was_running() {
     let h = Harness::start_in(dir, 1).await;
     let job = h.wait_state(id, &["succeeded"], Duration::from_secs(30)).await;
     assert_eq!(job["attempts"], 2);
-    assert_eq!(job["steps"], 3000);
+    assert_eq!(job["steps"], 600_000);
     // Samples of the interrupted attempt were replaced, not duplicated.
     assert_eq!(job["sample_count"], 31);
 }
@@ -479,6 +482,13 @@ async fn health_metrics_and_openapi_describe_the_service() {
     ] {
         assert!(doc["paths"].get(path).is_some(), "OpenAPI lacks {path}");
     }
+    // The schemas are generated from the types the handlers exchange.
+    for schema in ["JobView", "ErrorBody", "Sample", "Violation", "SubmitBody"] {
+        assert!(doc["components"]["schemas"].get(schema).is_some(), "OpenAPI lacks the {schema} schema");
+    }
+    let sample_fields = doc["components"]["schemas"]["Sample"]["properties"].as_object().map(|m| m.len());
+    assert_eq!(sample_fields, Some(13), "every Sample field is documented");
+    assert!(doc["paths"]["/v1/jobs"]["post"]["responses"].get("422").is_some());
     // gRPC health answers SERVING for both services.
     let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");
     let mut health = tonic_health::pb::health_client::HealthClient::new(channel);

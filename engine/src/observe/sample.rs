@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 /// Stress tensor components, Pa (compression positive; 2D: force per metre of thickness per
 /// metre, i.e. Pa for unit thickness). `zz`, `xz`, `yz` are absent in 2D.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Stress {
     /// σ_xx.
     pub xx: f64,
@@ -25,6 +26,7 @@ pub struct Stress {
 
 /// Load on one wall.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WallSample {
     /// `x_min`, `y_max`, ...
     pub name: String,
@@ -39,6 +41,7 @@ pub struct WallSample {
 /// The measured state at one instant (field names are part of the API: CSV columns, JSON keys,
 /// database columns).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Sample {
     /// Step number.
     pub step: u64,

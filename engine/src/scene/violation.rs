@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 /// A rule broken by a field, e.g. `materials.glass.friction: must be >= 0, got -0.2`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Violation {
     /// Dotted path of the field (`particles[0].count`), or `""` for the whole document.
     pub field: String,
