@@ -212,10 +212,12 @@ impl JobStore {
         .fetch_one(&mut *tx)
         .await?;
         Self::state_event(&mut tx, id).await?;
+        // The job as created (a worker may lease it the moment the transaction commits).
+        let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = ?", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
         self.notify(id);
         self.queued.notify_one();
-        Ok((self.get(id).await?, true))
+        Ok((row, true))
     }
 
     /// One job.

@@ -28,6 +28,8 @@ struct PairBlock<'a> {
     out: &'a mut [ContactOutput],
     extra: Option<&'a mut [PairExtra]>,
     active_list: &'a mut Vec<u32>,
+    /// The pairs that interacted at the previous evaluation (global indices).
+    previous: &'a mut Vec<u32>,
 }
 
 impl PairBlock<'_> {
@@ -106,11 +108,12 @@ fn split_blocks<'a>(
     mut out: &'a mut [ContactOutput],
     extra: &'a mut [PairExtra],
     lists: &'a mut [Vec<u32>],
+    previous: &'a mut [Vec<u32>],
 ) -> Vec<PairBlock<'a>> {
     let n = start.len().saturating_sub(1);
     let mut extra: Option<&'a mut [PairExtra]> = (!extra.is_empty()).then_some(extra);
     let mut blocks = Vec::with_capacity(lists.len());
-    for (b, list) in lists.iter_mut().enumerate() {
+    for (b, (list, previous)) in lists.iter_mut().zip(previous.iter_mut()).enumerate() {
         let (i0, i1) = (b * PARTICLE_BLOCK, ((b + 1) * PARTICLE_BLOCK).min(n));
         let len = (start[i1] - start[i0]) as usize;
         let (x, rest) = std::mem::take(&mut xi).split_at_mut(len);
@@ -127,7 +130,16 @@ fn split_blocks<'a>(
             }
             None => None,
         };
-        blocks.push(PairBlock { particles: i0..i1, first_pair: start[i0] as usize, xi: x, active: a, out: o, extra: e, active_list: list });
+        blocks.push(PairBlock {
+            particles: i0..i1,
+            first_pair: start[i0] as usize,
+            xi: x,
+            active: a,
+            out: o,
+            extra: e,
+            active_list: list,
+            previous,
+        });
     }
     blocks
 }
@@ -158,11 +170,19 @@ impl Dem {
         });
         let xr = &self.xr;
         // One task per block of particles: its pairs form one contiguous range of the list.
-        // The loop below only rejects pairs that do not touch (most of the list) and is kept small
-        // so that it stays in registers; touching pairs go to `pair_contact`, out of line.
+        // Pass 1 finds the touching pairs; the loop does nothing else so that it stays in
+        // registers (most listed pairs do not touch), and touching pairs go to `pair_contact`,
+        // out of line. Pass 2 visits the pairs that interacted at the previous evaluation and
+        // were not found touching: a capillary bridge keeps interacting past contact, the others
+        // forget their history. Only pairs active last time can hold a bridge (bridges form on
+        // contact), so no test of the bridge state is needed in pass 1.
         let kernel = |block: &mut PairBlock<'_>| {
-            block.active_list.clear();
             let first = block.first_pair;
+            std::mem::swap(block.active_list, block.previous);
+            block.active_list.clear();
+            for &q in block.previous.iter() {
+                block.active[q as usize - first] = false;
+            }
             for i in block.particles.clone() {
                 let [xi, yi, zi, ri] = xr[i];
                 let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
@@ -176,17 +196,28 @@ impl Dem {
                         dz -= sh.z;
                     }
                     let reach = ri + rj;
-                    let dist2 = dx * dx + dy * dy + dz * dz;
-                    let k = s + off - first;
-                    if dist2 >= reach * reach && !block.extra.as_ref().is_some_and(|x| x[k].bridge) {
-                        if block.active[k] {
-                            block.release(k);
-                        }
-                        continue;
+                    if dx * dx + dy * dy + dz * dz < reach * reach {
+                        let k = s + off - first;
+                        block.active[k] = true;
+                        block.active_list.push((s + off) as u32);
+                        pair_contact(p, domain, table, dt, block, k, i, pr.j as usize, pr.image, Vec3::new(dx, dy, dz));
                     }
+                }
+            }
+            for idx in 0..block.previous.len() {
+                let q = block.previous[idx] as usize;
+                let k = q - first;
+                if block.active[k] {
+                    continue;
+                }
+                if block.extra.as_ref().is_some_and(|x| x[k].bridge) {
+                    let (i, pr) = (nl.pi[q] as usize, nl.pair[q]);
+                    let d = nl.separation(q, &p.pos, domain).0;
                     block.active[k] = true;
-                    block.active_list.push((s + off) as u32);
-                    pair_contact(p, domain, table, dt, block, k, i, pr.j as usize, pr.image, Vec3::new(dx, dy, dz));
+                    block.active_list.push(q as u32);
+                    pair_contact(p, domain, table, dt, block, k, i, pr.j as usize, pr.image, d);
+                } else {
+                    block.release(k);
                 }
             }
         };
@@ -197,6 +228,7 @@ impl Dem {
             &mut self.pair_out,
             &mut self.extra,
             &mut self.active_lists,
+            &mut self.previous_lists,
         );
         blocks.par_iter_mut().for_each(kernel);
     }

@@ -96,8 +96,11 @@ pub struct Dem {
     pair_active: Vec<bool>,
     pair_out: Vec<ContactOutput>,
     extra: Vec<PairExtra>,
-    /// Interacting pairs found by each particle block at the last evaluation.
+    /// Interacting pairs found by each particle block at the last evaluation (pair indices of
+    /// the current neighbour list, in block order).
     active_lists: Vec<Vec<u32>>,
+    /// The lists of the evaluation before (scratch of the force stage).
+    previous_lists: Vec<Vec<u32>>,
     /// Scratch: position and radius of each particle, packed for the pair loop.
     xr: Vec<[Real; 4]>,
     needs_extra: bool,
@@ -226,6 +229,7 @@ impl Dem {
             pair_out: Vec::new(),
             extra: Vec::new(),
             active_lists: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            previous_lists: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
             needs_extra,
             wall_xi: vec![Vec3::zeros(); n * nw],
@@ -327,7 +331,7 @@ impl Dem {
             + self.pair_xi.capacity() * std::mem::size_of::<Vec3>()
             + self.pair_active.capacity()
             + self.pair_out.capacity() * std::mem::size_of::<ContactOutput>()
-            + self.active_lists.iter().map(|l| l.capacity() * 4).sum::<usize>()
+            + self.active_lists.iter().chain(&self.previous_lists).map(|l| l.capacity() * 4).sum::<usize>()
             + self.xr.capacity() * 32
             + self.extra.capacity() * std::mem::size_of::<PairExtra>()
             + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
@@ -373,7 +377,19 @@ impl Dem {
         let old_xi = std::mem::take(&mut self.pair_xi);
         let old_extra = std::mem::take(&mut self.extra);
         self.pair_xi = old_index.par_iter().map(|&k| old_xi.get(k as usize).copied().unwrap_or_default()).collect();
-        self.pair_active = vec![false; old_index.len()];
+        // Which pairs interacted carries over too, so that a pair that stops touching right
+        // after a rebuild still forgets its history; the active lists are rebuilt from it.
+        let old_active = std::mem::take(&mut self.pair_active);
+        self.pair_active = old_index.par_iter().map(|&k| old_active.get(k as usize).copied().unwrap_or(false)).collect();
+        let (start, active) = (&self.nl.start, &self.pair_active);
+        let n = start.len().saturating_sub(1);
+        self.active_lists.par_iter_mut().enumerate().for_each(|(b, list)| {
+            list.clear();
+            let (i0, i1) = (b * forces::PARTICLE_BLOCK, ((b + 1) * forces::PARTICLE_BLOCK).min(n));
+            if i0 < i1 {
+                list.extend((start[i0]..start[i1]).filter(|&q| active[q as usize]));
+            }
+        });
         self.pair_out = vec![ContactOutput::default(); old_index.len()];
         if self.needs_extra {
             self.extra = old_index.par_iter().map(|&k| old_extra.get(k as usize).copied().unwrap_or_default()).collect();
