@@ -311,6 +311,20 @@ impl Dem {
         self.active_lists.iter().map(Vec::len).sum()
     }
 
+    /// The particle pairs (i < j) that interacted at the last force evaluation — touching, or
+    /// held by a capillary bridge — whatever their force (a contact whose damped force is floored
+    /// at zero still counts). For tests and diagnostics.
+    pub fn interacting_pair_list(&self) -> Vec<(u32, u32)> {
+        self.active_lists
+            .iter()
+            .flatten()
+            .map(|&q| {
+                let (i, j) = (self.nl.pi[q as usize], self.nl.pair[q as usize].j);
+                (i.min(j), i.max(j))
+            })
+            .collect()
+    }
+
     /// Number of pairs in the neighbour list.
     pub fn neighbor_pairs(&self) -> usize {
         self.nl.len()

@@ -1,0 +1,92 @@
+//! The neighbour list never misses a contact: in a periodic cell that is compressed, then
+//! servo-controlled to a pressure (the cell deforms every step), every pair that overlaps —
+//! found by brute force over minimum images — was evaluated by the force stage at every check. A missed
+//! pair would let grains pass through each other unseen, so this is checked exactly, not
+//! statistically.
+
+mod common;
+
+use std::collections::HashSet;
+
+use sable_engine::methods::dem::Dem;
+use sable_engine::run::Simulation;
+use sable_engine::scene::Deformation;
+use serde_json::json;
+
+/// Pairs (i < j) that overlap, by brute force over minimum images.
+fn overlapping(sim: &Dem) -> HashSet<(u32, u32)> {
+    let p = sim.particles();
+    let domain = sim.domain();
+    let mut out = HashSet::new();
+    for i in 0..p.len() {
+        for j in i + 1..p.len() {
+            let (d, _) = domain.image(&p.pos[i], &p.pos[j]);
+            // A margin of 1e-12 relative keeps exact-touching pairs out of the comparison.
+            if d.norm() < (p.radius[i] + p.radius[j]) * (1.0 - 1e-12) {
+                out.insert((i as u32, j as u32));
+            }
+        }
+    }
+    out
+}
+
+/// Pairs the force stage evaluated as interacting (a touching pair whose damped force is
+/// floored at zero still counts).
+fn in_contact(sim: &Dem) -> HashSet<(u32, u32)> {
+    sim.interacting_pair_list().into_iter().collect()
+}
+
+fn check(sim: &Dem, stage: &str) -> usize {
+    let expected = overlapping(sim);
+    let found = in_contact(sim);
+    let missed: Vec<_> = expected.difference(&found).collect();
+    assert!(
+        missed.is_empty(),
+        "{stage}, step {}: {} overlapping pair(s) not evaluated, e.g. {:?}",
+        sim.steps_done(),
+        missed.len(),
+        &missed[..missed.len().min(5)]
+    );
+    expected.len()
+}
+
+#[test]
+fn no_contact_is_missed_while_the_periodic_cell_deforms() {
+    let n = 300;
+    let d = 1e-3;
+    let area = std::f64::consts::PI / 4.0 * d * d * (1.0 + 1.4 * 1.4) / 2.0;
+    let side = (n as f64 * area / 0.5).sqrt();
+    let k_n = 1e7;
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "time_step_fraction": 0.02, "local_damping": 0.3, "max_overlap": 0.2},
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.2, "friction": 0.3}},
+        "particles": [{"material": "m", "count": n, "size": {"kind": "bidisperse", "diameter": d, "ratio": 1.4}, "placement": {"kind": "random"},
+                       "velocity": {"kind": "gaussian", "std": 0.05}}],
+        "container": {"min": [0, 0], "max": [side, side], "periodic": ["x", "y"],
+                      "deformation": {"kind": "strain_rate", "rate": [-10.0, -10.0]}},
+        "stop": {"steps": 1},
+        "seed": 11
+    }));
+    let mut sim = common::dem(&s);
+    let mut most = 0;
+    // Compression through jamming, checked every 5 steps.
+    while sim.packing_fraction() < 0.845 {
+        for _ in 0..5 {
+            sim.step().expect("stable");
+        }
+        most = most.max(check(&sim, "compression"));
+        assert!(sim.steps_done() < 400_000, "compression stalled at phi = {}", sim.packing_fraction());
+    }
+    // Pressure servo: the cell expands and breathes.
+    let target = 1e-3 * k_n;
+    sim.set_deformation(Some(Deformation::Pressure { target, max_strain_rate: 5.0, gain: 1.0 / target }));
+    for _ in 0..2000 {
+        for _ in 0..5 {
+            sim.step().expect("stable");
+        }
+        most = most.max(check(&sim, "servo"));
+    }
+    assert!(most > n, "the test must see a dense contact network, saw at most {most} contacts");
+    assert!(sim.neighbor_builds() > 10, "the test must cross many neighbour-list rebuilds");
+}
