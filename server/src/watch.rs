@@ -4,7 +4,9 @@
 //!
 //! Only stored events go on the wire, so a watcher that falls behind, or reconnects with the
 //! last sequence number it saw, misses nothing: it subscribes to notifications first, then reads
-//! the table, and every notification (or a lagged channel) means "read the table again".
+//! the table. Each notification carries the events just committed; a watcher that is up to date
+//! sends them as they are (no database read), and one that is not (a gap, a lagged channel)
+//! reads the table again.
 
 use std::time::Duration;
 
@@ -46,15 +48,23 @@ pub async fn watch(
     tokio::spawn(async move {
         let mut last = after;
         let mut first = true;
+        // Events handed over by a notification, in order, not yet sent.
+        let mut pending: Vec<EventRow> = Vec::new();
         loop {
-            let events = match store.events_after(id, last, 256).await {
-                Ok(e) => e,
-                Err(e) => {
-                    let _ = tx.send(Err(e.into())).await;
-                    return;
+            let (events, full) = if pending.is_empty() {
+                match store.events_after(id, last, 256).await {
+                    Ok(e) => {
+                        let full = e.len() == 256;
+                        (e, full)
+                    }
+                    Err(e) => {
+                        let _ = tx.send(Err(e.into())).await;
+                        return;
+                    }
                 }
+            } else {
+                (std::mem::take(&mut pending), false)
             };
-            let full = events.len() == 256;
             for e in events {
                 last = e.seq;
                 let done = is_final(&e);
@@ -73,11 +83,19 @@ pub async fn watch(
                 }
             }
             first = false;
-            // Wait for news of this job, a heartbeat, or the watcher leaving.
+            // Wait for news of this job, a heartbeat, or the watcher leaving. A notification that
+            // continues exactly where this watcher stands is sent as it is; anything else (a gap,
+            // a lagged channel) means reading the table again.
             loop {
                 tokio::select! {
                     n = notices.recv() => match n {
-                        Ok(j) if j == id => break,
+                        Ok(notice) if notice.job_id == id => {
+                            let fresh: Vec<EventRow> = notice.events.iter().filter(|e| e.seq > last).cloned().collect();
+                            if fresh.first().is_some_and(|e| e.seq == last + 1) {
+                                pending = fresh;
+                            }
+                            break;
+                        }
                         Ok(_) => {}
                         Err(RecvError::Lagged(_)) => break,
                         Err(RecvError::Closed) => return,

@@ -8,6 +8,7 @@
 mod rows;
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 
 use sable_engine::observe::Sample;
@@ -20,6 +21,16 @@ pub use rows::{EventRow, JobRow, JobState};
 
 /// The migrations of migrations/, embedded at build time.
 pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../migrations");
+
+/// What watchers hear after each commit: the job that changed and the events it appended, in
+/// order (empty when nothing was appended, e.g. a cancellation request for a running job).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Notice {
+    /// The job.
+    pub job_id: i64,
+    /// Its new events.
+    pub events: Vec<EventRow>,
+}
 
 /// Failures of the store.
 #[derive(Debug, thiserror::Error)]
@@ -92,7 +103,7 @@ pub struct LeaseConfig {
 pub struct JobStore {
     writer: SqlitePool,
     reader: SqlitePool,
-    events: broadcast::Sender<i64>,
+    events: broadcast::Sender<Arc<Notice>>,
     /// Notified when a job is queued (wakes idle local workers).
     pub queued: std::sync::Arc<Notify>,
     /// Cancelled when the server shuts down: ends every event stream.
@@ -132,8 +143,8 @@ impl JobStore {
         self.reader.close().await;
     }
 
-    /// Receives the id of every job that gets new events.
-    pub fn subscribe(&self) -> broadcast::Receiver<i64> {
+    /// Receives, after each commit, the job that changed and the events it appended.
+    pub fn subscribe(&self) -> broadcast::Receiver<Arc<Notice>> {
         self.events.subscribe()
     }
 
@@ -141,26 +152,33 @@ impl JobStore {
         Ok(self.writer.begin_with("BEGIN IMMEDIATE").await?)
     }
 
-    async fn append_event(
-        tx: &mut Transaction<'static, Sqlite>,
-        job: i64,
-        kind: &str,
-        payload: &serde_json::Value,
-    ) -> Result<i64, StoreError> {
-        let seq: i64 =
-            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) + 1 FROM job_events WHERE job_id = ?").bind(job).fetch_one(&mut **tx).await?;
-        sqlx::query("INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES (?, ?, ?, ?, ?)")
-            .bind(job)
-            .bind(seq)
-            .bind(now_ms())
-            .bind(kind)
-            .bind(payload.to_string())
-            .execute(&mut **tx)
-            .await?;
-        Ok(seq)
+    /// Sequence number the next event of `job` will take.
+    async fn next_seq(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<i64, StoreError> {
+        Ok(sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) + 1 FROM job_events WHERE job_id = ?").bind(job).fetch_one(&mut **tx).await?)
     }
 
-    async fn state_event(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<(), StoreError> {
+    /// Stores one event with sequence number `seq` and returns it.
+    async fn insert_event(
+        tx: &mut Transaction<'static, Sqlite>,
+        job: i64,
+        seq: i64,
+        kind: &str,
+        payload: &serde_json::Value,
+    ) -> Result<EventRow, StoreError> {
+        let row = EventRow { job_id: job, seq, at: now_ms(), kind: kind.to_string(), payload: payload.to_string() };
+        sqlx::query("INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES (?, ?, ?, ?, ?)")
+            .bind(row.job_id)
+            .bind(row.seq)
+            .bind(row.at)
+            .bind(&row.kind)
+            .bind(&row.payload)
+            .execute(&mut **tx)
+            .await?;
+        Ok(row)
+    }
+
+    /// Appends a state event carrying the job's current state, attempt and error.
+    async fn state_event(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<EventRow, StoreError> {
         let r =
             sqlx::query("SELECT state, attempts, error_code, error_message FROM jobs WHERE id = ?").bind(job).fetch_one(&mut **tx).await?;
         let payload = serde_json::json!({
@@ -169,12 +187,13 @@ impl JobStore {
             "error_code": r.get::<Option<String>, _>("error_code"),
             "error_message": r.get::<Option<String>, _>("error_message"),
         });
-        Self::append_event(tx, job, "state", &payload).await?;
-        Ok(())
+        let seq = Self::next_seq(tx, job).await?;
+        Self::insert_event(tx, job, seq, "state", &payload).await
     }
 
-    fn notify(&self, job: i64) {
-        let _ = self.events.send(job);
+    /// Tells watchers (after the commit) that `job` changed, with the events it appended.
+    fn notify(&self, job: i64, events: Vec<EventRow>) {
+        let _ = self.events.send(Arc::new(Notice { job_id: job, events }));
     }
 
     /// Inserts a job, or returns the job that an earlier request with the same idempotency key
@@ -211,11 +230,11 @@ impl JobStore {
         .bind(now_ms())
         .fetch_one(&mut *tx)
         .await?;
-        Self::state_event(&mut tx, id).await?;
+        let event = Self::state_event(&mut tx, id).await?;
         // The job as created (a worker may lease it the moment the transaction commits).
         let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = ?", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
-        self.notify(id);
+        self.notify(id, vec![event]);
         self.queued.notify_one();
         Ok((row, true))
     }
@@ -257,6 +276,7 @@ impl JobStore {
         let mut tx = self.begin().await?;
         let state: Option<String> = sqlx::query_scalar("SELECT state FROM jobs WHERE id = ?").bind(id).fetch_optional(&mut *tx).await?;
         let state = state.ok_or(StoreError::NotFound(id))?;
+        let mut events = Vec::new();
         match JobState::parse(&state) {
             Some(JobState::Queued) => {
                 sqlx::query("UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1 WHERE id = ?")
@@ -264,7 +284,7 @@ impl JobStore {
                     .bind(id)
                     .execute(&mut *tx)
                     .await?;
-                Self::state_event(&mut tx, id).await?;
+                events.push(Self::state_event(&mut tx, id).await?);
             }
             Some(JobState::Running) => {
                 sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ?").bind(id).execute(&mut *tx).await?;
@@ -277,7 +297,7 @@ impl JobStore {
             }
         }
         tx.commit().await?;
-        self.notify(id);
+        self.notify(id, events);
         self.get(id).await
     }
 
@@ -345,6 +365,7 @@ impl JobStore {
                 .await?
             }
         };
+        let mut events = Vec::with_capacity(ids.len());
         for &(id, attempts, max) in &ids {
             if attempts < max {
                 sqlx::query("UPDATE jobs SET state = 'queued', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL WHERE id = ?")
@@ -362,11 +383,11 @@ impl JobStore {
                 .execute(&mut *tx)
                 .await?;
             }
-            Self::state_event(&mut tx, id).await?;
+            events.push((id, Self::state_event(&mut tx, id).await?));
         }
         tx.commit().await?;
-        for &(id, _, _) in &ids {
-            self.notify(id);
+        for (id, event) in events {
+            self.notify(id, vec![event]);
         }
         if !ids.is_empty() {
             self.queued.notify_waiters();
@@ -397,9 +418,9 @@ impl JobStore {
         };
         // A new attempt starts from scratch: samples of an earlier attempt are dropped.
         sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
-        Self::state_event(&mut tx, id).await?;
+        let event = Self::state_event(&mut tx, id).await?;
         tx.commit().await?;
-        self.notify(id);
+        self.notify(id, vec![event]);
         Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32 }))
     }
 
@@ -447,9 +468,11 @@ impl JobStore {
             .await?;
         }
         // One sample event per sample, carrying the progress of the batch.
-        for s in &report.samples {
+        let mut events = Vec::with_capacity(report.samples.len());
+        let first = Self::next_seq(&mut tx, lease.job_id).await?;
+        for (k, s) in report.samples.iter().enumerate() {
             let payload = serde_json::json!({"fraction": report.fraction, "remaining_seconds": report.remaining_seconds, "sample": s});
-            Self::append_event(&mut tx, lease.job_id, "sample", &payload).await?;
+            events.push(Self::insert_event(&mut tx, lease.job_id, first + k as i64, "sample", &payload).await?);
         }
         sqlx::query("UPDATE jobs SET progress = ?, steps = MAX(steps, ?) WHERE id = ?")
             .bind(report.fraction.clamp(0.0, 1.0))
@@ -458,8 +481,8 @@ impl JobStore {
             .execute(&mut *tx)
             .await?;
         tx.commit().await?;
-        if !report.samples.is_empty() {
-            self.notify(lease.job_id);
+        if !events.is_empty() {
+            self.notify(lease.job_id, events);
         }
         Ok(cancel)
     }
@@ -514,9 +537,9 @@ impl JobStore {
                 .await?;
             }
         }
-        Self::state_event(&mut tx, lease.job_id).await?;
+        let event = Self::state_event(&mut tx, lease.job_id).await?;
         tx.commit().await?;
-        self.notify(lease.job_id);
+        self.notify(lease.job_id, vec![event]);
         if matches!(outcome, Outcome::Released) {
             self.queued.notify_one();
         }
