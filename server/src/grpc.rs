@@ -13,7 +13,7 @@ use tonic::{Request, Response, Status};
 
 use crate::api::{self, ApiError, JobView, ListQuery, Submission};
 use crate::store::{EventRow, JobState, JobStore, StoreError};
-use crate::watch::{watch, WatchItem};
+use crate::watch::{take_slot, watch_stream, WatchItem};
 
 impl From<ApiError> for Status {
     fn from(e: ApiError) -> Self {
@@ -185,37 +185,20 @@ impl pb::simulations_server::Simulations for SimulationsService {
     async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
         let r = req.into_inner();
         let after = i64::try_from(r.after_seq).map_err(|_| Status::from(ApiError::invalid("after_seq", "is too large")))?;
-        let permit = self.watchers.clone().try_acquire_owned().map_err(|_| {
-            Status::resource_exhausted(format!("too many open event streams (limit {}); try again later", self.limits.max_watchers))
-        })?;
-        let mut rx = watch(&self.store, r.id, after, self.heartbeat).await?;
+        let slot = take_slot(&self.watchers, self.limits.max_watchers)?;
         let id = r.id;
-        let (tx, out) = tokio::sync::mpsc::channel(16);
-        tokio::spawn(async move {
-            let _permit = permit;
-            loop {
-                // Leave as soon as the client goes, even while the job is quiet.
-                let item = tokio::select! {
-                    item = rx.recv() => item,
-                    _ = tx.closed() => return,
-                };
-                let Some(item) = item else { return };
-                let msg = match item {
-                    Ok(WatchItem::Event(e)) => Ok(pb_event(&e)),
-                    Ok(WatchItem::Heartbeat) => Ok(pb::JobEvent {
-                        seq: 0,
-                        job_id: id,
-                        at: api::rfc3339(crate::store::now_ms()),
-                        kind: Some(pb::job_event::Kind::Heartbeat(pb::Heartbeat {})),
-                    }),
-                    Err(e) => Err(Status::from(e)),
-                };
-                if tx.send(msg).await.is_err() {
-                    return;
-                }
-            }
-        });
-        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(out))))
+        let stream = watch_stream(&self.store, id, after, self.heartbeat, slot, move |item| match item {
+            Ok(WatchItem::Event(e)) => Ok(pb_event(&e)),
+            Ok(WatchItem::Heartbeat) => Ok(pb::JobEvent {
+                seq: 0,
+                job_id: id,
+                at: api::rfc3339(crate::store::now_ms()),
+                kind: Some(pb::job_event::Kind::Heartbeat(pb::Heartbeat {})),
+            }),
+            Err(e) => Err(Status::from(e)),
+        })
+        .await?;
+        Ok(Response::new(Box::pin(stream)))
     }
 
     async fn get_samples(&self, req: Request<pb::GetSamplesRequest>) -> Result<Response<pb::GetSamplesResponse>, Status> {

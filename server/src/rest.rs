@@ -30,7 +30,7 @@ use serde_json::json;
 
 use crate::api::{self, ApiError, ListQuery, Submission};
 use crate::store::JobStore;
-use crate::watch::{watch, WatchItem};
+use crate::watch::{take_slot, watch_stream, WatchItem};
 
 /// What the handlers share.
 #[derive(Debug, Clone)]
@@ -368,43 +368,16 @@ pub(crate) async fn events(
     if after < 0 {
         return Err(ApiError::invalid("after_seq", "must be >= 0"));
     }
-    let permit = st
-        .watchers
-        .clone()
-        .try_acquire_owned()
-        .map_err(|_| ApiError::Exhausted(format!("too many open event streams (limit {}); try again later", st.limits.max_watchers)))?;
-    let mut rx = watch(&st.store, id, after, st.heartbeat).await?;
-    let stream = async_stream_from(move |tx| async move {
-        let _permit = permit;
-        loop {
-            let item = tokio::select! {
-                item = rx.recv() => item,
-                _ = tx.closed() => return,
-            };
-            let Some(item) = item else { return };
-            let ev = match item {
-                Ok(WatchItem::Event(e)) => Event::default().id(e.seq.to_string()).event(e.kind.clone()).data(e.payload),
-                Ok(WatchItem::Heartbeat) => Event::default().event("heartbeat").data("{}"),
-                Err(e) => Event::default().event("error").data(json!({"code": e.code(), "message": e.to_string()}).to_string()),
-            };
-            if tx.send(Ok::<_, Infallible>(ev)).await.is_err() {
-                return;
-            }
-        }
-    });
+    let slot = take_slot(&st.watchers, st.limits.max_watchers)?;
+    let stream = watch_stream(&st.store, id, after, st.heartbeat, slot, |item| {
+        Ok::<_, Infallible>(match item {
+            Ok(WatchItem::Event(e)) => Event::default().id(e.seq.to_string()).event(e.kind.clone()).data(e.payload),
+            Ok(WatchItem::Heartbeat) => Event::default().event("heartbeat").data("{}"),
+            Err(e) => Event::default().event("error").data(json!({"code": e.code(), "message": e.to_string()}).to_string()),
+        })
+    })
+    .await?;
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()).into_response())
-}
-
-/// A stream fed by a task through a small channel.
-fn async_stream_from<T, F, Fut>(f: F) -> tokio_stream::wrappers::ReceiverStream<T>
-where
-    T: Send + 'static,
-    F: FnOnce(tokio::sync::mpsc::Sender<T>) -> Fut,
-    Fut: std::future::Future<Output = ()> + Send + 'static,
-{
-    let (tx, rx) = tokio::sync::mpsc::channel(16);
-    tokio::spawn(f(tx));
-    tokio_stream::wrappers::ReceiverStream::new(rx)
 }
 
 /// `GET /healthz`: the database answers.

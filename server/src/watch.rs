@@ -10,8 +10,11 @@
 
 use std::time::Duration;
 
+use std::sync::Arc;
 use tokio::sync::broadcast::error::RecvError;
-use tokio::sync::mpsc;
+
+use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
+use tokio_stream::wrappers::ReceiverStream;
 
 use crate::api::ApiError;
 use crate::store::{EventRow, JobState, JobStore};
@@ -112,4 +115,41 @@ pub async fn watch(
         }
     });
     Ok(rx)
+}
+
+/// Takes one of the `limit` event-stream slots of `slots`, or says the limit is reached.
+pub fn take_slot(slots: &Arc<Semaphore>, limit: usize) -> Result<OwnedSemaphorePermit, ApiError> {
+    slots
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| ApiError::Exhausted(format!("too many open event streams (limit {limit}); try again later")))
+}
+
+/// [`watch`] as a stream of `convert`ed items, holding the watcher slot `slot` while it lives.
+/// The stream ends after the job's final state, at server shutdown, or as soon as its consumer
+/// drops it (even while the job is quiet).
+pub async fn watch_stream<T: Send + 'static>(
+    store: &JobStore,
+    id: i64,
+    after: i64,
+    heartbeat: Duration,
+    slot: OwnedSemaphorePermit,
+    convert: impl Fn(Result<WatchItem, ApiError>) -> T + Send + 'static,
+) -> Result<ReceiverStream<T>, ApiError> {
+    let mut rx = watch(store, id, after, heartbeat).await?;
+    let (tx, out) = mpsc::channel(16);
+    tokio::spawn(async move {
+        let _slot = slot;
+        loop {
+            let item = tokio::select! {
+                item = rx.recv() => item,
+                _ = tx.closed() => return,
+            };
+            let Some(item) = item else { return };
+            if tx.send(convert(item)).await.is_err() {
+                return;
+            }
+        }
+    });
+    Ok(ReceiverStream::new(out))
 }
