@@ -187,6 +187,30 @@ async fn submit_over_http_watch_over_grpc_and_read_samples() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan() {
+    let h = Harness::start(1).await;
+    // A time step far above the collision time: the grains blow up on their first contacts.
+    let mut bad = scene(200_000, 1);
+    bad["method"] = json!({"kind": "dem", "time_step": 2e-4});
+    bad["particles"][0]["velocity"] = json!({"kind": "gaussian", "std": 0.5});
+    let (status, job) = h.post("/v1/jobs", &bad, None).await;
+    assert_eq!(status, 201, "{job}");
+    let id = job["id"].as_i64().expect("id");
+    let job = h.wait_state(id, &["failed", "succeeded"], Duration::from_secs(60)).await;
+    assert_eq!(job["state"], "failed", "{job}");
+    assert_eq!(job["error"]["code"], "unstable", "{job}");
+    let message = job["error"]["message"].as_str().unwrap_or_default();
+    assert!(message.contains("dt ="), "the message names the time step and the fix: {message}");
+    assert!(job["attempts"] == 1, "an unstable run is not retried: {job}");
+    let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    for s in body["samples"].as_array().expect("samples") {
+        for key in ["time", "phi", "z", "mu", "p", "q", "kinetic_energy", "elastic_energy"] {
+            assert!(s[key].as_f64().is_some_and(f64::is_finite), "sample {key} = {}", s[key]);
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_same_idempotency_key_returns_the_same_job() {
     let h = Harness::start(0).await;
     let (s1, j1) = h.post("/v1/jobs", &scene(100, 1), Some("key-1")).await;

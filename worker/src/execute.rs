@@ -114,10 +114,12 @@ pub async fn execute<S: JobSource>(
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut released = false;
     let mut lost = false;
+    let mut last_step = 0;
     let result = loop {
         tokio::select! {
             r = &mut engine => break r,
             Some(Msg::Sample(s, p)) = rx.recv() => {
+                last_step = s.step;
                 pending.fraction = p.fraction;
                 pending.remaining_seconds = p.remaining;
                 pending.samples.push(s);
@@ -145,6 +147,7 @@ pub async fn execute<S: JobSource>(
         }
     };
     while let Ok(Msg::Sample(s, p)) = rx.try_recv() {
+        last_step = s.step;
         pending.fraction = p.fraction;
         pending.remaining_seconds = p.remaining;
         pending.samples.push(s);
@@ -162,7 +165,11 @@ pub async fn execute<S: JobSource>(
         Ok(Ok(Err(EngineError::Cancelled { .. }))) if released => Outcome::Released,
         Ok(Ok(Err(EngineError::Cancelled { .. }))) => Outcome::Cancelled,
         Ok(Ok(Err(e))) => {
-            let steps = pending.samples.last().map_or(0, |s| s.step);
+            // The step the engine stopped at, or the last one sampled.
+            let steps = match &e {
+                EngineError::Unstable { step, .. } => *step,
+                _ => last_step,
+            };
             Outcome::Failed { code: e.code().into(), message: e.to_string(), steps, wall_seconds }
         }
         Ok(Err(panic)) => Outcome::Failed { code: "internal".into(), message: panic_message(&panic), steps: 0, wall_seconds },
