@@ -80,20 +80,7 @@ pub fn bench(a: ServiceBenchArgs) -> anyhow::Result<()> {
         let dir = tempfile_dir()?;
         // In-process: submissions against a server without workers, then a second server with
         // one worker for the fan-out.
-        let (url, server) = match &a.server {
-            Some(u) => (u.clone(), None),
-            None => {
-                let cfg = ServeConfig {
-                    db: dir.join("bench.db"),
-                    http: "127.0.0.1:0".parse()?,
-                    grpc: "127.0.0.1:0".parse()?,
-                    workers: 0,
-                    ..Default::default()
-                };
-                let s = Server::start(cfg).await.context("cannot start the in-process server")?;
-                (format!("http://{}", s.grpc_addr), Some(s))
-            }
-        };
+        let (url, server) = target(&a, &dir.join("bench.db"), 0).await?;
         let client = Client::connect(&url).await?;
         let started = Instant::now();
         let mut tasks = Vec::new();
@@ -121,21 +108,7 @@ pub fn bench(a: ServiceBenchArgs) -> anyhow::Result<()> {
         }
 
         // Fan-out: one job followed by many watchers; lag = receipt time - event time.
-        let (url, server) = match &a.server {
-            Some(u) => (u.clone(), None),
-            None => {
-                let cfg = ServeConfig {
-                    db: dir.join("fanout.db"),
-                    http: "127.0.0.1:0".parse()?,
-                    grpc: "127.0.0.1:0".parse()?,
-                    workers: 1,
-                    limits: sable_server::api::Limits { max_watchers: a.watchers + 8, ..Default::default() },
-                    ..Default::default()
-                };
-                let s = Server::start(cfg).await?;
-                (format!("http://{}", s.grpc_addr), Some(s))
-            }
-        };
+        let (url, server) = target(&a, &dir.join("fanout.db"), 1).await?;
         let mut client = Client::connect(&url).await?;
         let job = client.submit(&tiny_scene(7, 20_000), SubmitOptions::default()).await?;
         let barrier = Arc::new(tokio::sync::Barrier::new(a.watchers));
@@ -152,7 +125,7 @@ pub fn bench(a: ServiceBenchArgs) -> anyhow::Result<()> {
                     if matches!(ev.kind, Some(Kind::Heartbeat(_))) {
                         continue;
                     }
-                    if let Ok(at) = humantime_parse(&ev.at) {
+                    if let Ok(at) = humantime::parse_rfc3339_weak(&ev.at) {
                         lags.push((std::time::SystemTime::now().duration_since(at).unwrap_or_default()).as_secs_f64() * 1e3);
                     }
                 }
@@ -205,8 +178,22 @@ pub fn bench(a: ServiceBenchArgs) -> anyhow::Result<()> {
     })
 }
 
-fn humantime_parse(s: &str) -> Result<std::time::SystemTime, humantime::TimestampError> {
-    humantime::parse_rfc3339_weak(s)
+/// The server to measure: the one given, or one started in-process on `db` with `workers`
+/// local workers and room for every watcher.
+async fn target(a: &ServiceBenchArgs, db: &std::path::Path, workers: usize) -> anyhow::Result<(String, Option<Server>)> {
+    if let Some(u) = &a.server {
+        return Ok((u.clone(), None));
+    }
+    let cfg = ServeConfig {
+        db: db.to_path_buf(),
+        http: "127.0.0.1:0".parse()?,
+        grpc: "127.0.0.1:0".parse()?,
+        workers,
+        limits: sable_server::api::Limits { max_watchers: a.watchers + 8, ..Default::default() },
+        ..Default::default()
+    };
+    let s = Server::start(cfg).await.context("cannot start the in-process server")?;
+    Ok((format!("http://{}", s.grpc_addr), Some(s)))
 }
 
 fn tempfile_dir() -> anyhow::Result<std::path::PathBuf> {

@@ -491,43 +491,53 @@ impl JobStore {
     pub async fn finish(&self, lease: &Lease, outcome: &Outcome) -> Result<(), StoreError> {
         let mut tx = self.begin().await?;
         self.hold(&mut tx, lease).await?;
-        let now = now_ms();
-        let clear = "lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL";
-        match outcome {
+        // How the job ends (None: a released job is handed back instead).
+        struct End<'a> {
+            state: &'a str,
+            code: Option<&'a str>,
+            message: Option<&'a str>,
+            steps: Option<u64>,
+            wall_seconds: Option<f64>,
+        }
+        let end = match outcome {
             Outcome::Succeeded { steps, wall_seconds } => {
-                sqlx::query(&format!(
-                    "UPDATE jobs SET state = 'succeeded', progress = 1, steps = ?, wall_seconds = ?, finished_at = ?, {clear} WHERE id = ?"
-                ))
-                .bind(*steps as i64)
-                .bind(wall_seconds)
-                .bind(now)
-                .bind(lease.job_id)
-                .execute(&mut *tx)
-                .await?;
+                Some(End { state: "succeeded", code: None, message: None, steps: Some(*steps), wall_seconds: Some(*wall_seconds) })
             }
-            Outcome::Failed { code, message, steps, wall_seconds } => {
+            Outcome::Failed { code, message, steps, wall_seconds } => Some(End {
+                state: "failed",
+                code: Some(code),
+                message: Some(message),
+                steps: Some(*steps),
+                wall_seconds: Some(*wall_seconds),
+            }),
+            Outcome::Cancelled => Some(End {
+                state: "cancelled",
+                code: Some("cancelled"),
+                message: Some("cancelled by the user"),
+                steps: None,
+                wall_seconds: None,
+            }),
+            Outcome::Released => None,
+        };
+        let clear = "lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL";
+        match end {
+            Some(End { state, code, message, steps, wall_seconds }) => {
                 sqlx::query(&format!(
-                    "UPDATE jobs SET state = 'failed', error_code = ?, error_message = ?, steps = ?, wall_seconds = ?, finished_at = ?, {clear} WHERE id = ?"
+                    "UPDATE jobs SET state = ?1, progress = CASE WHEN ?1 = 'succeeded' THEN 1 ELSE progress END, error_code = ?2, \
+                     error_message = ?3, steps = COALESCE(?4, steps), wall_seconds = COALESCE(?5, wall_seconds), finished_at = ?6, \
+                     {clear} WHERE id = ?7"
                 ))
+                .bind(state)
                 .bind(code)
                 .bind(message)
-                .bind(*steps as i64)
+                .bind(steps.map(|s| s as i64))
                 .bind(wall_seconds)
-                .bind(now)
+                .bind(now_ms())
                 .bind(lease.job_id)
                 .execute(&mut *tx)
                 .await?;
             }
-            Outcome::Cancelled => {
-                sqlx::query(&format!(
-                    "UPDATE jobs SET state = 'cancelled', error_code = 'cancelled', error_message = 'cancelled by the user', finished_at = ?, {clear} WHERE id = ?"
-                ))
-                .bind(now)
-                .bind(lease.job_id)
-                .execute(&mut *tx)
-                .await?;
-            }
-            Outcome::Released => {
+            None => {
                 // Handed back by a worker that is shutting down: not the job's fault.
                 sqlx::query(&format!(
                     "UPDATE jobs SET state = 'queued', attempts = MAX(attempts - 1, 0), progress = 0, {clear} WHERE id = ?"
