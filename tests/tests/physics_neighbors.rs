@@ -90,3 +90,43 @@ fn no_contact_is_missed_while_the_periodic_cell_deforms() {
     assert!(most > n, "the test must see a dense contact network, saw at most {most} contacts");
     assert!(sim.neighbor_builds() > 10, "the test must cross many neighbour-list rebuilds");
 }
+
+/// Under Lees-Edwards shear the image offset grows and wraps around the box length: pairs that
+/// cross the sheared boundary must still be found on both sides of the wrap.
+#[test]
+fn no_contact_is_missed_under_lees_edwards_shear() {
+    // A dense square lattice with 10% vacancies, sheared: disordered flow with many contacts.
+    let (d, spacing, cells) = (1e-3, 1.02e-3, 18);
+    let n = 290;
+    let side = cells as f64 * spacing;
+    let rate = 20.0;
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "time_step_fraction": 0.02, "max_overlap": 0.2},
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "m", "count": n, "size": {"kind": "monodisperse", "diameter": d},
+                       "placement": {"kind": "lattice", "lattice": "square", "spacing": spacing, "select": "random"},
+                       "velocity": {"kind": "gaussian", "std": 0.02}}],
+        "container": {"min": [0, 0], "max": [side, side], "periodic": ["x", "y"],
+                      "lees_edwards": {"shear_rate": rate, "initial_profile": true}},
+        "stop": {"steps": 1},
+        "seed": 5
+    }));
+    let mut sim = common::dem(&s);
+    let mut most = 0;
+    let mut wraps = 0;
+    let mut last_offset = sim.domain().le_offset;
+    // Shear to a strain of 3: the offset wraps about three times.
+    while sim.time() * rate < 3.0 {
+        for _ in 0..5 {
+            sim.step().expect("stable");
+        }
+        if sim.domain().le_offset < last_offset {
+            wraps += 1;
+        }
+        last_offset = sim.domain().le_offset;
+        most = most.max(check(&sim, "shear"));
+    }
+    assert!(wraps >= 2, "the offset must wrap around the box, wrapped {wraps} times");
+    assert!(most > n / 10, "the test must see many contacts, saw at most {most}");
+}

@@ -86,9 +86,9 @@ impl NeighborList {
             .reduce(|| 0.0, f64::max);
         let mut drift = 2.0 * max2.sqrt();
         if domain.sheared() {
-            let lx = domain.length(0);
-            let d = (domain.le_offset - self.ref_offset).abs();
-            drift += d.min(lx - d);
+            // Not the distance modulo L_x: when the offset wraps around the box, every pair
+            // listed across the sheared boundary refers to an image one period away.
+            drift += (domain.le_offset - self.ref_offset).abs();
         }
         for a in 0..domain.dim {
             if domain.periodic[a] {
@@ -98,9 +98,9 @@ impl NeighborList {
         drift > self.skin
     }
 
-    /// Rebuilds the list; `pos` must be wrapped into the box. Returns, for each new pair, the index of the same pair in the old list
-    /// (or `u32::MAX`), so that pair histories can be carried over.
-    pub fn rebuild(&mut self, pos: &[Vec3], radius: &[Real], domain: &Domain) -> Vec<u32> {
+    /// Rebuilds the list; `pos` must be wrapped into the box. Pair states carried over use
+    /// [`NeighborList::find`] to locate their pair in the new list.
+    pub fn rebuild(&mut self, pos: &[Vec3], radius: &[Real], domain: &Domain) {
         let n = pos.len();
         let rmax = radius.iter().copied().fold(0.0, f64::max);
         let cell_size = 2.0 * rmax + self.reach;
@@ -219,13 +219,14 @@ impl NeighborList {
             })
             .collect();
 
-        let old_start = std::mem::take(&mut self.start);
-        let old_pair = std::mem::take(&mut self.pair);
         let total: usize = chunks.iter().map(|c| c.1.len()).sum();
-        self.start = Vec::with_capacity(n + 1);
+        self.start.clear();
+        self.start.reserve(n + 1);
         self.start.push(0);
-        self.pi = Vec::with_capacity(total);
-        self.pair = Vec::with_capacity(total);
+        self.pi.clear();
+        self.pi.reserve(total);
+        self.pair.clear();
+        self.pair.reserve(total);
         let mut i = 0u32;
         for (counts, js) in chunks {
             self.pair.extend_from_slice(&js);
@@ -236,29 +237,18 @@ impl NeighborList {
                 i += 1;
             }
         }
-        // Where each new pair sat in the old list.
-        let old_index: Vec<u32> = if old_start.len() == n + 1 {
-            self.pi
-                .par_iter()
-                .zip(self.pair.par_iter())
-                .with_min_len(CHUNK)
-                .map(|(&i, r)| {
-                    let (s, e) = (old_start[i as usize] as usize, old_start[i as usize + 1] as usize);
-                    match old_pair[s..e].binary_search_by_key(&r.j, |o| o.j) {
-                        Ok(k) => (s + k) as u32,
-                        Err(_) => u32::MAX,
-                    }
-                })
-                .collect()
-        } else {
-            vec![u32::MAX; total]
-        };
         self.ref_pos.clear();
         self.ref_pos.extend_from_slice(pos);
         self.ref_offset = domain.le_offset;
         self.ref_len = domain.hi - domain.lo;
         self.builds += 1;
-        old_index
+    }
+
+    /// Index of the pair (i, j), i < j, in the list, if listed.
+    #[inline]
+    pub fn find(&self, i: u32, j: u32) -> Option<usize> {
+        let (s, e) = (*self.start.get(i as usize)? as usize, *self.start.get(i as usize + 1)? as usize);
+        self.pair[s..e].binary_search_by_key(&j, |r| r.j).ok().map(|k| s + k)
     }
 
     /// Heap bytes held by the list.

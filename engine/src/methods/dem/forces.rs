@@ -1,12 +1,13 @@
 //! The force stage of DEM: the pairs of the neighbour list in parallel, by blocks of particles
-//! (each pair writes only its own slot and each block lists its interacting pairs), then walls,
-//! then one scatter of the interacting pairs in block order. No atomics and no allocation in the
-//! step: the result does not depend on the number of threads.
+//! (each block owns the records of its interacting pairs, see [`super::pair_state`]), then walls,
+//! then one scatter of the interacting pairs in block order. No atomics: the result does not
+//! depend on the number of threads.
 
 use rayon::prelude::*;
 
-use super::{Dem, PairExtra};
-use crate::contact::{ContactInput, ContactOutput, ContactTable};
+use super::pair_state::{PairContact, PairExtra};
+use super::Dem;
+use crate::contact::{ContactInput, ContactTable};
 use crate::geometry::Domain;
 use crate::math::Vec3;
 use crate::particles::Particles;
@@ -19,33 +20,8 @@ pub(crate) const LOOP_CHUNK: usize = 2048;
 /// Particles per force task: their pairs form one contiguous block of the neighbour list.
 pub(crate) const PARTICLE_BLOCK: usize = 256;
 
-/// The pairs of one block of particles, with the mutable per-pair state they own.
-struct PairBlock<'a> {
-    particles: std::ops::Range<usize>,
-    first_pair: usize,
-    xi: &'a mut [Vec3],
-    active: &'a mut [bool],
-    out: &'a mut [ContactOutput],
-    extra: Option<&'a mut [PairExtra]>,
-    active_list: &'a mut Vec<u32>,
-    /// The pairs that interacted at the previous evaluation (global indices).
-    previous: &'a mut Vec<u32>,
-}
-
-impl PairBlock<'_> {
-    /// Forgets the history of pair `k` (block-local index) when it stops interacting.
-    #[inline(always)]
-    fn release(&mut self, k: usize) {
-        self.active[k] = false;
-        self.xi[k] = Vec3::zeros();
-        if let Some(x) = self.extra.as_deref_mut() {
-            x[k].roll = Vec3::zeros();
-        }
-    }
-}
-
 /// Force and torques of one interacting pair (i, j'), where j' is the image `img` of j and
-/// `d = r_i - r_j'`. Writes the block-local slot `k`.
+/// `d = r_i - r_j'`; advances the springs held in `c` and writes `c.out`.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn pair_contact(
@@ -53,13 +29,12 @@ fn pair_contact(
     domain: &Domain,
     table: &ContactTable,
     dt: f64,
-    block: &mut PairBlock<'_>,
-    k: usize,
-    i: usize,
-    j: usize,
+    with_extra: bool,
+    c: &mut PairContact,
     img: [i8; 3],
     d: Vec3,
 ) {
+    let (i, j) = (c.i as usize, c.j as usize);
     let h = 0.5 * dt;
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let dist = d.norm();
@@ -90,58 +65,13 @@ fn pair_contact(
         spin_n: 0.5 * (wi + wj).dot(&n),
     };
     let law = table.get(p.material[i] as usize, p.material[j] as usize);
-    let both_wet = p.wet[i] && p.wet[j];
-    block.out[k] = match block.extra.as_deref_mut() {
-        Some(x) => {
-            let PairExtra { roll, bridge } = &mut x[k];
-            law.compute(&input, &mut block.xi[k], Some(roll), both_wet.then_some(bridge), dt)
-        }
-        None => law.compute(&input, &mut block.xi[k], None, None, dt),
+    c.out = if with_extra {
+        let both_wet = p.wet[i] && p.wet[j];
+        let PairExtra { roll, bridge } = &mut c.extra;
+        law.compute(&input, &mut c.xi, Some(roll), both_wet.then_some(bridge), dt)
+    } else {
+        law.compute(&input, &mut c.xi, None, None, dt)
     };
-}
-
-/// Splits the per-pair arrays into disjoint blocks of `PARTICLE_BLOCK` particles.
-fn split_blocks<'a>(
-    start: &[u32],
-    mut xi: &'a mut [Vec3],
-    mut active: &'a mut [bool],
-    mut out: &'a mut [ContactOutput],
-    extra: &'a mut [PairExtra],
-    lists: &'a mut [Vec<u32>],
-    previous: &'a mut [Vec<u32>],
-) -> Vec<PairBlock<'a>> {
-    let n = start.len().saturating_sub(1);
-    let mut extra: Option<&'a mut [PairExtra]> = (!extra.is_empty()).then_some(extra);
-    let mut blocks = Vec::with_capacity(lists.len());
-    for (b, (list, previous)) in lists.iter_mut().zip(previous.iter_mut()).enumerate() {
-        let (i0, i1) = (b * PARTICLE_BLOCK, ((b + 1) * PARTICLE_BLOCK).min(n));
-        let len = (start[i1] - start[i0]) as usize;
-        let (x, rest) = std::mem::take(&mut xi).split_at_mut(len);
-        xi = rest;
-        let (a, rest) = std::mem::take(&mut active).split_at_mut(len);
-        active = rest;
-        let (o, rest) = std::mem::take(&mut out).split_at_mut(len);
-        out = rest;
-        let e = match extra.take() {
-            Some(ex) => {
-                let (e, rest) = ex.split_at_mut(len);
-                extra = Some(rest);
-                Some(e)
-            }
-            None => None,
-        };
-        blocks.push(PairBlock {
-            particles: i0..i1,
-            first_pair: start[i0] as usize,
-            xi: x,
-            active: a,
-            out: o,
-            extra: e,
-            active_list: list,
-            previous,
-        });
-    }
-    blocks
 }
 
 impl Dem {
@@ -160,6 +90,7 @@ impl Dem {
         let domain = &self.domain;
         let table = &self.table;
         let dt = self.dt;
+        let with_extra = self.needs_extra;
         // Positions and radii packed together: one load per neighbour in the loop below.
         let pos = &self.p.pos;
         let radius = &self.p.radius;
@@ -169,21 +100,30 @@ impl Dem {
             }
         });
         let xr = &self.xr;
-        // One task per block of particles: its pairs form one contiguous range of the list.
-        // Pass 1 finds the touching pairs; the loop does nothing else so that it stays in
-        // registers (most listed pairs do not touch), and touching pairs go to `pair_contact`,
-        // out of line. Pass 2 visits the pairs that interacted at the previous evaluation and
-        // were not found touching: a capillary bridge keeps interacting past contact, the others
-        // forget their history. Only pairs active last time can hold a bridge (bridges form on
-        // contact), so no test of the bridge state is needed in pass 1.
-        let kernel = |block: &mut PairBlock<'_>| {
-            let first = block.first_pair;
-            std::mem::swap(block.active_list, block.previous);
-            block.active_list.clear();
-            for &q in block.previous.iter() {
-                block.active[q as usize - first] = false;
+        // A pair that interacted last time and is not touching now keeps interacting only if a
+        // capillary bridge holds it (bridges form on contact, so only such pairs can hold one);
+        // otherwise it is dropped, which forgets its springs.
+        let untouched = |c: &PairContact, current: &mut Vec<PairContact>| {
+            if c.extra.bridge {
+                let mut c = *c;
+                let (d, _) = nl.separation(c.q as usize, pos, domain);
+                let image = nl.pair[c.q as usize].image;
+                pair_contact(p, domain, table, dt, with_extra, &mut c, image, d);
+                current.push(c);
             }
-            for i in block.particles.clone() {
+        };
+        // One task per block of particles: its pairs form one contiguous range of the list. The
+        // scan finds the touching pairs and does nothing else, so that it stays in registers
+        // (most listed pairs do not touch); a touching pair picks up its record from the last
+        // evaluation by a merge walk (both are in pair order) and goes to `pair_contact`, out of
+        // line. The new records come out in pair order again.
+        let kernel = |(b, (current, previous)): (usize, (&mut Vec<PairContact>, &mut Vec<PairContact>))| {
+            std::mem::swap(current, previous);
+            current.clear();
+            let mut cursor = 0;
+            let i0 = b * PARTICLE_BLOCK;
+            let i1 = (i0 + PARTICLE_BLOCK).min(nl.start.len() - 1);
+            for i in i0..i1 {
                 let [xi, yi, zi, ri] = xr[i];
                 let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
                 for (off, pr) in nl.pair[s..e].iter().enumerate() {
@@ -197,40 +137,28 @@ impl Dem {
                     }
                     let reach = ri + rj;
                     if dx * dx + dy * dy + dz * dz < reach * reach {
-                        let k = s + off - first;
-                        block.active[k] = true;
-                        block.active_list.push((s + off) as u32);
-                        pair_contact(p, domain, table, dt, block, k, i, pr.j as usize, pr.image, Vec3::new(dx, dy, dz));
+                        let q = (s + off) as u32;
+                        while let Some(old) = previous.get(cursor).filter(|o| o.q < q) {
+                            untouched(old, current);
+                            cursor += 1;
+                        }
+                        let mut c = match previous.get(cursor) {
+                            Some(old) if old.q == q => {
+                                cursor += 1;
+                                *old
+                            }
+                            _ => PairContact::fresh(q, i as u32, pr.j),
+                        };
+                        pair_contact(p, domain, table, dt, with_extra, &mut c, pr.image, Vec3::new(dx, dy, dz));
+                        current.push(c);
                     }
                 }
             }
-            for idx in 0..block.previous.len() {
-                let q = block.previous[idx] as usize;
-                let k = q - first;
-                if block.active[k] {
-                    continue;
-                }
-                if block.extra.as_ref().is_some_and(|x| x[k].bridge) {
-                    let (i, pr) = (nl.pi[q] as usize, nl.pair[q]);
-                    let d = nl.separation(q, &p.pos, domain).0;
-                    block.active[k] = true;
-                    block.active_list.push(q as u32);
-                    pair_contact(p, domain, table, dt, block, k, i, pr.j as usize, pr.image, d);
-                } else {
-                    block.release(k);
-                }
+            for old in &previous[cursor..] {
+                untouched(old, current);
             }
         };
-        let mut blocks = split_blocks(
-            &self.nl.start,
-            &mut self.pair_xi,
-            &mut self.pair_active,
-            &mut self.pair_out,
-            &mut self.extra,
-            &mut self.active_lists,
-            &mut self.previous_lists,
-        );
-        blocks.par_iter_mut().for_each(kernel);
+        self.contacts.par_iter_mut().zip(self.previous_contacts.par_iter_mut()).enumerate().for_each(kernel);
     }
 
     fn gather(&mut self) {
@@ -253,19 +181,13 @@ impl Dem {
         };
         run(&mut self.p.force, &mut self.p.torque);
         // Scatter the interacting pairs, block after block: a fixed order for any thread count.
-        // Only pairs that interact are visited, which in most scenes is a small part of the list.
-        let (pi, pair, out) = (&self.nl.pi, &self.nl.pair, &self.pair_out);
         let (force, torque) = (&mut self.p.force, &mut self.p.torque);
-        for list in &self.active_lists {
-            for &q in list {
-                let q = q as usize;
-                let (i, j) = (pi[q] as usize, pair[q].j as usize);
-                let o = &out[q];
-                force[i] += o.force;
-                force[j] -= o.force;
-                torque[i] += o.torque_i;
-                torque[j] += o.torque_j;
-            }
+        for c in self.contacts.iter().flatten() {
+            let (i, j) = (c.i as usize, c.j as usize);
+            force[i] += c.out.force;
+            force[j] -= c.out.force;
+            torque[i] += c.out.torque_i;
+            torque[j] += c.out.torque_j;
         }
     }
 

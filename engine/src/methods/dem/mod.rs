@@ -5,12 +5,13 @@
 //! One step runs the stages of [`Stage`] in their declared order.
 
 mod forces;
+mod pair_state;
 mod stability;
 pub mod timestep;
 
 use rayon::prelude::*;
 
-use crate::contact::{ContactOutput, ContactTable, NormalForce};
+use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
 use crate::geometry::{Domain, NeighborList};
 use crate::loading::{CellDeformation, Wall};
@@ -20,6 +21,7 @@ use crate::particles::{generate::place_particles, Particles};
 use crate::run::Simulation;
 use crate::scene::{Deformation, DemParams, Placement, Scene, WallMotion};
 use forces::LOOP_CHUNK;
+use pair_state::PairContact;
 use stability::EnergyBudget;
 use timestep::{collision_time, Bodies, CollisionTime};
 
@@ -45,15 +47,6 @@ pub enum Stage {
     FinalIntegrate,
     /// Stability guard.
     Check,
-}
-
-/// Optional pair state (rolling spring, capillary bridge), allocated only when a law needs it.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct PairExtra {
-    /// Rolling spring, rad.
-    pub roll: Vec3,
-    /// A capillary bridge joins the pair.
-    pub bridge: bool,
 }
 
 /// Wall-clock seconds spent in each stage (collected only when enabled with
@@ -90,18 +83,11 @@ pub struct Dem {
     walls: Vec<Wall>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
-    /// Per pair of the neighbour list: tangential spring (m), whether the pair interacted at
-    /// the last evaluation, and its force and torques (valid only where active). Separate arrays
-    /// so that the ~95% of listed pairs that do not touch cost one byte of traffic per step.
-    pair_xi: Vec<Vec3>,
-    pair_active: Vec<bool>,
-    pair_out: Vec<ContactOutput>,
-    extra: Vec<PairExtra>,
-    /// Interacting pairs found by each particle block at the last evaluation (pair indices of
-    /// the current neighbour list, in block order).
-    active_lists: Vec<Vec<u32>>,
-    /// The lists of the evaluation before (scratch of the force stage).
-    previous_lists: Vec<Vec<u32>>,
+    /// The interacting pairs of each block of particles, with their springs and forces, in
+    /// pair order ([`pair_state`]).
+    contacts: Vec<Vec<PairContact>>,
+    /// The records of the evaluation before (scratch of the force stage).
+    previous_contacts: Vec<Vec<PairContact>>,
     /// Scratch: position and radius of each particle, packed for the pair loop.
     xr: Vec<[Real; 4]>,
     needs_extra: bool,
@@ -225,12 +211,8 @@ impl Dem {
             walls,
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
-            pair_xi: Vec::new(),
-            pair_active: Vec::new(),
-            pair_out: Vec::new(),
-            extra: Vec::new(),
-            active_lists: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
-            previous_lists: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            previous_contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
             needs_extra,
             wall_xi: vec![Vec3::zeros(); n * nw],
@@ -309,21 +291,14 @@ impl Dem {
 
     /// Number of pairs that interacted at the last force evaluation.
     pub fn interacting_pairs(&self) -> usize {
-        self.active_lists.iter().map(Vec::len).sum()
+        self.contacts.iter().map(Vec::len).sum()
     }
 
     /// The particle pairs (i < j) that interacted at the last force evaluation — touching, or
     /// held by a capillary bridge — whatever their force (a contact whose damped force is floored
     /// at zero still counts). For tests and diagnostics.
     pub fn interacting_pair_list(&self) -> Vec<(u32, u32)> {
-        self.active_lists
-            .iter()
-            .flatten()
-            .map(|&q| {
-                let (i, j) = (self.nl.pi[q as usize], self.nl.pair[q as usize].j);
-                (i.min(j), i.max(j))
-            })
-            .collect()
+        self.contacts.iter().flatten().map(|c| (c.i.min(c.j), c.i.max(c.j))).collect()
     }
 
     /// Number of pairs in the neighbour list.
@@ -343,12 +318,8 @@ impl Dem {
     pub fn heap_bytes(&self) -> usize {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
-            + self.pair_xi.capacity() * std::mem::size_of::<Vec3>()
-            + self.pair_active.capacity()
-            + self.pair_out.capacity() * std::mem::size_of::<ContactOutput>()
-            + self.active_lists.iter().chain(&self.previous_lists).map(|l| l.capacity() * 4).sum::<usize>()
+            + self.contacts.iter().chain(&self.previous_contacts).map(|l| l.capacity() * std::mem::size_of::<PairContact>()).sum::<usize>()
             + self.xr.capacity() * 32
-            + self.extra.capacity() * std::mem::size_of::<PairExtra>()
             + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
             + (self.wall_total_f.capacity() + self.wall_total_t.capacity()) * std::mem::size_of::<Vec3>()
     }
@@ -356,15 +327,14 @@ impl Dem {
     /// Current contact forces as records (pairs and walls), for metrics and tests.
     pub fn contacts(&self) -> Vec<ContactRecord> {
         let mut records = Vec::new();
-        for (q, out) in self.pair_out.iter().enumerate() {
-            let (i, j) = (self.nl.pi[q], self.nl.pair[q].j);
-            let bonded = self.extra.get(q).is_some_and(|e| e.bridge);
-            if !self.pair_active[q] || (out.force == Vec3::zeros() && !bonded) {
+        for c in self.contacts.iter().flatten() {
+            let bonded = c.extra.bridge;
+            if c.out.force == Vec3::zeros() && !bonded {
                 continue;
             }
-            let (d, _) = self.nl.separation(q, &self.p.pos, &self.domain);
-            let touching = d.norm() < self.p.radius[i as usize] + self.p.radius[j as usize];
-            records.push(ContactRecord { i, j: Some(j), force: out.force, branch: d, touching, bonded });
+            let (d, _) = self.nl.separation(c.q as usize, &self.p.pos, &self.domain);
+            let touching = d.norm() < self.p.radius[c.i as usize] + self.p.radius[c.j as usize];
+            records.push(ContactRecord { i: c.i, j: Some(c.j), force: c.out.force, branch: d, touching, bonded });
         }
         let nw = self.walls.len();
         for i in 0..self.p.len() {
@@ -388,27 +358,8 @@ impl Dem {
                 domain.wrap(x, v);
             }
         });
-        let old_index = self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
-        let old_xi = std::mem::take(&mut self.pair_xi);
-        let old_extra = std::mem::take(&mut self.extra);
-        self.pair_xi = old_index.par_iter().map(|&k| old_xi.get(k as usize).copied().unwrap_or_default()).collect();
-        // Which pairs interacted carries over too, so that a pair that stops touching right
-        // after a rebuild still forgets its history; the active lists are rebuilt from it.
-        let old_active = std::mem::take(&mut self.pair_active);
-        self.pair_active = old_index.par_iter().map(|&k| old_active.get(k as usize).copied().unwrap_or(false)).collect();
-        let (start, active) = (&self.nl.start, &self.pair_active);
-        let n = start.len().saturating_sub(1);
-        self.active_lists.par_iter_mut().enumerate().for_each(|(b, list)| {
-            list.clear();
-            let (i0, i1) = (b * forces::PARTICLE_BLOCK, ((b + 1) * forces::PARTICLE_BLOCK).min(n));
-            if i0 < i1 {
-                list.extend((start[i0]..start[i1]).filter(|&q| active[q as usize]));
-            }
-        });
-        self.pair_out = vec![ContactOutput::default(); old_index.len()];
-        if self.needs_extra {
-            self.extra = old_index.par_iter().map(|&k| old_extra.get(k as usize).copied().unwrap_or_default()).collect();
-        }
+        self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        pair_state::renumber(&mut self.contacts, &self.nl);
     }
 
     fn wall_area(&self, axis: usize) -> Real {
@@ -418,23 +369,17 @@ impl Dem {
     /// Mean pressure from the virial of the current forces and the kinetic part (Pa), and the
     /// affine estimate of the bulk stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
     fn pressure_and_stiffness(&self) -> (Real, Real) {
-        // Partial sums over fixed blocks, added in order: the same result for any thread count.
-        const BLOCK: usize = 1024;
+        // Partial sums per particle block, added in order: the same result for any thread count.
         let p = &self.p;
         let partial: Vec<(Real, Real)> = self
-            .pair_out
-            .par_chunks(BLOCK)
-            .enumerate()
-            .map(|(b, chunk)| {
+            .contacts
+            .par_iter()
+            .map(|list| {
                 let (mut virial, mut stiff) = (0.0, 0.0);
-                for (k, out) in chunk.iter().enumerate() {
-                    let q = b * BLOCK + k;
-                    if !self.pair_active[q] {
-                        continue;
-                    }
-                    let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
-                    let l = self.nl.separation(q, &p.pos, &self.domain).0;
-                    virial += out.force.dot(&l);
+                for c in list {
+                    let (i, j) = (c.i as usize, c.j as usize);
+                    let l = self.nl.separation(c.q as usize, &p.pos, &self.domain).0;
+                    virial += c.out.force.dot(&l);
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let delta = ri + rj - l.norm();
                     if delta > 0.0 {
@@ -727,10 +672,9 @@ impl Dem {
     /// Elastic energy stored in every contact (normal, tangential and rolling springs), J.
     pub fn elastic_energy(&self) -> Real {
         let mut e = 0.0;
-        for q in self.active_lists.iter().flatten().map(|&q| q as usize) {
-            let xi = &self.pair_xi[q];
-            let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
-            let (d, _) = self.nl.separation(q, &self.p.pos, &self.domain);
+        for c in self.contacts.iter().flatten() {
+            let (i, j) = (c.i as usize, c.j as usize);
+            let (d, _) = self.nl.separation(c.q as usize, &self.p.pos, &self.domain);
             let (ri, rj) = (self.p.radius[i], self.p.radius[j]);
             let delta = ri + rj - d.norm();
             if delta <= 0.0 {
@@ -738,9 +682,9 @@ impl Dem {
             }
             let law = self.table.get(self.p.material[i] as usize, self.p.material[j] as usize);
             let r_eff = ri * rj / (ri + rj);
-            e += law.normal.energy(delta, r_eff) + law.tangential.energy(xi.norm_squared(), delta, r_eff);
-            if let (Some(rr), Some(x)) = (law.rolling, self.extra.get(q)) {
-                e += 0.5 * rr.stiffness * x.roll.norm_squared();
+            e += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
+            if let Some(rr) = law.rolling {
+                e += 0.5 * rr.stiffness * c.extra.roll.norm_squared();
             }
         }
         let nw = self.walls.len();

@@ -64,13 +64,10 @@ impl Dem {
         let elastic = self.elastic_energy();
         let gravity: Real = -(0..p.len()).map(|i| p.mass[i] * self.gravity.dot(&p.pos[i])).sum::<Real>();
         let mut capillary = 0.0;
-        for (q, x) in self.extra.iter().enumerate() {
-            if !x.bridge {
-                continue;
-            }
-            let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
+        for c in self.contacts.iter().flatten().filter(|c| c.extra.bridge) {
+            let (i, j) = (c.i as usize, c.j as usize);
             if let Some(cap) = self.table.get(p.material[i] as usize, p.material[j] as usize).capillary {
-                let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
+                let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
                 capillary += cap.energy(d.norm() - p.radius[i] - p.radius[j], p.radius[i], p.radius[j]);
             }
         }
@@ -142,14 +139,13 @@ impl Dem {
         let p = &self.p;
         // Only interacting pairs can overlap: the others were found apart at the last force stage.
         let pairs = self
-            .active_lists
+            .contacts
             .par_iter()
             .map(|list| {
                 list.iter()
-                    .map(|&q| {
-                        let q = q as usize;
-                        let (i, j) = (self.nl.pi[q] as usize, self.nl.pair[q].j as usize);
-                        let (d, _) = self.nl.separation(q, &p.pos, &self.domain);
+                    .map(|c| {
+                        let (i, j) = (c.i as usize, c.j as usize);
+                        let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
                         let (ri, rj) = (p.radius[i], p.radius[j]);
                         ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
                     })
