@@ -64,6 +64,8 @@ struct BenchResult {
     neighbor_pairs: usize,
     interacting_pairs: usize,
     neighbor_builds: u64,
+    near_pairs: usize,
+    near_filters: u64,
     kinetic_energy_start: f64,
     kinetic_energy_end: f64,
 }
@@ -98,6 +100,8 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
         neighbor_pairs: sim.neighbor_pairs(),
         interacting_pairs: sim.interacting_pairs(),
         neighbor_builds: sim.neighbor_builds(),
+        near_pairs: sim.near_pairs(),
+        near_filters: sim.near_filters(),
         kinetic_energy_start: ke0,
         kinetic_energy_end: ke1,
     };
@@ -112,7 +116,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "dem: {} particles x {} steps on {} thread(s): {:.3} s, {:.3e} particle-steps/s, {:.0} bytes/particle \
-             ({} pairs listed, {} interacting, {} neighbour builds; kinetic energy {:.4e} -> {:.4e} J)",
+             ({} pairs listed, {} near, {} interacting, {} neighbour builds, {} near filterings; kinetic energy {:.4e} -> {:.4e} J)",
             r.particles,
             r.steps,
             r.threads,
@@ -120,8 +124,10 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
             r.particle_steps_per_second,
             r.bytes_per_particle,
             r.neighbor_pairs,
+            r.near_pairs,
             r.interacting_pairs,
             r.neighbor_builds,
+            r.near_filters,
             r.kinetic_energy_start,
             r.kinetic_energy_end
         );

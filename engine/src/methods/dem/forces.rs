@@ -8,11 +8,15 @@ use rayon::prelude::*;
 use super::pair_state::{PairContact, PairExtra};
 use super::Dem;
 use crate::contact::{ContactInput, ContactTable};
+use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
 use crate::math::Vec3;
 use crate::particles::Particles;
 
 const CHUNK: usize = 256;
+
+/// What a force task owns: its block's records (current and previous evaluation) and near pairs.
+type BlockState<'a> = ((&'a mut Vec<PairContact>, &'a mut Vec<PairContact>), &'a mut Vec<NearPair>);
 
 /// Particles per task in the simple per-particle loops (plain slice loops inside each task).
 pub(crate) const LOOP_CHUNK: usize = 2048;
@@ -91,14 +95,19 @@ impl Dem {
         let table = &self.table;
         let dt = self.dt;
         let with_extra = self.needs_extra;
-        // Positions and radii packed together: one load per neighbour in the loop below.
+        // Positions and radii packed together: one load per neighbour in the loops below.
         let pos = &self.p.pos;
-        let radius = &self.p.radius;
-        self.xr.par_chunks_mut(LOOP_CHUNK).zip(pos.par_chunks(LOOP_CHUNK)).zip(radius.par_chunks(LOOP_CHUNK)).for_each(|((v, x), r)| {
-            for ((v, x), r) in v.iter_mut().zip(x).zip(r) {
-                *v = [x.x, x.y, x.z, *r];
-            }
-        });
+        if !self.xr_current {
+            let radius = &self.p.radius;
+            self.xr.par_chunks_mut(LOOP_CHUNK).zip(pos.par_chunks(LOOP_CHUNK)).zip(radius.par_chunks(LOOP_CHUNK)).for_each(
+                |((v, x), r)| {
+                    for ((v, x), r) in v.iter_mut().zip(x).zip(r) {
+                        *v = [x.x, x.y, x.z, *r];
+                    }
+                },
+            );
+            self.xr_current = true;
+        }
         let xr = &self.xr;
         // A pair that interacted last time and is not touching now keeps interacting only if a
         // capillary bridge holds it (bridges form on contact, so only such pairs can hold one);
@@ -112,45 +121,71 @@ impl Dem {
                 current.push(c);
             }
         };
+        // A touching pair picks up its record from the last evaluation by a merge walk (both are
+        // in pair order) and goes to `pair_contact`, out of line; records before it that are not
+        // touching any more go through `untouched`. The new records come out in pair order.
+        #[allow(clippy::too_many_arguments)]
+        let touch = |previous: &[PairContact], cursor: &mut usize, current: &mut Vec<PairContact>, q: u32, i: u32, j: u32, image, d| {
+            while let Some(old) = previous.get(*cursor).filter(|o| o.q < q) {
+                untouched(old, current);
+                *cursor += 1;
+            }
+            let mut c = match previous.get(*cursor) {
+                Some(old) if old.q == q => {
+                    *cursor += 1;
+                    *old
+                }
+                _ => PairContact::fresh(q, i, j),
+            };
+            pair_contact(p, domain, table, dt, with_extra, &mut c, image, d);
+            current.push(c);
+        };
+        // Separation of i and the image of j, squared distance, and contact distance.
+        let separation = |i: usize, j: usize, image: [i8; 3]| {
+            let ([xi, yi, zi, ri], [xj, yj, zj, rj]) = (xr[i], xr[j]);
+            let (mut dx, mut dy, mut dz) = (xi - xj, yi - yj, zi - zj);
+            if image != [0, 0, 0] {
+                let sh = domain.image_shift(image);
+                dx -= sh.x;
+                dy -= sh.y;
+                dz -= sh.z;
+            }
+            (Vec3::new(dx, dy, dz), dx * dx + dy * dy + dz * dz, ri + rj)
+        };
         // One task per block of particles: its pairs form one contiguous range of the list. The
-        // scan finds the touching pairs and does nothing else, so that it stays in registers
-        // (most listed pairs do not touch); a touching pair picks up its record from the last
-        // evaluation by a merge walk (both are in pair order) and goes to `pair_contact`, out of
-        // line. The new records come out in pair order again.
-        let kernel = |(b, (current, previous)): (usize, (&mut Vec<PairContact>, &mut Vec<PairContact>))| {
+        // scans find the touching pairs and do little else, so that they stay in registers (most
+        // scanned pairs do not touch). When the near level is stale, the block scans its whole
+        // range of the Verlet list and refills its near pairs on the way; otherwise it scans
+        // only its near pairs.
+        let refilter = self.near.is_stale(domain);
+        let gap = self.near.gap;
+        let kernel = |(b, ((current, previous), near)): (usize, BlockState<'_>)| {
             std::mem::swap(current, previous);
             current.clear();
             let mut cursor = 0;
-            let i0 = b * PARTICLE_BLOCK;
-            let i1 = (i0 + PARTICLE_BLOCK).min(nl.start.len() - 1);
-            for i in i0..i1 {
-                let [xi, yi, zi, ri] = xr[i];
-                let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
-                for (off, pr) in nl.pair[s..e].iter().enumerate() {
-                    let [xj, yj, zj, rj] = xr[pr.j as usize];
-                    let (mut dx, mut dy, mut dz) = (xi - xj, yi - yj, zi - zj);
-                    if pr.image != [0, 0, 0] {
-                        let sh = domain.image_shift(pr.image);
-                        dx -= sh.x;
-                        dy -= sh.y;
-                        dz -= sh.z;
-                    }
-                    let reach = ri + rj;
-                    if dx * dx + dy * dy + dz * dz < reach * reach {
-                        let q = (s + off) as u32;
-                        while let Some(old) = previous.get(cursor).filter(|o| o.q < q) {
-                            untouched(old, current);
-                            cursor += 1;
-                        }
-                        let mut c = match previous.get(cursor) {
-                            Some(old) if old.q == q => {
-                                cursor += 1;
-                                *old
+            if refilter {
+                near.clear();
+                let i0 = b * PARTICLE_BLOCK;
+                let i1 = (i0 + PARTICLE_BLOCK).min(nl.start.len() - 1);
+                for i in i0..i1 {
+                    let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
+                    for (off, pr) in nl.pair[s..e].iter().enumerate() {
+                        let (d, d2, reach) = separation(i, pr.j as usize, pr.image);
+                        let far = reach + gap;
+                        if d2 < far * far {
+                            let q = (s + off) as u32;
+                            near.push(NearPair { q, i: i as u32, j: pr.j, image: pr.image });
+                            if d2 < reach * reach {
+                                touch(previous, &mut cursor, current, q, i as u32, pr.j, pr.image, d);
                             }
-                            _ => PairContact::fresh(q, i as u32, pr.j),
-                        };
-                        pair_contact(p, domain, table, dt, with_extra, &mut c, pr.image, Vec3::new(dx, dy, dz));
-                        current.push(c);
+                        }
+                    }
+                }
+            } else {
+                for np in near.iter() {
+                    let (d, d2, reach) = separation(np.i as usize, np.j as usize, np.image);
+                    if d2 < reach * reach {
+                        touch(previous, &mut cursor, current, np.q, np.i, np.j, np.image, d);
                     }
                 }
             }
@@ -158,37 +193,52 @@ impl Dem {
                 untouched(old, current);
             }
         };
-        self.contacts.par_iter_mut().zip(self.previous_contacts.par_iter_mut()).enumerate().for_each(kernel);
+        self.contacts
+            .par_iter_mut()
+            .zip(self.previous_contacts.par_iter_mut())
+            .zip(self.near.blocks.par_iter_mut())
+            .enumerate()
+            .for_each(kernel);
+        if refilter {
+            self.near.filtered(&self.domain);
+        }
     }
 
+    /// Sums the forces on each particle: gravity, walls, then every interacting pair in block
+    /// order. One task per thread owns a range of particles and walks all the records, adding
+    /// only to its own particles: each particle receives its terms in the same order whatever the
+    /// number of threads, so the result does not depend on it, and no step is serial.
     fn gather(&mut self) {
         let g = self.gravity;
         let mass = &self.p.mass;
         let (wall_f, wall_t) = (&self.wall_total_f, &self.wall_total_t);
-        let run = |force: &mut [Vec3], torque: &mut [Vec3]| {
-            force.par_chunks_mut(LOOP_CHUNK).zip(torque.par_chunks_mut(LOOP_CHUNK)).enumerate().for_each(|(c, (fs, ts))| {
-                let base = c * LOOP_CHUNK;
-                for (k, (f, t)) in fs.iter_mut().zip(ts.iter_mut()).enumerate() {
-                    let i = base + k;
-                    *f = g * mass[i];
-                    *t = Vec3::zeros();
-                    if let (Some(wf), Some(wt)) = (wall_f.get(i), wall_t.get(i)) {
-                        *f += wf;
-                        *t += wt;
-                    }
+        let contacts = &self.contacts;
+        let n = mass.len();
+        let span = n.div_ceil(rayon::current_num_threads().max(1)).max(LOOP_CHUNK);
+        self.p.force.par_chunks_mut(span).zip(self.p.torque.par_chunks_mut(span)).enumerate().for_each(|(c, (fs, ts))| {
+            let base = c * span;
+            for (k, (f, t)) in fs.iter_mut().zip(ts.iter_mut()).enumerate() {
+                let i = base + k;
+                *f = g * mass[i];
+                *t = Vec3::zeros();
+                if let (Some(wf), Some(wt)) = (wall_f.get(i), wall_t.get(i)) {
+                    *f += wf;
+                    *t += wt;
                 }
-            })
-        };
-        run(&mut self.p.force, &mut self.p.torque);
-        // Scatter the interacting pairs, block after block: a fixed order for any thread count.
-        let (force, torque) = (&mut self.p.force, &mut self.p.torque);
-        for c in self.contacts.iter().flatten() {
-            let (i, j) = (c.i as usize, c.j as usize);
-            force[i] += c.out.force;
-            force[j] -= c.out.force;
-            torque[i] += c.out.torque_i;
-            torque[j] += c.out.torque_j;
-        }
+            }
+            let owned = base..base + fs.len();
+            for c in contacts.iter().flatten() {
+                let (i, j) = (c.i as usize, c.j as usize);
+                if owned.contains(&i) {
+                    fs[i - base] += c.out.force;
+                    ts[i - base] += c.out.torque_i;
+                }
+                if owned.contains(&j) {
+                    fs[j - base] -= c.out.force;
+                    ts[j - base] += c.out.torque_j;
+                }
+            }
+        });
     }
 
     fn wall_forces(&mut self) {

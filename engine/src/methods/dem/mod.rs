@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
-use crate::geometry::{Domain, NeighborList};
+use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, SystemView, WallView};
@@ -27,10 +27,12 @@ use timestep::{collision_time, Bodies, CollisionTime};
 
 /// The stages of one DEM step, in execution order:
 /// 1. `InitialIntegrate`: half kick of velocities and spins and drift of positions, in one pass
-///    (particles are wrapped back into the periodic box at the next neighbour build);
+///    that also packs positions for the pair scan and measures the largest displacement for the
+///    near pairs (particles are wrapped back into the periodic box at the next neighbour build);
 /// 2. `Boundaries`: walls and periodic cell move, Lees-Edwards offset advances;
 /// 3. `NeighborUpdate`: the Verlet list is rebuilt if a particle moved more than half the skin;
-/// 4. `Force`: pair forces, gather per particle, walls, gravity;
+/// 4. `Force`: pair forces (a scan of the near pairs, refiltered from the Verlet list when
+///    stale), walls, then the gather per particle with gravity;
 /// 5. `FinalIntegrate`: second half kick;
 /// 6. `Check`: every few steps, the stability guard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +67,11 @@ pub struct StageTimes {
     pub check: f64,
 }
 
+/// Margin of the near pairs as a fraction of the Verlet skin (see
+/// [`crate::geometry::near_pairs`]): smaller means fewer pairs scanned per step but more
+/// frequent scans of the whole list.
+const NEAR_GAP: Real = 0.15;
+
 /// How often (steps) the stability guard runs and the pressure servo updates.
 const CHECK_EVERY: u64 = 20;
 const SERVO_EVERY: u64 = 10;
@@ -83,13 +90,17 @@ pub struct Dem {
     walls: Vec<Wall>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
+    /// The pairs of `nl` close enough to touch within the next few steps.
+    near: NearPairs,
     /// The interacting pairs of each block of particles, with their springs and forces, in
     /// pair order ([`pair_state`]).
     contacts: Vec<Vec<PairContact>>,
     /// The records of the evaluation before (scratch of the force stage).
     previous_contacts: Vec<Vec<PairContact>>,
-    /// Scratch: position and radius of each particle, packed for the pair loop.
+    /// Position and radius of each particle, packed for the pair loop: written by the drift,
+    /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
+    xr_current: bool,
     needs_extra: bool,
     wall_xi: Vec<Vec3>,
     wall_roll: Vec<Vec3>,
@@ -211,9 +222,11 @@ impl Dem {
             walls,
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
+            near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
             contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             previous_contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
+            xr_current: false,
             needs_extra,
             wall_xi: vec![Vec3::zeros(); n * nw],
             wall_roll: if has_wall_rolling || nw > 0 { vec![Vec3::zeros(); n * nw] } else { Vec::new() },
@@ -252,6 +265,9 @@ impl Dem {
     /// Mutable access to the particles, for tests and custom set-ups. Call
     /// [`Dem::reset_forces`] after moving particles.
     pub fn particles_mut(&mut self) -> &mut Particles {
+        // Particles may be moved by any amount: the near pairs must be filtered again.
+        self.near.invalidate();
+        self.xr_current = false;
         &mut self.p
     }
 
@@ -301,6 +317,17 @@ impl Dem {
         self.contacts.iter().flatten().map(|c| (c.i.min(c.j), c.i.max(c.j))).collect()
     }
 
+    /// Number of near pairs (the listed pairs scanned every step, see
+    /// [`crate::geometry::near_pairs`]).
+    pub fn near_pairs(&self) -> usize {
+        self.near.len()
+    }
+
+    /// Number of times the near pairs were filtered from the neighbour list.
+    pub fn near_filters(&self) -> u64 {
+        self.near.filters
+    }
+
     /// Number of pairs in the neighbour list.
     pub fn neighbor_pairs(&self) -> usize {
         self.nl.len()
@@ -318,6 +345,7 @@ impl Dem {
     pub fn heap_bytes(&self) -> usize {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
+            + self.near.heap_bytes()
             + self.contacts.iter().chain(&self.previous_contacts).map(|l| l.capacity() * std::mem::size_of::<PairContact>()).sum::<usize>()
             + self.xr.capacity() * 32
             + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
@@ -353,12 +381,14 @@ impl Dem {
 
     fn refresh_neighbors(&mut self) {
         let domain = &self.domain;
+        self.xr_current = false;
         self.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
             for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
                 domain.wrap(x, v);
             }
         });
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        self.near.invalidate();
         pair_state::renumber(&mut self.contacts, &self.nl);
     }
 
@@ -422,6 +452,11 @@ impl Dem {
             }
             if let Some(d) = &self.deformation {
                 let (centre, scale) = d.deform(&mut self.domain, dt);
+                // Bound on the affine displacement: particles lie within half a box length plus
+                // the skin of the centre (they are wrapped only at neighbour builds).
+                let bound: Real = (0..self.dim).map(|a| ((0.5 * self.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
+                self.near.add_motion(bound.sqrt());
+                self.xr_current = false;
                 self.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
                     for x in xs {
                         for a in 0..3 {
@@ -435,23 +470,29 @@ impl Dem {
 
     /// Half kick of velocities and spins; with `drift`, also moves the particles by `v dt` with
     /// the new velocity in the same pass (the first half of velocity Verlet), which saves a sweep
-    /// over memory and a parallel region per step.
+    /// over memory and a parallel region per step. The drift reports the largest displacement
+    /// to the near pairs.
     fn half_kick(&mut self, drift: bool) {
         let h = 0.5 * self.dt;
         let dt = if drift { self.dt } else { 0.0 };
         let alpha = self.params.local_damping;
         let p = &mut self.p;
-        let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
+        let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
         // No wrap after the drift: particles return into the box at the next neighbour build.
-        p.vel
+        let largest2 = p
+            .vel
             .par_chunks_mut(LOOP_CHUNK)
             .zip(p.omega.par_chunks_mut(LOOP_CHUNK))
             .zip(p.pos.par_chunks_mut(LOOP_CHUNK))
+            .zip(self.xr.par_chunks_mut(LOOP_CHUNK))
             .enumerate()
-            .for_each(|(c, ((vs, ws), xs))| {
+            .map(|(c, (((vs, ws), xs), xrs))| {
+                let mut largest2: Real = 0.0;
                 let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
-                let parts = force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r]);
-                for (((v, w), x), (((f, t), im), ii)) in vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(parts) {
+                let parts =
+                    force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
+                let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut());
+                for ((((v, w), x), xr), ((((f, t), im), ii), rad)) in state.zip(parts) {
                     if alpha > 0.0 {
                         *v += local_damping(f, v, alpha) * (h * im);
                         *w += local_damping(t, w, alpha) * (h * ii);
@@ -460,10 +501,19 @@ impl Dem {
                         *w += t * (h * ii);
                     }
                     if drift {
-                        *x += *v * dt;
+                        let step = *v * dt;
+                        *x += step;
+                        largest2 = largest2.max(step.norm_squared());
+                        *xr = [x.x, x.y, x.z, *rad];
                     }
                 }
-            });
+                largest2
+            })
+            .reduce(|| 0.0, Real::max);
+        if drift {
+            self.near.add_motion(largest2.sqrt());
+            self.xr_current = true;
+        }
     }
 
     fn shear_geometry(&self) -> Option<ShearGeometry> {
