@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::pair_state::{PairContact, PairExtra};
-use super::Dem;
+use super::{half_kick, Dem};
 use crate::contact::{ContactInput, ContactTable};
 use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
@@ -79,13 +79,14 @@ fn pair_contact(
 }
 
 impl Dem {
-    /// Computes every force and torque of the current configuration.
-    pub(crate) fn compute_forces(&mut self) {
+    /// Computes every force and torque of the current configuration; with `kick`, also gives
+    /// the particles the second half kick of the step with them.
+    pub(crate) fn compute_forces(&mut self, kick: bool) {
         self.pair_forces();
         if !self.walls.is_empty() {
             self.wall_forces();
         }
-        self.gather();
+        self.gather(kick);
     }
 
     fn pair_forces(&mut self) {
@@ -207,15 +208,24 @@ impl Dem {
     /// Sums the forces on each particle: gravity, walls, then every interacting pair in block
     /// order. One task per thread owns a range of particles and walks all the records, adding
     /// only to its own particles: each particle receives its terms in the same order whatever the
-    /// number of threads, so the result does not depend on it, and no step is serial.
-    fn gather(&mut self) {
+    /// number of threads, so the result does not depend on it, and no step is serial. With
+    /// `kick`, the task then gives its particles the second half kick.
+    fn gather(&mut self, kick: bool) {
         let g = self.gravity;
-        let mass = &self.p.mass;
+        let p = &mut self.p;
+        let (mass, inv_mass, inv_inertia) = (&p.mass, &p.inv_mass, &p.inv_inertia);
         let (wall_f, wall_t) = (&self.wall_total_f, &self.wall_total_t);
         let contacts = &self.contacts;
+        let (h, alpha) = (0.5 * self.dt, self.params.local_damping);
         let n = mass.len();
         let span = n.div_ceil(rayon::current_num_threads().max(1)).max(LOOP_CHUNK);
-        self.p.force.par_chunks_mut(span).zip(self.p.torque.par_chunks_mut(span)).enumerate().for_each(|(c, (fs, ts))| {
+        let ranges = p
+            .force
+            .par_chunks_mut(span)
+            .zip(p.torque.par_chunks_mut(span))
+            .zip(p.vel.par_chunks_mut(span))
+            .zip(p.omega.par_chunks_mut(span));
+        ranges.enumerate().for_each(|(c, (((fs, ts), vs), ws))| {
             let base = c * span;
             for (k, (f, t)) in fs.iter_mut().zip(ts.iter_mut()).enumerate() {
                 let i = base + k;
@@ -236,6 +246,12 @@ impl Dem {
                 if owned.contains(&j) {
                     fs[j - base] -= c.out.force;
                     ts[j - base] += c.out.torque_j;
+                }
+            }
+            if kick {
+                let (im, ii) = (&inv_mass[owned.clone()], &inv_inertia[owned]);
+                for ((((v, w), f), t), (im, ii)) in vs.iter_mut().zip(ws.iter_mut()).zip(fs.iter()).zip(ts.iter()).zip(im.iter().zip(ii)) {
+                    half_kick(v, w, f, t, h * im, h * ii, alpha);
                 }
             }
         });

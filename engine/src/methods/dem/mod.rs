@@ -33,7 +33,8 @@ use timestep::{collision_time, Bodies, CollisionTime};
 /// 3. `NeighborUpdate`: the Verlet list is rebuilt if a particle moved more than half the skin;
 /// 4. `Force`: pair forces (a scan of the near pairs, refiltered from the Verlet list when
 ///    stale), walls, then the gather per particle with gravity;
-/// 5. `FinalIntegrate`: second half kick;
+/// 5. `FinalIntegrate`: second half kick, done by the gather of the force stage for the
+///    particles it has just summed (one pass over memory instead of two);
 /// 6. `Check`: every few steps, the stability guard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
@@ -242,7 +243,7 @@ impl Dem {
             profile: None,
         };
         sim.refresh_neighbors();
-        sim.compute_forces();
+        sim.compute_forces(false);
         sim.budget = EnergyBudget::start(sim.mechanical_energy());
         Ok(sim)
     }
@@ -337,7 +338,7 @@ impl Dem {
     /// the energy budget.
     pub fn reset_forces(&mut self) {
         self.refresh_neighbors();
-        self.compute_forces();
+        self.compute_forces(false);
         self.budget = EnergyBudget::start(self.mechanical_energy());
     }
 
@@ -468,13 +469,13 @@ impl Dem {
         }
     }
 
-    /// Half kick of velocities and spins; with `drift`, also moves the particles by `v dt` with
-    /// the new velocity in the same pass (the first half of velocity Verlet), which saves a sweep
-    /// over memory and a parallel region per step. The drift reports the largest displacement
-    /// to the near pairs.
-    fn half_kick(&mut self, drift: bool) {
+    /// Half kick of velocities and spins, then drift of the particles by `v dt` with the new
+    /// velocity, in one pass (the first half of velocity Verlet), which saves a sweep over memory
+    /// and a parallel region per step. The drift reports the largest displacement to the near
+    /// pairs. (The second half kick runs inside the gather of the force stage.)
+    fn kick_and_drift(&mut self) {
         let h = 0.5 * self.dt;
-        let dt = if drift { self.dt } else { 0.0 };
+        let dt = self.dt;
         let alpha = self.params.local_damping;
         let p = &mut self.p;
         let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
@@ -493,27 +494,17 @@ impl Dem {
                     force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
                 let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut());
                 for ((((v, w), x), xr), ((((f, t), im), ii), rad)) in state.zip(parts) {
-                    if alpha > 0.0 {
-                        *v += local_damping(f, v, alpha) * (h * im);
-                        *w += local_damping(t, w, alpha) * (h * ii);
-                    } else {
-                        *v += f * (h * im);
-                        *w += t * (h * ii);
-                    }
-                    if drift {
-                        let step = *v * dt;
-                        *x += step;
-                        largest2 = largest2.max(step.norm_squared());
-                        *xr = [x.x, x.y, x.z, *rad];
-                    }
+                    half_kick(v, w, f, t, h * im, h * ii, alpha);
+                    let step = *v * dt;
+                    *x += step;
+                    largest2 = largest2.max(step.norm_squared());
+                    *xr = [x.x, x.y, x.z, *rad];
                 }
                 largest2
             })
             .reduce(|| 0.0, Real::max);
-        if drift {
-            self.near.add_motion(largest2.sqrt());
-            self.xr_current = true;
-        }
+        self.near.add_motion(largest2.sqrt());
+        self.xr_current = true;
     }
 
     fn shear_geometry(&self) -> Option<ShearGeometry> {
@@ -533,6 +524,19 @@ impl Dem {
             }
         }
         None
+    }
+}
+
+/// Half kick of one particle: `v += F h/m`, `w += T h/I` (`h_im` = h/m, `h_ii` = h/I), with
+/// Cundall's local damping when `alpha > 0`.
+#[inline(always)]
+pub(crate) fn half_kick(v: &mut Vec3, w: &mut Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real, alpha: Real) {
+    if alpha > 0.0 {
+        *v += local_damping(f, v, alpha) * h_im;
+        *w += local_damping(t, w, alpha) * h_ii;
+    } else {
+        *v += f * h_im;
+        *w += t * h_ii;
     }
 }
 
@@ -692,7 +696,7 @@ impl Dem {
             }
         };
         // Stage::InitialIntegrate
-        self.half_kick(true);
+        self.kick_and_drift();
         lap(|t| &mut t.integrate, &mut self.profile);
         // Stage::Boundaries
         self.boundaries();
@@ -702,11 +706,9 @@ impl Dem {
             self.refresh_neighbors();
         }
         lap(|t| &mut t.neighbors, &mut self.profile);
-        // Stage::Force
-        self.compute_forces();
+        // Stage::Force, with Stage::FinalIntegrate fused into its gather.
+        self.compute_forces(true);
         lap(|t| &mut t.forces, &mut self.profile);
-        // Stage::FinalIntegrate
-        self.half_kick(false);
         self.step += 1;
         self.time += self.dt;
         self.record_wall_work();
