@@ -140,7 +140,7 @@ impl NeighborList {
         // Counting sort into cells.
         self.cell_start.clear();
         self.cell_start.resize(ncells + 1, 0);
-        let cells: Vec<u32> = pos.iter().map(|p| flat(cell_of(p)) as u32).collect();
+        let cells: Vec<u32> = pos.par_iter().with_min_len(4 * CHUNK).map(|p| flat(cell_of(p)) as u32).collect();
         for &c in &cells {
             self.cell_start[c as usize + 1] += 1;
         }
@@ -166,6 +166,10 @@ impl NeighborList {
             (dy_wrap as f64 * domain.le_offset / width[0]).floor() as i64
         };
         let dims = domain.dim;
+        // Without Lees-Edwards and with at least three cells along every periodic axis, the 3^D
+        // cells around a particle are distinct and the image of each is the number of periods
+        // its index wrapped: the candidates need no minimum-image search.
+        let by_cell_image = !domain.sheared() && (0..dims).all(|a| !domain.periodic[a] || ncell[a] >= 3);
         let chunks: Vec<(Vec<u32>, Vec<PairRef>)> = (0..n)
             .into_par_iter()
             .chunks(CHUNK)
@@ -175,6 +179,36 @@ impl NeighborList {
                 let mut nb_cells: Vec<usize> = Vec::with_capacity(64);
                 for &i in &idx {
                     let ci = cell_of(&pos[i]);
+                    if by_cell_image {
+                        let (pi, ri) = (pos[i], radius[i]);
+                        let before = js.len();
+                        let range = |a: usize| if a < dims { -1i64..=1 } else { 0i64..=0 };
+                        for dz in range(2) {
+                            let (Some(z), wz) = wrap_index(ci[2] as i64 + dz, ncell[2], domain.periodic[2]) else { continue };
+                            for dy in range(1) {
+                                let (Some(y), wy) = wrap_index(ci[1] as i64 + dy, ncell[1], domain.periodic[1]) else { continue };
+                                for dx in range(0) {
+                                    let (Some(x), wx) = wrap_index(ci[0] as i64 + dx, ncell[0], domain.periodic[0]) else { continue };
+                                    let image = [wx as i8, wy as i8, wz as i8];
+                                    let base = pi - domain.image_shift(image);
+                                    let c = flat([x, y, z]);
+                                    for &j in &cell_items[cell_start[c] as usize..cell_start[c + 1] as usize] {
+                                        if (j as usize) <= i {
+                                            continue;
+                                        }
+                                        let d = base - pos[j as usize];
+                                        let cut = ri + radius[j as usize] + reach;
+                                        if d.norm_squared() < cut * cut {
+                                            js.push(PairRef { j, image });
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                        js[before..].sort_unstable_by_key(|e| e.j);
+                        counts.push((js.len() - before) as u32);
+                        continue;
+                    }
                     nb_cells.clear();
                     let range = |a: usize| if a < dims { -1i64..=1 } else { 0i64..=0 };
                     for dz in range(2) {
@@ -219,24 +253,36 @@ impl NeighborList {
             })
             .collect();
 
+        // Concatenate the chunks in parallel: each writes its own slices of the arrays.
         let total: usize = chunks.iter().map(|c| c.1.len()).sum();
-        self.start.clear();
-        self.start.reserve(n + 1);
-        self.start.push(0);
-        self.pi.clear();
-        self.pi.reserve(total);
-        self.pair.clear();
-        self.pair.reserve(total);
-        let mut i = 0u32;
-        for (counts, js) in chunks {
-            self.pair.extend_from_slice(&js);
-            for c in counts {
-                let s = *self.start.last().unwrap_or(&0);
-                self.start.push(s + c);
-                self.pi.extend(std::iter::repeat_n(i, c as usize));
-                i += 1;
-            }
+        self.start.resize(n + 1, 0);
+        self.pi.resize(total, 0);
+        self.pair.resize(total, PairRef::default());
+        self.start[0] = 0;
+        let mut parts = Vec::with_capacity(chunks.len());
+        let (mut pis, mut pairs, mut starts) = (&mut self.pi[..], &mut self.pair[..], &mut self.start[1..]);
+        let (mut first_pair, mut first_particle) = (0usize, 0usize);
+        for (counts, js) in &chunks {
+            let (a, rest) = std::mem::take(&mut pis).split_at_mut(js.len());
+            pis = rest;
+            let (b, rest) = std::mem::take(&mut pairs).split_at_mut(js.len());
+            pairs = rest;
+            let (c, rest) = std::mem::take(&mut starts).split_at_mut(counts.len());
+            starts = rest;
+            parts.push((a, b, c, counts, js, first_pair, first_particle));
+            first_pair += js.len();
+            first_particle += counts.len();
         }
+        parts.into_par_iter().for_each(|(pis, pairs, starts, counts, js, first_pair, first_particle)| {
+            pairs.copy_from_slice(js);
+            let (mut end, mut k) = (first_pair, 0usize);
+            for (m, &c) in counts.iter().enumerate() {
+                end += c as usize;
+                starts[m] = end as u32;
+                pis[k..k + c as usize].fill((first_particle + m) as u32);
+                k += c as usize;
+            }
+        });
         self.ref_pos.clear();
         self.ref_pos.extend_from_slice(pos);
         self.ref_offset = domain.le_offset;

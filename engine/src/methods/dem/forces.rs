@@ -227,16 +227,22 @@ impl Dem {
             .zip(p.omega.par_chunks_mut(span));
         ranges.enumerate().for_each(|(c, (((fs, ts), vs), ws))| {
             let base = c * span;
-            for (k, (f, t)) in fs.iter_mut().zip(ts.iter_mut()).enumerate() {
-                let i = base + k;
-                *f = g * mass[i];
-                *t = Vec3::zeros();
-                if let (Some(wf), Some(wt)) = (wall_f.get(i), wall_t.get(i)) {
+            let owned = base..base + fs.len();
+            // Gravity, then walls (each array is read only when it holds something).
+            if g == Vec3::zeros() {
+                fs.fill(Vec3::zeros());
+            } else {
+                for (f, m) in fs.iter_mut().zip(&mass[owned.clone()]) {
+                    *f = g * *m;
+                }
+            }
+            ts.fill(Vec3::zeros());
+            if !wall_f.is_empty() {
+                for ((f, t), (wf, wt)) in fs.iter_mut().zip(ts.iter_mut()).zip(wall_f[owned.clone()].iter().zip(&wall_t[owned.clone()])) {
                     *f += wf;
                     *t += wt;
                 }
             }
-            let owned = base..base + fs.len();
             for c in contacts.iter().flatten() {
                 let (i, j) = (c.i as usize, c.j as usize);
                 if owned.contains(&i) {

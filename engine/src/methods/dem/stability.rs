@@ -59,10 +59,11 @@ impl Dem {
     /// Kinetic, elastic, capillary and gravitational energy.
     pub(crate) fn mechanical_energy(&self) -> Energies {
         let p = &self.p;
-        let kinetic: Real =
-            (0..p.len()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i]).sum();
+        let kinetic =
+            block_sum(p.len(), |i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i]);
         let elastic = self.elastic_energy();
-        let gravity: Real = -(0..p.len()).map(|i| p.mass[i] * self.gravity.dot(&p.pos[i])).sum::<Real>();
+        let g = self.gravity;
+        let gravity = if g == Vec3::zeros() { 0.0 } else { -block_sum(p.len(), |i| p.mass[i] * g.dot(&p.pos[i])) };
         let mut capillary = 0.0;
         for c in self.contacts.iter().flatten().filter(|c| c.extra.bridge) {
             let (i, j) = (c.i as usize, c.j as usize);
@@ -164,4 +165,12 @@ impl Dem {
             .fold(0.0, Real::max);
         pairs.max(walls)
     }
+}
+
+/// Sum of `f(i)` over `0..n`, by fixed blocks added in order: the same value for any number of
+/// threads.
+fn block_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
+    const BLOCK: usize = 4096;
+    let partial: Vec<Real> = (0..n.div_ceil(BLOCK)).into_par_iter().map(|b| (b * BLOCK..((b + 1) * BLOCK).min(n)).map(&f).sum()).collect();
+    partial.iter().sum()
 }
