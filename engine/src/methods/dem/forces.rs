@@ -1,7 +1,8 @@
 //! The force stage of DEM: the pairs of the neighbour list in parallel, by blocks of particles
 //! (each block owns the records of its interacting pairs, see [`super::pair_state`]), then walls,
-//! then one scatter of the interacting pairs in block order. No atomics: the result does not
-//! depend on the number of threads.
+//! then the gather: each thread sums the forces of its own range of particles over all records,
+//! in block order, and gives them the second half kick. No atomics: the result does not depend
+//! on the number of threads.
 
 use rayon::prelude::*;
 
