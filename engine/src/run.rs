@@ -7,6 +7,7 @@ use std::sync::Arc;
 use crate::error::EngineError;
 use crate::math::Real;
 use crate::observe::Sample;
+use crate::observe::Snapshot;
 use crate::scene::{Sampling, Scene, Stop};
 
 /// A running simulation of one method.
@@ -29,6 +30,8 @@ pub trait Simulation: Send {
     fn strain(&self) -> Real;
     /// Measures the current state (runs the stability guard first; never returns NaN).
     fn sample(&mut self) -> Result<Sample, EngineError>;
+    /// Particles, contacts and walls now, for visualisation ([`crate::observe::vtk`]).
+    fn snapshot(&self) -> Snapshot;
     /// Heap memory held, bytes.
     fn memory_bytes(&self) -> usize;
 }
@@ -81,12 +84,15 @@ pub struct Runner {
     pub sampling: Sampling,
     /// Set to true from another thread to cancel; checked every step.
     pub cancel: Arc<AtomicBool>,
+    /// Take a snapshot every this many steps, or with every sample if 0, plus the initial and
+    /// final states; `None`: no snapshots.
+    pub snapshot_every: Option<u64>,
 }
 
 impl Runner {
     /// A runner for the scene's stop criteria and sampling.
     pub fn for_scene(scene: &Scene) -> Self {
-        Self { stop: scene.stop, sampling: scene.sampling, cancel: Arc::new(AtomicBool::new(false)) }
+        Self { stop: scene.stop, sampling: scene.sampling, cancel: Arc::new(AtomicBool::new(false)), snapshot_every: None }
     }
 
     fn reached(&self, sim: &dyn Simulation) -> Option<StopReason> {
@@ -130,6 +136,25 @@ impl Runner {
     /// Runs to the end, calling `on_sample` with the initial sample, every sample at the
     /// interval and the final one.
     pub fn run(&self, sim: &mut dyn Simulation, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
+        self.run_with_snapshots(sim, on_sample, &mut |_| {})
+    }
+
+    /// As [`Runner::run`], also calling `on_snapshot` with the initial state, at the
+    /// `snapshot_every` interval and with the final state (each step at most once). To stop the run from
+    /// `on_snapshot` (a write failed), set `cancel`.
+    pub fn run_with_snapshots(
+        &self,
+        sim: &mut dyn Simulation,
+        on_sample: &mut dyn FnMut(&Sample, &Progress),
+        on_snapshot: &mut dyn FnMut(&Snapshot),
+    ) -> Result<RunSummary, EngineError> {
+        let mut last_snapshot = None;
+        let mut snapshot = |sim: &dyn Simulation, last_snapshot: &mut Option<u64>| {
+            if self.snapshot_every.is_some() && *last_snapshot != Some(sim.steps_done()) {
+                *last_snapshot = Some(sim.steps_done());
+                on_snapshot(&sim.snapshot());
+            }
+        };
         let started = std::time::Instant::now();
         let phi0 = sim.packing_fraction();
         let progress = |sim: &dyn Simulation| {
@@ -140,6 +165,7 @@ impl Runner {
         };
         let mut last = sim.sample()?;
         on_sample(&last, &progress(sim));
+        snapshot(sim, &mut last_snapshot);
         let mut next_time = match self.sampling {
             Sampling::Time(t) => t,
             Sampling::Steps(_) => Real::INFINITY,
@@ -167,11 +193,20 @@ impl Runner {
                 last = sim.sample()?;
                 on_sample(&last, &progress(sim));
             }
+            let snapshot_due = match self.snapshot_every {
+                Some(0) => due,
+                Some(n) => sim.steps_done().is_multiple_of(n),
+                None => false,
+            };
+            if snapshot_due && self.reached(sim).is_none() {
+                snapshot(sim, &mut last_snapshot);
+            }
         };
         if last.step != sim.steps_done() {
             last = sim.sample()?;
             on_sample(&last, &progress(sim));
         }
+        snapshot(sim, &mut last_snapshot);
         Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last })
     }
 }

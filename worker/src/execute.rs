@@ -4,7 +4,7 @@ use std::panic::AssertUnwindSafe;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use sable_engine::observe::Sample;
+use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, RunSummary, Runner};
 use sable_engine::scene::{format_violations, parse_scene, Method, Scene};
 use sable_engine::EngineError;
@@ -14,8 +14,18 @@ use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
 
 /// Builds the scene's method and runs it to its stop criteria with `runner`.
 pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
+    run_scene_with_snapshots(scene, runner, on_sample, &mut |_| {})
+}
+
+/// As [`run_scene`], with the snapshots the runner asks for.
+pub fn run_scene_with_snapshots(
+    scene: &Scene,
+    runner: &Runner,
+    on_sample: &mut dyn FnMut(&Sample, &Progress),
+    on_snapshot: &mut dyn FnMut(&Snapshot),
+) -> Result<RunSummary, EngineError> {
     let mut sim = sable_engine::methods::build(scene)?;
-    runner.run(sim.as_mut(), on_sample)
+    runner.run_with_snapshots(sim.as_mut(), on_sample, on_snapshot)
 }
 
 /// The threads a scene's method will use under a budget of `budget` threads: the scene's own

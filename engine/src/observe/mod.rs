@@ -7,6 +7,9 @@
 
 pub mod metrics;
 pub mod sample;
+pub mod snapshot;
+pub mod vtk;
 
 pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
 pub use sample::{Sample, Stress, WallSample};
+pub use snapshot::{Snapshot, WallFace};

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
-use sable_engine::observe::Sample;
+use sable_engine::observe::vtk::SnapshotSeries;
+use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, Runner};
 use sable_engine::scene::{parse_scene, Scene};
 
@@ -35,6 +36,13 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Write VTK snapshots for ParaView into this directory (`snapshots.pvd` indexes them):
+    /// particles, contact network and walls, at the start, the end and every interval.
+    #[arg(long, value_name = "DIR")]
+    pub snapshots: Option<PathBuf>,
+    /// Snapshot interval in steps (default: with every sample).
+    #[arg(long, value_name = "STEPS", requires = "snapshots", value_parser = clap::value_parser!(u64).range(1..))]
+    pub snapshot_every: Option<u64>,
 }
 
 /// Arguments of `sable validate`.
@@ -115,7 +123,24 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = sable_worker::execute::apply_thread_budget(&mut scene, cores);
     let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
-    let runner = Runner::for_scene(&scene);
+    let mut runner = Runner::for_scene(&scene);
+    let mut series = match &a.snapshots {
+        Some(dir) => {
+            runner.snapshot_every = Some(a.snapshot_every.unwrap_or(0));
+            Some(SnapshotSeries::create(dir)?)
+        }
+        None => None,
+    };
+    let mut snapshot_error: Option<anyhow::Error> = None;
+    let cancel = runner.cancel.clone();
+    let mut on_snapshot = |s: &Snapshot| {
+        if let (Some(series), None) = (series.as_mut(), &snapshot_error) {
+            if let Err(e) = series.push(s) {
+                snapshot_error = Some(e.into());
+                cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    };
     let mut write_error: Option<anyhow::Error> = None;
     let mut on_sample = |s: &Sample, p: &Progress| {
         if write_error.is_none() {
@@ -128,9 +153,12 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
             b.set_message(format!("t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
         }
     };
-    let result = pool.install(|| sable_worker::run_scene(&scene, &runner, &mut on_sample));
+    let result = pool.install(|| sable_worker::execute::run_scene_with_snapshots(&scene, &runner, &mut on_sample, &mut on_snapshot));
     if let Some(b) = &bar {
         b.finish_and_clear();
+    }
+    if let Some(e) = snapshot_error {
+        return Err(e.context("cannot write snapshots"));
     }
     if let Some(e) = write_error {
         return Err(e.context("cannot write samples"));
@@ -150,6 +178,9 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
             "finished: {:?} after {} steps, t = {:.6e} s, {:.2} s wall clock",
             summary.reason, summary.steps, summary.time, summary.wall_seconds
         );
+        if let (Some(series), Some(dir)) = (&series, &a.snapshots) {
+            eprintln!("{} snapshots in {} (open snapshots.pvd in ParaView)", series.len(), dir.display());
+        }
     }
     Ok(())
 }

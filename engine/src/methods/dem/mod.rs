@@ -16,7 +16,7 @@ use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
-use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, SystemView, WallView};
+use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::run::Simulation;
 use crate::scene::{Deformation, DemParams, Placement, Scene, WallMotion};
@@ -681,6 +681,33 @@ impl Simulation for Dem {
 
     fn memory_bytes(&self) -> usize {
         self.heap_bytes()
+    }
+
+    fn snapshot(&self) -> Snapshot {
+        let p = &self.p;
+        // Particles return into the periodic box only at neighbour builds: wrap the copies.
+        let (mut position, mut velocity) = (p.pos.clone(), p.vel.clone());
+        for (x, v) in position.iter_mut().zip(velocity.iter_mut()) {
+            self.domain.wrap(x, v);
+        }
+        Snapshot {
+            dim: self.dim,
+            step: self.step,
+            time: self.time,
+            lo: self.domain.lo,
+            hi: self.domain.hi,
+            position,
+            radius: p.radius.clone(),
+            velocity,
+            omega: p.omega.clone(),
+            force: p.force.clone(),
+            contacts: self.contacts(),
+            walls: self
+                .walls
+                .iter()
+                .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
+                .collect(),
+        }
     }
 }
 

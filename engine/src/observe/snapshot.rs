@@ -1,0 +1,66 @@
+//! The state of a run at one instant, for visualisation: particles, the contact network and the
+//! walls, independent of the method that produced them. [`super::vtk`] writes it for ParaView.
+
+use super::metrics::ContactRecord;
+use crate::math::{Real, Vec3};
+
+/// A plane wall as a finite face of the box, for drawing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallFace {
+    /// Face name (`x_min`, `y_max`, ...).
+    pub name: String,
+    /// Axis of the normal (0, 1, 2).
+    pub axis: usize,
+    /// Coordinate of the wall along its axis, m.
+    pub position: Real,
+    /// Unit normal pointing into the box.
+    pub normal: Vec3,
+    /// Force exerted by the particles on the wall, N.
+    pub force: Vec3,
+}
+
+/// Particles, contacts and walls at one step. Units SI; in 2D, z components are zero.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// 2 or 3.
+    pub dim: usize,
+    /// Step number.
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: Real,
+    /// Box corners, m (walls span the box).
+    pub lo: Vec3,
+    /// Upper box corner, m.
+    pub hi: Vec3,
+    /// Centres, m.
+    pub position: Vec<Vec3>,
+    /// Radii, m.
+    pub radius: Vec<Real>,
+    /// Velocities, m/s.
+    pub velocity: Vec<Vec3>,
+    /// Angular velocities, rad/s.
+    pub omega: Vec<Vec3>,
+    /// Total force on each particle (contacts, walls, gravity), N.
+    pub force: Vec<Vec3>,
+    /// Contacts carrying force or held by a bond, with their branch vectors (pairs and walls).
+    pub contacts: Vec<ContactRecord>,
+    /// The walls.
+    pub walls: Vec<WallFace>,
+}
+
+impl Snapshot {
+    /// Number of force-carrying particle-particle contacts of each particle (the coordination
+    /// that Z averages; wall contacts are not counted).
+    pub fn coordination(&self) -> Vec<u32> {
+        let mut z = vec![0u32; self.position.len()];
+        for c in &self.contacts {
+            if let Some(j) = c.j {
+                if c.force != Vec3::zeros() {
+                    z[c.i as usize] += 1;
+                    z[j as usize] += 1;
+                }
+            }
+        }
+        z
+    }
+}
