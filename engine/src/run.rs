@@ -92,7 +92,7 @@ pub struct Runner {
 impl Runner {
     /// A runner for the scene's stop criteria and sampling.
     pub fn for_scene(scene: &Scene) -> Self {
-        Self { stop: scene.stop, sampling: scene.sampling, cancel: Arc::new(AtomicBool::new(false)), snapshot_every: None }
+        Self { stop: scene.stop, sampling: scene.sampling, cancel: Arc::new(AtomicBool::new(false)), snapshot_every: scene.snapshots }
     }
 
     fn reached(&self, sim: &dyn Simulation) -> Option<StopReason> {

@@ -71,6 +71,7 @@ impl From<StoreError> for ApiError {
     fn from(e: StoreError) -> Self {
         match e {
             StoreError::NotFound(id) => Self::NotFound(format!("job {id} not found")),
+            StoreError::Missing(m) => Self::NotFound(m),
             StoreError::Conflict(m) => Self::Conflict(m),
             e => {
                 eprintln!("store error: {e}");

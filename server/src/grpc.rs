@@ -7,7 +7,7 @@ use std::time::Duration;
 use sable_engine::observe::Sample;
 use sable_proto::v1 as pb;
 use sable_proto::v1::finish_job_request::Outcome as PbOutcome;
-use sable_worker::{Lease, Outcome, Report};
+use sable_worker::{Lease, Outcome, Report, SnapshotFiles};
 use tokio_stream::Stream;
 use tonic::{Request, Response, Status};
 
@@ -227,6 +227,7 @@ fn worker_status(e: StoreError) -> Status {
     match e {
         StoreError::Conflict(m) => Status::failed_precondition(m),
         StoreError::NotFound(id) => Status::not_found(format!("job {id} not found")),
+        StoreError::Missing(m) => Status::not_found(m),
         e => {
             eprintln!("store error: {e}");
             Status::unavailable("job store unavailable")
@@ -264,8 +265,29 @@ impl pb::workers_server::Workers for WorkersService {
             }
             samples.push(s);
         }
-        let report =
-            Report { fraction: r.fraction, remaining_seconds: (r.remaining_seconds >= 0.0).then_some(r.remaining_seconds), samples };
+        let mut snapshots = Vec::with_capacity(r.snapshots.len());
+        for (i, f) in r.snapshots.into_iter().enumerate() {
+            for (name, gz) in [("particles_gz", &f.particles_gz), ("contacts_gz", &f.contacts_gz), ("walls_gz", &f.walls_gz)] {
+                // The header only: the files are decompressed, with a bound, when downloaded.
+                if !gz.starts_with(&[0x1f, 0x8b]) {
+                    return Err(Status::invalid_argument(format!("snapshots[{i}].{name}: not a gzip stream")));
+                }
+            }
+            snapshots.push(SnapshotFiles {
+                index: f.index,
+                step: f.step,
+                time: f.time,
+                particles: f.particles_gz,
+                contacts: f.contacts_gz,
+                walls: f.walls_gz,
+            });
+        }
+        let report = Report {
+            fraction: r.fraction,
+            remaining_seconds: (r.remaining_seconds >= 0.0).then_some(r.remaining_seconds),
+            samples,
+            snapshots,
+        };
         let cancel = self.store.report(&lease_of(r.job_id, r.lease_id), &report).await.map_err(worker_status)?;
         Ok(Response::new(pb::ReportProgressResponse { cancel_requested: cancel }))
     }

@@ -38,6 +38,8 @@ pub struct SubmitBody {
         rest::job_action,
         rest::samples,
         rest::events,
+        rest::snapshots,
+        rest::snapshot_file,
         rest::openapi,
         rest::healthz,
         rest::metrics

@@ -9,6 +9,8 @@
 //! | POST | `/v1/jobs/{id}:cancel` | cancel |
 //! | GET | `/v1/jobs/{id}/samples` | samples (`from_step, to_step, max_points, format=json|csv`) |
 //! | GET | `/v1/jobs/{id}/events` | Server-Sent Events (`after_seq` or `Last-Event-ID` to resume) |
+//! | GET | `/v1/jobs/{id}/snapshots` | the job's VTK snapshots (index, step, time, file URLs) |
+//! | GET | `/v1/jobs/{id}/snapshots/{index}/{part}` | one file: `particles`, `contacts` or `walls` (`.vtp`) |
 //! | GET | `/v1/openapi.json` | the OpenAPI document |
 //! | GET | `/healthz`, `/metrics` | liveness, Prometheus text |
 
@@ -29,7 +31,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use crate::api::{self, ApiError, ListQuery, Submission};
-use crate::store::JobStore;
+use crate::store::{JobStore, SnapshotPart};
 use crate::watch::{take_slot, watch_stream, WatchItem};
 
 /// What the handlers share.
@@ -70,6 +72,8 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/jobs/{id}", get(get_job).post(job_action))
         .route("/v1/jobs/{id}/samples", get(samples))
         .route("/v1/jobs/{id}/events", get(events))
+        .route("/v1/jobs/{id}/snapshots", get(snapshots))
+        .route("/v1/jobs/{id}/snapshots/{index}/{part}", get(snapshot_file))
         .route("/v1/openapi.json", get(openapi))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
@@ -319,6 +323,93 @@ pub(crate) async fn samples(
     } else {
         Ok(Json(SamplePage { job_id: id, samples }).into_response())
     }
+}
+
+/// One stored snapshot.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub(crate) struct SnapshotView {
+    /// Number of the snapshot in the job, from 0.
+    index: i64,
+    /// Step it was taken at.
+    step: i64,
+    /// Simulated time, s.
+    time: f64,
+    /// Paths of its files: particles, contacts, walls (VTK XML PolyData).
+    files: Vec<String>,
+}
+
+/// Body of `GET /v1/jobs/{id}/snapshots`.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub(crate) struct SnapshotList {
+    /// Job.
+    job_id: i64,
+    /// In the order taken.
+    snapshots: Vec<SnapshotView>,
+}
+
+/// `GET /v1/jobs/{id}/snapshots`.
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}/snapshots",
+    tag = "jobs",
+    summary = "The job's VTK snapshots for ParaView (scene field `snapshots`)",
+    params(("id" = i64, Path, description = "Job id")),
+    responses(
+        (status = 200, description = "Snapshots, possibly none", body = SnapshotList),
+        (status = 400, description = "The id cannot be read", body = api::ErrorBody),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn snapshots(State(st): State<AppState>, Path(id): Path<String>) -> Result<Json<SnapshotList>, ApiError> {
+    let id = parse_id(&id)?;
+    let rows = st.store.snapshots(id).await?;
+    let snapshots = rows
+        .into_iter()
+        .map(|r| SnapshotView {
+            index: r.idx,
+            step: r.step,
+            time: r.time,
+            files: SnapshotPart::ALL.iter().map(|p| format!("/v1/jobs/{id}/snapshots/{}/{}.vtp", r.idx, p.name())).collect(),
+        })
+        .collect();
+    Ok(Json(SnapshotList { job_id: id, snapshots }))
+}
+
+/// Largest file served once decompressed, bytes (a snapshot of a million particles is ~0.6 GB).
+const MAX_SNAPSHOT_FILE: u64 = 4 << 30;
+
+/// `GET /v1/jobs/{id}/snapshots/{index}/{part}`.
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}/snapshots/{index}/{part}",
+    tag = "jobs",
+    summary = "One file of a snapshot: particles, contacts or walls (VTK XML PolyData; `.vtp` suffix optional)",
+    params(
+        ("id" = i64, Path, description = "Job id"),
+        ("index" = u32, Path, description = "Snapshot number, from 0"),
+        ("part" = String, Path, description = "particles, contacts or walls (optionally with .vtp)"),
+    ),
+    responses(
+        (status = 200, description = "The file", body = String, content_type = "application/xml"),
+        (status = 400, description = "The id, index or part cannot be read", body = api::ErrorBody),
+        (status = 404, description = "No such job or snapshot", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn snapshot_file(
+    State(st): State<AppState>,
+    Path((id, index, part)): Path<(String, String, String)>,
+) -> Result<Response, ApiError> {
+    let id = parse_id(&id)?;
+    let index: u32 = index.parse().map_err(|_| ApiError::malformed("index", format!("must be a snapshot number >= 0, got '{index}'")))?;
+    let part = SnapshotPart::parse(&part)
+        .ok_or_else(|| ApiError::malformed("part", format!("must be particles, contacts or walls (optionally .vtp), got '{part}'")))?;
+    let gz = st.store.snapshot_file(id, index, part).await?;
+    let text = tokio::task::spawn_blocking(move || sable_worker::source::gunzip(&gz, MAX_SNAPSHOT_FILE))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))?
+        .map_err(|e| ApiError::Internal(format!("snapshot {index} of job {id} cannot be read: {e}")))?;
+    let disposition = format!("attachment; filename=\"job{id}_{}_{index:06}.vtp\"", part.name());
+    Ok(([(header::CONTENT_TYPE, "application/xml".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
 }
 
 /// Samples as CSV with the engine's column names.

@@ -167,7 +167,7 @@ impl Server {
                 .add_service(health_service)
                 .add_service(reflection)
                 .add_service(SimulationsServer::new(sims).max_decoding_message_size(max_message))
-                .add_service(WorkersServer::new(workers))
+                .add_service(WorkersServer::new(workers).max_decoding_message_size(sable_worker::remote::MAX_REPORT_BYTES))
                 .serve_with_incoming_shutdown(incoming, async move { grpc_stop.cancelled().await })
                 .await;
             if let Err(e) = r {

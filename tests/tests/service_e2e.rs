@@ -381,12 +381,15 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
 async fn bad_input_gets_a_clear_error_and_writes_nothing() {
     let h = Harness::start(0).await;
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
+    let mut no_snapshot_interval = scene(10, 1);
+    no_snapshot_interval["snapshots"] = json!({"every_steps": 0});
     let cases: Vec<(Value, &str)> = vec![
         (json!({"scene": scene(10, 1), "colour": "red"}), "colour"),
         (json!({"scene": scene(10, 1), "priority": 5000}), "priority"),
         (json!({"scene": scene(10, 1), "max_attempts": 0}), "max_attempts"),
         (json!({"scene": scene(10, 1), "name": ""}), "name"),
         (json!({"scene": scene(3_000_000_000, 1)}), "scene.stop.steps"),
+        (json!({"scene": no_snapshot_interval}), "scene.snapshots.every_steps"),
     ];
     for (body, field) in cases {
         let (status, err) = h.post("/v1/jobs", &body, None).await;
@@ -520,4 +523,67 @@ async fn health_metrics_and_openapi_describe_the_service() {
         let r = health.check(tonic_health::pb::HealthCheckRequest { service: service.into() }).await.expect("health").into_inner();
         assert_eq!(r.status(), tonic_health::pb::health_check_response::ServingStatus::Serving, "{service}");
     }
+}
+
+/// Checks the snapshots of a finished job: taken at steps 0, 400, 800 and 1000, listed with
+/// their files, each file a VTK document of the job's 30 particles; bad indices and parts are
+/// refused.
+async fn check_snapshots(h: &Harness, id: i64) {
+    let (status, list) = h.get(&format!("/v1/jobs/{id}/snapshots")).await;
+    assert_eq!(status, 200, "{list}");
+    let steps: Vec<i64> = list["snapshots"].as_array().expect("list").iter().map(|s| s["step"].as_i64().expect("step")).collect();
+    assert_eq!(steps, vec![0, 400, 800, 1000]);
+    let files = list["snapshots"][3]["files"].as_array().expect("files").clone();
+    assert_eq!(files.len(), 3);
+    for (file, root) in files.iter().zip(["particles", "contacts", "walls"]) {
+        let path = file.as_str().expect("path");
+        assert!(path.ends_with(&format!("/3/{root}.vtp")), "{path}");
+        let resp = h.http.get(format!("{}{path}", h.base)).send().await.expect("HTTP answers");
+        assert_eq!(resp.status().as_u16(), 200, "{path}");
+        let text = resp.text().await.expect("body");
+        let doc = roxmltree::Document::parse(&text).expect("well-formed VTK XML");
+        let piece = doc.descendants().find(|n| n.has_tag_name("Piece")).expect("a piece");
+        match root {
+            "particles" => assert_eq!(piece.attribute("NumberOfPoints"), Some("30")),
+            // The four walls of the 2D box, as segments.
+            "walls" => assert_eq!(piece.attribute("NumberOfLines"), Some("4")),
+            _ => assert!(piece.attribute("NumberOfLines").is_some()),
+        }
+    }
+    let (status, body) = h.get(&format!("/v1/jobs/{id}/snapshots/4/particles")).await;
+    assert_eq!(status, 404, "{body}");
+    let (status, body) = h.get(&format!("/v1/jobs/{id}/snapshots/0/grains")).await;
+    assert_eq!(status, 400, "{body}");
+    assert_eq!(body["details"][0]["field"], "part", "{body}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn snapshots_are_stored_and_served_from_local_and_remote_workers() {
+    let mut s = scene(1000, 4);
+    s["snapshots"] = json!({"every_steps": 400});
+    // A local worker.
+    let h = Harness::start(1).await;
+    let (status, job) = h.post("/v1/jobs", &s, None).await;
+    assert_eq!(status, 201, "{job}");
+    let id = job["id"].as_i64().expect("id");
+    h.wait_state(id, &["succeeded"], Duration::from_secs(20)).await;
+    check_snapshots(&h, id).await;
+    // A job without snapshots has none.
+    let (_, plain) = h.post("/v1/jobs", &scene(200, 4), None).await;
+    let plain = plain["id"].as_i64().expect("id");
+    h.wait_state(plain, &["succeeded"], Duration::from_secs(20)).await;
+    let (_, list) = h.get(&format!("/v1/jobs/{plain}/snapshots")).await;
+    assert_eq!(list["snapshots"], json!([]));
+
+    // A remote worker: the files travel in its gRPC reports.
+    let h = Harness::start(0).await;
+    let (_, job) = h.post("/v1/jobs", &s, None).await;
+    let id = job["id"].as_i64().expect("id");
+    let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
+    let mut pc = sable_worker::PoolConfig::new("remote", 1);
+    pc.report_interval = Duration::from_millis(100);
+    let pool = sable_worker::Pool::start(Arc::new(remote), pc, Arc::new(tokio::sync::Notify::new()));
+    h.wait_state(id, &["succeeded"], Duration::from_secs(20)).await;
+    check_snapshots(&h, id).await;
+    pool.shutdown(Duration::from_secs(2)).await;
 }

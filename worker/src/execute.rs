@@ -10,7 +10,7 @@ use sable_engine::scene::{format_violations, parse_scene, Method, Scene};
 use sable_engine::EngineError;
 use tokio_util::sync::CancellationToken;
 
-use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
+use crate::source::{JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
 
 /// Builds the scene's method and runs it to its stop criteria with `runner`.
 pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
@@ -64,6 +64,7 @@ impl Drop for CancelOnDrop {
 /// What the engine thread sends to the async side.
 enum Msg {
     Sample(Sample, Progress),
+    Snapshot(SnapshotFiles),
 }
 
 /// Timing of the reports of one job.
@@ -110,11 +111,21 @@ pub async fn execute<S: JobSource>(
     let started = Instant::now();
     let mut engine = tokio::task::spawn_blocking(move || {
         std::panic::catch_unwind(AssertUnwindSafe(|| {
+            let snapshots_tx = tx.clone();
+            let mut index = 0u32;
             pool.install(|| {
-                run_scene(&scene, &runner, &mut |s, p| {
-                    // Never blocks: the physics does not wait for the reports.
-                    let _ = tx.send(Msg::Sample(s.clone(), *p));
-                })
+                run_scene_with_snapshots(
+                    &scene,
+                    &runner,
+                    &mut |s, p| {
+                        // Never blocks: the physics does not wait for the reports.
+                        let _ = tx.send(Msg::Sample(s.clone(), *p));
+                    },
+                    &mut |s| {
+                        let _ = snapshots_tx.send(Msg::Snapshot(SnapshotFiles::encode(index, s)));
+                        index += 1;
+                    },
+                )
             })
         }))
     });
@@ -128,12 +139,7 @@ pub async fn execute<S: JobSource>(
     let result = loop {
         tokio::select! {
             r = &mut engine => break r,
-            Some(Msg::Sample(s, p)) = rx.recv() => {
-                last_step = s.step;
-                pending.fraction = p.fraction;
-                pending.remaining_seconds = p.remaining;
-                pending.samples.push(s);
-            }
+            Some(msg) = rx.recv() => receive(msg, &mut pending, &mut last_step),
             _ = tick.tick() => {
                 if lost {
                     continue;
@@ -156,11 +162,8 @@ pub async fn execute<S: JobSource>(
             }
         }
     };
-    while let Ok(Msg::Sample(s, p)) = rx.try_recv() {
-        last_step = s.step;
-        pending.fraction = p.fraction;
-        pending.remaining_seconds = p.remaining;
-        pending.samples.push(s);
+    while let Ok(msg) = rx.try_recv() {
+        receive(msg, &mut pending, &mut last_step);
     }
     if lost {
         return None;
@@ -205,7 +208,21 @@ pub async fn execute<S: JobSource>(
 async fn flush<S: JobSource>(source: &S, lease: &Lease, pending: &mut Report) -> Result<bool, SourceError> {
     let cancelled = source.report(lease, pending).await?;
     pending.samples.clear();
+    pending.snapshots.clear();
     Ok(cancelled)
+}
+
+/// Adds what the engine sent to the next report.
+fn receive(msg: Msg, pending: &mut Report, last_step: &mut u64) {
+    match msg {
+        Msg::Sample(s, p) => {
+            *last_step = s.step;
+            pending.fraction = p.fraction;
+            pending.remaining_seconds = p.remaining;
+            pending.samples.push(s);
+        }
+        Msg::Snapshot(f) => pending.snapshots.push(f),
+    }
 }
 
 async fn finish<S: JobSource>(source: &S, lease: &Lease, outcome: Outcome) -> Option<Outcome> {

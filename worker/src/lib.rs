@@ -17,4 +17,4 @@ pub mod source;
 
 pub use execute::run_scene;
 pub use pool::{Pool, PoolConfig, PoolStats};
-pub use source::{JobSource, Lease, Outcome, Report, SourceError};
+pub use source::{JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};

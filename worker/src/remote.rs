@@ -7,6 +7,10 @@ use tonic::transport::{Channel, Endpoint};
 
 use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
 
+/// Largest progress report a worker sends and the server accepts, bytes (snapshots of large
+/// scenes make large reports).
+pub const MAX_REPORT_BYTES: usize = 256 << 20;
+
 /// Leases jobs from a Sable server over gRPC.
 #[derive(Debug, Clone)]
 pub struct RemoteSource {
@@ -20,7 +24,8 @@ impl RemoteSource {
             .map_err(|e| SourceError::Unavailable(format!("bad server URL '{url}': {e}")))?
             .connect_timeout(std::time::Duration::from_secs(5))
             .timeout(std::time::Duration::from_secs(30));
-        Ok(Self { client: WorkersClient::new(endpoint.connect_lazy()) })
+        // Snapshots of large scenes make large reports.
+        Ok(Self { client: WorkersClient::new(endpoint.connect_lazy()).max_encoding_message_size(MAX_REPORT_BYTES) })
     }
 }
 
@@ -48,6 +53,18 @@ impl JobSource for RemoteSource {
             fraction: report.fraction,
             remaining_seconds: report.remaining_seconds.unwrap_or(-1.0),
             samples_json,
+            snapshots: report
+                .snapshots
+                .iter()
+                .map(|f| sable_proto::v1::SnapshotFiles {
+                    index: f.index,
+                    step: f.step,
+                    time: f.time,
+                    particles_gz: f.particles.clone(),
+                    contacts_gz: f.contacts.clone(),
+                    walls_gz: f.walls.clone(),
+                })
+                .collect(),
         };
         let r = self.client.clone().report_progress(req).await.map_err(|s| status_error(s, Some(lease)))?;
         Ok(r.into_inner().cancel_requested)

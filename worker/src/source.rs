@@ -3,7 +3,7 @@
 
 use std::future::Future;
 
-use sable_engine::observe::Sample;
+use sable_engine::observe::{Sample, Snapshot};
 
 /// A job leased by one worker. Every report and the final outcome carry the lease id, and the
 /// store ignores them once the lease is gone (fencing).
@@ -28,6 +28,61 @@ pub struct Report {
     pub remaining_seconds: Option<f64>,
     /// New samples, in order.
     pub samples: Vec<Sample>,
+    /// New snapshots, in order.
+    pub snapshots: Vec<SnapshotFiles>,
+}
+
+/// One snapshot as its three VTK files, each gzip-compressed
+/// ([`sable_engine::observe::vtk`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SnapshotFiles {
+    /// Number of the snapshot in the job, from 0.
+    pub index: u32,
+    /// Step it was taken at.
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: f64,
+    /// `particles.vtp`, gzip.
+    pub particles: Vec<u8>,
+    /// `contacts.vtp`, gzip.
+    pub contacts: Vec<u8>,
+    /// `walls.vtp`, gzip.
+    pub walls: Vec<u8>,
+}
+
+impl SnapshotFiles {
+    /// Renders and compresses snapshot number `index`.
+    pub fn encode(index: u32, s: &Snapshot) -> Self {
+        use sable_engine::observe::vtk::{contacts_vtp, particles_vtp, walls_vtp};
+        Self {
+            index,
+            step: s.step,
+            time: s.time,
+            particles: gzip(&particles_vtp(s)),
+            contacts: gzip(&contacts_vtp(s)),
+            walls: gzip(&walls_vtp(s)),
+        }
+    }
+}
+
+/// Gzip of a text (fast level: snapshots are written while the run goes on).
+pub fn gzip(text: &str) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::with_capacity(text.len() / 4), flate2::Compression::fast());
+    // Writing into a Vec cannot fail.
+    let _ = e.write_all(text.as_bytes());
+    e.finish().unwrap_or_default()
+}
+
+/// The text of a gzip stream made by [`gzip`], refused past `limit` bytes.
+pub fn gunzip(bytes: &[u8], limit: u64) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(bytes).take(limit + 1).read_to_string(&mut text)?;
+    if text.len() as u64 > limit {
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("more than {limit} bytes once decompressed")));
+    }
+    Ok(text)
 }
 
 /// How a leased job ended.

@@ -26,6 +26,8 @@ pub struct Scene {
     pub stop: Stop,
     /// Sampling interval.
     pub sampling: Sampling,
+    /// Snapshot interval in steps (0: with every sample); `None`: no snapshots.
+    pub snapshots: Option<u64>,
     /// Seed of all random draws.
     pub seed: u64,
 }

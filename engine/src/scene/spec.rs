@@ -33,6 +33,9 @@ pub struct SceneSpec {
     /// How often to take a sample. Default: 100 samples over the run.
     #[serde(default)]
     pub sampling: Option<SamplingSpec>,
+    /// VTK snapshots for ParaView (particles, contact network, walls). Default: none.
+    #[serde(default)]
+    pub snapshots: Option<SnapshotSpec>,
     /// Seed of every random draw (placement, velocities). Default 0.
     #[serde(default)]
     pub seed: Option<u64>,
@@ -341,6 +344,15 @@ pub struct SamplingSpec {
     /// Sample every this much simulated time, s.
     #[serde(default)]
     pub every_time: Option<f64>,
+}
+
+/// When to take snapshots.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SnapshotSpec {
+    /// Every this many steps; absent: with every sample.
+    #[serde(default)]
+    pub every_steps: Option<u64>,
 }
 
 /// Parameters of the `dem` method.

@@ -88,6 +88,14 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
 
     let stop = check_stop(&mut c, &spec.stop, &container);
     let sampling = check_sampling(&mut c, spec.sampling.as_ref(), &stop);
+    let snapshots = spec.snapshots.as_ref().map(|s| match s.every_steps {
+        Some(0) => {
+            c.fail("snapshots.every_steps", "must be >= 1 (leave it out to take a snapshot with every sample)");
+            0
+        }
+        Some(n) => n,
+        None => 0,
+    });
 
     if !c.violations.is_empty() {
         return Err(c.violations);
@@ -103,6 +111,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         gravity,
         stop,
         sampling,
+        snapshots,
         seed: spec.seed.unwrap_or(0),
     })
 }

@@ -40,7 +40,8 @@ pub struct RunArgs {
     /// particles, contact network and walls, at the start, the end and every interval.
     #[arg(long, value_name = "DIR")]
     pub snapshots: Option<PathBuf>,
-    /// Snapshot interval in steps (default: with every sample).
+    /// Snapshot interval in steps (default: the scene's `snapshots.every_steps`, else with every
+    /// sample).
     #[arg(long, value_name = "STEPS", requires = "snapshots", value_parser = clap::value_parser!(u64).range(1..))]
     pub snapshot_every: Option<u64>,
 }
@@ -125,11 +126,16 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
     let mut runner = Runner::for_scene(&scene);
     let mut series = match &a.snapshots {
+        None => {
+            // Without a directory, a scene's snapshots have nowhere to go locally.
+            runner.snapshot_every = None;
+            None
+        }
         Some(dir) => {
-            runner.snapshot_every = Some(a.snapshot_every.unwrap_or(0));
+            // The flag, else the scene's interval, else with every sample.
+            runner.snapshot_every = Some(a.snapshot_every.or(scene.snapshots).unwrap_or(0));
             Some(SnapshotSeries::create(dir)?)
         }
-        None => None,
     };
     let mut snapshot_error: Option<anyhow::Error> = None;
     let cancel = runner.cancel.clone();

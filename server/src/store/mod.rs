@@ -17,7 +17,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePo
 use sqlx::{Row, Sqlite, Transaction};
 use tokio::sync::{broadcast, Notify};
 
-pub use rows::{EventRow, JobRow, JobState};
+pub use rows::{EventRow, JobRow, JobState, SnapshotPart, SnapshotRow};
 
 /// The migrations of migrations/, embedded at build time.
 pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../migrations");
@@ -38,6 +38,9 @@ pub enum StoreError {
     /// No job with that id.
     #[error("job {0} not found")]
     NotFound(i64),
+    /// The job exists but not the thing asked for (a snapshot index).
+    #[error("{0}")]
+    Missing(String),
     /// The request conflicts with the job's state or an earlier request.
     #[error("{0}")]
     Conflict(String),
@@ -317,6 +320,27 @@ impl JobStore {
         Ok(out)
     }
 
+    /// The snapshots of a job, in order, without their files.
+    pub async fn snapshots(&self, id: i64) -> Result<Vec<SnapshotRow>, StoreError> {
+        self.get(id).await?;
+        Ok(sqlx::query_as::<_, SnapshotRow>("SELECT idx, step, time FROM snapshots WHERE job_id = ? ORDER BY idx")
+            .bind(id)
+            .fetch_all(&self.reader)
+            .await?)
+    }
+
+    /// One file of a snapshot, gzip-compressed as stored.
+    pub async fn snapshot_file(&self, id: i64, index: u32, part: SnapshotPart) -> Result<Vec<u8>, StoreError> {
+        self.get(id).await?;
+        let sql = format!("SELECT {} FROM snapshots WHERE job_id = ? AND idx = ?", part.column());
+        sqlx::query_scalar::<_, Vec<u8>>(&sql)
+            .bind(id)
+            .bind(index as i64)
+            .fetch_optional(&self.reader)
+            .await?
+            .ok_or_else(|| StoreError::Missing(format!("job {id} has no snapshot {index}")))
+    }
+
     /// Events of a job with seq > `after`, in order (at most `limit`).
     pub async fn events_after(&self, id: i64, after: i64, limit: i64) -> Result<Vec<EventRow>, StoreError> {
         Ok(sqlx::query_as::<_, EventRow>(
@@ -416,8 +440,9 @@ impl JobStore {
             tx.rollback().await?;
             return Ok(None);
         };
-        // A new attempt starts from scratch: samples of an earlier attempt are dropped.
+        // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
         sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
+        sqlx::query("DELETE FROM snapshots WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
         let event = Self::state_event(&mut tx, id).await?;
         tx.commit().await?;
         self.notify(id, vec![event]);
@@ -466,6 +491,18 @@ impl JobStore {
             .bind(data)
             .execute(&mut *tx)
             .await?;
+        }
+        for f in &report.snapshots {
+            sqlx::query("INSERT INTO snapshots (job_id, idx, step, time, particles, contacts, walls) VALUES (?, ?, ?, ?, ?, ?, ?)")
+                .bind(lease.job_id)
+                .bind(f.index as i64)
+                .bind(f.step as i64)
+                .bind(f.time)
+                .bind(&f.particles)
+                .bind(&f.contacts)
+                .bind(&f.walls)
+                .execute(&mut *tx)
+                .await?;
         }
         // One sample event per sample, carrying the progress of the batch.
         let mut events = Vec::with_capacity(report.samples.len());

@@ -117,3 +117,49 @@ pub struct EventRow {
     /// JSON payload.
     pub payload: String,
 }
+
+/// A stored snapshot, without its files.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct SnapshotRow {
+    /// Number of the snapshot in the job, from 0.
+    pub idx: i64,
+    /// Step it was taken at.
+    pub step: i64,
+    /// Simulated time, s.
+    pub time: f64,
+}
+
+/// The three files of a snapshot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SnapshotPart {
+    /// `particles.vtp`.
+    Particles,
+    /// `contacts.vtp`.
+    Contacts,
+    /// `walls.vtp`.
+    Walls,
+}
+
+impl SnapshotPart {
+    /// Every part, in file order.
+    pub const ALL: [SnapshotPart; 3] = [Self::Particles, Self::Contacts, Self::Walls];
+
+    /// Name in URLs and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Particles => "particles",
+            Self::Contacts => "contacts",
+            Self::Walls => "walls",
+        }
+    }
+
+    /// The part named `name` (`particles`, `contacts`, `walls`, with or without `.vtp`).
+    pub fn parse(name: &str) -> Option<Self> {
+        let name = name.strip_suffix(".vtp").unwrap_or(name);
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    pub(crate) fn column(self) -> &'static str {
+        self.name()
+    }
+}
