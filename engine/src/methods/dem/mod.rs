@@ -183,6 +183,11 @@ impl Dem {
             }
         }
         let k_eff = collision_stiffness(&collision, &p);
+        // Largest normal dashpot of a particle-wall contact (at an overlap of 1% of the radius,
+        // for laws whose damping depends on it).
+        let wall_dashpot = (0..p.len())
+            .map(|i| table.get(p.material[i] as usize, wall_material).normal.damping(0.01 * p.radius[i], p.radius[i], p.mass[i]))
+            .fold(0.0, Real::max);
         let walls: Vec<Wall> = c
             .walls
             .iter()
@@ -190,9 +195,10 @@ impl Dem {
                 let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
                 // Default servo gain: the wall moves by at most ~5% of the overlap change that the
                 // stress error would cause in one step (stiffness per area ~ k / d^(D-1)).
-                let d = 2.0 * rmax;
-                let gain = 0.05 * d.powi(scene.dim as i32 - 1) / (k_eff * dt);
-                Wall::new(w.face, pos, w.motion, gain)
+                let gain = 0.05 * (2.0 * rmax).powi(scene.dim as i32 - 1) / (k_eff * dt);
+                // One wall contact per d_min^(D-1) of wall, at most.
+                let dashpot_per_area = wall_dashpot / (2.0 * rmin).powi(scene.dim as i32 - 1);
+                Wall::new(w.face, pos, w.motion, gain, dashpot_per_area)
             })
             .collect();
         let nw = walls.len();

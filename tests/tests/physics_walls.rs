@@ -1,0 +1,60 @@
+//! Stress-controlled walls: a packing confined by two servo walls (x_max, y_max) against two
+//! fixed ones comes to rest with every wall carrying the imposed stress within 1%. The walls are
+//! frictionless, so that the fixed walls must balance the servo walls exactly (with wall
+//! friction, the side walls would carry part of the load, as in a silo).
+//!
+//! Why 1% is a fair bound: at rest the servo walls stop only where the measured stress equals
+//! the target (their speed is `gain × error`, and a wall at rest has no lag), and the fixed walls
+//! balance them through the packing; what remains is the residual motion allowed by the rest
+//! criterion (kinetic energy below 1e-4 of the elastic energy — the jamming tests use 1e-3 — and
+//! walls moving by less than 1e-3 of an overlap per 1,000 steps), far below 1%.
+
+mod common;
+
+use sable_engine::run::Simulation;
+use serde_json::json;
+
+#[test]
+fn servo_walls_hold_the_imposed_stress_at_equilibrium() {
+    let k_n = 1e5;
+    let stress = 1e-3 * k_n; // overlaps of about 1e-3 d
+    let (n, d) = (120, 1e-3);
+    let area = std::f64::consts::PI / 4.0 * d * d * (1.0 + 1.4 * 1.4) / 2.0;
+    let side = (n as f64 * area / 0.5).sqrt();
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "local_damping": 0.3},
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.3, "friction": 0.3},
+                      "wall": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.3, "friction": 0.0}},
+        "particles": [{"material": "m", "count": n, "size": {"kind": "bidisperse", "diameter": d, "ratio": 1.4}, "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [side, side], "wall_material": "wall",
+                      "walls": {"x_max": {"kind": "stress", "stress": stress, "max_speed": 0.05},
+                                "y_max": {"kind": "stress", "stress": stress, "max_speed": 0.05}}},
+        "stop": {"steps": 1},
+        "seed": 8
+    }));
+    let mut sim = common::dem(&s);
+    let mut sample = sim.sample().expect("sample");
+    let mut rest_checks = 0;
+    let positions = |sim: &sable_engine::methods::dem::Dem| sim.walls().iter().map(|w| w.position).collect::<Vec<f64>>();
+    let mut before = positions(&sim);
+    while rest_checks < 3 {
+        for _ in 0..1000 {
+            sim.step().expect("stable");
+        }
+        sample = sim.sample().expect("sample");
+        // At rest: three checks in a row (3,000 steps) with almost no kinetic energy and walls
+        // that moved by less than 1e-3 of the typical overlap (1e-3 d) in 1,000 steps.
+        let after = positions(&sim);
+        let still = before.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1e-3 * 1e-3 * d);
+        before = after;
+        rest_checks = if still && sample.kinetic_energy < 1e-4 * sample.elastic_energy { rest_checks + 1 } else { 0 };
+        assert!(sim.steps_done() < 600_000, "no equilibrium: KE {:e}, elastic {:e}", sample.kinetic_energy, sample.elastic_energy);
+    }
+    assert!(sample.phi > 0.75, "the packing must be jammed, phi = {}", sample.phi);
+    for w in &sample.walls {
+        let error = (w.normal_stress - stress).abs() / stress;
+        assert!(error < 0.01, "wall {} carries {} Pa against {stress} Pa ({:.3}%)", w.name, w.normal_stress, 100.0 * error);
+    }
+    assert_eq!(sample.walls.len(), 4);
+}
