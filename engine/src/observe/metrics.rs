@@ -22,6 +22,13 @@ pub struct ContactRecord {
     pub bonded: bool,
 }
 
+impl ContactRecord {
+    /// The contact counts in the coordination: touching with a non-zero force, or bonded.
+    pub fn bears_load(&self) -> bool {
+        (self.touching && self.force.norm_squared() > 0.0) || self.bonded
+    }
+}
+
 /// A wall at sampling time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WallView {
@@ -195,7 +202,7 @@ pub fn coordination(n: usize, threshold: usize, contacts: &[ContactRecord]) -> (
     if n == 0 {
         return (0.0, 0.0);
     }
-    let bearing = |c: &ContactRecord| (c.touching && c.force.norm_squared() > 0.0) || c.bonded;
+    let bearing = ContactRecord::bears_load;
     let mut count = vec![0u32; n];
     let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
     let mut pairs = 0usize;

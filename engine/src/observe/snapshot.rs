@@ -49,13 +49,13 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
-    /// Number of force-carrying particle-particle contacts of each particle (the coordination
-    /// that Z averages; wall contacts are not counted).
+    /// Number of load-bearing particle-particle contacts of each particle (the coordination
+    /// that Z averages, same rule: [`ContactRecord::bears_load`]; wall contacts are not counted).
     pub fn coordination(&self) -> Vec<u32> {
         let mut z = vec![0u32; self.position.len()];
         for c in &self.contacts {
             if let Some(j) = c.j {
-                if c.force != Vec3::zeros() {
+                if c.bears_load() {
                     z[c.i as usize] += 1;
                     z[j as usize] += 1;
                 }
