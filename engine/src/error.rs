@@ -68,6 +68,28 @@ pub enum EngineError {
         /// What to change in the scene.
         suggestion: String,
     },
+    /// A stage that runs until equilibrium reached its step or time limit first.
+    #[error(
+        "stage '{stage}' did not reach equilibrium within its limit (step {step}): kinetic/elastic energy {kinetic_ratio:.2e} (needs < {kinetic_limit:.1e}), unbalanced force {unbalanced_force:.2e} (needs < {unbalanced_limit:.1e}), stress error {stress_error:.2e} (needs < {stress_limit:.1e}); raise the stage's max_steps, loosen its equilibrium criterion, or add local damping"
+    )]
+    NotConverged {
+        /// Stage name.
+        stage: String,
+        /// Step at which the limit was reached.
+        step: u64,
+        /// Kinetic / elastic energy at the last check.
+        kinetic_ratio: f64,
+        /// Bound on it.
+        kinetic_limit: f64,
+        /// Unbalanced force ratio at the last check.
+        unbalanced_force: f64,
+        /// Bound on it.
+        unbalanced_limit: f64,
+        /// Largest relative error of a stress-controlled boundary at the last check.
+        stress_error: f64,
+        /// Bound on it.
+        stress_limit: f64,
+    },
     /// The run was cancelled from outside.
     #[error("cancelled at step {step}")]
     Cancelled {
@@ -83,6 +105,7 @@ impl EngineError {
             Self::InvalidScene(_) => "invalid_scene",
             Self::Build { .. } => "build_failed",
             Self::Unstable { .. } => "unstable",
+            Self::NotConverged { .. } => "not_converged",
             Self::Cancelled { .. } => "cancelled",
         }
     }

@@ -6,9 +6,11 @@ use std::sync::Arc;
 
 use crate::error::EngineError;
 use crate::math::Real;
+use crate::math::Vec3;
 use crate::observe::Sample;
 use crate::observe::Snapshot;
-use crate::scene::{Sampling, Scene, Stop};
+use crate::observe::{Analysis, ExperimentResult, StrainSample};
+use crate::scene::{Controls, Equilibrium, Sampling, Scene, Stage, Stop};
 
 /// A running simulation of one method.
 pub trait Simulation: Send {
@@ -26,14 +28,53 @@ pub trait Simulation: Send {
     fn particle_count(&self) -> usize;
     /// Current packing fraction (cheap).
     fn packing_fraction(&self) -> Real;
-    /// Current strain magnitude (cheap; see `stop.strain` in the scene format).
+    /// Current strain magnitude since the start (cheap; see `stop.strain` in the scene format).
     fn strain(&self) -> Real;
+    /// Current box lengths, m (z = 0 in 2D).
+    fn box_lengths(&self) -> Vec3;
     /// Measures the current state (runs the stability guard first; never returns NaN).
     fn sample(&mut self) -> Result<Sample, EngineError>;
     /// Particles, contacts and walls now, for visualisation ([`crate::observe::vtk`]).
     fn snapshot(&self) -> Snapshot;
     /// Heap memory held, bytes.
     fn memory_bytes(&self) -> usize;
+    /// Applies the controls of a new stage of the loading program (wall motions, cell
+    /// deformation, friction, damping).
+    fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError>;
+    /// How far the system is from static equilibrium (for stages that run until it).
+    fn balance(&self) -> Balance;
+    /// Number-mean diameter (m) and solid density (kg/m³) of the grains.
+    fn grain_scales(&self) -> (Real, Real);
+}
+
+/// Distance from static equilibrium ([`Simulation::balance`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Balance {
+    /// Translational kinetic energy, J (free spins of rattlers do not count).
+    pub kinetic_energy: Real,
+    /// Elastic energy stored in the contacts, J.
+    pub elastic_energy: Real,
+    /// Mean norm of the net force on a particle / mean norm of a contact force (infinite
+    /// without contacts).
+    pub unbalanced_force: Real,
+    /// Largest relative error of a stress-controlled boundary against its target (0 if none).
+    pub stress_error: Real,
+}
+
+impl Balance {
+    /// Kinetic / elastic energy (infinite without elastic energy).
+    pub fn kinetic_ratio(&self) -> Real {
+        if self.elastic_energy > 0.0 {
+            self.kinetic_energy / self.elastic_energy
+        } else {
+            Real::INFINITY
+        }
+    }
+
+    /// True if the criterion holds.
+    pub fn satisfies(&self, e: &Equilibrium) -> bool {
+        self.kinetic_ratio() < e.kinetic_ratio && self.unbalanced_force < e.unbalanced_force && self.stress_error < e.stress_tolerance
+    }
 }
 
 /// Progress of a run, passed with every sample.
@@ -58,6 +99,8 @@ pub enum StopReason {
     PackingFraction,
     /// `stop.strain` reached.
     Strain,
+    /// The last stage reached equilibrium.
+    Equilibrium,
 }
 
 /// Outcome of a finished run.
@@ -73,13 +116,17 @@ pub struct RunSummary {
     pub wall_seconds: Real,
     /// The last sample.
     pub last: Sample,
+    /// Derived results of the scene's experiment.
+    pub result: Option<ExperimentResult>,
 }
 
-/// Drives a simulation to its stop criteria.
+/// Drives a simulation through the stages of its scene to its stop criteria.
 #[derive(Debug, Clone)]
 pub struct Runner {
-    /// Stop criteria.
+    /// Limits of the whole run.
     pub stop: Stop,
+    /// The loading program, run in order (at least one stage).
+    pub stages: Vec<Stage>,
     /// Sampling interval.
     pub sampling: Sampling,
     /// Set to true from another thread to cancel; checked every step.
@@ -87,15 +134,37 @@ pub struct Runner {
     /// Take a snapshot every this many steps, or with every sample if 0, plus the initial and
     /// final states; `None`: no snapshots.
     pub snapshot_every: Option<u64>,
+    /// Computes the experiment's results from the samples.
+    pub analysis: Analysis,
+    /// Dimension of the scene.
+    pub dim: usize,
+}
+
+/// Where the current stage started.
+struct StageStart {
+    index: usize,
+    step: u64,
+    time: Real,
+    lengths: Vec3,
+    strain: Real,
 }
 
 impl Runner {
-    /// A runner for the scene's stop criteria and sampling.
+    /// A runner for the scene's stages, stop criteria and sampling.
     pub fn for_scene(scene: &Scene) -> Self {
-        Self { stop: scene.stop, sampling: scene.sampling, cancel: Arc::new(AtomicBool::new(false)), snapshot_every: scene.snapshots }
+        Self {
+            stop: scene.stop,
+            stages: scene.stages.clone(),
+            sampling: scene.sampling,
+            cancel: Arc::new(AtomicBool::new(false)),
+            snapshot_every: scene.snapshots,
+            analysis: Analysis::new(scene),
+            dim: scene.dim,
+        }
     }
 
-    fn reached(&self, sim: &dyn Simulation) -> Option<StopReason> {
+    /// The whole run's limits (`stop`).
+    fn reached_global(&self, sim: &dyn Simulation) -> Option<StopReason> {
         let s = &self.stop;
         let half = 0.5 * sim.dt();
         if s.steps.is_some_and(|n| sim.steps_done() >= n) {
@@ -113,24 +182,76 @@ impl Runner {
         None
     }
 
-    fn fraction(&self, sim: &dyn Simulation, phi0: Real) -> Real {
+    /// Strain of the stage so far: of its axis, else the largest over the axes (the
+    /// Lees-Edwards strain under shear).
+    fn stage_strain(&self, sim: &dyn Simulation, stage: &Stage, start: &StageStart) -> Real {
+        let now = sim.box_lengths();
+        match stage.strain_axis {
+            Some(a) => (now[a] / start.lengths[a]).ln().abs(),
+            None if start.index == 0 && self.stages.len() == 1 => sim.strain(),
+            None => (0..self.dim).map(|a| (now[a] / start.lengths[a]).ln().abs()).fold((sim.strain() - start.strain).abs(), Real::max),
+        }
+    }
+
+    /// The stage's own criteria (time and steps count from its start).
+    fn reached_stage(&self, sim: &dyn Simulation, stage: &Stage, start: &StageStart) -> Option<StopReason> {
+        let s = &stage.until;
+        let half = 0.5 * sim.dt();
+        if s.steps.is_some_and(|n| sim.steps_done() - start.step >= n) {
+            return Some(StopReason::Steps);
+        }
+        if s.time.is_some_and(|t| sim.time() - start.time >= t - half) {
+            return Some(StopReason::Time);
+        }
+        if s.packing_fraction.is_some_and(|phi| sim.packing_fraction() >= phi) {
+            return Some(StopReason::PackingFraction);
+        }
+        if s.strain.is_some_and(|e| self.stage_strain(sim, stage, start) >= e) {
+            return Some(StopReason::Strain);
+        }
+        None
+    }
+
+    fn fraction(&self, sim: &dyn Simulation, phi0: Real, start: &StageStart) -> Real {
+        let mut global: Real = 0.0;
         let s = &self.stop;
-        let mut f: Real = 0.0;
         if let Some(n) = s.steps {
-            f = f.max(sim.steps_done() as Real / n as Real);
+            global = global.max(sim.steps_done() as Real / n as Real);
         }
         if let Some(t) = s.time {
-            f = f.max(sim.time() / t);
+            global = global.max(sim.time() / t);
         }
         if let Some(phi) = s.packing_fraction {
             if phi > phi0 {
-                f = f.max((sim.packing_fraction() - phi0) / (phi - phi0));
+                global = global.max((sim.packing_fraction() - phi0) / (phi - phi0));
             }
         }
         if let Some(e) = s.strain {
-            f = f.max(sim.strain() / e);
+            global = global.max(sim.strain() / e);
         }
-        f.clamp(0.0, 1.0)
+        // Within the stage: the most advanced of its criteria (a stage that ends at equilibrium
+        // cannot say how far it is; it counts as half done).
+        let stage = &self.stages[start.index];
+        let mut local: Real = if stage.equilibrium.is_some() { 0.5 } else { 0.0 };
+        let u = &stage.until;
+        if stage.equilibrium.is_none() {
+            if let Some(n) = u.steps {
+                local = local.max((sim.steps_done() - start.step) as Real / n as Real);
+            }
+            if let Some(t) = u.time {
+                local = local.max((sim.time() - start.time) / t);
+            }
+        }
+        if let Some(phi) = u.packing_fraction {
+            if phi > phi0 {
+                local = local.max((sim.packing_fraction() - phi0) / (phi - phi0));
+            }
+        }
+        if let Some(e) = u.strain {
+            local = local.max(self.stage_strain(sim, stage, start) / e);
+        }
+        let staged = (start.index as Real + local.clamp(0.0, 1.0)) / self.stages.len() as Real;
+        global.max(staged).clamp(0.0, 1.0)
     }
 
     /// Runs to the end, calling `on_sample` with the initial sample, every sample at the
@@ -142,12 +263,17 @@ impl Runner {
     /// As [`Runner::run`], also calling `on_snapshot` with the initial state, at the
     /// `snapshot_every` interval and with the final state (each step at most once). To stop the run from
     /// `on_snapshot` (a write failed), set `cancel`.
+    ///
+    /// The stages run in order: each applies its controls, then steps until one of its criteria
+    /// (or, for a stage with an equilibrium criterion, equilibrium) is reached, and ends with a
+    /// sample. The run's own `stop` limits end everything at once.
     pub fn run_with_snapshots(
         &self,
         sim: &mut dyn Simulation,
         on_sample: &mut dyn FnMut(&Sample, &Progress),
         on_snapshot: &mut dyn FnMut(&Snapshot),
     ) -> Result<RunSummary, EngineError> {
+        let mut analysis = self.analysis.clone();
         let mut last_snapshot = None;
         let mut snapshot = |sim: &dyn Simulation, last_snapshot: &mut Option<u64>| {
             if self.snapshot_every.is_some() && *last_snapshot != Some(sim.steps_done()) {
@@ -157,56 +283,113 @@ impl Runner {
         };
         let started = std::time::Instant::now();
         let phi0 = sim.packing_fraction();
-        let progress = |sim: &dyn Simulation| {
-            let fraction = self.fraction(sim, phi0);
+        let annotate = self.stages.len() > 1 || self.stages.iter().any(|s| !s.name.is_empty());
+        let mut take = |sim: &mut dyn Simulation, start: &StageStart, analysis: &mut Analysis| -> Result<Sample, EngineError> {
+            let mut s = sim.sample()?;
+            if annotate {
+                let stage = &self.stages[start.index];
+                s.stage = (!stage.name.is_empty()).then(|| stage.name.clone());
+                let (a, b) = (start.lengths, sim.box_lengths());
+                s.strain = Some(StrainSample::between(self.dim, a.as_slice(), b.as_slice()));
+            }
+            analysis.push(&s);
+            let fraction = self.fraction(sim, phi0, start);
             let elapsed = started.elapsed().as_secs_f64();
             let remaining = (fraction > 1e-6).then(|| elapsed * (1.0 - fraction) / fraction);
-            Progress { fraction, elapsed, remaining }
+            on_sample(&s, &Progress { fraction, elapsed, remaining });
+            Ok(s)
         };
-        let mut last = sim.sample()?;
-        on_sample(&last, &progress(sim));
+        let begin = |sim: &mut dyn Simulation, index: usize| -> Result<StageStart, EngineError> {
+            sim.apply_controls(&self.stages[index].controls)?;
+            Ok(StageStart { index, step: sim.steps_done(), time: sim.time(), lengths: sim.box_lengths(), strain: sim.strain() })
+        };
+        let mut start = begin(sim, 0)?;
+        let mut last = take(sim, &start, &mut analysis)?;
         snapshot(sim, &mut last_snapshot);
         let mut next_time = match self.sampling {
             Sampling::Time(t) => t,
             Sampling::Steps(_) => Real::INFINITY,
         };
-        let reason = loop {
-            if let Some(r) = self.reached(sim) {
-                break r;
-            }
-            if self.cancel.load(Ordering::Relaxed) {
-                return Err(EngineError::Cancelled { step: sim.steps_done() });
-            }
-            sim.step()?;
-            let due = match self.sampling {
-                Sampling::Steps(n) => sim.steps_done().is_multiple_of(n),
-                Sampling::Time(t) => {
-                    if sim.time() >= next_time - 0.5 * sim.dt() {
-                        next_time += t;
-                        true
-                    } else {
-                        false
+        let reason = 'stages: loop {
+            let stage = &self.stages[start.index];
+            let mut settled = 0u32;
+            let mut balance = None;
+            let ended = loop {
+                if let Some(r) = self.reached_global(sim) {
+                    break 'stages r;
+                }
+                if let Some(eq) = &stage.equilibrium {
+                    if (sim.steps_done() - start.step).is_multiple_of(eq.check_every) {
+                        let b = sim.balance();
+                        settled = if b.satisfies(eq) { settled + 1 } else { 0 };
+                        balance = Some(b);
+                        if settled >= eq.consecutive {
+                            break StopReason::Equilibrium;
+                        }
                     }
                 }
+                if let Some(r) = self.reached_stage(sim, stage, &start) {
+                    if let Some(eq) = &stage.equilibrium {
+                        return Err(not_converged(stage, sim.steps_done(), balance.unwrap_or_else(|| sim.balance()), eq));
+                    }
+                    break r;
+                }
+                if self.cancel.load(Ordering::Relaxed) {
+                    return Err(EngineError::Cancelled { step: sim.steps_done() });
+                }
+                sim.step()?;
+                let due = match self.sampling {
+                    Sampling::Steps(n) => sim.steps_done().is_multiple_of(n),
+                    Sampling::Time(t) => {
+                        if sim.time() >= next_time - 0.5 * sim.dt() {
+                            next_time += t;
+                            true
+                        } else {
+                            false
+                        }
+                    }
+                };
+                let going_on = self.reached_global(sim).is_none() && self.reached_stage(sim, stage, &start).is_none();
+                if due && going_on {
+                    last = take(sim, &start, &mut analysis)?;
+                }
+                let snapshot_due = match self.snapshot_every {
+                    Some(0) => due,
+                    Some(n) => sim.steps_done().is_multiple_of(n),
+                    None => false,
+                };
+                if snapshot_due && going_on {
+                    snapshot(sim, &mut last_snapshot);
+                }
             };
-            if due && self.reached(sim).is_none() {
-                last = sim.sample()?;
-                on_sample(&last, &progress(sim));
+            // Every stage ends with a sample of its final state.
+            if last.step != sim.steps_done() || last.stage.as_deref() != Some(stage.name.as_str()) && annotate {
+                last = take(sim, &start, &mut analysis)?;
             }
-            let snapshot_due = match self.snapshot_every {
-                Some(0) => due,
-                Some(n) => sim.steps_done().is_multiple_of(n),
-                None => false,
-            };
-            if snapshot_due && self.reached(sim).is_none() {
-                snapshot(sim, &mut last_snapshot);
+            if start.index + 1 == self.stages.len() {
+                break ended;
             }
+            start = begin(sim, start.index + 1)?;
         };
         if last.step != sim.steps_done() {
-            last = sim.sample()?;
-            on_sample(&last, &progress(sim));
+            last = take(sim, &start, &mut analysis)?;
         }
         snapshot(sim, &mut last_snapshot);
-        Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last })
+        let (d, rho) = sim.grain_scales();
+        let result = analysis.finish(d, rho);
+        Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last, result })
+    }
+}
+
+fn not_converged(stage: &Stage, step: u64, b: Balance, eq: &Equilibrium) -> EngineError {
+    EngineError::NotConverged {
+        stage: stage.name.clone(),
+        step,
+        kinetic_ratio: b.kinetic_ratio(),
+        kinetic_limit: eq.kinetic_ratio,
+        unbalanced_force: b.unbalanced_force,
+        unbalanced_limit: eq.unbalanced_force,
+        stress_error: b.stress_error,
+        stress_limit: eq.stress_tolerance,
     }
 }

@@ -3,6 +3,14 @@
 use crate::math::{Real, Vec3};
 use crate::scene::{Face, WallMotion};
 
+/// Steps over which the integral part of a stress servo removes a steady lag (see
+/// [`Wall::servo`]).
+pub const SERVO_INTEGRAL_STEPS: Real = 1000.0;
+
+/// Relative stress error within which the integral part of a servo leaks instead of growing:
+/// a steady lag is brought down to about this fraction of the target.
+pub const SERVO_DEADBAND: Real = 0.005;
+
 /// A wall closing one face of the box.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wall {
@@ -21,6 +29,12 @@ pub struct Wall {
     pub smoothing: Real,
     /// Force exerted by the particles on the wall at the last evaluation, N.
     pub force: Vec3,
+    /// Integral part of the servo's command, m/s (see [`Wall::servo`]).
+    integral: Real,
+    /// Servo gain used when a stress control gives none, m/(s·Pa).
+    default_gain: Real,
+    /// Viscous stiffness of the wall contacts per area (sets `smoothing`).
+    dashpot_per_area: Real,
 }
 
 impl Wall {
@@ -28,10 +42,28 @@ impl Wall {
     /// `dashpot_per_area` (N·s/m per m^(D-1)) is the viscous stiffness of the wall contacts, which
     /// sets the servo's smoothing.
     pub fn new(face: Face, position: Real, motion: WallMotion, default_gain: Real, dashpot_per_area: Real) -> Self {
+        let mut wall = Self {
+            face,
+            position,
+            velocity: Vec3::zeros(),
+            motion: WallMotion::Fixed,
+            gain: 0.0,
+            smoothing: 1.0,
+            force: Vec3::zeros(),
+            integral: 0.0,
+            default_gain,
+            dashpot_per_area,
+        };
+        wall.set_motion(motion);
+        wall
+    }
+
+    /// Changes how the wall moves (a new stage of a loading program); it keeps its position.
+    pub fn set_motion(&mut self, motion: WallMotion) {
         let (velocity, gain) = match motion {
-            WallMotion::Fixed => (Vec3::zeros(), 0.0),
+            WallMotion::Fixed | WallMotion::StrainRate(_) => (Vec3::zeros(), 0.0),
             WallMotion::Velocity(v) => (v, 0.0),
-            WallMotion::Stress { gain, .. } => (Vec3::zeros(), gain.unwrap_or(default_gain)),
+            WallMotion::Stress { gain, .. } => (Vec3::zeros(), gain.unwrap_or(self.default_gain)),
         };
         // The loop through the dashpots multiplies a speed change by -gain × c within the step
         // (c = dashpot_per_area). Below 1 it converges by itself and the wall jumps to the
@@ -39,9 +71,20 @@ impl Wall {
         // relaxing the speed by `smoothing` per step leaves the factor
         // 1 - smoothing (1 + gain c_actual): zero for the estimate, and within (-1, 1) as long as
         // 1 + gain c_actual < 2 (1 + gain c).
-        let loop_gain = gain * dashpot_per_area.max(0.0);
-        let smoothing = if loop_gain < 1.0 { 1.0 } else { 1.0 / (1.0 + loop_gain) };
-        Self { face, position, velocity, motion, gain, smoothing, force: Vec3::zeros() }
+        let loop_gain = gain * self.dashpot_per_area.max(0.0);
+        self.smoothing = if loop_gain < 1.0 { 1.0 } else { 1.0 / (1.0 + loop_gain) };
+        self.motion = motion;
+        self.velocity = velocity;
+        self.gain = gain;
+        self.integral = 0.0;
+    }
+
+    /// Target of a stress-controlled wall, Pa.
+    pub fn target_stress(&self) -> Option<Real> {
+        match self.motion {
+            WallMotion::Stress { stress, .. } => Some(stress),
+            _ => None,
+        }
     }
 
     /// Unit normal pointing into the box.
@@ -68,9 +111,40 @@ impl Wall {
     /// limit cycle that holds the stress only on average and keeps the grains agitated (found
     /// by `tests/physics_walls.rs`). Relaxing the speed damps that loop without lowering the
     /// gain, so the lag behind a moving sample (`v / gain`) stays as small as before.
-    pub fn servo(&mut self, area: Real) {
+    ///
+    /// The command has an integral part (a PI controller): a proportional servo alone lags by
+    /// `v / gain` while the wall must keep moving at speed `v` — a lateral wall that follows a
+    /// dilating sample in a biaxial test held about 1.5 times its target that way. The integral
+    /// gathers `gain × error / SERVO_INTEGRAL_STEPS` per step, so a steady lag is removed over
+    /// about [`SERVO_INTEGRAL_STEPS`] steps, slow against the proportional response (tens of
+    /// steps) so the loop stays stable. It is frozen while the command is clamped at `max_speed`
+    /// (no wind-up while a loose sample is compressed) and bounded by `max_speed`. Within
+    /// [`SERVO_DEADBAND`] of the target it leaks away instead of growing: against the
+    /// stick-slip of a packing at rest a pure integrator hunts for ever (found by
+    /// `tests/physics_walls.rs`: the walls kept creeping), while the proportional part alone
+    /// comes to rest exactly at the target.
+    ///
+    /// A wall driven at a strain rate gets its speed from the current box length `length` along
+    /// its axis.
+    pub fn servo(&mut self, area: Real, length: Real) {
+        if let WallMotion::StrainRate(rate) = self.motion {
+            // d(hi)/dt = rate L for the upper wall, d(lo)/dt = -rate L for the lower one.
+            let speed = rate * length;
+            self.velocity = Vec3::zeros();
+            self.velocity[self.face.axis] = if self.face.upper { speed } else { -speed };
+        }
         if let WallMotion::Stress { stress, max_speed, .. } = self.motion {
-            let command = (self.gain * (stress - self.normal_stress(area))).clamp(-max_speed, max_speed);
+            let error = stress - self.normal_stress(area);
+            let proportional = self.gain * error;
+            let raw = proportional + self.integral;
+            let command = raw.clamp(-max_speed, max_speed);
+            if error.abs() <= SERVO_DEADBAND * stress {
+                // Close enough: the integral leaks away, leaving the proportional servo, which
+                // is at rest only at zero error.
+                self.integral *= 1.0 - 1.0 / SERVO_INTEGRAL_STEPS;
+            } else if raw == command {
+                self.integral = (self.integral + proportional / SERVO_INTEGRAL_STEPS).clamp(-max_speed, max_speed);
+            }
             let current = self.velocity.dot(&self.normal());
             self.velocity = self.normal() * (current + self.smoothing * (command - current));
         }

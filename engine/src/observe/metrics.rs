@@ -191,6 +191,8 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         kinetic_energy: kinetic,
         elastic_energy: v.elastic_energy,
         walls,
+        stage: None,
+        strain: None,
     }
 }
 

@@ -6,10 +6,12 @@
 //! [`measure`] turns it into a [`Sample`].
 
 pub mod metrics;
+pub mod results;
 pub mod sample;
 pub mod snapshot;
 pub mod vtk;
 
 pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
-pub use sample::{Sample, Stress, WallSample};
+pub use results::{Analysis, ExperimentResult};
+pub use sample::{Sample, StrainSample, Stress, WallSample};
 pub use snapshot::{Snapshot, WallFace};

@@ -69,6 +69,39 @@ pub struct Sample {
     pub elastic_energy: f64,
     /// Loads on the walls.
     pub walls: Vec<WallSample>,
+    /// Stage of the loading program the sample belongs to (scenes with an experiment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage: Option<String>,
+    /// Strain of the box since the stage started (scenes with an experiment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strain: Option<StrainSample>,
+}
+
+/// True strains of the box since the start of a stage, compression positive:
+/// `eps_a = -ln(L_a / L_a(start))` per axis.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct StrainSample {
+    /// Strain of each axis (x, y[, z]).
+    pub axes: Vec<f64>,
+    /// Volumetric strain `eps_v = sum eps_a` (positive when the box shrinks; N 2.26).
+    pub volumetric: f64,
+    /// Deviatoric strain: `eps_1 - eps_2` in 2D (N 2.26), `2/3 (eps_1 - eps_3)` in 3D (for
+    /// axisymmetric strains; in general `sqrt(2 e:e)` in 2D and `sqrt(2/3 e:e)` in 3D, e the
+    /// deviator), never negative.
+    pub deviatoric: f64,
+}
+
+impl StrainSample {
+    /// Strains of box lengths `now` against `start` (first `dim` axes).
+    pub fn between(dim: usize, start: &[f64], now: &[f64]) -> Self {
+        let axes: Vec<f64> = (0..dim).map(|a| -(now[a] / start[a]).ln()).collect();
+        let volumetric: f64 = axes.iter().sum();
+        let mean = volumetric / dim as f64;
+        let ee: f64 = axes.iter().map(|e| (e - mean).powi(2)).sum();
+        let deviatoric = if dim == 2 { (2.0 * ee).sqrt() } else { (2.0 / 3.0 * ee).sqrt() };
+        Self { axes, volumetric, deviatoric }
+    }
 }
 
 impl Sample {
@@ -119,5 +152,9 @@ impl Sample {
         .chain([s.zz, s.xz, s.yz, self.inertial_number].iter().flatten())
         .all(|x| x.is_finite())
             && self.walls.iter().all(|w| w.position.is_finite() && w.normal_stress.is_finite() && w.force.iter().all(|x| x.is_finite()))
+            && self
+                .strain
+                .as_ref()
+                .is_none_or(|e| e.volumetric.is_finite() && e.deviatoric.is_finite() && e.axes.iter().all(|x| x.is_finite()))
     }
 }

@@ -22,8 +22,15 @@ pub struct Scene {
     pub container: Container,
     /// Gravity, m/s² (z = 0 in 2D).
     pub gravity: Vec3,
-    /// Stop criteria.
+    /// Stop criteria of the whole run (for a scene with an `experiment`, the limits it gives,
+    /// possibly none: each stage then ends by its own criteria).
     pub stop: Stop,
+    /// The loading program, in order: one stage built from `stop` for a plain scene, or the
+    /// stages of the scene's experiment ([`Experiment::stages`]). Never empty.
+    pub stages: Vec<Stage>,
+    /// The standard experiment the scene runs, if any (its derived results are computed by
+    /// [`crate::observe::results`]).
+    pub experiment: Option<Experiment>,
     /// Sampling interval.
     pub sampling: Sampling,
     /// Snapshot interval in steps (0: with every sample); `None`: no snapshots.
@@ -196,6 +203,14 @@ impl SizeDist {
             Self::Bidisperse { small, ratio, .. } => small * ratio,
         }
     }
+    /// Number-mean diameter, m.
+    pub fn mean_diameter(&self) -> Real {
+        match *self {
+            Self::Monodisperse(d) => d,
+            Self::Uniform { min, max } => 0.5 * (min + max),
+            Self::Bidisperse { small, ratio, fraction_small } => small * (fraction_small + (1.0 - fraction_small) * ratio),
+        }
+    }
     /// Smallest diameter the distribution can produce.
     pub fn min_diameter(&self) -> Real {
         match *self {
@@ -293,6 +308,9 @@ pub enum WallMotion {
     Fixed,
     /// Imposed velocity, m/s.
     Velocity(Vec3),
+    /// Moves along its normal so that the box length on its axis changes at a constant true
+    /// strain rate, 1/s (negative compresses): speed `rate × L` with `L` the current length.
+    StrainRate(Real),
     /// Servo to a compressive normal stress.
     Stress {
         /// Target, Pa.
@@ -368,4 +386,148 @@ pub enum Sampling {
     Steps(u64),
     /// Every t seconds of simulated time.
     Time(Real),
+}
+
+/// One stage of a loading program: the boundary controls set at its start and the criteria
+/// that end it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stage {
+    /// Name reported with every sample of the stage (`preparation`, `loading`, ...).
+    pub name: String,
+    /// Boundary and material controls applied when the stage starts.
+    pub controls: Controls,
+    /// Ends the stage (first criterion reached). `strain` counts from the stage's start.
+    pub until: Stop,
+    /// Axis whose true strain `|ln(L/L_start)|` the `until.strain` criterion reads; `None`: the
+    /// largest over the axes (the Lees-Edwards strain under shear).
+    pub strain_axis: Option<usize>,
+    /// When set, the stage ends once the system is at equilibrium; reaching `until`'s time or
+    /// steps first is then an error ([`crate::EngineError::NotConverged`]).
+    pub equilibrium: Option<Equilibrium>,
+}
+
+/// Controls that a stage changes when it starts. Fields left empty keep what the stage before
+/// set (or the container's initial settings).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Controls {
+    /// New motion of these walls (the others keep theirs).
+    pub walls: Vec<WallDef>,
+    /// `Some(d)`: the cell deformation becomes `d` (`None` inside: the cell stops).
+    pub deformation: Option<Option<Deformation>>,
+    /// Coulomb friction of every particle-particle contact during the stage (wall contacts keep
+    /// their material's); `None`: the materials' own.
+    pub friction: Option<Real>,
+    /// Cundall's local damping during the stage; `None`: the method's own setting.
+    pub local_damping: Option<Real>,
+}
+
+/// The equilibrium criterion of a stage: all must hold at `consecutive` checks in a row,
+/// `check_every` steps apart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Equilibrium {
+    /// Translational kinetic energy / elastic energy stored in the contacts.
+    pub kinetic_ratio: Real,
+    /// Mean norm of the net force on a particle / mean norm of a contact force (Yade's
+    /// "unbalanced force").
+    pub unbalanced_force: Real,
+    /// Relative error of every stress-controlled boundary against its target.
+    pub stress_tolerance: Real,
+    /// Steps between checks.
+    pub check_every: u64,
+    /// Checks in a row that must pass.
+    pub consecutive: u32,
+}
+
+impl Default for Equilibrium {
+    fn default() -> Self {
+        Self { kinetic_ratio: 1e-4, unbalanced_force: 1e-2, stress_tolerance: 0.01, check_every: 500, consecutive: 3 }
+    }
+}
+
+/// How the grains are brought to the initial state of an experiment: compressed by a servo to
+/// an isotropic pressure, with the stress-controlled walls (walled box) or the periodic cell
+/// (fully periodic box), until equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Preparation {
+    /// Confining pressure, Pa.
+    pub pressure: Real,
+    /// Friction of every contact during the compression (0 gives the densest state; the
+    /// material friction a looser one).
+    pub friction: Real,
+    /// Largest compression rate of the servo, 1/s (true strain rate per axis).
+    pub max_strain_rate: Real,
+    /// Cundall's local damping during the compression.
+    pub local_damping: Real,
+    /// When the compression is over.
+    pub equilibrium: Equilibrium,
+    /// Step limit of the compression.
+    pub max_steps: u64,
+}
+
+/// A standard numerical experiment (issue "experiments"; PHYSICS.md §9).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Experiment {
+    /// Isotropic compression to a pressure, until equilibrium.
+    Isotropic {
+        /// The compression.
+        preparation: Preparation,
+    },
+    /// Isotropic compression, then compression along `axis` at a constant true strain rate with
+    /// the lateral walls servo-controlled to the confining pressure: biaxial in 2D, triaxial in
+    /// 3D (N 2.2, 2.25-2.28).
+    Triaxial {
+        /// The isotropic compression to the confining pressure.
+        preparation: Preparation,
+        /// Loading axis.
+        axis: usize,
+        /// Axial true strain rate, 1/s (> 0, compression).
+        strain_rate: Real,
+        /// Axial strain at which the test ends.
+        axial_strain: Real,
+        /// Step limit of the loading.
+        max_steps: u64,
+    },
+    /// Uniaxial compaction (N 2.1): the upper wall of `axis` moves down at a constant speed (or
+    /// is servo-controlled to a stress), the other walls are fixed.
+    Compaction {
+        /// Compressed axis.
+        axis: usize,
+        /// How the upper wall moves.
+        drive: CompactionDrive,
+        /// Step limit.
+        max_steps: u64,
+    },
+}
+
+/// How the compaction wall moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CompactionDrive {
+    /// At this speed, m/s, until the axial strain `strain`.
+    Velocity {
+        /// Speed, m/s.
+        speed: Real,
+        /// Final strain `|ln(h/h_i)|`.
+        strain: Real,
+    },
+    /// Servo-controlled to this stress, Pa, until equilibrium.
+    Stress {
+        /// Target, Pa.
+        stress: Real,
+        /// Speed limit, m/s.
+        max_speed: Real,
+        /// When the compaction is over.
+        equilibrium: Equilibrium,
+    },
+}
+
+impl Experiment {
+    /// The name written in scene files.
+    pub fn kind(&self, dim: usize) -> &'static str {
+        match self {
+            Self::Isotropic { .. } => "isotropic",
+            Self::Triaxial { .. } if dim == 2 => "biaxial",
+            Self::Triaxial { .. } => "triaxial",
+            Self::Compaction { .. } => "compaction",
+        }
+    }
 }

@@ -29,13 +29,18 @@ pub struct SceneSpec {
     #[serde(default)]
     pub gravity: Option<Vec<f64>>,
     /// When to stop; the first criterion reached ends the run.
-    pub stop: StopSpec,
+    #[serde(default)]
+    pub stop: Option<StopSpec>,
     /// How often to take a sample. Default: 100 samples over the run.
     #[serde(default)]
     pub sampling: Option<SamplingSpec>,
     /// VTK snapshots for ParaView (particles, contact network, walls). Default: none.
     #[serde(default)]
     pub snapshots: Option<SnapshotSpec>,
+    /// A standard experiment: its preparation and loading program replace `stop` (which then
+    /// only limits the whole run, if given).
+    #[serde(default)]
+    pub experiment: Option<ExperimentSpec>,
     /// Seed of every random draw (placement, velocities). Default 0.
     #[serde(default)]
     pub seed: Option<u64>,
@@ -384,4 +389,117 @@ pub struct DemParamsSpec {
     /// For quasi-static preparation only: it is not a physical law.
     #[serde(default)]
     pub local_damping: Option<f64>,
+}
+
+/// A standard experiment (`docs/scene-format.md` §13).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ExperimentSpec {
+    /// Isotropic compression to a pressure, until equilibrium.
+    Isotropic(IsotropicSpec),
+    /// 2D: isotropic compression, then axial compression at constant lateral stress.
+    Biaxial(TriaxialSpec),
+    /// 3D: isotropic compression, then axial compression at constant lateral stress.
+    Triaxial(TriaxialSpec),
+    /// Uniaxial compaction by the upper wall of an axis.
+    Compaction(CompactionSpec),
+}
+
+/// Parameters of the isotropic experiment.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IsotropicSpec {
+    /// The compression.
+    pub preparation: PreparationSpec,
+}
+
+/// Isotropic compression by a servo to a pressure, until equilibrium.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PreparationSpec {
+    /// Confining pressure, Pa.
+    pub pressure: f64,
+    /// Friction during the compression (default 0).
+    #[serde(default)]
+    pub friction: Option<f64>,
+    /// Largest compression rate, 1/s.
+    #[serde(default)]
+    pub max_strain_rate: Option<f64>,
+    /// Cundall's local damping during the compression (default 0.2).
+    #[serde(default)]
+    pub local_damping: Option<f64>,
+    /// Equilibrium criterion.
+    #[serde(default)]
+    pub equilibrium: Option<EquilibriumSpec>,
+    /// Step limit (default 2,000,000).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
+}
+
+/// An equilibrium criterion; every field has a default.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EquilibriumSpec {
+    /// Kinetic / elastic energy.
+    #[serde(default)]
+    pub kinetic_ratio: Option<f64>,
+    /// Mean net force / mean contact force.
+    #[serde(default)]
+    pub unbalanced_force: Option<f64>,
+    /// Relative error of stress-controlled boundaries.
+    #[serde(default)]
+    pub stress_tolerance: Option<f64>,
+    /// Steps between checks.
+    #[serde(default)]
+    pub check_every: Option<u64>,
+    /// Checks in a row.
+    #[serde(default)]
+    pub consecutive: Option<u32>,
+}
+
+/// Parameters of the biaxial (2D) and triaxial (3D) tests.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TriaxialSpec {
+    /// The isotropic compression to the confining pressure.
+    pub preparation: PreparationSpec,
+    /// Loading axis (default the last one: y in 2D, z in 3D).
+    #[serde(default)]
+    pub axis: Option<String>,
+    /// Axial true strain rate, 1/s (default: inertial number 5e-4 at the confining pressure).
+    #[serde(default)]
+    pub strain_rate: Option<f64>,
+    /// Final axial strain (default 0.2).
+    #[serde(default)]
+    pub axial_strain: Option<f64>,
+    /// Step limit of the loading.
+    #[serde(default)]
+    pub max_steps: Option<u64>,
+}
+
+/// Parameters of the compaction test: give `velocity` and `strain`, or `stress`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompactionSpec {
+    /// Compressed axis (default the last one).
+    #[serde(default)]
+    pub axis: Option<String>,
+    /// Speed of the upper wall, m/s.
+    #[serde(default)]
+    pub velocity: Option<f64>,
+    /// Final strain |ln(h/h_i)| with `velocity`.
+    #[serde(default)]
+    pub strain: Option<f64>,
+    /// Target stress of the upper wall, Pa (instead of `velocity`).
+    #[serde(default)]
+    pub stress: Option<f64>,
+    /// Speed limit of the wall with `stress`, m/s.
+    #[serde(default)]
+    pub max_speed: Option<f64>,
+    /// Equilibrium criterion with `stress`.
+    #[serde(default)]
+    pub equilibrium: Option<EquilibriumSpec>,
+    /// Step limit (default 2,000,000).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
 }

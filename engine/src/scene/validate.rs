@@ -1,5 +1,6 @@
 //! Turns a [`SceneSpec`] into a [`Scene`], reporting every broken rule at once.
 
+use super::experiments::{check_experiment, GrainScales};
 use super::model::*;
 use super::spec::*;
 use super::violation::{Checker, Violation};
@@ -86,7 +87,47 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         _ => Vec3::zeros(),
     };
 
-    let stop = check_stop(&mut c, &spec.stop, &container);
+    let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
+        (None, None) => {
+            c.fail("stop", "required: give at least one of time, steps, packing_fraction, strain (or an experiment)");
+            (None, Stop::default(), Vec::new())
+        }
+        (None, Some(s)) => {
+            let stop = check_stop(&mut c, s, &container);
+            let stage = Stage { name: String::new(), controls: Controls::default(), until: stop, strain_axis: None, equilibrium: None };
+            (None, stop, vec![stage])
+        }
+        (Some(e), limits) => {
+            let grains = match sets.first() {
+                Some(set) => {
+                    GrainScales { diameter: set.size.mean_diameter(), density: materials.get(set.material).map_or(1.0, |m| m.density) }
+                }
+                None => GrainScales { diameter: 1.0, density: 1.0 },
+            };
+            let (experiment, stages) = check_experiment(&mut c, e, dim, &container, &grains);
+            let stop = match limits {
+                None => Stop::default(),
+                Some(s) => {
+                    for (field, set) in [("packing_fraction", s.packing_fraction.is_some()), ("strain", s.strain.is_some())] {
+                        if set {
+                            c.fail(
+                                format!("stop.{field}"),
+                                "not with an experiment, whose stages end by their own criteria (stop may limit time and steps)",
+                            );
+                        }
+                    }
+                    if let Some(t) = s.time {
+                        c.positive("stop.time", t);
+                    }
+                    if s.steps == Some(0) {
+                        c.fail("stop.steps", "must be >= 1");
+                    }
+                    Stop { time: s.time, steps: s.steps, ..Stop::default() }
+                }
+            };
+            (Some(experiment), stop, stages)
+        }
+    };
     let sampling = check_sampling(&mut c, spec.sampling.as_ref(), &stop);
     let snapshots = spec.snapshots.as_ref().map(|s| match s.every_steps {
         Some(0) => {
@@ -110,6 +151,8 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         container,
         gravity,
         stop,
+        stages,
+        experiment,
         sampling,
         snapshots,
         seed: spec.seed.unwrap_or(0),
@@ -585,6 +628,7 @@ fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
         let wall_moves = |w: &WallDef| match w.motion {
             WallMotion::Fixed => false,
             WallMotion::Velocity(v) => v[w.face.axis] != 0.0,
+            WallMotion::StrainRate(r) => r != 0.0,
             WallMotion::Stress { .. } => true,
         };
         let deforms = container.lees_edwards.is_some_and(|(rate, _)| rate != 0.0)

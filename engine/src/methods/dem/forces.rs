@@ -267,7 +267,7 @@ impl Dem {
     fn wall_forces(&mut self) {
         let nw = self.walls.len();
         let walls = &self.walls;
-        let table = &self.table;
+        let table = &self.wall_table;
         let wall_mat = self.wall_material;
         let dt = self.dt;
         let p = &self.p;

@@ -18,8 +18,9 @@ use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
+use crate::run::Balance;
 use crate::run::Simulation;
-use crate::scene::{Deformation, DemParams, Placement, Scene, WallMotion};
+use crate::scene::{Controls, Deformation, DemParams, Material, Placement, Scene, WallMotion};
 use forces::LOOP_CHUNK;
 use pair_state::PairContact;
 use stability::EnergyBudget;
@@ -85,6 +86,14 @@ pub struct Dem {
     params: DemParams,
     collision: CollisionTime,
     table: ContactTable,
+    /// Laws of the particle-wall contacts: those of the scene's materials (a stage's friction
+    /// override applies between particles only).
+    wall_table: ContactTable,
+    /// The scene's materials (the contact table is rebuilt from them when a stage overrides
+    /// the friction).
+    materials: Vec<Material>,
+    /// The method's own local damping (a stage may override it).
+    base_local_damping: Real,
     wall_material: usize,
     p: Particles,
     domain: Domain,
@@ -222,7 +231,10 @@ impl Dem {
             gravity: scene.gravity,
             params: params.clone(),
             collision,
+            wall_table: table.clone(),
             table,
+            materials: scene.materials.clone(),
+            base_local_damping: params.local_damping,
             wall_material,
             p,
             domain,
@@ -438,7 +450,8 @@ impl Dem {
         for w in 0..self.walls.len() {
             let area = self.wall_area(self.walls[w].face.axis);
             let wall = &mut self.walls[w];
-            wall.servo(area);
+            let length = self.domain.length(wall.face.axis);
+            wall.servo(area, length);
             wall.advance(dt);
             let a = wall.face.axis;
             if wall.face.upper {
@@ -581,8 +594,10 @@ fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
     v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
     v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
     for w in &c.walls {
-        if let WallMotion::Velocity(u) = w.motion {
-            v = v.max(u.norm());
+        match w.motion {
+            WallMotion::Velocity(u) => v = v.max(u.norm()),
+            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[w.face.axis] - c.lo[w.face.axis])).abs()),
+            _ => {}
         }
     }
     if let Some((rate, _)) = c.lees_edwards {
@@ -689,6 +704,72 @@ impl Simulation for Dem {
         self.heap_bytes()
     }
 
+    fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
+        for def in &controls.walls {
+            if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
+                w.set_motion(def.motion);
+            }
+        }
+        if let Some(d) = controls.deformation {
+            self.deformation = d.map(CellDeformation::new);
+        }
+        // Friction between particles; the walls keep their material's.
+        self.table = match controls.friction {
+            Some(mu) => ContactTable::new(&self.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>()),
+            None => self.wall_table.clone(),
+        };
+        self.params.local_damping = controls.local_damping.unwrap_or(self.base_local_damping);
+        // New boundary work and forces from here: the energy budget restarts.
+        self.budget = EnergyBudget::start(self.mechanical_energy());
+        Ok(())
+    }
+
+    fn box_lengths(&self) -> Vec3 {
+        self.domain.hi - self.domain.lo
+    }
+
+    fn balance(&self) -> Balance {
+        let p = &self.p;
+        // Translational kinetic energy only: a rattler spinning between frictionless walls keeps
+        // its spin for ever (nothing exerts a torque on it), yet the packing is at rest.
+        let kinetic: Real = 0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>();
+        let elastic = self.elastic_energy();
+        let net: Real = p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real;
+        let (mut sum, mut count) = (0.0, 0usize);
+        for c in self.contacts.iter().flatten() {
+            if c.out.force != Vec3::zeros() {
+                sum += c.out.force.norm();
+                count += 1;
+            }
+        }
+        for f in self.wall_f.iter().filter(|f| **f != Vec3::zeros()) {
+            sum += f.norm();
+            count += 1;
+        }
+        let mean_contact = if count > 0 { sum / count as Real } else { 0.0 };
+        let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
+        // Stress-controlled boundaries against their targets.
+        let mut stress_error: Real = 0.0;
+        for w in &self.walls {
+            if let Some(target) = w.target_stress() {
+                let area = self.wall_area(w.face.axis);
+                stress_error = stress_error.max((w.normal_stress(area) - target).abs() / target);
+            }
+        }
+        if let Some(Deformation::Pressure { target, .. }) = self.deformation.as_ref().map(|d| d.kind) {
+            let (pressure, _) = self.pressure_and_stiffness();
+            stress_error = stress_error.max((pressure - target).abs() / target);
+        }
+        Balance { kinetic_energy: kinetic, elastic_energy: elastic, unbalanced_force, stress_error }
+    }
+
+    fn grain_scales(&self) -> (Real, Real) {
+        let n = self.p.len().max(1) as Real;
+        let mean_d = 2.0 * self.p.radius.iter().sum::<Real>() / n;
+        let mass: Real = self.p.mass.iter().sum();
+        (mean_d, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
+    }
+
     fn snapshot(&self) -> Snapshot {
         let p = &self.p;
         // Particles return into the periodic box only at neighbour builds: wrap the copies.
@@ -774,7 +855,7 @@ impl Dem {
         }
         let nw = self.walls.len();
         for i in 0..self.p.len() {
-            let law = self.table.get(self.p.material[i] as usize, self.wall_material);
+            let law = self.wall_table.get(self.p.material[i] as usize, self.wall_material);
             for (w, wall) in self.walls.iter().enumerate() {
                 let n = wall.normal();
                 let delta = self.p.radius[i] - (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];

@@ -1,0 +1,392 @@
+//! Derived results of the standard experiments (issue "experiments"): computed from the
+//! samples of the run, the same way for every method.
+//!
+//! - **Isotropic**: the state at equilibrium (Φ, Z, p).
+//! - **Biaxial / triaxial** (N 2.25-2.28): the state after preparation; the peak of `ζ = q/p`;
+//!   the steady (critical) state, averaged over the last quarter of the axial strain; the
+//!   volumetric strain (compression positive) at its largest contraction and at the end.
+//! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
+//!   and the final packing fraction, stress and strain.
+//!
+//! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
+//! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
+//! `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not quasi-static
+//! (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than 1e-4 d).
+
+use serde::{Deserialize, Serialize};
+
+use super::sample::Sample;
+use crate::math::Real;
+use crate::scene::{CompactionDrive, ElasticLaw, Experiment, Scene};
+
+/// Inertial number above which a test is not quasi-static.
+pub const QUASI_STATIC_I: Real = 1e-3;
+/// Stiffness number below which contacts are not in the rigid limit.
+pub const RIGID_KAPPA: Real = 1e4;
+/// Fraction of the axial strain over which the steady state is averaged (the last quarter).
+pub const STEADY_WINDOW: Real = 0.25;
+/// Fraction of the final wall stress that marks the onset of load in a compaction.
+pub const ONSET_FRACTION: Real = 0.01;
+
+/// The state of the packing at one instant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct State {
+    /// Step.
+    pub step: u64,
+    /// Packing fraction.
+    pub phi: f64,
+    /// Void ratio `1/Φ - 1`.
+    pub void_ratio: f64,
+    /// Coordination (all particles).
+    pub z: f64,
+    /// Coordination without rattlers.
+    pub z_no_rattlers: f64,
+    /// Mean pressure, Pa.
+    pub p: f64,
+    /// Stress ratio q/p.
+    pub zeta: f64,
+}
+
+impl State {
+    fn of(s: &Sample) -> Self {
+        Self {
+            step: s.step,
+            phi: s.phi,
+            void_ratio: if s.phi > 0.0 { 1.0 / s.phi - 1.0 } else { 0.0 },
+            z: s.z,
+            z_no_rattlers: s.z_no_rattlers,
+            p: s.p,
+            zeta: s.mu,
+        }
+    }
+}
+
+/// The peak of the stress ratio in a biaxial or triaxial test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Peak {
+    /// Largest `ζ = q/p`.
+    pub zeta: f64,
+    /// Axial strain at the peak.
+    pub axial_strain: f64,
+    /// Volumetric strain at the peak (compression positive).
+    pub volumetric_strain: f64,
+    /// Packing fraction at the peak.
+    pub phi: f64,
+}
+
+/// The steady (critical) state: means over the last quarter of the axial strain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Steady {
+    /// Axial strain where the averaging window starts.
+    pub from_axial_strain: f64,
+    /// Samples in the window.
+    pub samples: usize,
+    /// Mean `ζ`.
+    pub zeta: f64,
+    /// Standard deviation of `ζ` over the window.
+    pub zeta_std: f64,
+    /// Mean packing fraction.
+    pub phi: f64,
+    /// Mean coordination without rattlers.
+    pub z_no_rattlers: f64,
+    /// Dilatancy rate `-d eps_v / d eps_a` over the window (least squares; 0 at a critical state).
+    pub dilatancy_rate: f64,
+}
+
+/// Volume change along a biaxial or triaxial test (compression positive).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct Dilatancy {
+    /// Largest volumetric strain (the most contracted state).
+    pub max_contraction: f64,
+    /// Axial strain there.
+    pub at_axial_strain: f64,
+    /// Volumetric strain at the end; below `max_contraction` when the sample dilated.
+    pub final_volumetric_strain: f64,
+}
+
+/// Results of a compaction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct CompactionResult {
+    /// Packing fraction when the moving wall first carries 1% of its final stress.
+    pub phi_onset: Option<f64>,
+    /// Final packing fraction.
+    pub phi_final: f64,
+    /// Final stress on the moving wall, Pa.
+    pub wall_stress: f64,
+    /// Final strain `|ln(h/h_i)|` of the compacted axis.
+    pub strain: f64,
+}
+
+/// The derived results of an experiment (stored with the job; `GET /v1/jobs/{id}` returns them).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ExperimentResult {
+    /// `isotropic`, `biaxial`, `triaxial` or `compaction`.
+    pub experiment: String,
+    /// State at the end of the preparation (isotropic, biaxial, triaxial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prepared: Option<State>,
+    /// Peak of `ζ` (biaxial, triaxial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak: Option<Peak>,
+    /// Steady state (biaxial, triaxial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steady: Option<Steady>,
+    /// Volume change (biaxial, triaxial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dilatancy: Option<Dilatancy>,
+    /// Compaction results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compaction: Option<CompactionResult>,
+    /// State at the end of the run.
+    pub last: State,
+    /// Inertial number of the loading (of the preparation for the isotropic test).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertial_number: Option<f64>,
+    /// Stiffness number at the confining (or final) stress.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness_number: Option<f64>,
+    /// Why the results may not mean what they seem (not quasi-static, not rigid).
+    pub warnings: Vec<String>,
+}
+
+/// Collects the samples of a run and computes its experiment's results at the end.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    experiment: Option<Experiment>,
+    dim: usize,
+    law: Option<ElasticLaw>,
+    samples: Vec<Sample>,
+}
+
+impl Analysis {
+    /// An analysis of the scene's experiment (none without one).
+    pub fn new(scene: &Scene) -> Self {
+        let law = scene.sets.first().and_then(|s| scene.materials.get(s.material)).map(|m| m.law);
+        Self { experiment: scene.experiment.clone(), dim: scene.dim, law, samples: Vec::new() }
+    }
+
+    /// Takes one sample (kept only when there is an experiment).
+    pub fn push(&mut self, s: &Sample) {
+        if self.experiment.is_some() {
+            self.samples.push(s.clone());
+        }
+    }
+
+    /// Stiffness number at pressure `p` for grains of mean diameter `d` (RC 2.3.4).
+    pub fn stiffness_number(&self, p: Real, d: Real) -> Option<Real> {
+        if p <= 0.0 {
+            return None;
+        }
+        match self.law? {
+            ElasticLaw::Linear { k_n, .. } => Some(if self.dim == 3 { k_n / (p * d) } else { k_n / p }),
+            ElasticLaw::HertzMindlin { young, poisson } => Some((young / ((1.0 - poisson * poisson) * p)).powf(2.0 / 3.0)),
+        }
+    }
+
+    /// The results, given the grains' mean diameter (m) and density (kg/m³).
+    pub fn finish(&self, mean_diameter: Real, density: Real) -> Option<ExperimentResult> {
+        let experiment = self.experiment.as_ref()?;
+        let last = self.samples.last()?;
+        let stage = |name: &'static str| self.samples.iter().filter(move |s| s.stage.as_deref() == Some(name));
+        let prepared = stage("preparation").next_back().map(State::of);
+        let mut r = ExperimentResult {
+            experiment: experiment.kind(self.dim).to_string(),
+            prepared,
+            peak: None,
+            steady: None,
+            dilatancy: None,
+            compaction: None,
+            last: State::of(last),
+            inertial_number: None,
+            stiffness_number: None,
+            warnings: Vec::new(),
+        };
+        let inertial = |rate: Real, p: Real| (p > 0.0).then(|| rate * mean_diameter * (density / p).sqrt());
+        match experiment {
+            Experiment::Isotropic { preparation } => {
+                r.inertial_number = inertial(preparation.max_strain_rate, preparation.pressure);
+                r.stiffness_number = self.stiffness_number(preparation.pressure, mean_diameter);
+            }
+            Experiment::Triaxial { preparation, axis, strain_rate, .. } => {
+                r.inertial_number = inertial(*strain_rate, preparation.pressure);
+                r.stiffness_number = self.stiffness_number(preparation.pressure, mean_diameter);
+                let loading: Vec<(Real, &Sample)> =
+                    stage("loading").filter_map(|s| s.strain.as_ref().map(|e| (e.axes.get(*axis).copied().unwrap_or(0.0), s))).collect();
+                triaxial_results(&mut r, &loading);
+            }
+            Experiment::Compaction { axis, drive, .. } => {
+                let run: Vec<&Sample> = stage("compaction").collect();
+                let wall = format!("{}_max", crate::math::AXES[*axis]);
+                let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
+                let final_stress = stress_of(last);
+                let phi_onset = run.iter().find(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress).map(|s| s.phi);
+                let strain = last.strain.as_ref().and_then(|e| e.axes.get(*axis).copied()).unwrap_or(0.0);
+                r.compaction = Some(CompactionResult { phi_onset, phi_final: last.phi, wall_stress: final_stress, strain });
+                r.stiffness_number = self.stiffness_number(final_stress, mean_diameter);
+                if let CompactionDrive::Velocity { speed, .. } = drive {
+                    // Strain rate at the end: speed over the current height.
+                    let h = last
+                        .walls
+                        .iter()
+                        .find(|w| w.name == wall)
+                        .map(|w| w.position)
+                        .zip(last.walls.iter().find(|w| w.name == format!("{}_min", crate::math::AXES[*axis])).map(|w| w.position));
+                    if let Some((hi, lo)) = h.filter(|(hi, lo)| hi > lo) {
+                        r.inertial_number = inertial(speed / (hi - lo), final_stress);
+                    }
+                }
+            }
+        }
+        if let Some(i) = r.inertial_number.filter(|&i| i > QUASI_STATIC_I) {
+            r.warnings.push(format!(
+                "not quasi-static: inertial number I = {i:.2e} > {QUASI_STATIC_I:e}; lower the strain rate (or the wall speed) for quasi-static results"
+            ));
+        }
+        if let Some(k) = r.stiffness_number.filter(|&k| k < RIGID_KAPPA) {
+            r.warnings.push(format!(
+                "not in the rigid limit: stiffness number {k:.2e} < {RIGID_KAPPA:e} (contacts deflect by about {:.1e} of a diameter); stiffen the contacts or lower the stress",
+                1.0 / k
+            ));
+        }
+        Some(r)
+    }
+}
+
+fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
+    let Some(&(end, _)) = loading.last() else { return };
+    let ev = |s: &Sample| s.strain.as_ref().map_or(0.0, |e| e.volumetric);
+    if let Some(&(ea, s)) = loading.iter().filter(|(ea, _)| *ea > 0.0).max_by(|a, b| a.1.mu.total_cmp(&b.1.mu)) {
+        r.peak = Some(Peak { zeta: s.mu, axial_strain: ea, volumetric_strain: ev(s), phi: s.phi });
+    }
+    if let Some(&(ea, s)) = loading.iter().max_by(|a, b| ev(a.1).total_cmp(&ev(b.1))) {
+        r.dilatancy =
+            Some(Dilatancy { max_contraction: ev(s), at_axial_strain: ea, final_volumetric_strain: ev(loading[loading.len() - 1].1) });
+    }
+    let from = (1.0 - STEADY_WINDOW) * end;
+    let window: Vec<&(Real, &Sample)> = loading.iter().filter(|(ea, _)| *ea >= from).collect();
+    if window.len() >= 2 {
+        let n = window.len() as Real;
+        let mean = |f: &dyn Fn(&Sample) -> Real| window.iter().map(|(_, s)| f(s)).sum::<Real>() / n;
+        let zeta = mean(&|s| s.mu);
+        let zeta_std = (window.iter().map(|(_, s)| (s.mu - zeta).powi(2)).sum::<Real>() / n).sqrt();
+        // Least-squares slope of eps_v against eps_a.
+        let xa = window.iter().map(|(ea, _)| ea).sum::<Real>() / n;
+        let ya = mean(&ev);
+        let sxy: Real = window.iter().map(|(ea, s)| (ea - xa) * (ev(s) - ya)).sum();
+        let sxx: Real = window.iter().map(|(ea, _)| (ea - xa).powi(2)).sum();
+        r.steady = Some(Steady {
+            from_axial_strain: from,
+            samples: window.len(),
+            zeta,
+            zeta_std,
+            phi: mean(&|s| s.phi),
+            z_no_rattlers: mean(&|s| s.z_no_rattlers),
+            dilatancy_rate: if sxx > 0.0 { -sxy / sxx } else { 0.0 },
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observe::{StrainSample, Stress};
+    use crate::scene::parse_scene;
+
+    fn sample(step: u64, stage: &str, axial: f64, zeta: f64, ev: f64) -> Sample {
+        Sample {
+            step,
+            time: step as f64,
+            phi: 0.8 - 0.5 * (0.002 - ev).max(0.0),
+            z: 4.0,
+            z_no_rattlers: 4.0,
+            mu: zeta,
+            p: 100.0,
+            q: 100.0 * zeta,
+            stress: Stress::default(),
+            inertial_number: None,
+            kinetic_energy: 0.0,
+            elastic_energy: 1.0,
+            walls: Vec::new(),
+            stage: Some(stage.into()),
+            strain: Some(StrainSample { axes: vec![ev - axial, axial], volumetric: ev, deviatoric: 0.0 }),
+        }
+    }
+
+    fn biaxial_analysis(k_n: f64, strain_rate: f64) -> Analysis {
+        let s = serde_json::json!({
+            "dimension": 2, "method": "dem",
+            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5}},
+            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
+            "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0}, "strain_rate": strain_rate, "axial_strain": 0.2}
+        });
+        Analysis::new(&parse_scene(&s.to_string()).expect("valid"))
+    }
+
+    /// A hand-made dense biaxial test: ζ rises to 0.5 at 2% axial strain, falls to 0.3 by 10% and
+    /// stays; ε_v contracts to 0.002 at 1%, then dilates to -0.03 at 10% and stays.
+    #[test]
+    fn peak_steady_state_and_dilatancy_of_a_hand_made_test() {
+        let mut a = biaxial_analysis(1e7, 0.01);
+        a.push(&sample(0, "preparation", 0.0, 0.0, 0.0));
+        a.push(&sample(10, "preparation", 0.0, 0.01, 0.0));
+        for k in 0..=200 {
+            let ea = k as f64 * 0.001;
+            let zeta = if ea <= 0.02 {
+                25.0 * ea
+            } else if ea <= 0.1 {
+                0.5 - 2.5 * (ea - 0.02)
+            } else {
+                0.3
+            };
+            let ev = if ea <= 0.01 {
+                0.2 * ea
+            } else if ea <= 0.1 {
+                0.002 - 0.032 * (ea - 0.01) / 0.09
+            } else {
+                -0.03
+            };
+            a.push(&sample(100 + k, "loading", ea, zeta, ev));
+        }
+        let r = a.finish(1e-3, 2500.0).expect("result");
+        assert_eq!(r.experiment, "biaxial");
+        assert_eq!(r.prepared.as_ref().map(|s| s.step), Some(10));
+        let peak = r.peak.expect("peak");
+        assert!((peak.zeta - 0.5).abs() < 1e-12 && (peak.axial_strain - 0.02).abs() < 1e-12);
+        let steady = r.steady.expect("steady");
+        assert!((steady.from_axial_strain - 0.15).abs() < 1e-12);
+        // Strains 0.150..0.200 (0.150 itself may round either side of 0.75 × 0.2).
+        assert!((50..=51).contains(&steady.samples), "{}", steady.samples);
+        assert!((steady.zeta - 0.3).abs() < 1e-12 && steady.zeta_std < 1e-12 && steady.dilatancy_rate.abs() < 1e-12);
+        let d = r.dilatancy.expect("dilatancy");
+        assert!((d.max_contraction - 0.002).abs() < 1e-12 && (d.at_axial_strain - 0.01).abs() < 1e-12);
+        assert!((d.final_volumetric_strain + 0.03).abs() < 1e-12);
+        // I = 0.01 × 1e-3 × sqrt(2500 / 100) = 5e-5; κ = k_n / p = 1e5 in 2D: no warning.
+        assert!((r.inertial_number.expect("I") - 5e-5).abs() < 1e-15);
+        assert!((r.stiffness_number.expect("kappa") - 1e5).abs() < 1e-6);
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        // A dilating window has a positive dilatancy rate.
+        let mut b = biaxial_analysis(1e7, 0.01);
+        for k in 0..=100 {
+            b.push(&sample(k, "loading", k as f64 * 0.001, 0.4, -0.5 * k as f64 * 0.001));
+        }
+        assert!((b.finish(1e-3, 2500.0).and_then(|r| r.steady).expect("steady").dilatancy_rate - 0.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn fast_or_soft_tests_are_flagged() {
+        // I = 10 × 1e-3 × 5 = 0.05; κ = 1e5 / 100 = 1e3.
+        let mut a = biaxial_analysis(1e5, 10.0);
+        a.push(&sample(0, "loading", 0.0, 0.0, 0.0));
+        a.push(&sample(1, "loading", 0.01, 0.1, 0.0));
+        let r = a.finish(1e-3, 2500.0).expect("result");
+        assert_eq!(r.warnings.len(), 2, "{:?}", r.warnings);
+        assert!(r.warnings[0].starts_with("not quasi-static") && r.warnings[1].starts_with("not in the rigid limit"));
+    }
+}

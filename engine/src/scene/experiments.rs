@@ -1,0 +1,434 @@
+//! The standard experiments of a scene (`experiment` section): their checks, defaults, and the
+//! stages they expand into (preparation, loading), which the runner executes in order.
+
+use super::model::*;
+use super::spec::*;
+use super::violation::Checker;
+use crate::math::{Real, AXES};
+
+/// Default step limit of a stage that runs until equilibrium.
+pub const DEFAULT_MAX_STEPS: u64 = 2_000_000;
+/// Inertial number of the default preparation rate (fast against the loading, still far
+/// below the collisional regime).
+pub const PREPARATION_INERTIAL_NUMBER: Real = 1e-2;
+/// Inertial number of the default loading rate of the biaxial and triaxial tests: half the
+/// quasi-static bound 1e-3 (RC 2.3.4; the sources keep I < 1e-3, N 2.2).
+pub const LOADING_INERTIAL_NUMBER: Real = 5e-4;
+/// Default cushion of local damping during the preparation (Yade's usual 0.2).
+pub const PREPARATION_DAMPING: Real = 0.2;
+
+/// Grain scales used by the defaults: number-mean diameter (m) and solid density (kg/m³) of the
+/// first particle set.
+pub struct GrainScales {
+    /// Mean diameter, m.
+    pub diameter: Real,
+    /// Density, kg/m³.
+    pub density: Real,
+}
+
+fn check_equilibrium(c: &mut Checker, path: &str, s: Option<&EquilibriumSpec>) -> Equilibrium {
+    let d = Equilibrium::default();
+    let Some(s) = s else { return d };
+    let mut e = d;
+    if let Some(x) = s.kinetic_ratio {
+        c.positive(&format!("{path}.kinetic_ratio"), x);
+        e.kinetic_ratio = x;
+    }
+    if let Some(x) = s.unbalanced_force {
+        c.positive(&format!("{path}.unbalanced_force"), x);
+        e.unbalanced_force = x;
+    }
+    if let Some(x) = s.stress_tolerance {
+        c.positive(&format!("{path}.stress_tolerance"), x);
+        e.stress_tolerance = x;
+    }
+    if let Some(n) = s.check_every {
+        if n == 0 {
+            c.fail(format!("{path}.check_every"), "must be >= 1");
+        }
+        e.check_every = n.max(1);
+    }
+    if let Some(n) = s.consecutive {
+        if n == 0 {
+            c.fail(format!("{path}.consecutive"), "must be >= 1");
+        }
+        e.consecutive = n.max(1);
+    }
+    e
+}
+
+fn check_max_steps(c: &mut Checker, path: &str, n: Option<u64>) -> u64 {
+    match n {
+        Some(0) => {
+            c.fail(path, "must be >= 1");
+            1
+        }
+        Some(n) => n,
+        None => DEFAULT_MAX_STEPS,
+    }
+}
+
+fn check_preparation(c: &mut Checker, path: &str, s: &PreparationSpec, g: &GrainScales) -> Preparation {
+    c.positive(&format!("{path}.pressure"), s.pressure);
+    let friction = s.friction.unwrap_or(0.0);
+    c.non_negative(&format!("{path}.friction"), friction);
+    let default_rate = PREPARATION_INERTIAL_NUMBER / g.diameter * (s.pressure.max(0.0) / g.density).sqrt();
+    let max_strain_rate = s.max_strain_rate.unwrap_or(default_rate);
+    if s.max_strain_rate.is_some() {
+        c.positive(&format!("{path}.max_strain_rate"), max_strain_rate);
+    }
+    let local_damping = s.local_damping.unwrap_or(PREPARATION_DAMPING);
+    if !(0.0..1.0).contains(&local_damping) {
+        c.fail(format!("{path}.local_damping"), format!("must be in [0, 1), got {local_damping}"));
+    }
+    Preparation {
+        pressure: s.pressure,
+        friction,
+        max_strain_rate,
+        local_damping,
+        equilibrium: check_equilibrium(c, &format!("{path}.equilibrium"), s.equilibrium.as_ref()),
+        max_steps: check_max_steps(c, &format!("{path}.max_steps"), s.max_steps),
+    }
+}
+
+fn check_axis(c: &mut Checker, path: &str, name: Option<&str>, dim: usize) -> usize {
+    match name {
+        None => dim - 1,
+        Some(n) => match AXES[..dim].iter().position(|a| *a == n) {
+            Some(a) => a,
+            None => {
+                c.fail(path, format!("must be one of {} in {dim}D, got '{n}'", AXES[..dim].join(", ")));
+                dim - 1
+            }
+        },
+    }
+}
+
+/// Checks the experiment section against the container and returns the experiment with its
+/// stages.
+pub(crate) fn check_experiment(
+    c: &mut Checker,
+    s: &ExperimentSpec,
+    dim: usize,
+    container: &Container,
+    grains: &GrainScales,
+) -> (Experiment, Vec<Stage>) {
+    let walled = container.periodic[..dim].iter().all(|p| !p);
+    let periodic = container.periodic[..dim].iter().all(|&p| p);
+    let need_walls = |c: &mut Checker, kind: &str| {
+        if !walled {
+            c.fail(
+                "container.periodic",
+                format!("the {kind} experiment needs walls on every face (a box with no periodic axis) in this version"),
+            );
+        }
+    };
+    if container.lees_edwards.is_some() || container.deformation.is_some() {
+        c.fail("experiment", "an experiment sets the boundaries itself: remove container.lees_edwards and container.deformation");
+    }
+    if container.walls.iter().any(|w| w.motion != WallMotion::Fixed) {
+        c.fail("container.walls", "an experiment moves the walls itself: leave them fixed in the container");
+    }
+    let experiment = match s {
+        ExperimentSpec::Isotropic(i) => {
+            if !(walled || periodic) {
+                c.fail("container.periodic", "the isotropic experiment needs walls on every face or a fully periodic box");
+            }
+            Experiment::Isotropic { preparation: check_preparation(c, "experiment.preparation", &i.preparation, grains) }
+        }
+        ExperimentSpec::Biaxial(t) | ExperimentSpec::Triaxial(t) => {
+            let (kind, want) = if matches!(s, ExperimentSpec::Biaxial(_)) { ("biaxial", 2) } else { ("triaxial", 3) };
+            if dim != want {
+                let other = if want == 2 { "triaxial" } else { "biaxial" };
+                c.fail("experiment.kind", format!("'{kind}' is the {want}D test; in {dim}D use '{other}'"));
+            }
+            need_walls(c, kind);
+            let preparation = check_preparation(c, "experiment.preparation", &t.preparation, grains);
+            let axis = check_axis(c, "experiment.axis", t.axis.as_deref(), dim);
+            let default_rate = LOADING_INERTIAL_NUMBER / grains.diameter * (preparation.pressure.max(0.0) / grains.density).sqrt();
+            let strain_rate = t.strain_rate.unwrap_or(default_rate);
+            if t.strain_rate.is_some() {
+                c.positive("experiment.strain_rate", strain_rate);
+            }
+            let axial_strain = t.axial_strain.unwrap_or(0.2);
+            if !(axial_strain > 0.0 && axial_strain < 1.0) {
+                c.fail("experiment.axial_strain", format!("must be in (0, 1), got {axial_strain}"));
+            }
+            let max_steps = match t.max_steps {
+                Some(0) => {
+                    c.fail("experiment.max_steps", "must be >= 1");
+                    1
+                }
+                Some(n) => n,
+                None => u64::MAX,
+            };
+            Experiment::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps }
+        }
+        ExperimentSpec::Compaction(k) => {
+            need_walls(c, "compaction");
+            let axis = check_axis(c, "experiment.axis", k.axis.as_deref(), dim);
+            let drive = match (k.velocity, k.stress) {
+                (Some(v), None) => {
+                    c.positive("experiment.velocity", v);
+                    let strain = match k.strain {
+                        Some(e) => {
+                            if !(e > 0.0 && e < 5.0) {
+                                c.fail("experiment.strain", format!("must be in (0, 5), got {e}"));
+                            }
+                            e
+                        }
+                        None => {
+                            c.fail("experiment.strain", "required with velocity: the strain |ln(h/h_i)| at which the test ends");
+                            1.0
+                        }
+                    };
+                    for (field, set) in [("max_speed", k.max_speed.is_some()), ("equilibrium", k.equilibrium.is_some())] {
+                        if set {
+                            c.fail(format!("experiment.{field}"), "only with stress (a stress-controlled wall)");
+                        }
+                    }
+                    CompactionDrive::Velocity { speed: v, strain }
+                }
+                (None, Some(sigma)) => {
+                    c.positive("experiment.stress", sigma);
+                    if k.strain.is_some() {
+                        c.fail("experiment.strain", "only with velocity: a stress-controlled compaction ends at equilibrium");
+                    }
+                    let max_speed = k.max_speed.unwrap_or(f64::INFINITY);
+                    if k.max_speed.is_some() {
+                        c.positive("experiment.max_speed", max_speed);
+                    }
+                    CompactionDrive::Stress {
+                        stress: sigma,
+                        max_speed,
+                        equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
+                    }
+                }
+                _ => {
+                    c.fail("experiment", "give exactly one of velocity (with strain) and stress");
+                    CompactionDrive::Velocity { speed: 1.0, strain: 1.0 }
+                }
+            };
+            Experiment::Compaction { axis, drive, max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps) }
+        }
+    };
+    let stages = experiment.stages(dim, container);
+    (experiment, stages)
+}
+
+fn preparation_stage(p: &Preparation, dim: usize, container: &Container) -> Stage {
+    let mut controls = Controls { friction: Some(p.friction), local_damping: Some(p.local_damping), ..Controls::default() };
+    if container.walls.is_empty() {
+        controls.deformation = Some(Some(Deformation::Pressure {
+            target: p.pressure,
+            max_strain_rate: p.max_strain_rate,
+            gain: p.max_strain_rate / p.pressure,
+        }));
+    } else {
+        // Both walls of an axis move: each at most half the rate times the length.
+        controls.walls = container
+            .walls
+            .iter()
+            .map(|w| {
+                let length = container.hi[w.face.axis] - container.lo[w.face.axis];
+                let max_speed = 0.5 * p.max_strain_rate * length;
+                WallDef { face: w.face, motion: WallMotion::Stress { stress: p.pressure, gain: None, max_speed } }
+            })
+            .collect();
+    }
+    let _ = dim;
+    Stage {
+        name: "preparation".into(),
+        controls,
+        until: Stop { steps: Some(p.max_steps), ..Stop::default() },
+        strain_axis: None,
+        equilibrium: Some(p.equilibrium),
+    }
+}
+
+impl Experiment {
+    /// The stages the experiment runs, in order.
+    pub fn stages(&self, dim: usize, container: &Container) -> Vec<Stage> {
+        match self {
+            Self::Isotropic { preparation } => vec![preparation_stage(preparation, dim, container)],
+            Self::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps } => {
+                let mut walls = Vec::new();
+                for w in &container.walls {
+                    let motion = if w.face.axis != *axis {
+                        WallMotion::Stress { stress: preparation.pressure, gain: None, max_speed: f64::INFINITY }
+                    } else if w.face.upper {
+                        WallMotion::StrainRate(-strain_rate)
+                    } else {
+                        WallMotion::Fixed
+                    };
+                    walls.push(WallDef { face: w.face, motion });
+                }
+                let loading = Stage {
+                    name: "loading".into(),
+                    controls: Controls { walls, ..Controls::default() },
+                    until: Stop { strain: Some(*axial_strain), steps: (*max_steps < u64::MAX).then_some(*max_steps), ..Stop::default() },
+                    strain_axis: Some(*axis),
+                    equilibrium: None,
+                };
+                vec![preparation_stage(preparation, dim, container), loading]
+            }
+            Self::Compaction { axis, drive, max_steps } => {
+                let walls = container
+                    .walls
+                    .iter()
+                    .map(|w| {
+                        let motion = match (w.face.axis == *axis && w.face.upper, drive) {
+                            (false, _) => WallMotion::Fixed,
+                            (true, CompactionDrive::Velocity { speed, .. }) => {
+                                let mut v = crate::math::Vec3::zeros();
+                                v[*axis] = -speed;
+                                WallMotion::Velocity(v)
+                            }
+                            (true, CompactionDrive::Stress { stress, max_speed, .. }) => {
+                                WallMotion::Stress { stress: *stress, gain: None, max_speed: *max_speed }
+                            }
+                        };
+                        WallDef { face: w.face, motion }
+                    })
+                    .collect();
+                let (until, equilibrium) = match drive {
+                    CompactionDrive::Velocity { strain, .. } => {
+                        (Stop { strain: Some(*strain), steps: Some(*max_steps), ..Stop::default() }, None)
+                    }
+                    CompactionDrive::Stress { equilibrium, .. } => {
+                        (Stop { steps: Some(*max_steps), ..Stop::default() }, Some(*equilibrium))
+                    }
+                };
+                vec![Stage {
+                    name: "compaction".into(),
+                    controls: Controls { walls, ..Controls::default() },
+                    until,
+                    strain_axis: Some(*axis),
+                    equilibrium,
+                }]
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::{parse_scene, Experiment, WallMotion};
+    use serde_json::{json, Value};
+
+    fn scene(dim: usize, periodic: bool, experiment: Value) -> Value {
+        let v = |x: f64| if dim == 2 { json!([x, x]) } else { json!([x, x, x]) };
+        let mut s = json!({
+            "dimension": dim,
+            "method": "dem",
+            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.5}},
+            "particles": [{"material": "m", "count": 50, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": v(0.0), "max": v(0.02), "wall_material": "m"},
+            "experiment": experiment
+        });
+        if periodic {
+            s["container"]["periodic"] = if dim == 2 { json!(["x", "y"]) } else { json!(["x", "y", "z"]) };
+        }
+        s
+    }
+
+    fn violations(s: &Value) -> Vec<String> {
+        match parse_scene(&s.to_string()) {
+            Ok(_) => Vec::new(),
+            Err(v) => v.iter().map(|x| x.to_string()).collect(),
+        }
+    }
+
+    #[test]
+    fn biaxial_expands_into_preparation_and_loading() {
+        let s = scene(2, false, json!({"kind": "biaxial", "preparation": {"pressure": 100.0}, "strain_rate": 0.2, "axial_strain": 0.1}));
+        let scene = parse_scene(&s.to_string()).expect("valid");
+        assert_eq!(scene.stages.len(), 2);
+        let (prep, load) = (&scene.stages[0], &scene.stages[1]);
+        assert_eq!((prep.name.as_str(), load.name.as_str()), ("preparation", "loading"));
+        // Preparation: all four walls servo to 100 Pa, frictionless, damped, until equilibrium.
+        assert_eq!(prep.controls.walls.len(), 4);
+        assert!(prep.controls.walls.iter().all(|w| matches!(w.motion, WallMotion::Stress { stress, .. } if stress == 100.0)));
+        assert_eq!(prep.controls.friction, Some(0.0));
+        assert!(prep.equilibrium.is_some());
+        // Loading: y_max at -0.2 1/s, y_min fixed, x walls at 100 Pa; friction back to the material's.
+        for w in &load.controls.walls {
+            let expected = match (w.face.axis, w.face.upper) {
+                (1, true) => WallMotion::StrainRate(-0.2),
+                (1, false) => WallMotion::Fixed,
+                _ => WallMotion::Stress { stress: 100.0, gain: None, max_speed: f64::INFINITY },
+            };
+            assert_eq!(w.motion, expected, "{}", w.face.name());
+        }
+        assert_eq!(load.controls.friction, None);
+        assert_eq!((load.until.strain, load.strain_axis), (Some(0.1), Some(1)));
+        assert!(matches!(scene.experiment, Some(Experiment::Triaxial { axis: 1, .. })));
+    }
+
+    #[test]
+    fn isotropic_in_a_periodic_box_uses_the_cell_servo() {
+        let s = scene(3, true, json!({"kind": "isotropic", "preparation": {"pressure": 1000.0, "max_strain_rate": 5.0}}));
+        let scene = parse_scene(&s.to_string()).expect("valid");
+        let prep = &scene.stages[0];
+        assert!(prep.controls.walls.is_empty());
+        assert!(matches!(prep.controls.deformation, Some(Some(crate::scene::Deformation::Pressure { target, max_strain_rate, .. }))
+            if target == 1000.0 && max_strain_rate == 5.0));
+    }
+
+    #[test]
+    fn default_rates_follow_the_inertial_numbers() {
+        let s = scene(3, false, json!({"kind": "triaxial", "preparation": {"pressure": 2500.0}}));
+        let scene = parse_scene(&s.to_string()).expect("valid");
+        let Some(Experiment::Triaxial { preparation, strain_rate, axial_strain, .. }) = scene.experiment else { panic!("triaxial") };
+        // sqrt(p / rho) = 1 m/s, d = 1 mm: I / d.
+        assert!((preparation.max_strain_rate - 10.0).abs() < 1e-9);
+        assert!((strain_rate - 0.5).abs() < 1e-9);
+        assert_eq!(axial_strain, 0.2);
+    }
+
+    #[test]
+    fn broken_experiments_name_the_field_and_the_rule() {
+        let cases = [
+            (scene(3, false, json!({"kind": "biaxial", "preparation": {"pressure": 100.0}})), "experiment.kind: 'biaxial' is the 2D test"),
+            (
+                scene(2, true, json!({"kind": "biaxial", "preparation": {"pressure": 100.0}})),
+                "container.periodic: the biaxial experiment needs walls",
+            ),
+            (
+                scene(2, false, json!({"kind": "biaxial", "preparation": {"pressure": -1.0}})),
+                "experiment.preparation.pressure: must be > 0",
+            ),
+            (
+                scene(2, false, json!({"kind": "biaxial", "preparation": {"pressure": 1.0}, "axial_strain": 1.5})),
+                "experiment.axial_strain: must be in (0, 1)",
+            ),
+            (
+                scene(2, false, json!({"kind": "biaxial", "preparation": {"pressure": 1.0}, "axis": "z"})),
+                "experiment.axis: must be one of x, y in 2D",
+            ),
+            (scene(2, false, json!({"kind": "compaction", "velocity": 0.01})), "experiment.strain: required with velocity"),
+            (scene(2, false, json!({"kind": "compaction", "velocity": 0.01, "stress": 5.0})), "experiment: give exactly one of velocity"),
+            (
+                scene(2, false, json!({"kind": "isotropic", "preparation": {"pressure": 1.0, "equilibrium": {"check_every": 0}}})),
+                "experiment.preparation.equilibrium.check_every: must be >= 1",
+            ),
+        ];
+        for (s, expected) in cases {
+            let v = violations(&s);
+            assert!(v.iter().any(|x| x.starts_with(expected)), "expected '{expected}' in {v:?}");
+        }
+        // Unknown fields are refused with their path.
+        let v = violations(&scene(2, false, json!({"kind": "isotropic", "preparation": {"pressure": 1.0, "presure": 2.0}})));
+        assert!(v.iter().any(|x| x.starts_with("experiment.preparation.presure") || x.contains("unknown field `presure`")), "{v:?}");
+        // Moving walls, stop targets other than limits, and no stop without an experiment.
+        let mut s = scene(2, false, json!({"kind": "isotropic", "preparation": {"pressure": 1.0}}));
+        s["container"]["walls"] = json!({"y_max": {"kind": "velocity", "velocity": [0.0, -1.0]}});
+        s["stop"] = json!({"strain": 0.1, "steps": 10});
+        let v = violations(&s);
+        assert!(v.iter().any(|x| x.starts_with("container.walls: an experiment moves the walls itself")), "{v:?}");
+        assert!(v.iter().any(|x| x.starts_with("stop.strain: not with an experiment")), "{v:?}");
+        let mut s = scene(2, false, json!(null));
+        s.as_object_mut().expect("object").remove("experiment");
+        assert!(violations(&s).iter().any(|x| x.starts_with("stop: required")));
+    }
+}
