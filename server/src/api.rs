@@ -195,6 +195,11 @@ pub struct JobView {
     pub sample_count: i64,
     /// A cancellation was asked and has not reached the worker yet.
     pub cancel_requested: bool,
+    /// Derived results of the scene's experiment (docs/scene-format.md §13); absent for a scene
+    /// without an experiment or a job that has not succeeded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Object>)]
+    pub result: Option<serde_json::Value>,
 }
 
 /// Error of a failed job.
@@ -244,6 +249,7 @@ impl From<JobRow> for JobView {
             wall_seconds: r.wall_seconds,
             sample_count: r.sample_count,
             cancel_requested: r.cancel_requested != 0,
+            result: r.result.as_deref().and_then(|t| serde_json::from_str(t).ok()),
         }
     }
 }

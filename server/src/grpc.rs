@@ -62,6 +62,7 @@ pub fn pb_job(j: JobView) -> pb::Job {
         steps: j.steps as u64,
         wall_seconds: j.wall_seconds,
         sample_count: j.sample_count as u64,
+        result_json: j.result.as_ref().map(|r| r.to_string()).unwrap_or_default(),
     };
     out.set_state(pb_state(&j.state));
     out
@@ -295,7 +296,18 @@ impl pb::workers_server::Workers for WorkersService {
     async fn finish_job(&self, req: Request<pb::FinishJobRequest>) -> Result<Response<pb::FinishJobResponse>, Status> {
         let r = req.into_inner();
         let outcome = match r.outcome() {
-            PbOutcome::Succeeded => Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds },
+            PbOutcome::Succeeded => {
+                // The result is stored as sent; it must be a JSON object (or absent).
+                let result = if r.result_json.is_empty() {
+                    None
+                } else {
+                    match serde_json::from_str::<serde_json::Value>(&r.result_json) {
+                        Ok(v) if v.is_object() => Some(r.result_json.clone()),
+                        _ => return Err(Status::invalid_argument("result_json: must be a JSON object or empty")),
+                    }
+                };
+                Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds, result }
+            }
             PbOutcome::Failed => Outcome::Failed {
                 code: r.error_code.clone(),
                 message: r.error_message.clone(),

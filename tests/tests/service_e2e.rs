@@ -587,3 +587,70 @@ async fn snapshots_are_stored_and_served_from_local_and_remote_workers() {
     check_snapshots(&h, id).await;
     pool.shutdown(Duration::from_secs(2)).await;
 }
+
+/// A compaction experiment of a few disks: the top wall moves down until the strain 0.5.
+fn compaction_scene() -> Value {
+    json!({
+        "name": "compaction",
+        "dimension": 2,
+        "method": "dem",
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "glass", "count": 40, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.008, 0.012], "wall_material": "glass"},
+        "experiment": {"kind": "compaction", "velocity": 0.05, "strain": 0.5},
+        "sampling": {"every_steps": 500},
+        "seed": 2
+    })
+}
+
+/// Checks a compaction result against the packing fraction `phi0` of the first sample.
+fn check_compaction(result: &Value, phi0: f64) {
+    assert_eq!(result["experiment"], "compaction", "{result}");
+    let c = &result["compaction"];
+    let (onset, last) = (c["phi_onset"].as_f64().expect("onset"), c["phi_final"].as_f64().expect("final"));
+    // Only the height changes: the strain 0.5 multiplies Φ by e^0.5; the wall takes load on the
+    // way (onset) and ends loaded.
+    assert!(onset < last && (last - 0.5f64.exp() * phi0).abs() < 1e-6, "{c} (phi0 {phi0})");
+    assert!((c["strain"].as_f64().expect("strain") - 0.5).abs() < 0.01, "{c}");
+    assert!(c["wall_stress"].as_f64().expect("stress") > 0.0, "{c}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_experiments_results_are_stored_with_its_job() {
+    // A local worker; the result over REST and gRPC, the samples labelled with the stage.
+    let h = Harness::start(1).await;
+    let (status, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
+    assert_eq!(status, 201, "{job}");
+    let id = job["id"].as_i64().expect("id");
+    assert!(job.get("result").is_none(), "no result before the run: {job}");
+    let done = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(60)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let (_, samples) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    let rows = samples["samples"].as_array().expect("samples");
+    assert!(rows.iter().all(|s| s["stage"] == "compaction" && s["strain"]["axes"].is_array()), "{}", rows[0]);
+    let phi0 = rows[0]["phi"].as_f64().expect("phi");
+    check_compaction(&done["result"], phi0);
+    let mut grpc = h.grpc().await;
+    let pb_job = grpc.get_job(pb::GetJobRequest { id }).await.expect("get").into_inner();
+    let result: Value = serde_json::from_str(&pb_job.result_json).expect("result JSON");
+    assert_eq!(result, done["result"]);
+    // A plain job has no result.
+    let (_, plain) = h.post("/v1/jobs", &scene(200, 4), None).await;
+    let plain = plain["id"].as_i64().expect("id");
+    let plain = h.wait_state(plain, &["succeeded"], Duration::from_secs(20)).await;
+    assert!(plain.get("result").is_none(), "{plain}");
+
+    // A remote worker sends the result with its FinishJob call.
+    let h = Harness::start(0).await;
+    let (_, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
+    let id = job["id"].as_i64().expect("id");
+    let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
+    let mut pc = sable_worker::PoolConfig::new("remote", 1);
+    pc.report_interval = Duration::from_millis(100);
+    let pool = sable_worker::Pool::start(Arc::new(remote), pc, Arc::new(tokio::sync::Notify::new()));
+    let done = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(60)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    check_compaction(&done["result"], phi0);
+    pool.shutdown(Duration::from_secs(2)).await;
+}

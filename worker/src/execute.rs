@@ -173,7 +173,8 @@ pub async fn execute<S: JobSource>(
         Ok(Ok(Ok(summary))) => {
             pending.fraction = 1.0;
             pending.remaining_seconds = Some(0.0);
-            Outcome::Succeeded { steps: summary.steps, wall_seconds }
+            let result = summary.result.as_ref().and_then(|r| serde_json::to_string(r).ok());
+            Outcome::Succeeded { steps: summary.steps, wall_seconds, result }
         }
         Ok(Ok(Err(EngineError::Cancelled { .. }))) if released => Outcome::Released,
         Ok(Ok(Err(EngineError::Cancelled { .. }))) => Outcome::Cancelled,

@@ -94,6 +94,8 @@ pub enum Outcome {
         steps: u64,
         /// Wall-clock seconds of the run.
         wall_seconds: f64,
+        /// Derived results of the scene's experiment, JSON (`ExperimentResult`).
+        result: Option<String>,
     },
     /// Stopped with an error (unstable integration, scene that cannot be built, crash).
     Failed {

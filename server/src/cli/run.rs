@@ -27,12 +27,16 @@ pub struct RunArgs {
     /// Sample format.
     #[arg(long, value_enum, default_value = "csv")]
     pub format: Format,
-    /// Write samples to this file (default: standard output, unless --final-json).
+    /// Write samples to this file (default: standard output, unless --final-json or --result-json).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print the last sample as one JSON object on standard output.
     #[arg(long)]
     pub final_json: bool,
+    /// Print the experiment's derived results (peak, steady state, prepared state, warnings) as
+    /// one JSON object on standard output (scenes with an `experiment`).
+    #[arg(long)]
+    pub result_json: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -101,7 +105,7 @@ impl SampleWriter {
 /// `sable run`.
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&a.scene)?;
-    let out: Option<Box<dyn Write + Send>> = match (&a.out, a.final_json) {
+    let out: Option<Box<dyn Write + Send>> = match (&a.out, a.final_json || a.result_json) {
         (Some(p), _) => {
             Some(Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?)))
         }
@@ -156,7 +160,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         }
         if let Some(b) = &bar {
             b.set_position((p.fraction * 1000.0) as u64);
-            b.set_message(format!("t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
+            let stage = s.stage.as_deref().map(|n| format!("{n}  ")).unwrap_or_default();
+            b.set_message(format!("{stage}t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
         }
     };
     let result = pool.install(|| sable_worker::execute::run_scene_with_snapshots(&scene, &runner, &mut on_sample, &mut on_snapshot));
@@ -179,11 +184,17 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     if a.final_json {
         println!("{}", serde_json::to_string(&summary.last)?);
     }
+    if a.result_json {
+        println!("{}", serde_json::to_string(&summary.result)?);
+    }
     if !a.quiet {
         eprintln!(
             "finished: {:?} after {} steps, t = {:.6e} s, {:.2} s wall clock",
             summary.reason, summary.steps, summary.time, summary.wall_seconds
         );
+        if let Some(r) = &summary.result {
+            eprintln!("result: {}", serde_json::to_string_pretty(r)?);
+        }
         if let (Some(series), Some(dir)) = (&series, &a.snapshots) {
             eprintln!("{} snapshots in {} (open snapshots.pvd in ParaView)", series.len(), dir.display());
         }

@@ -199,6 +199,7 @@ fn job_json(j: &sable_client::Job) -> serde_json::Value {
         "error": if j.error_code.is_empty() { serde_json::Value::Null } else { serde_json::json!({"code": j.error_code, "message": j.error_message}) },
         "scene_hash": j.scene_hash, "engine_version": j.engine_version, "seed": j.seed, "steps": j.steps,
         "wall_seconds": j.wall_seconds, "sample_count": j.sample_count,
+        "result": serde_json::from_str::<serde_json::Value>(&j.result_json).unwrap_or(serde_json::Value::Null),
     })
 }
 

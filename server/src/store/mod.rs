@@ -535,17 +535,24 @@ impl JobStore {
             message: Option<&'a str>,
             steps: Option<u64>,
             wall_seconds: Option<f64>,
+            result: Option<&'a str>,
         }
         let end = match outcome {
-            Outcome::Succeeded { steps, wall_seconds } => {
-                Some(End { state: "succeeded", code: None, message: None, steps: Some(*steps), wall_seconds: Some(*wall_seconds) })
-            }
+            Outcome::Succeeded { steps, wall_seconds, result } => Some(End {
+                state: "succeeded",
+                code: None,
+                message: None,
+                steps: Some(*steps),
+                wall_seconds: Some(*wall_seconds),
+                result: result.as_deref(),
+            }),
             Outcome::Failed { code, message, steps, wall_seconds } => Some(End {
                 state: "failed",
                 code: Some(code),
                 message: Some(message),
                 steps: Some(*steps),
                 wall_seconds: Some(*wall_seconds),
+                result: None,
             }),
             Outcome::Cancelled => Some(End {
                 state: "cancelled",
@@ -553,16 +560,17 @@ impl JobStore {
                 message: Some("cancelled by the user"),
                 steps: None,
                 wall_seconds: None,
+                result: None,
             }),
             Outcome::Released => None,
         };
         let clear = "lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL";
         match end {
-            Some(End { state, code, message, steps, wall_seconds }) => {
+            Some(End { state, code, message, steps, wall_seconds, result }) => {
                 sqlx::query(&format!(
                     "UPDATE jobs SET state = ?1, progress = CASE WHEN ?1 = 'succeeded' THEN 1 ELSE progress END, error_code = ?2, \
                      error_message = ?3, steps = COALESCE(?4, steps), wall_seconds = COALESCE(?5, wall_seconds), finished_at = ?6, \
-                     {clear} WHERE id = ?7"
+                     result = ?8, {clear} WHERE id = ?7"
                 ))
                 .bind(state)
                 .bind(code)
@@ -571,6 +579,7 @@ impl JobStore {
                 .bind(wall_seconds)
                 .bind(now_ms())
                 .bind(lease.job_id)
+                .bind(result)
                 .execute(&mut *tx)
                 .await?;
             }
