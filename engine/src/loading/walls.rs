@@ -133,12 +133,14 @@ impl Wall {
             self.velocity = Vec3::zeros();
             self.velocity[self.face.axis] = if self.face.upper { speed } else { -speed };
         }
-        if let WallMotion::Stress { stress, max_speed, .. } = self.motion {
+        if let WallMotion::Stress { stress, max_speed, integral, .. } = self.motion {
             let error = stress - self.normal_stress(area);
             let proportional = self.gain * error;
             let raw = proportional + self.integral;
             let command = raw.clamp(-max_speed, max_speed);
-            if error.abs() <= SERVO_DEADBAND * stress {
+            if !integral {
+                self.integral = 0.0;
+            } else if error.abs() <= SERVO_DEADBAND * stress {
                 // Close enough: the integral leaks away, leaving the proportional servo, which
                 // is at rest only at zero error.
                 self.integral *= 1.0 - 1.0 / SERVO_INTEGRAL_STEPS;

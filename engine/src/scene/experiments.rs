@@ -232,7 +232,7 @@ fn preparation_stage(p: &Preparation, dim: usize, container: &Container) -> Stag
             .map(|w| {
                 let length = container.hi[w.face.axis] - container.lo[w.face.axis];
                 let max_speed = 0.5 * p.max_strain_rate * length;
-                WallDef { face: w.face, motion: WallMotion::Stress { stress: p.pressure, gain: None, max_speed } }
+                WallDef { face: w.face, motion: WallMotion::Stress { stress: p.pressure, gain: None, max_speed, integral: false } }
             })
             .collect();
     }
@@ -255,7 +255,7 @@ impl Experiment {
                 let mut walls = Vec::new();
                 for w in &container.walls {
                     let motion = if w.face.axis != *axis {
-                        WallMotion::Stress { stress: preparation.pressure, gain: None, max_speed: f64::INFINITY }
+                        WallMotion::Stress { stress: preparation.pressure, gain: None, max_speed: f64::INFINITY, integral: true }
                     } else if w.face.upper {
                         WallMotion::StrainRate(-strain_rate)
                     } else {
@@ -285,7 +285,7 @@ impl Experiment {
                                 WallMotion::Velocity(v)
                             }
                             (true, CompactionDrive::Stress { stress, max_speed, .. }) => {
-                                WallMotion::Stress { stress: *stress, gain: None, max_speed: *max_speed }
+                                WallMotion::Stress { stress: *stress, gain: None, max_speed: *max_speed, integral: false }
                             }
                         };
                         WallDef { face: w.face, motion }
@@ -356,7 +356,7 @@ mod tests {
             let expected = match (w.face.axis, w.face.upper) {
                 (1, true) => WallMotion::StrainRate(-0.2),
                 (1, false) => WallMotion::Fixed,
-                _ => WallMotion::Stress { stress: 100.0, gain: None, max_speed: f64::INFINITY },
+                _ => WallMotion::Stress { stress: 100.0, gain: None, max_speed: f64::INFINITY, integral: true },
             };
             assert_eq!(w.motion, expected, "{}", w.face.name());
         }

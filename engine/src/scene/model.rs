@@ -319,6 +319,10 @@ pub enum WallMotion {
         gain: Option<Real>,
         /// Speed limit, m/s.
         max_speed: Real,
+        /// Add the integral action of [`crate::loading::Wall::servo`] (walls that must follow
+        /// a deforming sample, such as the lateral walls of a biaxial test); plain servo walls
+        /// of the container are proportional only.
+        integral: bool,
     },
 }
 

@@ -550,7 +550,7 @@ fn check_container(
                     if let Some(v) = max_speed {
                         c.positive(&format!("{path}.max_speed"), *v);
                     }
-                    WallMotion::Stress { stress: *stress, gain: *gain, max_speed: max_speed.unwrap_or(f64::INFINITY) }
+                    WallMotion::Stress { stress: *stress, gain: *gain, max_speed: max_speed.unwrap_or(f64::INFINITY), integral: false }
                 }
             };
             walls.push(WallDef { face, motion });
