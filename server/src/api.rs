@@ -293,9 +293,11 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
                     rule: format!("at most {} particles in all on this server, got {n}", limits.max_particles),
                 });
             }
-            if let Some(steps) = scene.stop.steps.filter(|&k| k > limits.max_steps) {
+            let mut step_limits: Vec<(&str, u64)> = scene.stop.steps.map(|k| ("stop.steps", k)).into_iter().collect();
+            step_limits.extend(scene.experiment.iter().flat_map(|e| e.step_limits()));
+            for (field, steps) in step_limits.into_iter().filter(|&(_, k)| k > limits.max_steps) {
                 violations.push(Violation {
-                    field: format!("{}stop.steps", s.scene_path),
+                    field: format!("{}{field}", s.scene_path),
                     rule: format!("must be at most {} on this server, got {steps}", limits.max_steps),
                 });
             }

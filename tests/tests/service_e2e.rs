@@ -383,6 +383,8 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing() {
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
     let mut no_snapshot_interval = scene(10, 1);
     no_snapshot_interval["snapshots"] = json!({"every_steps": 0});
+    let mut long_preparation = compaction_scene();
+    long_preparation["experiment"] = json!({"kind": "isotropic", "preparation": {"pressure": 10.0, "max_steps": 3_000_000_000u64}});
     let cases: Vec<(Value, &str)> = vec![
         (json!({"scene": scene(10, 1), "colour": "red"}), "colour"),
         (json!({"scene": scene(10, 1), "priority": 5000}), "priority"),
@@ -390,6 +392,7 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing() {
         (json!({"scene": scene(10, 1), "name": ""}), "name"),
         (json!({"scene": scene(3_000_000_000, 1)}), "scene.stop.steps"),
         (json!({"scene": no_snapshot_interval}), "scene.snapshots.every_steps"),
+        (json!({"scene": long_preparation}), "scene.experiment.preparation.max_steps"),
     ];
     for (body, field) in cases {
         let (status, err) = h.post("/v1/jobs", &body, None).await;

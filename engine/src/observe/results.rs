@@ -243,12 +243,14 @@ impl Analysis {
                 }
             }
         }
-        if let Some(i) = r.inertial_number.filter(|&i| i > QUASI_STATIC_I) {
+        // The bounds themselves do not warn (1e-9 relative margin for rounding: a rate chosen for
+        // I = 1e-3 must not be flagged).
+        if let Some(i) = r.inertial_number.filter(|&i| i > QUASI_STATIC_I * (1.0 + 1e-9)) {
             r.warnings.push(format!(
                 "not quasi-static: inertial number I = {i:.2e} > {QUASI_STATIC_I:e}; lower the strain rate (or the wall speed) for quasi-static results"
             ));
         }
-        if let Some(k) = r.stiffness_number.filter(|&k| k < RIGID_KAPPA) {
+        if let Some(k) = r.stiffness_number.filter(|&k| k < RIGID_KAPPA * (1.0 - 1e-9)) {
             r.warnings.push(format!(
                 "not in the rigid limit: stiffness number {k:.2e} < {RIGID_KAPPA:e} (contacts deflect by about {:.1e} of a diameter); stiffen the contacts or lower the stress",
                 1.0 / k

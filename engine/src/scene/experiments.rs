@@ -247,6 +247,22 @@ fn preparation_stage(p: &Preparation, dim: usize, container: &Container) -> Stag
 }
 
 impl Experiment {
+    /// The step limits the experiment sets, with the path of the field that sets each (a
+    /// server may cap them; docs/scene-format.md §13).
+    pub fn step_limits(&self) -> Vec<(&'static str, u64)> {
+        match self {
+            Self::Isotropic { preparation } => vec![("experiment.preparation.max_steps", preparation.max_steps)],
+            Self::Triaxial { preparation, max_steps, .. } => {
+                let mut v = vec![("experiment.preparation.max_steps", preparation.max_steps)];
+                if *max_steps < u64::MAX {
+                    v.push(("experiment.max_steps", *max_steps));
+                }
+                v
+            }
+            Self::Compaction { max_steps, .. } => vec![("experiment.max_steps", *max_steps)],
+        }
+    }
+
     /// The stages the experiment runs, in order.
     pub fn stages(&self, dim: usize, container: &Container) -> Vec<Stage> {
         match self {

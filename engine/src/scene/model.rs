@@ -308,8 +308,9 @@ pub enum WallMotion {
     Fixed,
     /// Imposed velocity, m/s.
     Velocity(Vec3),
-    /// Moves along its normal so that the box length on its axis changes at a constant true
-    /// strain rate, 1/s (negative compresses): speed `rate × L` with `L` the current length.
+    /// Moves along its axis at `rate × L`, `L` the current box length on that axis, so that
+    /// the length changes at the constant true strain rate `rate`, 1/s (negative compresses),
+    /// while the opposite wall is fixed.
     StrainRate(Real),
     /// Servo to a compressive normal stress.
     Stress {
