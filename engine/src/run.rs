@@ -264,9 +264,9 @@ impl Runner {
     /// `snapshot_every` interval and with the final state (each step at most once). To stop the run from
     /// `on_snapshot` (a write failed), set `cancel`.
     ///
-    /// The stages run in order: each applies its controls, then steps until one of its criteria
-    /// (or, for a stage with an equilibrium criterion, equilibrium) is reached, and ends with a
-    /// sample. The run's own `stop` limits end everything at once.
+    /// The stages run in order: each applies its controls, starts with a sample (the first
+    /// stage's is the initial sample), then steps until one of its criteria (or, for a stage with
+    /// an equilibrium criterion, equilibrium) is reached, and ends with a sample. The run's own `stop` limits end everything at once.
     pub fn run_with_snapshots(
         &self,
         sim: &mut dyn Simulation,
@@ -370,6 +370,8 @@ impl Runner {
                 break ended;
             }
             start = begin(sim, start.index + 1)?;
+            // And every later stage starts with one (same step, zero strain), the origin of its curves.
+            last = take(sim, &start, &mut analysis)?;
         };
         if last.step != sim.steps_done() {
             last = take(sim, &start, &mut analysis)?;

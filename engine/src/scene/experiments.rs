@@ -212,11 +212,11 @@ pub(crate) fn check_experiment(
             Experiment::Compaction { axis, drive, max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps) }
         }
     };
-    let stages = experiment.stages(dim, container);
+    let stages = experiment.stages(container);
     (experiment, stages)
 }
 
-fn preparation_stage(p: &Preparation, dim: usize, container: &Container) -> Stage {
+fn preparation_stage(p: &Preparation, container: &Container) -> Stage {
     let mut controls = Controls { friction: Some(p.friction), local_damping: Some(p.local_damping), ..Controls::default() };
     if container.walls.is_empty() {
         controls.deformation = Some(Some(Deformation::Pressure {
@@ -236,7 +236,6 @@ fn preparation_stage(p: &Preparation, dim: usize, container: &Container) -> Stag
             })
             .collect();
     }
-    let _ = dim;
     Stage {
         name: "preparation".into(),
         controls,
@@ -264,9 +263,9 @@ impl Experiment {
     }
 
     /// The stages the experiment runs, in order.
-    pub fn stages(&self, dim: usize, container: &Container) -> Vec<Stage> {
+    pub fn stages(&self, container: &Container) -> Vec<Stage> {
         match self {
-            Self::Isotropic { preparation } => vec![preparation_stage(preparation, dim, container)],
+            Self::Isotropic { preparation } => vec![preparation_stage(preparation, container)],
             Self::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps } => {
                 let mut walls = Vec::new();
                 for w in &container.walls {
@@ -286,7 +285,7 @@ impl Experiment {
                     strain_axis: Some(*axis),
                     equilibrium: None,
                 };
-                vec![preparation_stage(preparation, dim, container), loading]
+                vec![preparation_stage(preparation, container), loading]
             }
             Self::Compaction { axis, drive, max_steps } => {
                 let walls = container
