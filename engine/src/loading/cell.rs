@@ -42,7 +42,7 @@ impl CellDeformation {
     pub fn new(kind: Deformation) -> Self {
         let rate = match kind {
             Deformation::StrainRate(r) => r,
-            Deformation::Pressure { .. } => Vec3::zeros(),
+            Deformation::Pressure { .. } | Deformation::NormalStress { .. } => Vec3::zeros(),
         };
         Self { kind, rate }
     }
@@ -55,16 +55,27 @@ impl CellDeformation {
     /// [`SERVO_STEP_FRACTION`] of the error: a stiff packing would otherwise overshoot every update
     /// (bang-bang oscillation), and a servo as fast as the collisions drives the packing
     /// dynamically and keeps feeding it kinetic energy.
-    pub fn servo(&mut self, pressure: Real, bulk: Real, dt: Real, domain: &Domain) {
-        if let Deformation::Pressure { target, max_strain_rate, gain } = self.kind {
-            let d = domain.dim as Real;
-            let limited = bulk > 0.0 && pressure > SERVO_FREE_BELOW * target;
-            let g = if limited { gain.min(SERVO_STEP_FRACTION / (bulk * d * dt)) } else { gain };
-            let error = pressure - target;
-            let r = if error.abs() <= SERVO_DEADBAND * target { 0.0 } else { (g * error).clamp(-max_strain_rate, max_strain_rate) };
-            for a in 0..domain.dim {
-                self.rate[a] = if domain.periodic[a] { r } else { 0.0 };
+    ///
+    /// `stress` holds the diagonal of the measured stress tensor (σ_xx, σ_yy, σ_zz), Pa: the
+    /// pressure servo reads its mean, a normal-stress servo its own axis (with the same
+    /// stiffness bound, one axis's strain moving σ_aa about as much as the volumetric strain
+    /// moves p).
+    pub fn servo(&mut self, stress: Vec3, bulk: Real, dt: Real, domain: &Domain) {
+        let d = domain.dim as Real;
+        let (measured, target, max_strain_rate, gain, axis) = match self.kind {
+            Deformation::Pressure { target, max_strain_rate, gain } => {
+                ((0..domain.dim).map(|a| stress[a]).sum::<Real>() / d, target, max_strain_rate, gain, None)
             }
+            Deformation::NormalStress { axis, target, max_strain_rate, gain } => (stress[axis], target, max_strain_rate, gain, Some(axis)),
+            Deformation::StrainRate(_) => return,
+        };
+        let limited = bulk > 0.0 && measured > SERVO_FREE_BELOW * target;
+        let g = if limited { gain.min(SERVO_STEP_FRACTION / (bulk * d * dt)) } else { gain };
+        let error = measured - target;
+        let r = if error.abs() <= SERVO_DEADBAND * target { 0.0 } else { (g * error).clamp(-max_strain_rate, max_strain_rate) };
+        for a in 0..domain.dim {
+            let driven = axis.is_none_or(|b| b == a);
+            self.rate[a] = if domain.periodic[a] && driven { r } else { 0.0 };
         }
     }
 

@@ -5,6 +5,8 @@
 //! - **Biaxial / triaxial** (N 2.25-2.28): the state after preparation; the peak of `ζ = q/p`;
 //!   the steady (critical) state, averaged over the last quarter of the axial strain; the
 //!   volumetric strain (compression positive) at its largest contraction and at the end.
+//! - **Plane shear** (N 3.1): the steady state, averaged over the second half of the shear
+//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n.
 //! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
 //!   and the final packing fraction, stress and strain.
 //!
@@ -122,6 +124,28 @@ pub struct CompactionResult {
     pub strain: f64,
 }
 
+/// The steady state of a plane shear: means over the second half of the shear strain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ShearResult {
+    /// Shear strain where the averaging window starts.
+    pub from_strain: f64,
+    /// Samples in the window.
+    pub samples: usize,
+    /// Mean effective friction `μ = τ / σ_n`.
+    pub mu: f64,
+    /// Its standard deviation over the window.
+    pub mu_std: f64,
+    /// Mean packing fraction.
+    pub phi: f64,
+    /// Mean coordination without rattlers.
+    pub z_no_rattlers: f64,
+    /// Mean inertial number measured in the samples (`γ̇ <d> sqrt(ρ / σ_n)`).
+    pub inertial_number: f64,
+    /// Mean normal stress σ_yy, Pa.
+    pub normal_stress: f64,
+}
+
 /// The derived results of an experiment (stored with the job; `GET /v1/jobs/{id}` returns them).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -143,6 +167,9 @@ pub struct ExperimentResult {
     /// Compaction results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compaction: Option<CompactionResult>,
+    /// Plane shear results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear: Option<ShearResult>,
     /// State at the end of the run.
     pub last: State,
     /// Inertial number of the loading (of the preparation for the isotropic test).
@@ -202,6 +229,7 @@ impl Analysis {
             steady: None,
             dilatancy: None,
             compaction: None,
+            shear: None,
             last: State::of(last),
             inertial_number: None,
             stiffness_number: None,
@@ -219,6 +247,34 @@ impl Analysis {
                 let loading: Vec<(Real, &Sample)> =
                     stage("loading").filter_map(|s| s.strain.as_ref().map(|e| (e.axes.get(*axis).copied().unwrap_or(0.0), s))).collect();
                 triaxial_results(&mut r, &loading);
+            }
+            Experiment::PlaneShear { preparation, shear_rate, .. } => {
+                r.stiffness_number = self.stiffness_number(preparation.pressure, mean_diameter);
+                let shear: Vec<&Sample> = stage("shear").collect();
+                // The steady state is averaged over the second half of the shear strain (the
+                // strain of a sample is its time since the stage started × the rate).
+                if let (Some(first), Some(last)) = (shear.first(), shear.last()) {
+                    let total = last.time - first.time;
+                    let from = first.time + 0.5 * total;
+                    let window: Vec<&&Sample> = shear.iter().filter(|s| s.time >= from).collect();
+                    if !window.is_empty() {
+                        let n = window.len() as Real;
+                        let mean = |f: &dyn Fn(&Sample) -> Real| window.iter().map(|s| f(s)).sum::<Real>() / n;
+                        let mu = mean(&|s| s.mu);
+                        let i = mean(&|s| s.inertial_number.unwrap_or(0.0));
+                        r.inertial_number = Some(i);
+                        r.shear = Some(ShearResult {
+                            from_strain: shear_rate * (from - first.time),
+                            samples: window.len(),
+                            mu,
+                            mu_std: (window.iter().map(|s| (s.mu - mu).powi(2)).sum::<Real>() / n).sqrt(),
+                            phi: mean(&|s| s.phi),
+                            z_no_rattlers: mean(&|s| s.z_no_rattlers),
+                            inertial_number: i,
+                            normal_stress: mean(&|s| s.stress.yy),
+                        });
+                    }
+                }
             }
             Experiment::Compaction { axis, drive, .. } => {
                 let run: Vec<&Sample> = stage("compaction").collect();

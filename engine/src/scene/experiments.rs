@@ -164,6 +164,39 @@ pub(crate) fn check_experiment(
             };
             Experiment::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps }
         }
+        ExperimentSpec::PlaneShear(k) => {
+            if !(container.periodic[..dim].iter().all(|&p| p)) {
+                c.fail("container.periodic", "the plane_shear experiment needs a fully periodic box (a Lees-Edwards cell)");
+            }
+            let preparation = check_preparation(c, "experiment.preparation", &k.preparation, grains);
+            let scale = (preparation.pressure.max(0.0) / grains.density).sqrt() / grains.diameter;
+            let shear_rate = match (k.shear_rate, k.inertial_number) {
+                (Some(r), None) => {
+                    c.positive("experiment.shear_rate", r);
+                    r
+                }
+                (None, i) => {
+                    let i = i.unwrap_or(1e-2);
+                    c.positive("experiment.inertial_number", i);
+                    i * scale
+                }
+                (Some(_), Some(_)) => {
+                    c.fail("experiment", "give shear_rate or inertial_number, not both");
+                    1.0
+                }
+            };
+            let strain = k.strain.unwrap_or(5.0);
+            c.positive("experiment.strain", strain);
+            let max_steps = match k.max_steps {
+                Some(0) => {
+                    c.fail("experiment.max_steps", "must be >= 1");
+                    1
+                }
+                Some(n) => n,
+                None => u64::MAX,
+            };
+            Experiment::PlaneShear { preparation, shear_rate, strain, max_steps }
+        }
         ExperimentSpec::Compaction(k) => {
             need_walls(c, "compaction");
             let axis = check_axis(c, "experiment.axis", k.axis.as_deref(), dim);
@@ -259,6 +292,13 @@ impl Experiment {
                 v
             }
             Self::Compaction { max_steps, .. } => vec![("experiment.max_steps", *max_steps)],
+            Self::PlaneShear { preparation, max_steps, .. } => {
+                let mut v = vec![("experiment.preparation.max_steps", preparation.max_steps)];
+                if *max_steps < u64::MAX {
+                    v.push(("experiment.max_steps", *max_steps));
+                }
+                v
+            }
         }
     }
 
@@ -286,6 +326,23 @@ impl Experiment {
                     equilibrium: None,
                 };
                 vec![preparation_stage(preparation, container), loading]
+            }
+            Self::PlaneShear { preparation, shear_rate, strain, max_steps } => {
+                let p = preparation.pressure;
+                let servo = Deformation::NormalStress {
+                    axis: 1,
+                    target: p,
+                    max_strain_rate: preparation.max_strain_rate,
+                    gain: preparation.max_strain_rate / p,
+                };
+                let shear = Stage {
+                    name: "shear".into(),
+                    controls: Controls { deformation: Some(Some(servo)), shear_rate: Some(*shear_rate), ..Controls::default() },
+                    until: Stop { strain: Some(*strain), steps: (*max_steps < u64::MAX).then_some(*max_steps), ..Stop::default() },
+                    strain_axis: None,
+                    equilibrium: None,
+                };
+                vec![preparation_stage(preparation, container), shear]
             }
             Self::Compaction { axis, drive, max_steps } => {
                 let walls = container
@@ -388,6 +445,28 @@ mod tests {
         assert!(prep.controls.walls.is_empty());
         assert!(matches!(prep.controls.deformation, Some(Some(crate::scene::Deformation::Pressure { target, max_strain_rate, .. }))
             if target == 1000.0 && max_strain_rate == 5.0));
+    }
+
+    #[test]
+    fn plane_shear_prepares_then_shears_under_a_normal_stress_servo() {
+        let s = scene(2, true, json!({"kind": "plane_shear", "preparation": {"pressure": 2500.0}, "inertial_number": 0.02, "strain": 2.0}));
+        let parsed = parse_scene(&s.to_string()).expect("valid");
+        let shear = &parsed.stages[1];
+        assert_eq!(shear.name, "shear");
+        // sqrt(p / rho) = 1 m/s, d = 1 mm: rate = 0.02 / 1e-3 = 20 1/s.
+        assert!((shear.controls.shear_rate.expect("rate") - 20.0).abs() < 1e-9);
+        assert!(
+            matches!(shear.controls.deformation, Some(Some(crate::scene::Deformation::NormalStress { axis: 1, target, .. })) if target == 2500.0)
+        );
+        assert_eq!(shear.until.strain, Some(2.0));
+        let v = violations(&scene(2, false, json!({"kind": "plane_shear", "preparation": {"pressure": 1.0}})));
+        assert!(v.iter().any(|x| x.starts_with("container.periodic: the plane_shear experiment needs a fully periodic box")), "{v:?}");
+        let v = violations(&scene(
+            2,
+            true,
+            json!({"kind": "plane_shear", "preparation": {"pressure": 1.0}, "shear_rate": 1.0, "inertial_number": 0.1}),
+        ));
+        assert!(v.iter().any(|x| x.starts_with("experiment: give shear_rate or inertial_number, not both")), "{v:?}");
     }
 
     #[test]

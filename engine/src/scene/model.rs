@@ -341,6 +341,18 @@ pub struct WallDef {
 pub enum Deformation {
     /// Constant true strain rates, 1/s.
     StrainRate(Vec3),
+    /// Servo of one axis's length to a normal stress σ_aa (the other axes keep their length):
+    /// the height of a sheared Lees-Edwards cell under an imposed normal stress.
+    NormalStress {
+        /// The controlled axis.
+        axis: usize,
+        /// Target σ_aa, Pa.
+        target: Real,
+        /// Largest strain-rate magnitude, 1/s.
+        max_strain_rate: Real,
+        /// Gain, 1/(s·Pa).
+        gain: Real,
+    },
     /// Isotropic pressure servo.
     Pressure {
         /// Target, Pa.
@@ -424,6 +436,9 @@ pub struct Controls {
     pub friction: Option<Real>,
     /// Cundall's local damping during the stage; `None`: the method's own setting.
     pub local_damping: Option<Real>,
+    /// `Some(rate)`: the Lees-Edwards shear rate becomes `rate` (1/s; x and y periodic), and the
+    /// grains' x-velocities get the change of the linear profile `Δrate (y - y_centre)`.
+    pub shear_rate: Option<Real>,
 }
 
 /// The equilibrium criterion of a stage: all must hold at `consecutive` checks in a row,
@@ -492,6 +507,19 @@ pub enum Experiment {
         /// Step limit of the loading.
         max_steps: u64,
     },
+    /// Plane shear flow in a Lees-Edwards cell (N 3.1; GDR MiDi 2004): isotropic preparation to
+    /// the pressure, then simple shear at a constant rate with the cell height (y) servo-controlled
+    /// to the normal stress σ_yy = pressure.
+    PlaneShear {
+        /// The isotropic compression (periodic cell).
+        preparation: Preparation,
+        /// Shear rate, 1/s.
+        shear_rate: Real,
+        /// Shear strain at which the test ends.
+        strain: Real,
+        /// Step limit of the shear.
+        max_steps: u64,
+    },
     /// Uniaxial compaction (N 2.1): the upper wall of `axis` moves down at a constant speed (or
     /// is servo-controlled to a stress), the other walls are fixed.
     Compaction {
@@ -533,6 +561,7 @@ impl Experiment {
             Self::Triaxial { .. } if dim == 2 => "biaxial",
             Self::Triaxial { .. } => "triaxial",
             Self::Compaction { .. } => "compaction",
+            Self::PlaneShear { .. } => "plane_shear",
         }
     }
 }

@@ -403,6 +403,28 @@ pub enum ExperimentSpec {
     Triaxial(TriaxialSpec),
     /// Uniaxial compaction by the upper wall of an axis.
     Compaction(CompactionSpec),
+    /// Plane shear in a Lees-Edwards cell under an imposed normal stress.
+    PlaneShear(PlaneShearSpec),
+}
+
+/// Parameters of the plane shear test: `shear_rate` or `inertial_number` (not both).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneShearSpec {
+    /// The isotropic compression to the normal stress (periodic cell).
+    pub preparation: PreparationSpec,
+    /// Shear rate, 1/s.
+    #[serde(default)]
+    pub shear_rate: Option<f64>,
+    /// Inertial number that sets the shear rate: `I / <d> × sqrt(pressure / rho)` (default 1e-2).
+    #[serde(default)]
+    pub inertial_number: Option<f64>,
+    /// Final shear strain (default 5).
+    #[serde(default)]
+    pub strain: Option<f64>,
+    /// Step limit of the shear.
+    #[serde(default)]
+    pub max_steps: Option<u64>,
 }
 
 /// Parameters of the isotropic experiment.

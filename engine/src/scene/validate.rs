@@ -634,7 +634,7 @@ fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
         let deforms = container.lees_edwards.is_some_and(|(rate, _)| rate != 0.0)
             || container.deformation.is_some_and(|d| match d {
                 Deformation::StrainRate(r) => r != Vec3::zeros(),
-                Deformation::Pressure { .. } => true,
+                Deformation::Pressure { .. } | Deformation::NormalStress { .. } => true,
             })
             || container.walls.iter().any(wall_moves);
         if !deforms {

@@ -415,20 +415,21 @@ impl Dem {
         (0..self.dim).filter(|&a| a != axis).map(|a| self.domain.length(a)).product()
     }
 
-    /// Mean pressure from the virial of the current forces and the kinetic part (Pa), and the
-    /// affine estimate of the bulk stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
-    fn pressure_and_stiffness(&self) -> (Real, Real) {
+    /// Diagonal of the stress tensor from the virial of the current forces and the kinetic part
+    /// (Pa; velocities relative to the Lees-Edwards profile), and the affine estimate of the bulk
+    /// stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
+    fn stress_and_stiffness(&self) -> (Vec3, Real) {
         // Partial sums per particle block, added in order: the same result for any thread count.
         let p = &self.p;
-        let partial: Vec<(Real, Real)> = self
+        let partial: Vec<(Vec3, Real)> = self
             .contacts
             .par_iter()
             .map(|list| {
-                let (mut virial, mut stiff) = (0.0, 0.0);
+                let (mut virial, mut stiff) = (Vec3::zeros(), 0.0);
                 for c in list {
                     let (i, j) = (c.i as usize, c.j as usize);
                     let l = self.nl.separation(c.q as usize, &p.pos, &self.domain).0;
-                    virial += c.out.force.dot(&l);
+                    virial += c.out.force.component_mul(&l);
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let delta = ri + rj - l.norm();
                     if delta > 0.0 {
@@ -439,10 +440,15 @@ impl Dem {
                 (virial, stiff)
             })
             .collect();
-        let (virial, stiff) = partial.iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-        let kinetic: Real = p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum();
+        let (virial, stiff) = partial.iter().fold((Vec3::zeros(), 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let (rate, ymid) = (self.domain.shear_rate, 0.5 * (self.domain.lo.y + self.domain.hi.y));
+        let kinetic: Vec3 = p.vel.iter().zip(&p.pos).zip(&p.mass).fold(Vec3::zeros(), |acc, ((v, x), m)| {
+            let mut u = *v;
+            u.x -= rate * (x.y - ymid);
+            acc + u.component_mul(&u) * *m
+        });
         let (d, v) = (self.dim as Real, self.domain.volume());
-        ((virial + kinetic) / (d * v), stiff / (d * d * v))
+        ((virial + kinetic) / v, stiff / (d * d * v))
     }
 
     fn boundaries(&mut self) {
@@ -463,11 +469,14 @@ impl Dem {
         self.domain.advance_shear(dt);
         if self.deformation.is_some() {
             if self.step.is_multiple_of(SERVO_EVERY)
-                && matches!(self.deformation.as_ref().map(|d| d.kind), Some(Deformation::Pressure { .. }))
+                && matches!(
+                    self.deformation.as_ref().map(|d| d.kind),
+                    Some(Deformation::Pressure { .. } | Deformation::NormalStress { .. })
+                )
             {
-                let (pressure, bulk) = self.pressure_and_stiffness();
+                let (stress, bulk) = self.stress_and_stiffness();
                 if let Some(d) = self.deformation.as_mut() {
-                    d.servo(pressure, bulk, dt, &self.domain);
+                    d.servo(stress, bulk, dt, &self.domain);
                 }
             }
             if let Some(d) = &self.deformation {
@@ -719,6 +728,21 @@ impl Simulation for Dem {
             None => self.wall_table.clone(),
         };
         self.params.local_damping = controls.local_damping.unwrap_or(self.base_local_damping);
+        if let Some(rate) = controls.shear_rate {
+            // Into the box first (with the old images), so that every grain gets the profile of
+            // its own position.
+            self.refresh_neighbors();
+            let change = rate - self.domain.shear_rate;
+            let ymid = 0.5 * (self.domain.lo.y + self.domain.hi.y);
+            for (x, v) in self.p.pos.iter().zip(self.p.vel.iter_mut()) {
+                v.x += change * (x.y - ymid);
+            }
+            self.domain.shear_rate = rate;
+            // The shear velocities of the images changed: pairs across the boundary must be found
+            // again.
+            self.refresh_neighbors();
+            self.compute_forces(false);
+        }
         // New boundary work and forces from here: the energy budget restarts.
         self.budget = EnergyBudget::start(self.mechanical_energy());
         Ok(())
@@ -756,9 +780,17 @@ impl Simulation for Dem {
                 stress_error = stress_error.max((w.normal_stress(area) - target).abs() / target);
             }
         }
-        if let Some(Deformation::Pressure { target, .. }) = self.deformation.as_ref().map(|d| d.kind) {
-            let (pressure, _) = self.pressure_and_stiffness();
-            stress_error = stress_error.max((pressure - target).abs() / target);
+        match self.deformation.as_ref().map(|d| d.kind) {
+            Some(Deformation::Pressure { target, .. }) => {
+                let (stress, _) = self.stress_and_stiffness();
+                let pressure = (0..self.dim).map(|a| stress[a]).sum::<Real>() / self.dim as Real;
+                stress_error = stress_error.max((pressure - target).abs() / target);
+            }
+            Some(Deformation::NormalStress { axis, target, .. }) => {
+                let (stress, _) = self.stress_and_stiffness();
+                stress_error = stress_error.max((stress[axis] - target).abs() / target);
+            }
+            _ => {}
         }
         Balance { kinetic_energy: kinetic, elastic_energy: elastic, unbalanced_force, stress_error }
     }
