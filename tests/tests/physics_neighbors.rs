@@ -130,3 +130,47 @@ fn no_contact_is_missed_under_lees_edwards_shear() {
     assert!(wraps >= 2, "the offset must wrap around the box, wrapped {wraps} times");
     assert!(most > n / 10, "the test must see many contacts, saw at most {most}");
 }
+
+/// The plane-shear cell: Lees-Edwards shear while the height (y) is servo-controlled to a
+/// normal stress, so the offset wraps and the sheared period changes length at once.
+#[test]
+fn no_contact_is_missed_under_shear_with_a_breathing_height() {
+    let (d, spacing, cells) = (1e-3, 1.02e-3, 18);
+    let n = 290;
+    let side = cells as f64 * spacing;
+    let rate = 20.0;
+    let k_n = 1e5;
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "time_step_fraction": 0.02, "max_overlap": 0.2},
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "m", "count": n, "size": {"kind": "monodisperse", "diameter": d},
+                       "placement": {"kind": "lattice", "lattice": "square", "spacing": spacing, "select": "random"},
+                       "velocity": {"kind": "gaussian", "std": 0.02}}],
+        "container": {"min": [0, 0], "max": [side, side], "periodic": ["x", "y"],
+                      "lees_edwards": {"shear_rate": rate, "initial_profile": true}},
+        "stop": {"steps": 1},
+        "seed": 6
+    }));
+    let mut sim = common::dem(&s);
+    let target = 1e-3 * k_n;
+    sim.set_deformation(Some(Deformation::NormalStress { axis: 1, target, max_strain_rate: 5.0, gain: 5.0 / target }));
+    let (mut most, mut wraps, mut last_offset) = (0, 0, sim.domain().le_offset);
+    let (mut shortest, mut longest) = (side, side);
+    while sim.time() * rate < 3.0 {
+        for _ in 0..5 {
+            sim.step().expect("stable");
+        }
+        if sim.domain().le_offset < last_offset {
+            wraps += 1;
+        }
+        last_offset = sim.domain().le_offset;
+        let ly = sim.domain().length(1);
+        (shortest, longest) = (shortest.min(ly), longest.max(ly));
+        most = most.max(check(&sim, "shear with servo"));
+    }
+    assert!(wraps >= 2, "the offset must wrap around the box, wrapped {wraps} times");
+    assert!(longest - shortest > 0.02 * side, "the height must move: {shortest} .. {longest}");
+    assert_eq!(sim.domain().length(0), side, "only the height is servo-controlled");
+    assert!(most > n / 10, "the test must see many contacts, saw at most {most}");
+}
