@@ -292,6 +292,10 @@ pub fn status(a: StatusArgs) -> anyhow::Result<()> {
             println!("{}", job_json(&job));
         } else {
             println!("{}", job_line(&job));
+            // An experiment's derived results, readable.
+            if let Ok(result) = serde_json::from_str::<serde_json::Value>(&job.result_json) {
+                println!("result: {}", serde_json::to_string_pretty(&result)?);
+            }
         }
         Ok(())
     })
