@@ -91,86 +91,73 @@ fn no_contact_is_missed_while_the_periodic_cell_deforms() {
     assert!(sim.neighbor_builds() > 10, "the test must cross many neighbour-list rebuilds");
 }
 
-/// Under Lees-Edwards shear the image offset grows and wraps around the box length: pairs that
-/// cross the sheared boundary must still be found on both sides of the wrap.
-#[test]
-fn no_contact_is_missed_under_lees_edwards_shear() {
-    // A dense square lattice with 10% vacancies, sheared: disordered flow with many contacts.
+/// What a sheared run saw: the most contacts at a check, offset wraps, and the shortest and
+/// longest height of the cell.
+struct Sheared {
+    most: usize,
+    wraps: usize,
+    shortest: f64,
+    longest: f64,
+}
+
+const SHEAR_RATE: f64 = 20.0;
+const N_SHEARED: usize = 290;
+
+/// A dense square lattice of 290 disks with 10% vacancies, sheared by Lees-Edwards to a strain of
+/// 3 (the offset wraps about three times), with the height servo-controlled to `normal_stress`
+/// when given; every overlapping pair is checked every 5 steps.
+fn shear_and_check(seed: u64, normal_stress: Option<f64>, stage: &str) -> (Sheared, f64, f64) {
     let (d, spacing, cells) = (1e-3, 1.02e-3, 18);
-    let n = 290;
     let side = cells as f64 * spacing;
-    let rate = 20.0;
     let s = common::scene(json!({
         "dimension": 2,
         "method": {"kind": "dem", "time_step_fraction": 0.02, "max_overlap": 0.2},
         "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "m", "count": n, "size": {"kind": "monodisperse", "diameter": d},
+        "particles": [{"material": "m", "count": N_SHEARED, "size": {"kind": "monodisperse", "diameter": d},
                        "placement": {"kind": "lattice", "lattice": "square", "spacing": spacing, "select": "random"},
                        "velocity": {"kind": "gaussian", "std": 0.02}}],
         "container": {"min": [0, 0], "max": [side, side], "periodic": ["x", "y"],
-                      "lees_edwards": {"shear_rate": rate, "initial_profile": true}},
+                      "lees_edwards": {"shear_rate": SHEAR_RATE, "initial_profile": true}},
         "stop": {"steps": 1},
-        "seed": 5
+        "seed": seed
     }));
     let mut sim = common::dem(&s);
-    let mut most = 0;
-    let mut wraps = 0;
+    if let Some(target) = normal_stress {
+        sim.set_deformation(Some(Deformation::NormalStress { axis: 1, target, max_strain_rate: 5.0, gain: 5.0 / target }));
+    }
+    let mut seen = Sheared { most: 0, wraps: 0, shortest: side, longest: side };
     let mut last_offset = sim.domain().le_offset;
-    // Shear to a strain of 3: the offset wraps about three times.
-    while sim.time() * rate < 3.0 {
+    while sim.time() * SHEAR_RATE < 3.0 {
         for _ in 0..5 {
             sim.step().expect("stable");
         }
         if sim.domain().le_offset < last_offset {
-            wraps += 1;
+            seen.wraps += 1;
         }
         last_offset = sim.domain().le_offset;
-        most = most.max(check(&sim, "shear"));
+        let ly = sim.domain().length(1);
+        (seen.shortest, seen.longest) = (seen.shortest.min(ly), seen.longest.max(ly));
+        seen.most = seen.most.max(check(&sim, stage));
     }
-    assert!(wraps >= 2, "the offset must wrap around the box, wrapped {wraps} times");
-    assert!(most > n / 10, "the test must see many contacts, saw at most {most}");
+    (seen, side, sim.domain().length(0))
+}
+
+/// Under Lees-Edwards shear the image offset grows and wraps around the box length: pairs that
+/// cross the sheared boundary must still be found on both sides of the wrap.
+#[test]
+fn no_contact_is_missed_under_lees_edwards_shear() {
+    let (seen, _, _) = shear_and_check(5, None, "shear");
+    assert!(seen.wraps >= 2, "the offset must wrap around the box, wrapped {} times", seen.wraps);
+    assert!(seen.most > N_SHEARED / 10, "the test must see many contacts, saw at most {}", seen.most);
 }
 
 /// The plane-shear cell: Lees-Edwards shear while the height (y) is servo-controlled to a
 /// normal stress, so the offset wraps and the sheared period changes length at once.
 #[test]
 fn no_contact_is_missed_under_shear_with_a_breathing_height() {
-    let (d, spacing, cells) = (1e-3, 1.02e-3, 18);
-    let n = 290;
-    let side = cells as f64 * spacing;
-    let rate = 20.0;
-    let k_n = 1e5;
-    let s = common::scene(json!({
-        "dimension": 2,
-        "method": {"kind": "dem", "time_step_fraction": 0.02, "max_overlap": 0.2},
-        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "m", "count": n, "size": {"kind": "monodisperse", "diameter": d},
-                       "placement": {"kind": "lattice", "lattice": "square", "spacing": spacing, "select": "random"},
-                       "velocity": {"kind": "gaussian", "std": 0.02}}],
-        "container": {"min": [0, 0], "max": [side, side], "periodic": ["x", "y"],
-                      "lees_edwards": {"shear_rate": rate, "initial_profile": true}},
-        "stop": {"steps": 1},
-        "seed": 6
-    }));
-    let mut sim = common::dem(&s);
-    let target = 1e-3 * k_n;
-    sim.set_deformation(Some(Deformation::NormalStress { axis: 1, target, max_strain_rate: 5.0, gain: 5.0 / target }));
-    let (mut most, mut wraps, mut last_offset) = (0, 0, sim.domain().le_offset);
-    let (mut shortest, mut longest) = (side, side);
-    while sim.time() * rate < 3.0 {
-        for _ in 0..5 {
-            sim.step().expect("stable");
-        }
-        if sim.domain().le_offset < last_offset {
-            wraps += 1;
-        }
-        last_offset = sim.domain().le_offset;
-        let ly = sim.domain().length(1);
-        (shortest, longest) = (shortest.min(ly), longest.max(ly));
-        most = most.max(check(&sim, "shear with servo"));
-    }
-    assert!(wraps >= 2, "the offset must wrap around the box, wrapped {wraps} times");
-    assert!(longest - shortest > 0.02 * side, "the height must move: {shortest} .. {longest}");
-    assert_eq!(sim.domain().length(0), side, "only the height is servo-controlled");
-    assert!(most > n / 10, "the test must see many contacts, saw at most {most}");
+    let (seen, side, lx) = shear_and_check(6, Some(1e-3 * 1e5), "shear with servo");
+    assert!(seen.wraps >= 2, "the offset must wrap around the box, wrapped {} times", seen.wraps);
+    assert!(seen.longest - seen.shortest > 0.02 * side, "the height must move: {} .. {}", seen.shortest, seen.longest);
+    assert_eq!(lx, side, "only the height is servo-controlled");
+    assert!(seen.most > N_SHEARED / 10, "the test must see many contacts, saw at most {}", seen.most);
 }
