@@ -96,6 +96,9 @@ pub struct ListOptions {
     pub page_token: Option<String>,
 }
 
+/// Largest reply accepted, bytes (a final state of millions of particles).
+const MAX_STATE_MESSAGE: usize = 1 << 30;
+
 /// A connected client. Cheap to clone.
 #[derive(Debug, Clone)]
 pub struct Client {
@@ -111,7 +114,8 @@ impl Client {
             .http2_keep_alive_interval(Duration::from_secs(30))
             .keep_alive_while_idle(true);
         let channel = endpoint.connect().await.map_err(|e| ClientError::Connect { url: url.into(), reason: e.to_string() })?;
-        Ok(Self { inner: SimulationsClient::new(channel) })
+        // Final states are large (about 1 MB per 10,000 particles, compressed).
+        Ok(Self { inner: SimulationsClient::new(channel).max_decoding_message_size(MAX_STATE_MESSAGE) })
     }
 
     /// Validates and queues a scene given as JSON text.
@@ -150,6 +154,12 @@ impl Client {
     /// Cancels a queued or running job.
     pub async fn cancel(&mut self, id: i64) -> Result<Job, ClientError> {
         Ok(self.inner.cancel_job(pb::CancelJobRequest { id }).await?.into_inner())
+    }
+
+    /// The final state of a succeeded job (particles and box; docs/scene-format.md §14),
+    /// gzip-compressed JSON as the server keeps it.
+    pub async fn final_state_gz(&mut self, id: i64) -> Result<Vec<u8>, ClientError> {
+        Ok(self.inner.get_final_state(pb::GetFinalStateRequest { id }).await?.into_inner().state_gz)
     }
 
     /// The job's samples in a step range, at most `max_points` of them evenly spread.

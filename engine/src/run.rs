@@ -10,7 +10,7 @@ use crate::math::Vec3;
 use crate::observe::Sample;
 use crate::observe::Snapshot;
 use crate::observe::{Analysis, ExperimentResult, StrainSample};
-use crate::scene::{Controls, Equilibrium, Sampling, Scene, Stage, Stop};
+use crate::scene::{Controls, Equilibrium, Sampling, Scene, Stage, StateFile, Stop};
 
 /// A running simulation of one method.
 pub trait Simulation: Send {
@@ -45,6 +45,8 @@ pub trait Simulation: Send {
     fn balance(&self) -> Balance;
     /// Number-mean diameter (m) and solid density (kg/m³) of the grains.
     fn grain_scales(&self) -> (Real, Real);
+    /// The current particles and box, to start another run from ([`crate::scene::state`]).
+    fn saved_state(&self) -> StateFile;
 }
 
 /// Distance from static equilibrium ([`Simulation::balance`]).
@@ -377,6 +379,9 @@ impl Runner {
             last = take(sim, &start, &mut analysis)?;
         }
         snapshot(sim, &mut last_snapshot);
+        if analysis.needs_final_state() {
+            analysis.final_state(&sim.saved_state());
+        }
         let (d, rho) = sim.grain_scales();
         let result = analysis.finish(d, rho);
         Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last, result })

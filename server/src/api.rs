@@ -6,6 +6,7 @@ use sable_engine::scene::{parse_scene, Violation};
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
+use crate::start_from;
 use crate::store::{JobRow, JobState, JobStore, ListFilter, NewJob, StoreError};
 
 /// Every error the APIs return. Messages name the field and the rule, never internals.
@@ -284,9 +285,35 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     if text.len() > limits.max_body_bytes {
         return Err(ApiError::TooLarge(limits.max_body_bytes));
     }
-    let scene = match parse_scene(&text) {
-        Ok(scene) => {
-            let n: usize = scene.sets.iter().map(|x| x.count).sum();
+    // A scene that starts from a job's final state is checked with that state in place; the
+    // job keeps the scene as submitted (the state goes in again when a worker leases it).
+    let checked = match start_from::referenced_job(&s.scene) {
+        None => Some(text.clone()),
+        Some(from) => match store.final_state(from).await {
+            Ok(gz) => {
+                let state = sable_worker::source::gunzip(&gz, start_from::MAX_STATE_BYTES)
+                    .map_err(|e| ApiError::Internal(format!("the final state of job {from} cannot be read: {e}")))?;
+                let mut scene = s.scene.clone();
+                start_from::inline_state(&mut scene, &state)
+                    .map_err(|e| ApiError::Internal(format!("the final state of job {from} is not JSON: {e}")))?;
+                Some(scene.to_string())
+            }
+            Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
+                violations.push(Violation {
+                    field: format!("{}start_from.job", s.scene_path),
+                    rule: format!("job {from} has no final state: name a job of this server that succeeded"),
+                });
+                None
+            }
+            Err(e) => return Err(e.into()),
+        },
+    };
+    // (None: the referenced state is missing, reported above.)
+    let parsed = checked.as_deref().map(parse_scene);
+    let scene = match parsed {
+        None => None,
+        Some(Ok(scene)) => {
+            let n = scene.particle_count();
             if n > limits.max_particles {
                 violations.push(Violation {
                     field: format!("{}particles", s.scene_path),
@@ -303,14 +330,22 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
             }
             Some(scene)
         }
-        Err(v) => {
-            violations.extend(v.into_iter().map(|v| Violation {
-                field: if v.field.is_empty() {
-                    s.scene_path.trim_end_matches('.').to_string()
-                } else {
-                    format!("{}{}", s.scene_path, v.field)
-                },
-                rule: v.rule,
+        Some(Err(v)) => {
+            let from = start_from::referenced_job(&s.scene);
+            violations.extend(v.into_iter().map(|v| {
+                // A rule the referenced state breaks is reported on the reference the user wrote.
+                let (field, rule) = match (from, v.field.strip_prefix("start_from.state")) {
+                    (Some(job), Some(rest)) => (format!("start_from.job{rest}"), format!("the final state of job {job}: {}", v.rule)),
+                    _ => (v.field, v.rule),
+                };
+                Violation {
+                    field: if field.is_empty() {
+                        s.scene_path.trim_end_matches('.').to_string()
+                    } else {
+                        format!("{}{field}", s.scene_path)
+                    },
+                    rule,
+                }
             }));
             None
         }

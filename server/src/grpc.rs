@@ -209,6 +209,12 @@ impl pb::simulations_server::Simulations for SimulationsService {
         let samples_json = samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
         Ok(Response::new(pb::GetSamplesResponse { samples_json }))
     }
+
+    async fn get_final_state(&self, req: Request<pb::GetFinalStateRequest>) -> Result<Response<pb::FinalState>, Status> {
+        let id = req.into_inner().id;
+        let state_gz = self.store.final_state(id).await.map_err(api::ApiError::from)?;
+        Ok(Response::new(pb::FinalState { job_id: id, state_gz }))
+    }
 }
 
 /// `sable.v1.Workers`: leases for remote worker pools.
@@ -306,7 +312,15 @@ impl pb::workers_server::Workers for WorkersService {
                         _ => return Err(Status::invalid_argument("result_json: must be a JSON object or empty")),
                     }
                 };
-                Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds, result }
+                // Checked to be gzip (the header): it is decompressed, with a bound, when read.
+                let state = if r.final_state_gz.is_empty() {
+                    None
+                } else if r.final_state_gz.starts_with(&[0x1f, 0x8b]) {
+                    Some(r.final_state_gz)
+                } else {
+                    return Err(Status::invalid_argument("final_state_gz: not a gzip stream"));
+                };
+                Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds, result, state }
             }
             PbOutcome::Failed => Outcome::Failed {
                 code: r.error_code.clone(),

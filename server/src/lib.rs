@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod openapi;
 pub mod rest;
 pub mod serve;
+pub mod start_from;
 pub mod store;
 pub mod watch;
 

@@ -1,6 +1,6 @@
 //! `sable`: the one entry point for users: run a scene locally (`run`, `validate`, `bench`),
 //! run the service (`serve`, `worker`), and talk to it (`submit`, `show`, `jobs`, `cancel`,
-//! `samples`).
+//! `samples`, `state`).
 
 mod cli;
 
@@ -39,6 +39,8 @@ enum Command {
     Cancel(cli::service::CancelArgs),
     /// Print a job's samples.
     Samples(cli::service::SamplesArgs),
+    /// Download the final state of a succeeded job (to start another scene from).
+    State(cli::service::StateArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -54,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::Jobs(a) => cli::service::list(a),
         Command::Cancel(a) => cli::service::cancel(a),
         Command::Samples(a) => cli::service::samples(a),
+        Command::State(a) => cli::service::state(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

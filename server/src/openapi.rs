@@ -40,6 +40,7 @@ pub struct SubmitBody {
         rest::events,
         rest::snapshots,
         rest::snapshot_file,
+        rest::final_state,
         rest::openapi,
         rest::healthz,
         rest::metrics

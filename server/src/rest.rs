@@ -11,6 +11,7 @@
 //! | GET | `/v1/jobs/{id}/events` | Server-Sent Events (`after_seq` or `Last-Event-ID` to resume) |
 //! | GET | `/v1/jobs/{id}/snapshots` | the job's VTK snapshots (index, step, time, file URLs) |
 //! | GET | `/v1/jobs/{id}/snapshots/{index}/{part}` | one file: `particles`, `contacts` or `walls` (`.vtp`) |
+//! | GET | `/v1/jobs/{id}/state` | the final state of a succeeded job (JSON; a scene's `start_from`) |
 //! | GET | `/v1/openapi.json` | the OpenAPI document |
 //! | GET | `/healthz`, `/metrics` | liveness, Prometheus text |
 
@@ -74,6 +75,7 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/jobs/{id}/events", get(events))
         .route("/v1/jobs/{id}/snapshots", get(snapshots))
         .route("/v1/jobs/{id}/snapshots/{index}/{part}", get(snapshot_file))
+        .route("/v1/jobs/{id}/state", get(final_state))
         .route("/v1/openapi.json", get(openapi))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
@@ -410,6 +412,30 @@ pub(crate) async fn snapshot_file(
         .map_err(|e| ApiError::Internal(format!("snapshot {index} of job {id} cannot be read: {e}")))?;
     let disposition = format!("attachment; filename=\"job{id}_{}_{index:06}.vtp\"", part.name());
     Ok(([(header::CONTENT_TYPE, "application/xml".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
+}
+
+/// `GET /v1/jobs/{id}/state`.
+#[utoipa::path(
+    get,
+    path = "/v1/jobs/{id}/state",
+    tag = "jobs",
+    summary = "The final state of a succeeded job: particles and box (docs/scene-format.md §14), to start another scene from",
+    params(("id" = i64, Path, description = "Job id")),
+    responses(
+        (status = 200, description = "The state (JSON)", body = Object, content_type = "application/json"),
+        (status = 400, description = "The id cannot be read", body = api::ErrorBody),
+        (status = 404, description = "No such job, or the job has no final state (it has not succeeded)", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn final_state(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let id = parse_id(&id)?;
+    let gz = st.store.final_state(id).await?;
+    let text = tokio::task::spawn_blocking(move || sable_worker::source::gunzip(&gz, crate::start_from::MAX_STATE_BYTES))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))?
+        .map_err(|e| ApiError::Internal(format!("the final state of job {id} cannot be read: {e}")))?;
+    let disposition = format!("attachment; filename=\"job{id}_state.json\"");
+    Ok(([(header::CONTENT_TYPE, "application/json".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
 }
 
 /// Samples as CSV with the engine's column names.

@@ -179,3 +179,159 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
     let sheared: Vec<_> = samples.iter().filter(|x| x.stage.as_deref() == Some("shear")).collect();
     assert!(sheared.iter().skip(1).all(|x| x.inertial_number.is_some_and(|i| i > 0.0)));
 }
+
+/// Deposition under gravity of 500 spheres (d 0.9-1.1 mm) onto a floor, periodic sideways so
+/// that only the floor and the free surface bound the deposit (about 7 diameters thick).
+/// Stiffness number 2e3 at the floor (deflections 5e-4 d, which change Φ by ~1e-3) and
+/// restitution 0.2 keep the run short.
+fn deposition(friction: f64) -> ExperimentResult {
+    let (r, samples) = run(json!({
+        "dimension": 3,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 200.0}, "restitution": 0.2, "friction": friction}},
+        "particles": [{"material": "glass", "count": 500, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0, 0], "max": [0.008, 0.008, 0.02], "periodic": ["x", "y"], "wall_material": "glass"},
+        "gravity": [0, 0, -9.81],
+        "experiment": {"kind": "deposition", "max_steps": 600000},
+        "sampling": {"every_steps": 10000},
+        "seed": 7
+    }));
+    assert!(samples.iter().all(|s| s.stage.as_deref() == Some("deposition")));
+    r
+}
+
+/// Gravity-deposited spheres (Silbert et al., PRE 65 031304, 2002): Φ ≈ 0.64 and Z ≈ 6
+/// frictionless, Φ ≈ 0.59-0.60 and Z ≈ 4.5 at μ = 0.5. A deposit 7 grains thick is looser by
+/// ~0.02 (the layer ordered by the flat floor and the rough free surface count in Φ_bed):
+/// measured 0.622 and 0.569, Z 5.91 and 4.52. Bounds: 0.60-0.65 and 0.55-0.61, Φ lower by more
+/// than 0.02 and Z by more than 0.5 with friction; the floor carries the whole weight (2%).
+#[test]
+fn deposited_spheres_are_looser_with_friction() {
+    let (smooth, rough) = (deposition(0.0), deposition(0.5));
+    for (name, r) in [("frictionless", &smooth), ("mu 0.5", &rough)] {
+        eprintln!("{name}: {}", serde_json::to_string(r).unwrap_or_default());
+    }
+    let (s, f) = (smooth.deposition.as_ref().expect("deposition"), rough.deposition.as_ref().expect("deposition"));
+    // The floor carries the weight of the deposit: m g / A (no side walls).
+    let weight = s.phi_bed * s.bed_height * 2500.0 * 9.81;
+    assert!((s.floor_stress - weight).abs() < 0.02 * weight, "floor {} Pa, weight {weight} Pa", s.floor_stress);
+    assert!((0.60..0.65).contains(&s.phi_bed), "frictionless deposit phi {}", s.phi_bed);
+    assert!((0.55..0.61).contains(&f.phi_bed), "frictional deposit phi {}", f.phi_bed);
+    assert!(s.phi_bed - f.phi_bed > 0.02, "phi {} vs {}", s.phi_bed, f.phi_bed);
+    assert!(smooth.last.z_no_rattlers > rough.last.z_no_rattlers + 0.5, "Z {} vs {}", smooth.last.z_no_rattlers, rough.last.z_no_rattlers);
+}
+
+/// A plane shear of 500 polydisperse spheres (d 0.9-1.1 mm, μ_p = 0.5) at 1 kPa, stiffness
+/// number 1e3, to a shear strain of 3 (steady state averaged over the second half). The shear
+/// forgets the preparation, which only needs to come near equilibrium (loose criterion).
+fn plane_shear_3d(inertial_number: f64) -> ExperimentResult {
+    let (r, _) = run(json!({
+        "dimension": 3,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1000.0}, "restitution": 0.5, "friction": 0.5}},
+        "particles": [{"material": "glass", "count": 500, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0, 0], "max": [0.0095, 0.0095, 0.0095], "periodic": ["x", "y", "z"]},
+        "experiment": {"kind": "plane_shear", "inertial_number": inertial_number, "strain": 3.0,
+                       "preparation": {"pressure": 1000.0,
+                                       "equilibrium": {"kinetic_ratio": 1e-2, "unbalanced_force": 0.1, "stress_tolerance": 0.05}}},
+        "sampling": {"every_steps": 2000},
+        "seed": 8
+    }));
+    r
+}
+
+/// 3D simple shear of frictional spheres at I = 1e-2 (REFERENCES.md C.13: μ_s 0.36-0.40 for
+/// μ_p = 0.4-0.5 and μ(I) = μ_s + (μ_2 - μ_s) / (1 + I_0 / I), so μ ≈ 0.38-0.42 at I = 1e-2;
+/// φ ≈ φ_max - b I ≈ 0.57-0.60). 500 grains fluctuate by a few hundredths: measured μ = 0.380,
+/// Φ = 0.588 here, and 0.356-0.361 with a stiffer contact or a longer strain; the issue's band
+/// 0.35-0.50 for μ, and 0.56-0.61 for Φ.
+#[test]
+fn dry_3d_plane_shear_at_i_1e_2_has_the_friction_of_frictional_spheres() {
+    let r = plane_shear_3d(1e-2);
+    eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
+    let s = r.shear.expect("shear results");
+    assert!((0.35..0.50).contains(&s.mu), "mu = {}", s.mu);
+    assert!((0.56..0.61).contains(&s.phi), "phi = {}", s.phi);
+    assert!((s.inertial_number - 1e-2).abs() < 2e-3, "I = {}", s.inertial_number);
+    assert!(s.cohesion_index.is_none(), "dry grains have no cohesion index");
+}
+
+/// The plane shear of 400 disks (μ_p = 0.5) at `pressure`, stiffness number `kappa`, at inertial
+/// number `i` to a shear strain of `strain`, with an optional liquid.
+fn plane_shear_2d(i: f64, strain: f64, pressure: f64, kappa: f64, liquid: Option<serde_json::Value>) -> ExperimentResult {
+    let mut material =
+        json!({"density": 2500.0, "contact": {"law": "linear", "k_n": kappa * pressure}, "restitution": 0.5, "friction": 0.5});
+    let mut set = json!({"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                         "placement": {"kind": "random"}});
+    if let Some(l) = liquid {
+        material["liquid"] = l;
+        set["wet_fraction"] = json!(1.0);
+    }
+    let (r, _) = run(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": {"disks": material},
+        "particles": [set],
+        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
+        "experiment": {"kind": "plane_shear", "preparation": {"pressure": pressure}, "inertial_number": i, "strain": strain},
+        "sampling": {"every_steps": 500},
+        "seed": 4
+    }));
+    r
+}
+
+/// μ(I) and Φ(I) (da Cruz et al. 2005, REFERENCES.md C.12: μ ≈ 0.25 + I, Φ ≈ 0.81 - 0.3 I for
+/// disks): from I = 4e-3 to 4e-2 μ must grow by more than 0.03 and Φ fall by more than 0.005,
+/// above the scatter of 400 disks (std of μ over a window 0.04-0.07, so ~0.01 on its mean;
+/// measured μ 0.277 → 0.337, Φ 0.811 → 0.803). One decade only: above I ≈ 0.1 the jammed
+/// prepared sample, sheared at once at the full rate, is crushed before the cell height can open
+/// (overlap guard), a limit of the experiment noted on its issue.
+#[test]
+fn friction_grows_and_packing_falls_with_the_inertial_number() {
+    let points: Vec<(f64, f64, f64)> = [(4e-3, 1.2, 1e3), (4e-2, 1.5, 1e3)]
+        .iter()
+        .map(|&(i, strain, kappa)| {
+            let r = plane_shear_2d(i, strain, 100.0, kappa, None);
+            eprintln!("I = {i}: {}", serde_json::to_string(&r).unwrap_or_default());
+            let s = r.shear.expect("shear results");
+            (s.inertial_number, s.mu, s.phi)
+        })
+        .collect();
+    for w in points.windows(2) {
+        let ((i0, mu0, phi0), (i1, mu1, phi1)) = (w[0], w[1]);
+        assert!(i1 > 5.0 * i0, "I {i0} then {i1}");
+        assert!(mu1 > mu0 + 0.03, "mu {mu0} at I = {i0}, {mu1} at I = {i1}");
+        assert!(phi1 < phi0 - 0.005, "phi {phi0} at I = {i0}, {phi1} at I = {i1}");
+    }
+}
+
+/// Wet against dry disks at the same I = 1e-2 (N 3.1: cohesion raises μ and lowers Φ at a
+/// given I, through I_m = I sqrt((1 + β/St)/(1 + α ξ))): water bridges (V_b = 1e-3 d³) at a
+/// normal stress set for ξ ≈ 2.
+#[test]
+fn wet_shear_has_more_friction_and_less_packing_than_dry() {
+    let pressure = 0.1;
+    let water =
+        json!({"surface_tension": 0.0728, "contact_angle": 0.0, "bridge_volume": 1.0e-12, "viscosity": 1.0e-3, "roughness": 1.0e-5});
+    let dry = plane_shear_2d(1e-2, 2.0, pressure, 1e3, None);
+    let wet = plane_shear_2d(1e-2, 2.0, pressure, 1e3, Some(water));
+    for (name, r) in [("dry", &dry), ("wet", &wet)] {
+        eprintln!("{name}: {}", serde_json::to_string(r).unwrap_or_default());
+    }
+    let (d, w) = (dry.shear.expect("dry"), wet.shear.expect("wet"));
+    let xi = w.cohesion_index.expect("wet grains have a cohesion index");
+    assert!(xi > 1.0, "xi = {xi}");
+    let (st, i_m) = (w.stokes_number.expect("St"), w.viscocohesive_inertial_number.expect("I_m"));
+    // St = ρ <d>² γ̇ / η with γ̇ = I / d sqrt(p / ρ) (here 0.16: viscous forces count); <d> is
+    // that of the 400 diameters drawn, within 2% of the distribution's 1 mm.
+    let diameter = 1.0e-3;
+    let rate = 1e-2 / diameter * (pressure / 2500.0f64).sqrt();
+    let st_nominal = 2500.0 * diameter * diameter * rate / 1.0e-3;
+    assert!((st - st_nominal).abs() < 0.04 * st_nominal, "St = {st}, nominal {st_nominal}");
+    let expected = w.inertial_number * ((1.0 + 0.075 / st) / (1.0 + 0.062 * xi)).sqrt();
+    assert!((i_m - expected).abs() < 1e-12, "I_m = {i_m}, expected {expected}");
+    assert!(w.mu > d.mu + 0.05, "mu wet {} dry {}", w.mu, d.mu);
+    assert!(w.phi < d.phi - 0.01, "phi wet {} dry {}", w.phi, d.phi);
+}

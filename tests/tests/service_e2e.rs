@@ -657,5 +657,76 @@ async fn an_experiments_results_are_stored_with_its_job() {
     let done = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(60)).await;
     assert_eq!(done["state"], "succeeded", "{done}");
     check_compaction(&done["result"], phi0);
+    // And the final state.
+    let (status, state) = h.get(&format!("/v1/jobs/{id}/state")).await;
+    assert_eq!(status, 200, "{state}");
+    assert_eq!(state["particles"]["radius"].as_array().map(Vec::len), Some(60));
     pool.shutdown(Duration::from_secs(2)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_starts_from_the_final_state_of_another() {
+    let h = Harness::start(1).await;
+    let (_, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
+    let first = job["id"].as_i64().expect("id");
+    // No state before the job has succeeded.
+    let (status, err) = h.get(&format!("/v1/jobs/{first}/state")).await;
+    assert_eq!(status, 404, "{err}");
+    let done = h.wait_state(first, &["succeeded", "failed"], Duration::from_secs(60)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+
+    // The final state over REST and gRPC: the compacted box (strain 0.45 from 12 mm).
+    let (status, state) = h.get(&format!("/v1/jobs/{first}/state")).await;
+    assert_eq!(status, 200, "{state}");
+    assert_eq!(state["format"], "sable-state");
+    assert_eq!(state["particles"]["radius"].as_array().map(Vec::len), Some(60));
+    let height = state["max"][1].as_f64().expect("max") - state["min"][1].as_f64().expect("min");
+    assert!((height - 0.012 * (-0.45f64).exp()).abs() < 1e-4, "height {height}");
+    let mut grpc = h.grpc().await;
+    let gz = grpc.get_final_state(pb::GetFinalStateRequest { id: first }).await.expect("state").into_inner().state_gz;
+    let text = sable_worker::source::gunzip(&gz, 1 << 30).expect("gzip");
+    assert_eq!(serde_json::from_str::<Value>(&text).expect("JSON"), state);
+
+    // A scene that starts from it: same grains, same box, the job keeps the reference.
+    let next = json!({
+        "name": "after compaction",
+        "dimension": 2,
+        "method": "dem",
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "start_from": {"job": first},
+        "container": {"wall_material": "glass"},
+        "stop": {"steps": 200},
+        "sampling": {"every_steps": 100}
+    });
+    let (status, job) = h.post("/v1/jobs", &next, None).await;
+    assert_eq!(status, 201, "{job}");
+    assert_eq!(job["scene"]["start_from"], json!({"job": first}));
+    let second = job["id"].as_i64().expect("id");
+    let done = h.wait_state(second, &["succeeded", "failed"], Duration::from_secs(60)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let phi = |id: i64, last: bool| {
+        let h = &h;
+        async move {
+            let (_, s) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+            let rows = s["samples"].as_array().expect("samples").clone();
+            let row = if last { rows.last() } else { rows.first() };
+            row.and_then(|r| r["phi"].as_f64()).expect("phi")
+        }
+    };
+    let (before, after) = (phi(first, true).await, phi(second, false).await);
+    assert!((before - after).abs() < 1e-9, "phi {before} then {after}");
+
+    // A reference to no state, or to a state that does not fit, is refused; nothing is written.
+    let jobs = h.jobs_in_db().await;
+    let mut three_d = next.clone();
+    three_d["dimension"] = json!(3);
+    let mut queued = next.clone();
+    queued["start_from"] = json!({"job": second + 100});
+    for (scene, field) in [(queued, "scene.start_from.job"), (three_d, "scene.start_from.job.dimension")] {
+        let (status, err) = h.post("/v1/jobs", &json!({"scene": scene}), None).await;
+        assert_eq!(status, 422, "{err}");
+        let fields: Vec<&str> = err["details"].as_array().expect("details").iter().filter_map(|v| v["field"].as_str()).collect();
+        assert!(fields.contains(&field), "expected a violation on '{field}', got {err}");
+    }
+    assert_eq!(h.jobs_in_db().await, jobs);
 }

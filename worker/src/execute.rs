@@ -6,26 +6,27 @@ use std::time::{Duration, Instant};
 
 use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, RunSummary, Runner};
-use sable_engine::scene::{format_violations, parse_scene, Method, Scene};
+use sable_engine::scene::{format_violations, parse_scene, Method, Scene, StateFile};
 use sable_engine::EngineError;
 use tokio_util::sync::CancellationToken;
 
-use crate::source::{JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
+use crate::source::{gzip, JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
 
 /// Builds the scene's method and runs it to its stop criteria with `runner`.
 pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
-    run_scene_with_snapshots(scene, runner, on_sample, &mut |_| {})
+    run_scene_with_snapshots(scene, runner, on_sample, &mut |_| {}).map(|(summary, _)| summary)
 }
 
-/// As [`run_scene`], with the snapshots the runner asks for.
+/// As [`run_scene`], with the snapshots the runner asks for; also returns the final state.
 pub fn run_scene_with_snapshots(
     scene: &Scene,
     runner: &Runner,
     on_sample: &mut dyn FnMut(&Sample, &Progress),
     on_snapshot: &mut dyn FnMut(&Snapshot),
-) -> Result<RunSummary, EngineError> {
+) -> Result<(RunSummary, StateFile), EngineError> {
     let mut sim = sable_engine::methods::build(scene)?;
-    runner.run_with_snapshots(sim.as_mut(), on_sample, on_snapshot)
+    let summary = runner.run_with_snapshots(sim.as_mut(), on_sample, on_snapshot)?;
+    Ok((summary, sim.saved_state()))
 }
 
 /// The threads a scene's method will use under a budget of `budget` threads: the scene's own
@@ -126,6 +127,8 @@ pub async fn execute<S: JobSource>(
                         index += 1;
                     },
                 )
+                // Compressed here, off the async threads.
+                .map(|(summary, state)| (summary, serde_json::to_string(&state).ok().map(|text| gzip(&text))))
             })
         }))
     });
@@ -170,11 +173,11 @@ pub async fn execute<S: JobSource>(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     let outcome = match result {
-        Ok(Ok(Ok(summary))) => {
+        Ok(Ok(Ok((summary, state)))) => {
             pending.fraction = 1.0;
             pending.remaining_seconds = Some(0.0);
             let result = summary.result.as_ref().and_then(|r| serde_json::to_string(r).ok());
-            Outcome::Succeeded { steps: summary.steps, wall_seconds, result }
+            Outcome::Succeeded { steps: summary.steps, wall_seconds, result, state }
         }
         Ok(Ok(Err(EngineError::Cancelled { .. }))) if released => Outcome::Released,
         Ok(Ok(Err(EngineError::Cancelled { .. }))) => Outcome::Cancelled,

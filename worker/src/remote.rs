@@ -73,11 +73,12 @@ impl JobSource for RemoteSource {
     async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {
         let mut req = FinishJobRequest { job_id: lease.job_id, lease_id: lease.lease_id.clone(), ..Default::default() };
         match outcome {
-            Outcome::Succeeded { steps, wall_seconds, result } => {
+            Outcome::Succeeded { steps, wall_seconds, result, state } => {
                 req.set_outcome(ProtoOutcome::Succeeded);
                 req.steps = steps;
                 req.wall_seconds = wall_seconds;
                 req.result_json = result.unwrap_or_default();
+                req.final_state_gz = state.unwrap_or_default();
             }
             Outcome::Failed { code, message, steps, wall_seconds } => {
                 req.set_outcome(ProtoOutcome::Failed);

@@ -96,6 +96,8 @@ pub enum Outcome {
         wall_seconds: f64,
         /// Derived results of the scene's experiment, JSON (`ExperimentResult`).
         result: Option<String>,
+        /// The final state (`StateFile`), gzip-compressed JSON.
+        state: Option<Vec<u8>>,
     },
     /// Stopped with an error (unstable integration, scene that cannot be built, crash).
     Failed {

@@ -41,6 +41,13 @@ impl Domain {
         self.shear_rate != 0.0
     }
 
+    /// True if the periodic images along y are shifted along x: a Lees-Edwards cell, sheared now
+    /// or before (its offset stays when the shear stops).
+    #[inline(always)]
+    pub fn shifted_images(&self) -> bool {
+        self.shear_rate != 0.0 || self.le_offset != 0.0
+    }
+
     /// Minimum-image separation `r_i - r_j'` and the x-velocity of the image j' relative to j
     /// (`k shear_rate L_y`), so that the relative velocity is `v_i - v_j - (that, 0, 0)`.
     /// Both particles must lie in the box (as [`Domain::wrap`] keeps them), so one period at
@@ -60,11 +67,10 @@ impl Domain {
                 0.0
             };
             if k != 0.0 {
+                // The offset may be non-zero without shear (a state saved from a sheared cell).
                 d.y -= k * ly;
-                if self.shear_rate != 0.0 {
-                    d.x -= k * self.le_offset;
-                    dvx = k * self.shear_rate * ly;
-                }
+                d.x -= k * self.le_offset;
+                dvx = k * self.shear_rate * ly;
             }
         }
         if self.periodic[0] {

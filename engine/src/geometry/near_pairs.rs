@@ -69,7 +69,7 @@ impl NearPairs {
             return true;
         }
         let mut closing = 2.0 * self.moved;
-        if domain.sheared() {
+        if domain.shifted_images() {
             closing += (domain.le_offset - self.ref_offset).abs();
         }
         for a in 0..domain.dim {

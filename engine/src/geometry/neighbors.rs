@@ -85,7 +85,7 @@ impl NeighborList {
             .map(|(ps, rs)| ps.iter().zip(rs).map(|(p, r)| (p - r).norm_squared()).fold(0.0, f64::max))
             .reduce(|| 0.0, f64::max);
         let mut drift = 2.0 * max2.sqrt();
-        if domain.sheared() {
+        if domain.shifted_images() {
             // Not the distance modulo L_x: when the offset wraps around the box, every pair
             // listed across the sheared boundary refers to an image one period away.
             drift += (domain.le_offset - self.ref_offset).abs();
@@ -160,7 +160,7 @@ impl NeighborList {
         let cell_items = &self.cell_items;
         let le_shift = |dy_wrap: i64| -> i64 {
             // Image rows one period up (dy_wrap = +1) are shifted by +offset along x.
-            if !domain.sheared() || dy_wrap == 0 {
+            if !domain.shifted_images() || dy_wrap == 0 {
                 return 0;
             }
             (dy_wrap as f64 * domain.le_offset / width[0]).floor() as i64
@@ -169,7 +169,7 @@ impl NeighborList {
         // Without Lees-Edwards and with at least three cells along every periodic axis, the 3^D
         // cells around a particle are distinct and the image of each is the number of periods
         // its index wrapped: the candidates need no minimum-image search.
-        let by_cell_image = !domain.sheared() && (0..dims).all(|a| !domain.periodic[a] || ncell[a] >= 3);
+        let by_cell_image = !domain.shifted_images() && (0..dims).all(|a| !domain.periodic[a] || ncell[a] >= 3);
         let chunks: Vec<(Vec<u32>, Vec<PairRef>)> = (0..n)
             .into_par_iter()
             .chunks(CHUNK)
@@ -221,7 +221,7 @@ impl NeighborList {
                             // Image x = x_j + wrap * offset must fall within one cell of i:
                             // x_j's cell lies in [cx - 2 - shift, cx + 1 - shift].
                             let dxs: std::ops::RangeInclusive<i64> =
-                                if wrap != 0 && domain.sheared() { -2 - shift..=1 - shift } else { -1..=1 };
+                                if wrap != 0 && domain.shifted_images() { -2 - shift..=1 - shift } else { -1..=1 };
                             for dx in dxs {
                                 let (x, _) = wrap_index(ci[0] as i64 + dx, ncell[0], domain.periodic[0]);
                                 let Some(x) = x else { continue };

@@ -6,9 +6,12 @@
 //!   the steady (critical) state, averaged over the last quarter of the axial strain; the
 //!   volumetric strain (compression positive) at its largest contraction and at the end.
 //! - **Plane shear** (N 3.1): the steady state, averaged over the second half of the shear
-//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n.
+//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n; for wet grains the
+//!   cohesion index ξ, the Stokes number St and the visco-cohesive inertial number I_m.
 //! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
 //!   and the final packing fraction, stress and strain.
+//! - **Deposition**: the height and packing fraction of the settled deposit (from the final
+//!   particles), the stress on the floor and the time to settle.
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
@@ -19,7 +22,8 @@ use serde::{Deserialize, Serialize};
 
 use super::sample::Sample;
 use crate::math::Real;
-use crate::scene::{CompactionDrive, ElasticLaw, Experiment, Scene};
+use crate::particles::Particles;
+use crate::scene::{CompactionDrive, ElasticLaw, Experiment, Scene, StateFile};
 
 /// Inertial number above which a test is not quasi-static.
 pub const QUASI_STATIC_I: Real = 1e-3;
@@ -124,6 +128,47 @@ pub struct CompactionResult {
     pub strain: f64,
 }
 
+/// Results of a deposition under gravity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DepositionResult {
+    /// Height of the deposit above the floor, m: twice the mean height of its solid volume (exact
+    /// for a layer of uniform packing fraction; a few stray grains on top barely move it).
+    pub bed_height: f64,
+    /// Packing fraction of the deposit: solid volume / (floor area × `bed_height`).
+    pub phi_bed: f64,
+    /// Normal stress on the floor at the end, Pa (the weight of the deposit per floor area,
+    /// less what the side walls carry).
+    pub floor_stress: f64,
+    /// Time the grains took to fall and settle, s.
+    pub time: f64,
+}
+
+/// Height and packing fraction of a deposit resting on the floor of axis `axis` (the upper
+/// wall if `floor_upper`): twice the mean height of the solid volume above the floor, and the
+/// solid volume over the floor area times that height.
+pub fn deposit_of(state: &StateFile, axis: usize, floor_upper: bool) -> (Real, Real) {
+    let dim = state.dimension as usize;
+    let p = &state.particles;
+    let (mut volume, mut moment) = (0.0, 0.0);
+    for (x, &r) in p.position.iter().zip(&p.radius) {
+        let v = Particles::volume_of(dim, r);
+        let above = match (x.get(axis), floor_upper) {
+            (Some(x), false) => x - state.min[axis],
+            (Some(x), true) => state.max[axis] - x,
+            (None, _) => 0.0,
+        };
+        volume += v;
+        moment += v * above;
+    }
+    if volume <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let height = 2.0 * moment / volume;
+    let area: Real = (0..dim).filter(|&a| a != axis).map(|a| state.max[a] - state.min[a]).product();
+    (height, if height > 0.0 && area > 0.0 { volume / (area * height) } else { 0.0 })
+}
+
 /// The steady state of a plane shear: means over the second half of the shear strain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -144,13 +189,39 @@ pub struct ShearResult {
     pub inertial_number: f64,
     /// Mean normal stress σ_yy, Pa.
     pub normal_stress: f64,
+    /// Wet grains (N 3.1): cohesion index `ξ = σ_c / σ_n` with `σ_c = f_c / d^(D-1)` and
+    /// `f_c = 2π γ cos θ <d>/2` the largest capillary force between grains of the mean size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cohesion_index: Option<f64>,
+    /// Wet grains: Stokes number `St = σ_i / σ_v = ρ <d>² γ̇ / η` (absent for an inviscid
+    /// liquid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stokes_number: Option<f64>,
+    /// Wet grains: visco-cohesive inertial number `I_m = I sqrt((1 + β/St) / (1 + α ξ))`,
+    /// α = 0.062, β = 0.075 (N 3.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub viscocohesive_inertial_number: Option<f64>,
+}
+
+/// α of the visco-cohesive inertial number (N 3.1).
+pub const I_M_ALPHA: Real = 0.062;
+/// β of the visco-cohesive inertial number (N 3.1).
+pub const I_M_BETA: Real = 0.075;
+
+/// The liquid of wet grains, for the wet shear numbers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct WetScales {
+    /// `2π γ cos θ`, N/m.
+    kappa: Real,
+    /// Viscosity, Pa·s.
+    viscosity: Real,
 }
 
 /// The derived results of an experiment (stored with the job; `GET /v1/jobs/{id}` returns them).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ExperimentResult {
-    /// `isotropic`, `biaxial`, `triaxial` or `compaction`.
+    /// `isotropic`, `biaxial`, `triaxial`, `plane_shear`, `compaction` or `deposition`.
     pub experiment: String,
     /// State at the end of the preparation (isotropic, biaxial, triaxial).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -170,6 +241,9 @@ pub struct ExperimentResult {
     /// Plane shear results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shear: Option<ShearResult>,
+    /// Deposition results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deposition: Option<DepositionResult>,
     /// State at the end of the run.
     pub last: State,
     /// Inertial number of the loading (of the preparation for the isotropic test).
@@ -189,13 +263,38 @@ pub struct Analysis {
     dim: usize,
     law: Option<ElasticLaw>,
     samples: Vec<Sample>,
+    /// Height and packing fraction of a deposit, from the final state.
+    deposit: Option<(Real, Real)>,
+    /// The liquid, when the grains are wet.
+    wet: Option<WetScales>,
 }
 
 impl Analysis {
     /// An analysis of the scene's experiment (none without one).
     pub fn new(scene: &Scene) -> Self {
-        let law = scene.sets.first().and_then(|s| scene.materials.get(s.material)).map(|m| m.law);
-        Self { experiment: scene.experiment.clone(), dim: scene.dim, law, samples: Vec::new() }
+        let first_material = match &scene.initial {
+            Some(st) => st.material.first().copied(),
+            None => scene.sets.first().map(|s| s.material),
+        };
+        let material = first_material.and_then(|m| scene.materials.get(m));
+        let any_wet = scene.sets.iter().any(|s| s.wet_fraction > 0.0) || scene.initial.as_ref().is_some_and(|st| st.wet.iter().any(|&w| w));
+        let wet = material
+            .and_then(|m| m.liquid)
+            .filter(|_| any_wet)
+            .map(|l| WetScales { kappa: 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos(), viscosity: l.viscosity });
+        Self { experiment: scene.experiment.clone(), dim: scene.dim, law: material.map(|m| m.law), samples: Vec::new(), deposit: None, wet }
+    }
+
+    /// True if the results need the final particles ([`Analysis::final_state`]).
+    pub fn needs_final_state(&self) -> bool {
+        matches!(self.experiment, Some(Experiment::Deposition { .. }))
+    }
+
+    /// Takes the final particles, for the results that depend on them (a deposit's height).
+    pub fn final_state(&mut self, state: &StateFile) {
+        if let Some(Experiment::Deposition { axis, floor_upper, .. }) = self.experiment {
+            self.deposit = Some(deposit_of(state, axis, floor_upper));
+        }
     }
 
     /// Takes one sample (kept only when there is an experiment).
@@ -230,6 +329,7 @@ impl Analysis {
             dilatancy: None,
             compaction: None,
             shear: None,
+            deposition: None,
             last: State::of(last),
             inertial_number: None,
             stiffness_number: None,
@@ -263,6 +363,18 @@ impl Analysis {
                         let mu = mean(&|s| s.mu);
                         let i = mean(&|s| s.inertial_number.unwrap_or(0.0));
                         r.inertial_number = Some(i);
+                        let normal_stress = mean(&|s| s.stress.yy);
+                        // Wet grains: cohesion index, Stokes number, visco-cohesive inertial number.
+                        let (mut xi, mut st, mut i_m) = (None, None, None);
+                        if let Some(w) = self.wet.filter(|_| normal_stress > 0.0) {
+                            let f_c = w.kappa * 0.5 * mean_diameter;
+                            let x = f_c / mean_diameter.powi(self.dim as i32 - 1) / normal_stress;
+                            let stokes = (w.viscosity > 0.0).then(|| density * mean_diameter * mean_diameter * shear_rate / w.viscosity);
+                            let viscous = stokes.map_or(0.0, |st| I_M_BETA / st);
+                            xi = Some(x);
+                            st = stokes;
+                            i_m = Some(i * ((1.0 + viscous) / (1.0 + I_M_ALPHA * x)).sqrt());
+                        }
                         r.shear = Some(ShearResult {
                             from_strain: shear_rate * (from - first.time),
                             samples: window.len(),
@@ -271,10 +383,20 @@ impl Analysis {
                             phi: mean(&|s| s.phi),
                             z_no_rattlers: mean(&|s| s.z_no_rattlers),
                             inertial_number: i,
-                            normal_stress: mean(&|s| s.stress.yy),
+                            normal_stress,
+                            cohesion_index: xi,
+                            stokes_number: st,
+                            viscocohesive_inertial_number: i_m,
                         });
                     }
                 }
+            }
+            Experiment::Deposition { axis, floor_upper, .. } => {
+                let floor = format!("{}_{}", crate::math::AXES[*axis], if *floor_upper { "max" } else { "min" });
+                let floor_stress = last.walls.iter().find(|w| w.name == floor).map_or(0.0, |w| w.normal_stress);
+                let (bed_height, phi_bed) = self.deposit.unwrap_or((0.0, 0.0));
+                r.deposition = Some(DepositionResult { bed_height, phi_bed, floor_stress, time: last.time });
+                r.stiffness_number = self.stiffness_number(floor_stress, mean_diameter);
             }
             Experiment::Compaction { axis, drive, .. } => {
                 let run: Vec<&Sample> = stage("compaction").collect();

@@ -18,6 +18,18 @@ const MAX_ATTEMPTS: usize = 20_000;
 
 /// Places every particle set of `scene` in `domain` (Lees-Edwards offset zero).
 pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, EngineError> {
+    if let Some(st) = &scene.initial {
+        // A saved state: its particles as they were (checked by the scene's validation).
+        let mut out = Particles::default();
+        for k in 0..st.pos.len() {
+            let density = scene.materials.get(st.material[k]).map_or(1.0, |m| m.density);
+            out.push(scene.dim, st.pos[k], st.vel[k], st.radius[k], density, st.material[k] as u16, st.wet[k]);
+            if let Some(w) = out.omega.last_mut() {
+                *w = st.omega[k];
+            }
+        }
+        return Ok(out);
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);
     let dmax = scene
         .sets

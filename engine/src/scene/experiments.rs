@@ -4,7 +4,7 @@
 use super::model::*;
 use super::spec::*;
 use super::violation::Checker;
-use crate::math::{Real, AXES};
+use crate::math::{Real, Vec3, AXES};
 
 /// Default step limit of a stage that runs until equilibrium.
 pub const DEFAULT_MAX_STEPS: u64 = 2_000_000;
@@ -112,6 +112,7 @@ pub(crate) fn check_experiment(
     dim: usize,
     container: &Container,
     grains: &GrainScales,
+    gravity: &Vec3,
 ) -> (Experiment, Vec<Stage>) {
     let walled = container.periodic[..dim].iter().all(|p| !p);
     let periodic = container.periodic[..dim].iter().all(|&p| p);
@@ -196,6 +197,38 @@ pub(crate) fn check_experiment(
                 None => u64::MAX,
             };
             Experiment::PlaneShear { preparation, shear_rate, strain, max_steps }
+        }
+        ExperimentSpec::Deposition(k) => {
+            // Gravity along one axis, towards a wall.
+            let along: Vec<usize> = (0..dim).filter(|&a| gravity[a] != 0.0).collect();
+            let axis = match along.as_slice() {
+                [a] => *a,
+                [] => {
+                    c.fail("gravity", "required by the deposition experiment: the grains fall along it");
+                    dim - 1
+                }
+                _ => {
+                    c.fail("gravity", "must point along one axis for the deposition experiment (tilt the box instead)");
+                    dim - 1
+                }
+            };
+            if container.periodic[axis] {
+                c.fail(
+                    "container.periodic",
+                    format!("the deposition needs a floor: {} (the axis of gravity) must not be periodic", AXES[axis]),
+                );
+            }
+            let local_damping = k.local_damping.unwrap_or(0.0);
+            if !(0.0..1.0).contains(&local_damping) {
+                c.fail("experiment.local_damping", format!("must be in [0, 1), got {local_damping}"));
+            }
+            Experiment::Deposition {
+                axis,
+                floor_upper: gravity[axis] > 0.0,
+                local_damping,
+                equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
+                max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps),
+            }
         }
         ExperimentSpec::Compaction(k) => {
             need_walls(c, "compaction");
@@ -291,7 +324,7 @@ impl Experiment {
                 }
                 v
             }
-            Self::Compaction { max_steps, .. } => vec![("experiment.max_steps", *max_steps)],
+            Self::Compaction { max_steps, .. } | Self::Deposition { max_steps, .. } => vec![("experiment.max_steps", *max_steps)],
             Self::PlaneShear { preparation, max_steps, .. } => {
                 let mut v = vec![("experiment.preparation.max_steps", preparation.max_steps)];
                 if *max_steps < u64::MAX {
@@ -305,6 +338,13 @@ impl Experiment {
     /// The stages the experiment runs, in order.
     pub fn stages(&self, container: &Container) -> Vec<Stage> {
         match self {
+            Self::Deposition { local_damping, equilibrium, max_steps, .. } => vec![Stage {
+                name: "deposition".into(),
+                controls: Controls { local_damping: Some(*local_damping), ..Controls::default() },
+                until: Stop { steps: Some(*max_steps), ..Stop::default() },
+                strain_axis: None,
+                equilibrium: Some(*equilibrium),
+            }],
             Self::Isotropic { preparation } => vec![preparation_stage(preparation, container)],
             Self::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps } => {
                 let mut walls = Vec::new();

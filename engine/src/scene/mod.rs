@@ -5,10 +5,12 @@ pub mod experiments;
 pub mod model;
 pub mod presets;
 pub mod spec;
+pub mod state;
 pub mod validate;
 mod violation;
 
 pub use model::*;
 pub use spec::SceneSpec;
+pub use state::{InitialState, StateFile};
 pub use validate::{parse_scene, validate};
 pub use violation::{format_violations, Violation};

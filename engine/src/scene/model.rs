@@ -16,8 +16,10 @@ pub struct Scene {
     pub method_reason: String,
     /// Materials; particle sets and walls refer to them by index.
     pub materials: Vec<Material>,
-    /// Particle sets in placement order.
+    /// Particle sets in placement order (empty when the scene starts from a state).
     pub sets: Vec<ParticleSet>,
+    /// The saved state the scene starts from (`start_from`), whose particles replace the sets.
+    pub initial: Option<std::sync::Arc<super::state::InitialState>>,
     /// Box, walls, periodicity and imposed deformation.
     pub container: Container,
     /// Gravity, m/s² (z = 0 in 2D).
@@ -37,6 +39,13 @@ pub struct Scene {
     pub snapshots: Option<u64>,
     /// Seed of all random draws.
     pub seed: u64,
+}
+
+impl Scene {
+    /// Number of particles: those of the sets, or of the state the scene starts from.
+    pub fn particle_count(&self) -> usize {
+        self.initial.as_ref().map_or(0, |st| st.radius.len()) + self.sets.iter().map(|s| s.count).sum::<usize>()
+    }
 }
 
 /// A simulation method and its parameters.
@@ -520,6 +529,20 @@ pub enum Experiment {
         /// Step limit of the shear.
         max_steps: u64,
     },
+    /// Deposition under gravity (the grains fall onto the floor of the box and settle), until
+    /// equilibrium.
+    Deposition {
+        /// Axis of gravity.
+        axis: usize,
+        /// The floor (the wall gravity points to) is the upper wall of the axis.
+        floor_upper: bool,
+        /// Cundall's local damping while the grains settle.
+        local_damping: Real,
+        /// When the deposit is settled.
+        equilibrium: Equilibrium,
+        /// Step limit.
+        max_steps: u64,
+    },
     /// Uniaxial compaction (N 2.1): the upper wall of `axis` moves down at a constant speed (or
     /// is servo-controlled to a stress), the other walls are fixed.
     Compaction {
@@ -562,6 +585,7 @@ impl Experiment {
             Self::Triaxial { .. } => "triaxial",
             Self::Compaction { .. } => "compaction",
             Self::PlaneShear { .. } => "plane_shear",
+            Self::Deposition { .. } => "deposition",
         }
     }
 }

@@ -21,8 +21,12 @@ pub struct SceneSpec {
     pub method: serde_json::Value,
     /// Named materials.
     pub materials: BTreeMap<String, MaterialSpec>,
-    /// Particle sets, placed in order.
+    /// Particle sets, placed in order (none when the scene starts from a saved state).
+    #[serde(default)]
     pub particles: Vec<ParticleSetSpec>,
+    /// A saved state to start from instead of placing particle sets (its particles and box).
+    #[serde(default)]
+    pub start_from: Option<StartFromSpec>,
     /// The box, its walls, periodic directions and imposed deformation.
     pub container: ContainerSpec,
     /// Gravity vector, m/s² (length = dimension). Default: none.
@@ -44,6 +48,23 @@ pub struct SceneSpec {
     /// Seed of every random draw (placement, velocities). Default 0.
     #[serde(default)]
     pub seed: Option<u64>,
+}
+
+/// Where a scene's particles come from when it starts from a saved state: exactly one field.
+/// The engine reads only `state`; the `sable` CLI replaces `file` by the file's content and the
+/// service replaces `job` by that job's final state before validation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartFromSpec {
+    /// Id of a succeeded job of the service, whose final state to start from.
+    #[serde(default)]
+    pub job: Option<i64>,
+    /// Path of a state file (`sable run --save-state`, `sable state`), relative to the scene file.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// The state itself.
+    #[serde(default)]
+    pub state: Option<Box<super::state::StateFile>>,
 }
 
 /// A material: density and contact law.
@@ -242,9 +263,11 @@ pub enum VelocitySpec {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContainerSpec {
-    /// Lower corner, m.
+    /// Lower corner, m (left out when the scene starts from a state, whose box it takes).
+    #[serde(default)]
     pub min: Vec<f64>,
-    /// Upper corner, m.
+    /// Upper corner, m (left out when the scene starts from a state).
+    #[serde(default)]
     pub max: Vec<f64>,
     /// Periodic axes (`"x"`, `"y"`, `"z"`).
     #[serde(default)]
@@ -405,6 +428,24 @@ pub enum ExperimentSpec {
     Compaction(CompactionSpec),
     /// Plane shear in a Lees-Edwards cell under an imposed normal stress.
     PlaneShear(PlaneShearSpec),
+    /// Deposition under gravity onto the floor of the box, until equilibrium.
+    Deposition(DepositionSpec),
+}
+
+/// Parameters of the deposition under gravity; every field has a default.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepositionSpec {
+    /// Cundall's local damping while the grains fall and settle (default 0: the contact laws'
+    /// own dissipation only).
+    #[serde(default)]
+    pub local_damping: Option<f64>,
+    /// Equilibrium criterion (kinetic ratio and unbalanced force; no stress boundary).
+    #[serde(default)]
+    pub equilibrium: Option<EquilibriumSpec>,
+    /// Step limit (default 2,000,000).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
 }
 
 /// Parameters of the plane shear test: `shear_rate` or `inertial_number` (not both).

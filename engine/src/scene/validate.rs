@@ -3,6 +3,7 @@
 use super::experiments::{check_experiment, GrainScales};
 use super::model::*;
 use super::spec::*;
+use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
 use crate::math::{vec_from_slice, Vec3, AXES};
 
@@ -65,11 +66,42 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         }
     };
 
-    let container = check_container(&mut c, &spec.container, dim, &material_index);
+    // A saved state to start from gives the particles and the box.
+    let state = check_start_from(&mut c, spec.start_from.as_ref(), spec.particles.is_empty());
+    let container = match state {
+        Some(st) => {
+            if !spec.container.min.is_empty() || !spec.container.max.is_empty() {
+                c.fail("container.min", "leave container.min and container.max out with start_from: the box is the state's");
+            }
+            let mut periodic: Vec<&str> = spec.container.periodic.iter().map(String::as_str).collect();
+            let mut theirs: Vec<&str> = st.periodic.iter().map(String::as_str).collect();
+            periodic.sort_unstable();
+            theirs.sort_unstable();
+            if periodic != theirs {
+                c.fail(
+                    "container.periodic",
+                    format!(
+                        "must match the periodic axes of the state it starts from ([{}]), got [{}]",
+                        theirs.join(", "),
+                        periodic.join(", ")
+                    ),
+                );
+            }
+            let spec_box = ContainerSpec { min: st.min.clone(), max: st.max.clone(), ..spec.container.clone() };
+            check_container(&mut c, &spec_box, dim, &material_index)
+        }
+        None => check_container(&mut c, &spec.container, dim, &material_index),
+    };
+    let initial = state.map(|st| std::sync::Arc::new(check_state(&mut c, "start_from.state", st, dim, &material_index)));
+
+    let gravity = match &spec.gravity {
+        Some(g) if c.vector("gravity", g, dim) => vec_from_slice(g),
+        _ => Vec3::zeros(),
+    };
 
     // Particle sets.
-    if spec.particles.is_empty() {
-        c.fail("particles", "must contain at least one particle set");
+    if spec.particles.is_empty() && initial.is_none() {
+        c.fail("particles", "must contain at least one particle set (or give start_from)");
     }
     let sets: Vec<ParticleSet> = spec
         .particles
@@ -82,11 +114,6 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         })
         .collect();
 
-    let gravity = match &spec.gravity {
-        Some(g) if c.vector("gravity", g, dim) => vec_from_slice(g),
-        _ => Vec3::zeros(),
-    };
-
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
             c.fail("stop", "required: give at least one of time, steps, packing_fraction, strain (or an experiment)");
@@ -98,13 +125,17 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             (None, stop, vec![stage])
         }
         (Some(e), limits) => {
-            let grains = match sets.first() {
-                Some(set) => {
+            let grains = match (&initial, sets.first()) {
+                (Some(st), _) => GrainScales {
+                    diameter: st.mean_diameter(),
+                    density: st.material.first().and_then(|&m| materials.get(m)).map_or(1.0, |m| m.density),
+                },
+                (None, Some(set)) => {
                     GrainScales { diameter: set.size.mean_diameter(), density: materials.get(set.material).map_or(1.0, |m| m.density) }
                 }
-                None => GrainScales { diameter: 1.0, density: 1.0 },
+                (None, None) => GrainScales { diameter: 1.0, density: 1.0 },
             };
-            let (experiment, stages) = check_experiment(&mut c, e, dim, &container, &grains);
+            let (experiment, stages) = check_experiment(&mut c, e, dim, &container, &grains, &gravity);
             let stop = match limits {
                 None => Stop::default(),
                 Some(s) => {
@@ -148,6 +179,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         method_reason,
         materials,
         sets,
+        initial,
         container,
         gravity,
         stop,
@@ -157,6 +189,33 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         snapshots,
         seed: spec.seed.unwrap_or(0),
     })
+}
+
+/// Checks `start_from` and returns the state to start from, if any. Only the inline `state` is
+/// read here: `job` and `file` must have been replaced by their content before validation.
+fn check_start_from<'a>(c: &mut Checker, s: Option<&'a StartFromSpec>, no_sets: bool) -> Option<&'a StateFile> {
+    let s = s?;
+    let given = [s.job.is_some(), s.file.is_some(), s.state.is_some()].iter().filter(|&&g| g).count();
+    if given != 1 {
+        c.fail("start_from", format!("give exactly one of job, file, state; got {given}"));
+    }
+    if !no_sets {
+        c.fail("particles", "must be empty with start_from: the particles are the state's");
+    }
+    if s.job.is_some() {
+        c.fail(
+            "start_from.job",
+            "names a job of the service: submit the scene to a Sable server (sable submit), which starts it from that job's final state; \
+             to run it locally, download the state (sable state ID --out FILE) and give start_from.file",
+        );
+    }
+    if s.file.is_some() {
+        c.fail(
+            "start_from.file",
+            "is read by the sable CLI (sable run, sable submit) relative to the scene file; elsewhere give the state itself as start_from.state",
+        );
+    }
+    s.state.as_deref()
 }
 
 fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {

@@ -1,5 +1,5 @@
 //! The service commands: `sable serve`, `sable worker`, and the client commands `submit`,
-//! `show`, `jobs`, `cancel` and `samples` (over gRPC, through sable-client).
+//! `show`, `jobs`, `cancel`, `samples` and `state` (over gRPC, through sable-client).
 
 use std::io::{IsTerminal, Write};
 use std::net::SocketAddr;
@@ -210,7 +210,8 @@ fn job_line(j: &sable_client::Job) -> String {
 
 /// `sable submit`.
 pub fn submit(a: SubmitArgs) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(&a.scene).with_context(|| format!("cannot read {}", a.scene.display()))?;
+    // A state file the scene starts from goes with it: the server never reads client paths.
+    let (text, _) = super::run::read_scene_text(&a.scene)?;
     runtime()?.block_on(async move {
         let mut client = Client::connect(&a.server.server).await?;
         let opts = SubmitOptions { name: a.name.clone(), priority: a.priority, request_id: a.key.clone(), max_attempts: None };
@@ -267,6 +268,33 @@ pub fn submit(a: SubmitArgs) -> anyhow::Result<()> {
         }
         if done.state() != JobState::Succeeded {
             bail!("job {} ended {}", done.id, state_name(done.state()));
+        }
+        Ok(())
+    })
+}
+
+/// Arguments of `sable state`.
+#[derive(Debug, Args)]
+pub struct StateArgs {
+    /// Job id (a succeeded job).
+    pub id: i64,
+    #[command(flatten)]
+    server: ServerArg,
+    /// Write the state to this file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `sable state ID`: the final state of a job, which a scene starts from with
+/// `"start_from": {"file": FILE}` (or, on the same server, `{"job": ID}`).
+pub fn state(a: StateArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let gz = Client::connect(&a.server.server).await?.final_state_gz(a.id).await?;
+        let text = sable_worker::source::gunzip(&gz, sable_server::start_from::MAX_STATE_BYTES)
+            .with_context(|| format!("the final state of job {} cannot be read", a.id))?;
+        match &a.out {
+            Some(path) => std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?,
+            None => println!("{text}"),
         }
         Ok(())
     })

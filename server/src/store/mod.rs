@@ -341,6 +341,33 @@ impl JobStore {
             .ok_or_else(|| StoreError::Missing(format!("job {id} has no snapshot {index}")))
     }
 
+    /// The final state of a succeeded job, gzip-compressed JSON as stored.
+    pub async fn final_state(&self, id: i64) -> Result<Vec<u8>, StoreError> {
+        let job = self.get(id).await?;
+        sqlx::query_scalar::<_, Vec<u8>>("SELECT state FROM job_states WHERE job_id = ?")
+            .bind(id)
+            .fetch_optional(&self.reader)
+            .await?
+            .ok_or_else(|| StoreError::Missing(format!("job {id} has no final state (it is {}: only a succeeded job has one)", job.state)))
+    }
+
+    /// The scene of a leased job with `start_from.job` replaced by that job's final state (the
+    /// scene as stored if it names none, or if the state cannot be read: the engine then
+    /// reports the reference it cannot resolve).
+    async fn resolve_start(tx: &mut Transaction<'static, Sqlite>, scene: String) -> Result<String, StoreError> {
+        let Ok(mut value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
+        let Some(from) = crate::start_from::referenced_job(&value) else { return Ok(scene) };
+        let gz: Option<Vec<u8>> =
+            sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = ?").bind(from).fetch_optional(&mut **tx).await?;
+        let Some(text) = gz.and_then(|gz| sable_worker::source::gunzip(&gz, crate::start_from::MAX_STATE_BYTES).ok()) else {
+            return Ok(scene);
+        };
+        if crate::start_from::inline_state(&mut value, &text).is_err() {
+            return Ok(scene);
+        }
+        Ok(value.to_string())
+    }
+
     /// Events of a job with seq > `after`, in order (at most `limit`).
     pub async fn events_after(&self, id: i64, after: i64, limit: i64) -> Result<Vec<EventRow>, StoreError> {
         Ok(sqlx::query_as::<_, EventRow>(
@@ -443,6 +470,7 @@ impl JobStore {
         // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
         sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
         sqlx::query("DELETE FROM snapshots WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
+        let scene = Self::resolve_start(&mut tx, scene).await?;
         let event = Self::state_event(&mut tx, id).await?;
         tx.commit().await?;
         self.notify(id, vec![event]);
@@ -538,7 +566,7 @@ impl JobStore {
             result: Option<&'a str>,
         }
         let end = match outcome {
-            Outcome::Succeeded { steps, wall_seconds, result } => Some(End {
+            Outcome::Succeeded { steps, wall_seconds, result, .. } => Some(End {
                 state: "succeeded",
                 code: None,
                 message: None,
@@ -582,6 +610,13 @@ impl JobStore {
                 .bind(result)
                 .execute(&mut *tx)
                 .await?;
+                if let Outcome::Succeeded { state: Some(gz), .. } = outcome {
+                    sqlx::query("INSERT OR REPLACE INTO job_states (job_id, state) VALUES (?, ?)")
+                        .bind(lease.job_id)
+                        .bind(gz)
+                        .execute(&mut *tx)
+                        .await?;
+                }
             }
             None => {
                 // Handed back by a worker that is shutting down: not the job's fault.

@@ -15,12 +15,13 @@ use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Wall};
-use crate::math::{Real, Vec3};
+use crate::math::{Real, Vec3, AXES};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::run::Balance;
 use crate::run::Simulation;
-use crate::scene::{Controls, Deformation, DemParams, Material, Placement, Scene, WallMotion};
+use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
+use crate::scene::{Controls, Deformation, DemParams, Material, Placement, Scene, StateFile, WallMotion};
 use forces::LOOP_CHUNK;
 use pair_state::PairContact;
 use stability::EnergyBudget;
@@ -224,7 +225,8 @@ impl Dem {
         } else {
             None
         };
-        domain.le_offset = 0.0;
+        // A state saved from a sheared Lees-Edwards cell keeps its image offset.
+        domain.le_offset = scene.initial.as_ref().map_or(0.0, |st| st.lees_edwards_offset);
         let mut sim = Self {
             dim: scene.dim,
             dt,
@@ -800,6 +802,50 @@ impl Simulation for Dem {
         let mean_d = 2.0 * self.p.radius.iter().sum::<Real>() / n;
         let mass: Real = self.p.mass.iter().sum();
         (mean_d, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
+    }
+
+    fn saved_state(&self) -> StateFile {
+        let p = &self.p;
+        let d = self.dim;
+        let mut st = StateFile {
+            format: STATE_FORMAT.to_string(),
+            version: STATE_VERSION,
+            dimension: d as u8,
+            time: self.time,
+            steps: self.step,
+            min: self.domain.lo.as_slice()[..d].to_vec(),
+            max: self.domain.hi.as_slice()[..d].to_vec(),
+            periodic: (0..d).filter(|&a| self.domain.periodic[a]).map(|a| AXES[a].to_string()).collect(),
+            lees_edwards_offset: self.domain.le_offset,
+            materials: Vec::new(),
+            particles: StateParticles {
+                material: Vec::with_capacity(p.len()),
+                radius: p.radius.clone(),
+                wet: if p.wet.iter().any(|&w| w) { p.wet.clone() } else { Vec::new() },
+                ..StateParticles::default()
+            },
+        };
+        // Only the materials the particles use (walls' and unused ones need not exist where the
+        // state goes), numbered in order of first use.
+        let mut number: Vec<Option<u16>> = vec![None; self.materials.len()];
+        for &m in &p.material {
+            let slot = &mut number[m as usize];
+            let k = *slot.get_or_insert_with(|| {
+                st.materials.push(self.materials[m as usize].name.clone());
+                (st.materials.len() - 1) as u16
+            });
+            st.particles.material.push(k);
+        }
+        let q = &mut st.particles;
+        for k in 0..p.len() {
+            // Particles return into the periodic box only at neighbour builds: wrap the copies.
+            let (mut x, mut v) = (p.pos[k], p.vel[k]);
+            self.domain.wrap(&mut x, &mut v);
+            q.position.push(x.as_slice()[..d].to_vec());
+            q.velocity.push(v.as_slice()[..d].to_vec());
+            q.angular_velocity.push(if d == 2 { vec![p.omega[k].z] } else { p.omega[k].as_slice().to_vec() });
+        }
+        st
     }
 
     fn snapshot(&self) -> Snapshot {

@@ -1,0 +1,266 @@
+//! Saved states: the particles and the box at the end of a run, as JSON (`sable run
+//! --save-state`, and the final state the service keeps for every finished job), and their check
+//! when a scene starts from one (`start_from`, `docs/scene-format.md` §14).
+//!
+//! A state holds what another run needs to go on from the same configuration: each particle's
+//! material (by name), radius, position, velocity and angular velocity, whether it is wet, and the
+//! box (bounds, periodic axes, Lees-Edwards image offset). It does not hold the contact history
+//! (tangential and rolling springs, capillary bridges): the new run starts with fresh springs, as a
+//! sample taken out of one apparatus and put into another would, and a stage that runs until
+//! equilibrium settles it again in a few thousand steps.
+
+use serde::{Deserialize, Serialize};
+
+use super::violation::Checker;
+use crate::math::{Real, Vec3, AXES};
+
+/// Value of [`StateFile::format`].
+pub const STATE_FORMAT: &str = "sable-state";
+/// Version of the state format written by this engine.
+pub const STATE_VERSION: u32 = 1;
+/// Violations reported per particle array before the rest are summarised.
+const MAX_PARTICLE_VIOLATIONS: usize = 5;
+
+/// A saved state, as written to and read from JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateFile {
+    /// Always [`STATE_FORMAT`].
+    pub format: String,
+    /// [`STATE_VERSION`].
+    pub version: u32,
+    /// 2 or 3.
+    pub dimension: u8,
+    /// Simulated time of the run that saved it, s (information only: a run started from a state
+    /// counts its time from 0).
+    #[serde(default)]
+    pub time: f64,
+    /// Steps of the run that saved it (information only).
+    #[serde(default)]
+    pub steps: u64,
+    /// Lower corner of the box, m (on walled axes: the walls' positions).
+    pub min: Vec<f64>,
+    /// Upper corner of the box, m.
+    pub max: Vec<f64>,
+    /// Periodic axes (`"x"`, `"y"`, `"z"`).
+    #[serde(default)]
+    pub periodic: Vec<String>,
+    /// Lees-Edwards image offset along x of the periodic image one period up along y, m, in
+    /// [0, L_x) (0 unless the run sheared a Lees-Edwards cell).
+    #[serde(default)]
+    pub lees_edwards_offset: f64,
+    /// Material names; particles refer to them by index.
+    pub materials: Vec<String>,
+    /// The particles.
+    pub particles: StateParticles,
+}
+
+/// The particles of a [`StateFile`], one entry per particle in every array.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateParticles {
+    /// Index into [`StateFile::materials`].
+    pub material: Vec<u16>,
+    /// Radius, m.
+    pub radius: Vec<f64>,
+    /// Centre, m (`dimension` components), inside the box.
+    pub position: Vec<Vec<f64>>,
+    /// Velocity, m/s (`dimension` components).
+    pub velocity: Vec<Vec<f64>>,
+    /// Angular velocity, rad/s: one component (about z) in 2D, three in 3D.
+    pub angular_velocity: Vec<Vec<f64>>,
+    /// Wet particles (those that carry liquid); empty: none.
+    #[serde(default)]
+    pub wet: Vec<bool>,
+}
+
+/// A checked state a scene starts from: particles in the scene's material numbering.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InitialState {
+    /// Lees-Edwards image offset, m.
+    pub lees_edwards_offset: Real,
+    /// Centres, m.
+    pub pos: Vec<Vec3>,
+    /// Velocities, m/s.
+    pub vel: Vec<Vec3>,
+    /// Angular velocities, rad/s.
+    pub omega: Vec<Vec3>,
+    /// Radii, m.
+    pub radius: Vec<Real>,
+    /// Index of each particle's material in the scene.
+    pub material: Vec<usize>,
+    /// Wet flags.
+    pub wet: Vec<bool>,
+}
+
+impl InitialState {
+    /// Number-mean diameter, m.
+    pub fn mean_diameter(&self) -> Real {
+        2.0 * self.radius.iter().sum::<Real>() / self.radius.len().max(1) as Real
+    }
+}
+
+/// Reports the first violations of a per-particle rule, then how many more there were.
+struct ParticleRule<'a> {
+    field: String,
+    seen: usize,
+    c: &'a mut Checker,
+}
+
+impl ParticleRule<'_> {
+    fn fail(&mut self, index: usize, rule: String) {
+        self.seen += 1;
+        if self.seen <= MAX_PARTICLE_VIOLATIONS {
+            self.c.fail(format!("{}[{index}]", self.field), rule);
+        }
+    }
+}
+
+impl Drop for ParticleRule<'_> {
+    fn drop(&mut self) {
+        if self.seen > MAX_PARTICLE_VIOLATIONS {
+            self.c.fail(self.field.clone(), format!("{} more particles break a rule", self.seen - MAX_PARTICLE_VIOLATIONS));
+        }
+    }
+}
+
+fn vec3(v: &[f64]) -> Vec3 {
+    let mut out = Vec3::zeros();
+    for (k, x) in v.iter().take(3).enumerate() {
+        out[k] = *x;
+    }
+    out
+}
+
+/// Checks a state against the scene it starts: dimension, box, periodic axes, material names
+/// (`material_index` maps a name to the scene's material, reporting unknown ones) and every
+/// particle. `path` is the state's field path (`start_from.state`).
+pub(crate) fn check_state(
+    c: &mut Checker,
+    path: &str,
+    s: &StateFile,
+    dim: usize,
+    material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
+) -> InitialState {
+    if s.format != STATE_FORMAT {
+        c.fail(format!("{path}.format"), format!("must be '{STATE_FORMAT}', got '{}'", s.format));
+    }
+    if s.version != STATE_VERSION {
+        c.fail(format!("{path}.version"), format!("this engine reads version {STATE_VERSION}, got {}", s.version));
+    }
+    if s.dimension as usize != dim {
+        c.fail(format!("{path}.dimension"), format!("the state is {}D, the scene {dim}D: they must agree", s.dimension));
+    }
+    let ok_box = c.vector(&format!("{path}.min"), &s.min, dim) & c.vector(&format!("{path}.max"), &s.max, dim);
+    let (lo, hi) = (vec3(&s.min), vec3(&s.max));
+    if ok_box {
+        for a in 0..dim {
+            if lo[a] >= hi[a] {
+                c.fail(format!("{path}.max[{a}]"), format!("must be > min[{a}] = {}, got {}", lo[a], hi[a]));
+            }
+        }
+    }
+    let mut periodic = [false; 3];
+    for (i, name) in s.periodic.iter().enumerate() {
+        match AXES[..dim].iter().position(|a| a == name) {
+            Some(a) => periodic[a] = true,
+            None => c.fail(format!("{path}.periodic[{i}]"), format!("must be one of {} in {dim}D, got '{name}'", AXES[..dim].join(", "))),
+        }
+    }
+    let offset = s.lees_edwards_offset;
+    if offset != 0.0 {
+        let lx = hi.x - lo.x;
+        if !(periodic[0] && periodic[1]) {
+            c.fail(format!("{path}.lees_edwards_offset"), "must be 0 unless x and y are periodic");
+        } else if !(offset.is_finite() && offset >= 0.0 && (!ok_box || offset < lx)) {
+            c.fail(format!("{path}.lees_edwards_offset"), format!("must be in [0, L_x = {lx}), got {offset}"));
+        }
+    }
+    let materials: Vec<usize> =
+        s.materials.iter().enumerate().map(|(i, name)| material_index(c, &format!("{path}.materials[{i}]"), name)).collect();
+
+    let p = &s.particles;
+    let n = p.radius.len();
+    let pp = format!("{path}.particles");
+    if n == 0 {
+        c.fail(format!("{pp}.radius"), "the state has no particle");
+    }
+    let mut lengths_ok = true;
+    for (name, len) in [
+        ("material", p.material.len()),
+        ("position", p.position.len()),
+        ("velocity", p.velocity.len()),
+        ("angular_velocity", p.angular_velocity.len()),
+    ] {
+        if len != n {
+            c.fail(format!("{pp}.{name}"), format!("must have one entry per particle ({n}, the length of radius), got {len}"));
+            lengths_ok = false;
+        }
+    }
+    if !p.wet.is_empty() && p.wet.len() != n {
+        c.fail(format!("{pp}.wet"), format!("must be empty or have one entry per particle ({n}), got {}", p.wet.len()));
+        lengths_ok = false;
+    }
+    let mut out = InitialState {
+        lees_edwards_offset: offset,
+        pos: Vec::new(),
+        vel: Vec::new(),
+        omega: Vec::new(),
+        radius: Vec::new(),
+        material: Vec::new(),
+        wet: Vec::new(),
+    };
+    if !lengths_ok {
+        return out;
+    }
+    {
+        let mut rule = ParticleRule { field: format!("{pp}.radius"), seen: 0, c };
+        for (i, r) in p.radius.iter().enumerate() {
+            if !(r.is_finite() && *r > 0.0) {
+                rule.fail(i, format!("must be > 0, got {r}"));
+            }
+        }
+    }
+    {
+        let mut rule = ParticleRule { field: format!("{pp}.material"), seen: 0, c };
+        for (i, m) in p.material.iter().enumerate() {
+            if *m as usize >= materials.len() {
+                rule.fail(i, format!("must index {path}.materials (0..{}), got {m}", materials.len()));
+            }
+        }
+    }
+    let omega_len = if dim == 2 { 1 } else { 3 };
+    for (name, arrays, want) in
+        [("position", &p.position, dim), ("velocity", &p.velocity, dim), ("angular_velocity", &p.angular_velocity, omega_len)]
+    {
+        let mut rule = ParticleRule { field: format!("{pp}.{name}"), seen: 0, c };
+        for (i, v) in arrays.iter().enumerate() {
+            if v.len() != want {
+                rule.fail(i, format!("must have {want} components, got {}", v.len()));
+            } else if v.iter().any(|x| !x.is_finite()) {
+                rule.fail(i, "must be finite numbers".to_string());
+            }
+        }
+    }
+    if ok_box {
+        let mut rule = ParticleRule { field: format!("{pp}.position"), seen: 0, c };
+        for (i, v) in p.position.iter().enumerate() {
+            if v.len() == dim && v.iter().all(|x| x.is_finite()) {
+                if let Some(a) = (0..dim).find(|&a| !(v[a] >= lo[a] && if periodic[a] { v[a] < hi[a] } else { v[a] <= hi[a] })) {
+                    rule.fail(i, format!("lies outside the box along {} ({} not in [{}, {}])", AXES[a], v[a], lo[a], hi[a]));
+                }
+            }
+        }
+    }
+    out.pos = p.position.iter().map(|v| vec3(v)).collect();
+    out.vel = p.velocity.iter().map(|v| vec3(v)).collect();
+    out.omega = p
+        .angular_velocity
+        .iter()
+        .map(|w| if dim == 2 { Vec3::new(0.0, 0.0, w.first().copied().unwrap_or(0.0)) } else { vec3(w) })
+        .collect();
+    out.radius = p.radius.clone();
+    out.material = p.material.iter().map(|&m| materials.get(m as usize).copied().unwrap_or(0)).collect();
+    out.wet = if p.wet.is_empty() { vec![false; n] } else { p.wet.clone() };
+    out
+}

@@ -1,0 +1,181 @@
+//! Saved states (`engine/src/scene/state.rs`, docs/scene-format.md §14): a run's final particles
+//! and box, written as JSON, start another run where the first one stopped.
+//!
+//! The checks compare the first sample of the second run with the last sample of the first:
+//! packing fraction and coordination are functions of the positions and radii only, so they must
+//! agree to rounding (the new run sorts its particles differently, which changes the order of
+//! sums, hence the 1e-9 tolerance). A state at equilibrium must still be at equilibrium: the same
+//! preparation, started from it, meets its criterion at the first checks.
+
+mod common;
+
+use sable_engine::observe::Sample;
+use sable_engine::run::{Runner, StopReason};
+use sable_engine::scene::{parse_scene, StateFile};
+use serde_json::{json, Value};
+
+/// Runs a scene to its end; returns its samples, the stop reason, the steps and the final state
+/// after a round trip through JSON text.
+fn run(scene: Value) -> (Vec<Sample>, StopReason, u64, StateFile) {
+    let scene = common::scene(scene);
+    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let runner = Runner::for_scene(&scene);
+    let mut samples = Vec::new();
+    let summary = runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone())).expect("run");
+    let text = serde_json::to_string(&sim.saved_state()).expect("state to JSON");
+    let state: StateFile = serde_json::from_str(&text).expect("state from JSON");
+    (samples, summary.reason, summary.steps, state)
+}
+
+fn disks() -> Value {
+    json!({"disks": common::linear_material(1.0e5, 0.5, 0.5)})
+}
+
+fn assert_same_packing(before: &Sample, after: &Sample) {
+    assert!((before.phi - after.phi).abs() < 1e-9, "phi {} then {}", before.phi, after.phi);
+    assert!((before.z - after.z).abs() < 1e-9, "Z {} then {}", before.z, after.z);
+}
+
+#[test]
+fn a_prepared_state_starts_another_run_at_equilibrium() {
+    let prepare = |start: Value, container: Value| {
+        let mut scene = json!({
+            "dimension": 2,
+            "method": {"kind": "dem", "threads": 1},
+            "materials": disks(),
+            "container": container,
+            "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0}},
+            "sampling": {"every_steps": 2000},
+            "seed": 5
+        });
+        match start {
+            Value::Null => {
+                scene["particles"] = json!([{"material": "disks", "count": 150, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                                            "placement": {"kind": "random"}}]);
+            }
+            state => scene["start_from"] = json!({"state": state}),
+        }
+        run(scene)
+    };
+    let (first, reason, steps, state) = prepare(Value::Null, json!({"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]}));
+    assert_eq!(reason, StopReason::Equilibrium);
+    assert!(steps > 5_000, "the gas took only {steps} steps to compress");
+    assert_eq!(state.particles.radius.len(), 150);
+    assert_eq!(state.periodic, vec!["x".to_string(), "y".to_string()]);
+    // The cell shrank: the state carries the compressed box.
+    assert!(state.max[0] - state.min[0] < 0.02 * 0.8, "box {:?} .. {:?}", state.min, state.max);
+
+    let (second, reason, steps, _) = prepare(serde_json::to_value(&state).expect("state value"), json!({"periodic": ["x", "y"]}));
+    assert_same_packing(first.last().expect("samples"), &second[0]);
+    // Equilibrium at the checks of steps 0, 500 and 1000 (defaults: every 500, 3 in a row).
+    assert_eq!(reason, StopReason::Equilibrium);
+    assert!(steps <= 1_000, "the prepared state needed {steps} steps to settle again");
+}
+
+#[test]
+fn a_sheared_lees_edwards_state_keeps_its_image_offset() {
+    let rate = 3.0;
+    let (first, _, _, state) = run(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": disks(),
+        "particles": [{"material": "disks", "count": 200, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.018, 0.018], "periodic": ["x", "y"]},
+        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "shear_rate": rate, "strain": 0.37},
+        "sampling": {"every_steps": 5000},
+        "seed": 6
+    }));
+    let lx = state.max[0] - state.min[0];
+    // The test means something only if the images are shifted by much more than a grain.
+    assert!(
+        state.lees_edwards_offset > 2.4e-3 && state.lees_edwards_offset < lx - 2.4e-3,
+        "offset {} in a cell {lx} wide",
+        state.lees_edwards_offset
+    );
+    // Sheared on, the run goes on where it stopped.
+    let scene = |lees_edwards: Value| {
+        let mut container = json!({"periodic": ["y", "x"]});
+        if !lees_edwards.is_null() {
+            container["lees_edwards"] = lees_edwards;
+        }
+        json!({
+            "dimension": 2,
+            "method": {"kind": "dem", "threads": 1},
+            "materials": disks(),
+            "start_from": {"state": state},
+            "container": container,
+            "stop": {"steps": 1}
+        })
+    };
+    let (second, _, _, _) = run(scene(json!({"shear_rate": rate})));
+    assert_same_packing(first.last().expect("samples"), &second[0]);
+    assert!(second[0].z > 2.5, "Z = {}: too few contacts to test", second[0].z);
+
+    // Sheared or at rest, the images stay shifted by the offset: the touching pairs are those
+    // found by brute force over the shifted images.
+    let touching = brute_force_touching(&state);
+    for lees_edwards in [json!({"shear_rate": rate}), Value::Null] {
+        let sim = common::dem(&common::scene(scene(lees_edwards)));
+        assert_eq!(sim.interacting_pairs(), touching);
+    }
+}
+
+/// Overlapping pairs of a 2D state periodic along x and y, each pair's nearest image among the
+/// 3 x 3 neighbouring periods (one period up along y is shifted by the offset along x).
+fn brute_force_touching(s: &StateFile) -> usize {
+    let (lx, ly, off) = (s.max[0] - s.min[0], s.max[1] - s.min[1], s.lees_edwards_offset);
+    let (x, r) = (&s.particles.position, &s.particles.radius);
+    let mut n = 0;
+    for i in 0..r.len() {
+        for j in i + 1..r.len() {
+            let mut best = f64::INFINITY;
+            for ky in [-1.0, 0.0, 1.0] {
+                for kx in [-2.0, -1.0, 0.0, 1.0, 2.0] {
+                    let dx = x[i][0] - x[j][0] - kx * lx - ky * off;
+                    let dy = x[i][1] - x[j][1] - ky * ly;
+                    best = best.min((dx * dx + dy * dy).sqrt());
+                }
+            }
+            if best < r[i] + r[j] {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+#[test]
+fn a_state_that_does_not_fit_the_scene_is_rejected_with_its_fields() {
+    let state = json!({
+        "format": "sable-state", "version": 1, "dimension": 3,
+        "min": [0, 0], "max": [0.01, 0.01], "periodic": ["x"],
+        "materials": ["clay"],
+        "particles": {"material": [0, 1], "radius": [5e-4, -1.0], "position": [[0.005, 0.005], [0.02, 0.005]],
+                      "velocity": [[0, 0], [0, 0]], "angular_velocity": [[0], [0]]}
+    });
+    let scene = json!({
+        "dimension": 2, "method": "dem",
+        "materials": disks(),
+        "particles": [{"material": "disks", "count": 3, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+        "start_from": {"state": state, "job": 4},
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "disks"},
+        "stop": {"steps": 10}
+    });
+    let violations = parse_scene(&scene.to_string()).expect_err("invalid");
+    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
+    for want in [
+        "start_from",
+        "particles",
+        "start_from.job",
+        "container.min",
+        "container.periodic",
+        "start_from.state.dimension",
+        "start_from.state.materials[0]",
+        "start_from.state.particles.radius[1]",
+        "start_from.state.particles.material[1]",
+        "start_from.state.particles.position[1]",
+    ] {
+        assert!(fields.contains(&want), "no violation of {want}: {violations:?}");
+    }
+}
