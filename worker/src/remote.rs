@@ -7,8 +7,9 @@ use tonic::transport::{Channel, Endpoint};
 
 use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
 
-/// Largest progress report a worker sends and the server accepts, bytes (snapshots of large
-/// scenes make large reports).
+/// Largest progress report a worker sends and the server accepts, and largest lease the worker
+/// reads, bytes (snapshots of large scenes make large reports; a scene that starts from a saved
+/// state carries it in its lease).
 pub const MAX_REPORT_BYTES: usize = 256 << 20;
 
 /// Leases jobs from a Sable server over gRPC.
@@ -24,8 +25,12 @@ impl RemoteSource {
             .map_err(|e| SourceError::Unavailable(format!("bad server URL '{url}': {e}")))?
             .connect_timeout(std::time::Duration::from_secs(5))
             .timeout(std::time::Duration::from_secs(30));
-        // Snapshots of large scenes make large reports.
-        Ok(Self { client: WorkersClient::new(endpoint.connect_lazy()).max_encoding_message_size(MAX_REPORT_BYTES) })
+        // Snapshots of large scenes make large reports; a scene that starts from a saved state
+        // carries it in its lease.
+        let client = WorkersClient::new(endpoint.connect_lazy())
+            .max_encoding_message_size(MAX_REPORT_BYTES)
+            .max_decoding_message_size(MAX_REPORT_BYTES);
+        Ok(Self { client })
     }
 }
 
