@@ -287,30 +287,28 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     }
     // A scene that starts from a job's final state is checked with that state in place; the
     // job keeps the scene as submitted (the state goes in again when a worker leases it).
-    let checked = match start_from::referenced_job(&s.scene) {
-        None => Some(text.clone()),
-        Some(from) => match store.final_state(from).await {
-            Ok(gz) => {
-                let state = sable_worker::source::gunzip(&gz, start_from::MAX_STATE_BYTES)
-                    .map_err(|e| ApiError::Internal(format!("the final state of job {from} cannot be read: {e}")))?;
-                let mut scene = s.scene.clone();
-                start_from::inline_state(&mut scene, &state)
-                    .map_err(|e| ApiError::Internal(format!("the final state of job {from} is not JSON: {e}")))?;
-                Some(scene.to_string())
-            }
+    let from = start_from::referenced_job(&s.scene);
+    let resolved = match from {
+        None => None,
+        Some(job) => match store.final_state(job).await {
+            Ok(gz) => Some(
+                start_from::with_state(&s.scene, &gz)
+                    .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?
+                    .to_string(),
+            ),
             Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
                 violations.push(Violation {
                     field: format!("{}start_from.job", s.scene_path),
-                    rule: format!("job {from} has no final state: name a job of this server that succeeded"),
+                    rule: format!("job {job} has no final state: name a job of this server that succeeded"),
                 });
                 None
             }
             Err(e) => return Err(e.into()),
         },
     };
-    // (None: the referenced state is missing, reported above.)
-    let parsed = checked.as_deref().map(parse_scene);
-    let scene = match parsed {
+    // (Nothing to parse when the referenced state is missing: reported above.)
+    let checked = if from.is_some() { resolved.as_deref() } else { Some(text.as_str()) };
+    let scene = match checked.map(parse_scene) {
         None => None,
         Some(Ok(scene)) => {
             let n = scene.particle_count();
@@ -331,12 +329,11 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
             Some(scene)
         }
         Some(Err(v)) => {
-            let from = start_from::referenced_job(&s.scene);
             violations.extend(v.into_iter().map(|v| {
                 // A rule the referenced state breaks is reported on the reference the user wrote.
-                let (field, rule) = match (from, v.field.strip_prefix("start_from.state")) {
-                    (Some(job), Some(rest)) => (format!("start_from.job{rest}"), format!("the final state of job {job}: {}", v.rule)),
-                    _ => (v.field, v.rule),
+                let (field, rule) = match from.and_then(|job| start_from::on_reference(&v.field, "start_from.job").map(|f| (job, f))) {
+                    Some((job, field)) => (field, format!("the final state of job {job}: {}", v.rule)),
+                    None => (v.field, v.rule),
                 };
                 Violation {
                     field: if field.is_empty() {

@@ -19,14 +19,23 @@ pub fn referenced_job(scene: &Value) -> Option<i64> {
     start.get("job")?.as_i64()
 }
 
-/// Replaces the scene's `start_from` by `{"state": STATE}`, STATE being the JSON text of a saved
-/// state.
-pub fn inline_state(scene: &mut Value, state_json: &str) -> Result<(), serde_json::Error> {
-    let state: Value = serde_json::from_str(state_json)?;
+/// The scene with its `start_from` replaced by `{"state": STATE}`, STATE being a saved state as
+/// the store keeps it (gzip-compressed JSON).
+pub fn with_state(scene: &Value, state_gz: &[u8]) -> Result<Value, String> {
+    let text = sable_worker::source::gunzip(state_gz, MAX_STATE_BYTES).map_err(|e| format!("cannot be read: {e}"))?;
+    let state: Value = serde_json::from_str(&text).map_err(|e| format!("is not JSON: {e}"))?;
+    let mut scene = scene.clone();
     if let Some(obj) = scene.as_object_mut() {
         obj.insert("start_from".into(), serde_json::json!({ "state": state }));
     }
-    Ok(())
+    Ok(scene)
+}
+
+/// A rule broken inside an inlined state (`start_from.state...`), reported on the reference
+/// the user wrote instead (`reference` = `start_from.job` or `start_from.file`); `None` for
+/// any other field.
+pub fn on_reference(field: &str, reference: &str) -> Option<String> {
+    field.strip_prefix("start_from.state").map(|rest| format!("{reference}{rest}"))
 }
 
 #[cfg(test)]
@@ -40,8 +49,14 @@ mod tests {
         assert_eq!(referenced_job(&json!({"start_from": {"job": 3, "file": "a.json"}})), None);
         assert_eq!(referenced_job(&json!({"start_from": {"job": "3"}})), None);
         assert_eq!(referenced_job(&json!({"particles": []})), None);
-        let mut scene = json!({"start_from": {"job": 3}, "dimension": 2});
-        inline_state(&mut scene, r#"{"format": "sable-state"}"#).expect("valid JSON");
-        assert_eq!(scene, json!({"start_from": {"state": {"format": "sable-state"}}, "dimension": 2}));
+        let scene = json!({"start_from": {"job": 3}, "dimension": 2});
+        let gz = sable_worker::source::gzip(r#"{"format": "sable-state"}"#);
+        assert_eq!(with_state(&scene, &gz), Ok(json!({"start_from": {"state": {"format": "sable-state"}}, "dimension": 2})));
+        assert!(with_state(&scene, b"not gzip").is_err());
+        assert_eq!(
+            on_reference("start_from.state.particles.radius[3]", "start_from.job").as_deref(),
+            Some("start_from.job.particles.radius[3]")
+        );
+        assert_eq!(on_reference("particles", "start_from.job"), None);
     }
 }

@@ -57,14 +57,15 @@ fn check_equilibrium(c: &mut Checker, path: &str, s: Option<&EquilibriumSpec>) -
     e
 }
 
-fn check_max_steps(c: &mut Checker, path: &str, n: Option<u64>) -> u64 {
+/// A step limit (>= 1), `default` when absent (`u64::MAX`: none).
+fn check_max_steps(c: &mut Checker, path: &str, n: Option<u64>, default: u64) -> u64 {
     match n {
         Some(0) => {
             c.fail(path, "must be >= 1");
             1
         }
         Some(n) => n,
-        None => DEFAULT_MAX_STEPS,
+        None => default,
     }
 }
 
@@ -87,7 +88,7 @@ fn check_preparation(c: &mut Checker, path: &str, s: &PreparationSpec, g: &Grain
         max_strain_rate,
         local_damping,
         equilibrium: check_equilibrium(c, &format!("{path}.equilibrium"), s.equilibrium.as_ref()),
-        max_steps: check_max_steps(c, &format!("{path}.max_steps"), s.max_steps),
+        max_steps: check_max_steps(c, &format!("{path}.max_steps"), s.max_steps, DEFAULT_MAX_STEPS),
     }
 }
 
@@ -155,14 +156,7 @@ pub(crate) fn check_experiment(
             if !(axial_strain > 0.0 && axial_strain < 1.0) {
                 c.fail("experiment.axial_strain", format!("must be in (0, 1), got {axial_strain}"));
             }
-            let max_steps = match t.max_steps {
-                Some(0) => {
-                    c.fail("experiment.max_steps", "must be >= 1");
-                    1
-                }
-                Some(n) => n,
-                None => u64::MAX,
-            };
+            let max_steps = check_max_steps(c, "experiment.max_steps", t.max_steps, u64::MAX);
             Experiment::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps }
         }
         ExperimentSpec::PlaneShear(k) => {
@@ -188,14 +182,7 @@ pub(crate) fn check_experiment(
             };
             let strain = k.strain.unwrap_or(5.0);
             c.positive("experiment.strain", strain);
-            let max_steps = match k.max_steps {
-                Some(0) => {
-                    c.fail("experiment.max_steps", "must be >= 1");
-                    1
-                }
-                Some(n) => n,
-                None => u64::MAX,
-            };
+            let max_steps = check_max_steps(c, "experiment.max_steps", k.max_steps, u64::MAX);
             Experiment::PlaneShear { preparation, shear_rate, strain, max_steps }
         }
         ExperimentSpec::Deposition(k) => {
@@ -227,7 +214,7 @@ pub(crate) fn check_experiment(
                 floor_upper: gravity[axis] > 0.0,
                 local_damping,
                 equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
-                max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps),
+                max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS),
             }
         }
         ExperimentSpec::Compaction(k) => {
@@ -275,7 +262,7 @@ pub(crate) fn check_experiment(
                     CompactionDrive::Velocity { speed: 1.0, strain: 1.0 }
                 }
             };
-            Experiment::Compaction { axis, drive, max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps) }
+            Experiment::Compaction { axis, drive, max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS) }
         }
     };
     let stages = experiment.stages(container);

@@ -86,8 +86,8 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
         // Rules a state file breaks are reported on the field the user wrote.
         let lines: Vec<String> = v
             .iter()
-            .map(|x| match (&state_file, x.field.strip_prefix("start_from.state")) {
-                (Some(file), Some(rest)) => format!("  start_from.file{rest}: {} (in {})", x.rule, file.display()),
+            .map(|x| match (&state_file, sable_server::start_from::on_reference(&x.field, "start_from.file")) {
+                (Some(file), Some(field)) => format!("  {field}: {} (in {})", x.rule, file.display()),
                 _ => format!("  {x}"),
             })
             .collect();

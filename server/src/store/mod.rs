@@ -353,19 +353,14 @@ impl JobStore {
 
     /// The scene of a leased job with `start_from.job` replaced by that job's final state (the
     /// scene as stored if it names none, or if the state cannot be read: the engine then
-    /// reports the reference it cannot resolve).
-    async fn resolve_start(tx: &mut Transaction<'static, Sqlite>, scene: String) -> Result<String, StoreError> {
-        let Ok(mut value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
+    /// reports the reference it cannot resolve). Reads through the reader pool: states never
+    /// change once written, so this needs no write transaction.
+    async fn resolve_start(&self, scene: String) -> Result<String, StoreError> {
+        let Ok(value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
         let Some(from) = crate::start_from::referenced_job(&value) else { return Ok(scene) };
         let gz: Option<Vec<u8>> =
-            sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = ?").bind(from).fetch_optional(&mut **tx).await?;
-        let Some(text) = gz.and_then(|gz| sable_worker::source::gunzip(&gz, crate::start_from::MAX_STATE_BYTES).ok()) else {
-            return Ok(scene);
-        };
-        if crate::start_from::inline_state(&mut value, &text).is_err() {
-            return Ok(scene);
-        }
-        Ok(value.to_string())
+            sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = ?").bind(from).fetch_optional(&self.reader).await?;
+        Ok(gz.and_then(|gz| crate::start_from::with_state(&value, &gz).ok()).map_or(scene, |v| v.to_string()))
     }
 
     /// Events of a job with seq > `after`, in order (at most `limit`).
@@ -470,10 +465,10 @@ impl JobStore {
         // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
         sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
         sqlx::query("DELETE FROM snapshots WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
-        let scene = Self::resolve_start(&mut tx, scene).await?;
         let event = Self::state_event(&mut tx, id).await?;
         tx.commit().await?;
         self.notify(id, vec![event]);
+        let scene = self.resolve_start(scene).await?;
         Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32 }))
     }
 

@@ -836,25 +836,17 @@ impl Simulation for Dem {
             });
             st.particles.material.push(k);
         }
+        let (position, velocity) = self.wrapped();
         let q = &mut st.particles;
-        for k in 0..p.len() {
-            // Particles return into the periodic box only at neighbour builds: wrap the copies.
-            let (mut x, mut v) = (p.pos[k], p.vel[k]);
-            self.domain.wrap(&mut x, &mut v);
-            q.position.push(x.as_slice()[..d].to_vec());
-            q.velocity.push(v.as_slice()[..d].to_vec());
-            q.angular_velocity.push(if d == 2 { vec![p.omega[k].z] } else { p.omega[k].as_slice().to_vec() });
-        }
+        q.position = position.iter().map(|x| x.as_slice()[..d].to_vec()).collect();
+        q.velocity = velocity.iter().map(|v| v.as_slice()[..d].to_vec()).collect();
+        q.angular_velocity = p.omega.iter().map(|w| if d == 2 { vec![w.z] } else { w.as_slice().to_vec() }).collect();
         st
     }
 
     fn snapshot(&self) -> Snapshot {
         let p = &self.p;
-        // Particles return into the periodic box only at neighbour builds: wrap the copies.
-        let (mut position, mut velocity) = (p.pos.clone(), p.vel.clone());
-        for (x, v) in position.iter_mut().zip(velocity.iter_mut()) {
-            self.domain.wrap(x, v);
-        }
+        let (position, velocity) = self.wrapped();
         Snapshot {
             dim: self.dim,
             step: self.step,
@@ -877,6 +869,17 @@ impl Simulation for Dem {
 }
 
 impl Dem {
+    /// Copies of the positions and velocities brought back into the periodic box (particles
+    /// return into it only at neighbour builds; crossing a Lees-Edwards boundary changes the
+    /// velocity too).
+    fn wrapped(&self) -> (Vec<Vec3>, Vec<Vec3>) {
+        let (mut position, mut velocity) = (self.p.pos.clone(), self.p.vel.clone());
+        for (x, v) in position.iter_mut().zip(velocity.iter_mut()) {
+            self.domain.wrap(x, v);
+        }
+        (position, velocity)
+    }
+
     /// The stages of one step, in the order of [`Stage`].
     fn step_stages(&mut self) -> Result<(), EngineError> {
         let mut clock = self.profile.map(|_| std::time::Instant::now());
