@@ -152,8 +152,9 @@ fn frictional_isotropic_preparation_is_looser() {
 /// with μ_p = 0.4, μ ≈ 0.25 + I and Φ ≈ 0.81 - 0.3 I (REFERENCES.md §C.12): μ ≈ 0.26 and Φ ≈ 0.807
 /// here, a little more friction at μ_p = 0.5. The bounds allow ±0.05 on μ (its std over the
 /// window is ≈ 0.06 with 400 disks, from 30 correlated samples) and ±0.02 on Φ; the measured
-/// inertial number must be the imposed one within 10% (the servo holds σ_n within ~10%).
-/// Measured: μ = 0.274, Φ = 0.808, I = 0.0098, σ_n = 109 Pa.
+/// inertial number must be the imposed one within 10%, and σ_n the target within 2% (the servo's
+/// 0.5% deadband plus the fluctuations of a flowing window).
+/// Measured: μ = 0.281, Φ = 0.806, I = 0.0101, σ_n = 99.4 Pa.
 #[test]
 fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
     let (r, samples) = run(json!({
@@ -174,7 +175,7 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
     assert!((0.21..0.35).contains(&s.mu), "mu = {}", s.mu);
     assert!((0.787..0.827).contains(&s.phi), "phi = {}", s.phi);
     assert!((s.inertial_number - 0.01).abs() < 0.001, "I = {}", s.inertial_number);
-    assert!((s.normal_stress - 100.0).abs() < 15.0, "sigma_n = {}", s.normal_stress);
+    assert!((s.normal_stress - 100.0).abs() < 2.0, "sigma_n = {}", s.normal_stress);
     // Sheared samples carry the shear stage and a non-zero inertial number.
     let sheared: Vec<_> = samples.iter().filter(|x| x.stage.as_deref() == Some("shear")).collect();
     assert!(sheared.iter().skip(1).all(|x| x.inertial_number.is_some_and(|i| i > 0.0)));
@@ -244,9 +245,9 @@ fn plane_shear_3d(inertial_number: f64) -> ExperimentResult {
 
 /// 3D simple shear of frictional spheres at I = 1e-2 (REFERENCES.md C.13: μ_s 0.36-0.40 for
 /// μ_p = 0.4-0.5 and μ(I) = μ_s + (μ_2 - μ_s) / (1 + I_0 / I), so μ ≈ 0.38-0.42 at I = 1e-2;
-/// φ ≈ φ_max - b I ≈ 0.57-0.60). 500 grains fluctuate by a few hundredths: measured μ = 0.380,
-/// Φ = 0.588 here, and 0.356-0.361 with a stiffer contact or a longer strain; the issue's band
-/// 0.35-0.50 for μ, and 0.56-0.61 for Φ.
+/// φ ≈ φ_max - b I ≈ 0.57-0.60). 500 grains fluctuate by a few hundredths: measured μ = 0.363,
+/// Φ = 0.587 (0.356-0.380 over other stiffnesses, strains and servo versions), near the low end
+/// of the published band; the issue's band 0.35-0.50 for μ, and 0.56-0.61 for Φ.
 #[test]
 fn dry_3d_plane_shear_at_i_1e_2_has_the_friction_of_frictional_spheres() {
     let r = plane_shear_3d(1e-2);
@@ -255,6 +256,7 @@ fn dry_3d_plane_shear_at_i_1e_2_has_the_friction_of_frictional_spheres() {
     assert!((0.35..0.50).contains(&s.mu), "mu = {}", s.mu);
     assert!((0.56..0.61).contains(&s.phi), "phi = {}", s.phi);
     assert!((s.inertial_number - 1e-2).abs() < 2e-3, "I = {}", s.inertial_number);
+    assert!((s.normal_stress - 1000.0).abs() < 20.0, "sigma_n = {} (target 1 kPa, within 2%)", s.normal_stress);
     assert!(s.cohesion_index.is_none(), "dry grains have no cohesion index");
 }
 
@@ -282,15 +284,15 @@ fn plane_shear_2d(i: f64, strain: f64, pressure: f64, kappa: f64, liquid: Option
     r
 }
 
-/// μ(I) and Φ(I) (da Cruz et al. 2005, REFERENCES.md C.12: μ ≈ 0.25 + I, Φ ≈ 0.81 - 0.3 I for
-/// disks): from I = 4e-3 to 4e-2 μ must grow by more than 0.03 and Φ fall by more than 0.005,
-/// above the scatter of 400 disks (std of μ over a window 0.04-0.07, so ~0.01 on its mean;
-/// measured μ 0.277 → 0.337, Φ 0.811 → 0.803). One decade only: above I ≈ 0.1 the jammed
-/// prepared sample, sheared at once at the full rate, is crushed before the cell height can open
-/// (overlap guard), a limit of the experiment noted on its issue.
+/// μ(I) and Φ(I) over two decades of I (da Cruz et al. 2005, REFERENCES.md C.12: μ ≈ 0.25 + I,
+/// Φ ≈ 0.81 - 0.3 I for disks, which predicts μ 0.254 / 0.29 / 0.65 and Φ 0.809 / 0.798 / 0.69 at
+/// I = 4e-3 / 4e-2 / 4e-1; the linear law overstates μ at 0.4). μ must grow and Φ fall at each
+/// step (the smaller step, Δμ ≈ 0.036, is over three times the ~0.01 uncertainty of a window mean
+/// of 400 disks) and over the two decades by more than 0.15 and 0.05 (half the predicted spans).
+/// Measured: μ 0.271 / 0.312 / 0.502, Φ 0.808 / 0.799 / 0.693.
 #[test]
 fn friction_grows_and_packing_falls_with_the_inertial_number() {
-    let points: Vec<(f64, f64, f64)> = [(4e-3, 1.2, 1e3), (4e-2, 1.5, 1e3)]
+    let points: Vec<(f64, f64, f64)> = [(4e-3, 1.2, 1e3), (4e-2, 1.5, 1e3), (4e-1, 1.5, 1e3)]
         .iter()
         .map(|&(i, strain, kappa)| {
             let r = plane_shear_2d(i, strain, 100.0, kappa, None);
@@ -302,14 +304,17 @@ fn friction_grows_and_packing_falls_with_the_inertial_number() {
     for w in points.windows(2) {
         let ((i0, mu0, phi0), (i1, mu1, phi1)) = (w[0], w[1]);
         assert!(i1 > 5.0 * i0, "I {i0} then {i1}");
-        assert!(mu1 > mu0 + 0.03, "mu {mu0} at I = {i0}, {mu1} at I = {i1}");
-        assert!(phi1 < phi0 - 0.005, "phi {phi0} at I = {i0}, {phi1} at I = {i1}");
+        assert!(mu1 > mu0, "mu {mu0} at I = {i0}, {mu1} at I = {i1}");
+        assert!(phi1 < phi0, "phi {phi0} at I = {i0}, {phi1} at I = {i1}");
     }
+    let (first, last) = (points[0], points[points.len() - 1]);
+    assert!(last.1 - first.1 > 0.15, "mu {} to {}", first.1, last.1);
+    assert!(first.2 - last.2 > 0.05, "phi {} to {}", first.2, last.2);
 }
 
 /// Wet against dry disks at the same I = 1e-2 (N 3.1: cohesion raises μ and lowers Φ at a
 /// given I, through I_m = I sqrt((1 + β/St)/(1 + α ξ))): water bridges (V_b = 1e-3 d³) at a
-/// normal stress set for ξ ≈ 2.
+/// normal stress set for ξ ≈ 2. Measured: ξ = 2.28, μ 0.581 wet / 0.277 dry, Φ 0.772 / 0.806.
 #[test]
 fn wet_shear_has_more_friction_and_less_packing_than_dry() {
     let pressure = 0.1;

@@ -56,6 +56,13 @@ impl CellDeformation {
     /// (bang-bang oscillation), and a servo as fast as the collisions drives the packing
     /// dynamically and keeps feeding it kinetic energy.
     ///
+    /// In a sheared (Lees-Edwards) cell the stiffness bound is not applied: a flowing packing
+    /// rearranges instead of storing the strain of its height, so the static contact stiffness
+    /// overstates how much σ_yy answers to it, and the bound kept the height from opening as
+    /// fast as the flow dilates (a jammed sample sheared at I = 0.1 was crushed to 9 times the
+    /// target within 260 steps; in steady flow σ_yy ran 5-10% above the target at I = 1e-2).
+    /// Without it σ_yy holds the target within 1% from I = 4e-3 to 0.4.
+    ///
     /// `stress` holds the diagonal of the measured stress tensor (σ_xx, σ_yy, σ_zz), Pa: the
     /// pressure servo reads its mean, a normal-stress servo its own axis (with the same
     /// stiffness bound, one axis's strain moving σ_aa about as much as the volumetric strain
@@ -69,7 +76,7 @@ impl CellDeformation {
             Deformation::NormalStress { axis, target, max_strain_rate, gain } => (stress[axis], target, max_strain_rate, gain, Some(axis)),
             Deformation::StrainRate(_) => return,
         };
-        let limited = bulk > 0.0 && measured > SERVO_FREE_BELOW * target;
+        let limited = bulk > 0.0 && measured > SERVO_FREE_BELOW * target && !domain.sheared();
         let g = if limited { gain.min(SERVO_STEP_FRACTION / (bulk * d * dt)) } else { gain };
         let error = measured - target;
         let r = if error.abs() <= SERVO_DEADBAND * target { 0.0 } else { (g * error).clamp(-max_strain_rate, max_strain_rate) };

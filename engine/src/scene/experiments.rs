@@ -356,12 +356,10 @@ impl Experiment {
             }
             Self::PlaneShear { preparation, shear_rate, strain, max_steps } => {
                 let p = preparation.pressure;
-                let servo = Deformation::NormalStress {
-                    axis: 1,
-                    target: p,
-                    max_strain_rate: preparation.max_strain_rate,
-                    gain: preparation.max_strain_rate / p,
-                };
+                // The height must open as fast as the flow dilates (a rate of order the shear
+                // rate times a dilatancy angle), not only at the preparation's rate.
+                let max_strain_rate = preparation.max_strain_rate.max(*shear_rate);
+                let servo = Deformation::NormalStress { axis: 1, target: p, max_strain_rate, gain: max_strain_rate / p };
                 let shear = Stage {
                     name: "shear".into(),
                     controls: Controls { deformation: Some(Some(servo)), shear_rate: Some(*shear_rate), ..Controls::default() },
