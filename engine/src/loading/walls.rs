@@ -64,6 +64,7 @@ impl Wall {
             WallMotion::Fixed | WallMotion::StrainRate(_) => (Vec3::zeros(), 0.0),
             WallMotion::Velocity(v) => (v, 0.0),
             WallMotion::Stress { gain, .. } => (Vec3::zeros(), gain.unwrap_or(self.default_gain)),
+            WallMotion::Shearing { .. } => (Vec3::zeros(), self.default_gain),
         };
         // The loop through the dashpots multiplies a speed change by -gain × c within the step
         // (c = dashpot_per_area). Below 1 it converges by itself and the wall jumps to the
@@ -82,7 +83,7 @@ impl Wall {
     /// Target of a stress-controlled wall, Pa.
     pub fn target_stress(&self) -> Option<Real> {
         match self.motion {
-            WallMotion::Stress { stress, .. } => Some(stress),
+            WallMotion::Stress { stress, .. } | WallMotion::Shearing { stress, .. } => Some(stress),
             _ => None,
         }
     }
@@ -125,7 +126,7 @@ impl Wall {
     /// comes to rest exactly at the target.
     ///
     /// A wall driven at a strain rate gets its speed from the current box length `length` along
-    /// its axis.
+    /// its axis; a shearing wall slides at its shear rate times that length.
     pub fn servo(&mut self, area: Real, length: Real) {
         if let WallMotion::StrainRate(rate) = self.motion {
             // d(hi)/dt = rate L for the upper wall, d(lo)/dt = -rate L for the lower one.
@@ -133,7 +134,16 @@ impl Wall {
             self.velocity = Vec3::zeros();
             self.velocity[self.face.axis] = if self.face.upper { speed } else { -speed };
         }
-        if let WallMotion::Stress { stress, max_speed, integral, .. } = self.motion {
+        let (servo, slide) = match self.motion {
+            WallMotion::Stress { stress, max_speed, integral, .. } => (Some((stress, max_speed, integral)), Vec3::zeros()),
+            WallMotion::Shearing { stress, shear_rate, flow, max_speed } => {
+                let mut slide = Vec3::zeros();
+                slide[flow] = shear_rate * length;
+                (Some((stress, max_speed, true)), slide)
+            }
+            _ => (None, Vec3::zeros()),
+        };
+        if let Some((stress, max_speed, integral)) = servo {
             let error = stress - self.normal_stress(area);
             let proportional = self.gain * error;
             let raw = proportional + self.integral;
@@ -148,7 +158,7 @@ impl Wall {
                 self.integral = (self.integral + proportional / SERVO_INTEGRAL_STEPS).clamp(-max_speed, max_speed);
             }
             let current = self.velocity.dot(&self.normal());
-            self.velocity = self.normal() * (current + self.smoothing * (command - current));
+            self.velocity = self.normal() * (current + self.smoothing * (command - current)) + slide;
         }
     }
 

@@ -1,5 +1,6 @@
 //! Computation of a [`Sample`] from a method-independent view of the system.
 
+use super::drum::{measure_drum, DrumView};
 use super::sample::{Sample, Stress, WallSample};
 use crate::math::{Mat3, Real, Vec3};
 use crate::particles::Particles;
@@ -83,6 +84,8 @@ pub struct SystemView<'a> {
     /// frictionless grains (needed for force balance without friction), 2 with friction (one
     /// contact alone cannot balance any force). See [`rattler_threshold`].
     pub rattler_threshold: usize,
+    /// The rotating drum, if there is one.
+    pub drum: Option<DrumView>,
 }
 
 /// Contacts a particle needs not to be a rattler, in `dim` dimensions, with or without friction.
@@ -127,7 +130,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         let dv = p.vel[k] - streaming(&p.pos[k]) - mean;
         sigma += dv * dv.transpose() * p.mass[k];
         let vk = if v.shear.is_some_and(|s| s.streaming) { dv } else { p.vel[k] };
-        kinetic += 0.5 * p.mass[k] * vk.norm_squared() + 0.5 * p.omega[k].norm_squared() / p.inv_inertia[k];
+        kinetic += p.kinetic_energy_at(k, &vk);
     }
     for c in v.contacts {
         sigma += c.force * c.branch.transpose();
@@ -193,6 +196,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         walls,
         stage: None,
         strain: None,
+        drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
     }
 }
 

@@ -5,12 +5,14 @@
 //! A method describes its state at sampling time as a [`SystemView`] (bodies and contacts) and
 //! [`measure`] turns it into a [`Sample`].
 
+pub mod drum;
 pub mod metrics;
 pub mod results;
 pub mod sample;
 pub mod snapshot;
 pub mod vtk;
 
+pub use drum::{DrumSample, DrumView, ProfileBin};
 pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
 pub use results::{Analysis, ExperimentResult};
 pub use sample::{Sample, StrainSample, Stress, WallSample};

@@ -6,12 +6,17 @@
 //!   the steady (critical) state, averaged over the last quarter of the axial strain; the
 //!   volumetric strain (compression positive) at its largest contraction and at the end.
 //! - **Plane shear** (N 3.1): the steady state, averaged over the second half of the shear
-//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n; for wet grains the
+//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n (the box's stress in a
+//!   Lees-Edwards cell, the upper wall's load between rough walls); for wet grains the
 //!   cohesion index ξ, the Stokes number St and the visco-cohesive inertial number I_m.
 //! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
 //!   and the final packing fraction, stress and strain.
 //! - **Deposition**: the height and packing fraction of the settled deposit (from the final
 //!   particles), the stress on the floor and the time to settle.
+//! - **Drum** (REFERENCES E.17): means over the rotation after the transient revolutions of the
+//!   surface and mass angles, fill, bed packing fraction, drive torque and velocity profile
+//!   ([`super::drum`]); the flowing layer's depth and inertial number; the flow regime
+//!   ([`drum_regime`]).
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
@@ -20,6 +25,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::drum::ProfileBin;
 use super::sample::Sample;
 use crate::math::Real;
 use crate::particles::Particles;
@@ -177,7 +183,7 @@ pub struct ShearResult {
     pub from_strain: f64,
     /// Samples in the window.
     pub samples: usize,
-    /// Mean effective friction `μ = τ / σ_n`.
+    /// Mean effective friction `μ = τ / σ_n` (between rough walls, of the upper wall's load).
     pub mu: f64,
     /// Its standard deviation over the window.
     pub mu_std: f64,
@@ -187,7 +193,8 @@ pub struct ShearResult {
     pub z_no_rattlers: f64,
     /// Mean inertial number measured in the samples (`γ̇ <d> sqrt(ρ / σ_n)`).
     pub inertial_number: f64,
-    /// Mean normal stress σ_yy, Pa.
+    /// Mean normal stress σ_yy, Pa (of the box in a Lees-Edwards cell, on the upper wall between
+    /// rough walls).
     pub normal_stress: f64,
     /// Wet grains (N 3.1): cohesion index `ξ = σ_c / σ_n` with `σ_c = f_c / d^(D-1)` and
     /// `f_c = 2π γ cos θ <d>/2` the largest capillary force between grains of the mean size.
@@ -201,6 +208,192 @@ pub struct ShearResult {
     /// α = 0.062, β = 0.075 (N 3.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub viscocohesive_inertial_number: Option<f64>,
+}
+
+/// The steady rotation of a drum: means over the samples after the transient revolutions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DrumResult {
+    /// Froude number `ω² R / g`.
+    pub froude: f64,
+    /// Angular velocity, rad/s.
+    pub angular_velocity: f64,
+    /// Time since the drum started where the averages start, s.
+    pub from_time: f64,
+    /// Samples averaged.
+    pub samples: usize,
+    /// Dynamic angle of repose: mean angle of the fitted free surface, degrees.
+    pub surface_angle: f64,
+    /// Its standard deviation over the samples, degrees (large when the bed slumps).
+    pub surface_angle_std: f64,
+    /// Mean angle of the bed's centroid from straight down, degrees.
+    pub mass_angle: f64,
+    /// Mean angle of the upper half of the surface, degrees.
+    pub upper_angle: f64,
+    /// Mean angle of the lower half of the surface, degrees.
+    pub lower_angle: f64,
+    /// Mean fraction of the cross-section below the surface.
+    pub fill: f64,
+    /// Packing fraction of the bed (solid volume over the volume below the surface).
+    pub phi_bed: f64,
+    /// Mean fraction of grains in flight.
+    pub airborne_fraction: f64,
+    /// Mean torque the drive supplies, N·m (per metre in 2D).
+    pub drive_torque: f64,
+    /// Mean velocity down the slope of the top bin of the profile, m/s.
+    pub surface_velocity: f64,
+    /// Depth below the surface where the mean velocity down the slope changes sign, m (the
+    /// flowing layer's thickness; absent when the surface does not flow).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flowing_layer_depth: Option<f64>,
+    /// Inertial number of the flowing layer, `(v_s / h) <d> sqrt(ρ / p)` with `p` the weight of
+    /// half the layer (`Φ ρ g cos θ h / 2`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flow_inertial_number: Option<f64>,
+    /// `slipping`, `slumping`, `rolling`, `cascading`, `cataracting` or `centrifuging`
+    /// ([`drum_regime`]).
+    pub regime: String,
+    /// Mean velocity profile across the flowing layer (counts summed over the samples).
+    pub profile: Vec<ProfileBin>,
+}
+
+/// Mass angle (degrees) below which the bed is not lifted: the drum slips under it.
+pub const SLIP_ANGLE: Real = 5.0;
+/// Fraction of the settled bed's centroid offset below which the grains ride the wall all
+/// round.
+pub const CENTRIFUGE_OFFSET: Real = 0.1;
+/// Fraction of grains in flight above which the flow cataracts.
+pub const CATARACT_AIRBORNE: Real = 0.05;
+/// Fraction of the samples with the surface at rest above which the flow is intermittent.
+pub const SLUMP_AT_REST: Real = 0.2;
+/// Difference of the upper and lower surface angles (degrees) above which the surface is
+/// curved (cascading).
+pub const CASCADE_CURVATURE: Real = 10.0;
+
+/// The flow regime of a drum from its measured means (Mellmann, Powder Technol. 118, 251,
+/// 2001; REFERENCES E.17), the first that applies:
+/// - `centrifuging`: the bed's centroid is within [`CENTRIFUGE_OFFSET`] of its settled offset
+///   from the axis (the grains ride the wall all round);
+/// - `slipping`: the bed's centroid turned by less than [`SLIP_ANGLE`];
+/// - `cataracting`: more than [`CATARACT_AIRBORNE`] of the grains are in flight;
+/// - `slumping`: in more than [`SLUMP_AT_REST`] of the samples the surface is not flowing down;
+/// - `cascading`: the surface's upper and lower halves differ by more than
+///   [`CASCADE_CURVATURE`] degrees;
+/// - `rolling` otherwise: a flat surface flowing steadily.
+pub fn drum_regime(centroid_ratio: Real, mass_angle: Real, airborne: Real, at_rest: Real, curvature: Real) -> &'static str {
+    if centroid_ratio < CENTRIFUGE_OFFSET {
+        "centrifuging"
+    } else if mass_angle < SLIP_ANGLE {
+        "slipping"
+    } else if airborne > CATARACT_AIRBORNE {
+        "cataracting"
+    } else if at_rest > SLUMP_AT_REST {
+        "slumping"
+    } else if curvature > CASCADE_CURVATURE {
+        "cascading"
+    } else {
+        "rolling"
+    }
+}
+
+/// Averages the drum samples after the transient; also returns the weight per area on the
+/// bottom of the bed, Pa (for the stiffness number).
+fn drum_result(
+    experiment: &Experiment,
+    settled: Option<&Sample>,
+    rotation: &[&Sample],
+    mean_diameter: Real,
+    density: Real,
+) -> Option<(DrumResult, Real)> {
+    let Experiment::Drum { drum, angular_velocity, froude, transient, .. } = experiment else { return None };
+    let first = rotation.first()?;
+    let period = 2.0 * std::f64::consts::PI / angular_velocity.abs();
+    let from = first.time + transient * period;
+    let window: Vec<&crate::observe::DrumSample> =
+        rotation.iter().filter(|s| s.time >= from - 1e-12 * period).filter_map(|s| s.drum.as_deref()).collect();
+    if window.is_empty() {
+        return None;
+    }
+    let n = window.len() as Real;
+    let mean = |f: &dyn Fn(&crate::observe::DrumSample) -> Real| window.iter().map(|d| f(d)).sum::<Real>() / n;
+    let mean_opt = |f: &dyn Fn(&crate::observe::DrumSample) -> Option<Real>| {
+        let v: Vec<Real> = window.iter().filter_map(|d| f(d)).collect();
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().sum::<Real>() / v.len() as Real
+        }
+    };
+    let surface_angle = mean_opt(&|d| d.surface_angle);
+    let angles: Vec<Real> = window.iter().filter_map(|d| d.surface_angle).collect();
+    let surface_angle_std = if angles.is_empty() {
+        0.0
+    } else {
+        (angles.iter().map(|a| (a - surface_angle).powi(2)).sum::<Real>() / angles.len() as Real).sqrt()
+    };
+    let (upper_angle, lower_angle) = (mean_opt(&|d| d.upper_angle), mean_opt(&|d| d.lower_angle));
+    let fill = mean(&|d| d.fill);
+    // Solid volume over the volume below the surface: Φ_box × box cross-section (2R)² / (fill π R²).
+    let phi_box = rotation.iter().filter(|s| s.time >= from - 1e-12 * period).map(|s| s.phi).sum::<Real>() / n;
+    let phi_bed = if fill > 0.0 { phi_box * 4.0 / (std::f64::consts::PI * fill) } else { 0.0 };
+    // Mean profile, bins weighted by their counts.
+    let bins = window.iter().map(|d| d.profile.len()).max().unwrap_or(0);
+    let mut profile: Vec<ProfileBin> =
+        (0..bins).map(|b| ProfileBin { depth: (b as Real + 0.5) * mean_diameter, velocity: 0.0, count: 0 }).collect();
+    for d in &window {
+        for (acc, bin) in profile.iter_mut().zip(&d.profile) {
+            acc.velocity += bin.velocity * bin.count as Real;
+            acc.count += bin.count;
+        }
+    }
+    for b in &mut profile {
+        if b.count > 0 {
+            b.velocity /= b.count as Real;
+        }
+    }
+    let filled: Vec<&ProfileBin> = profile.iter().filter(|b| b.count > 0).collect();
+    let surface_velocity = filled.first().map_or(0.0, |b| b.velocity);
+    let flowing_layer_depth = if surface_velocity > 0.0 {
+        filled.windows(2).find(|w| w[1].velocity <= 0.0).map(|w| {
+            let (a, b) = (w[0], w[1]);
+            a.depth + a.velocity / (a.velocity - b.velocity) * (b.depth - a.depth)
+        })
+    } else {
+        None
+    };
+    let mass_angle = mean(&|d| d.mass_angle);
+    // g from Fr = ω² R / g.
+    let gravity = angular_velocity * angular_velocity * drum.radius / froude;
+    let flow_inertial_number = flowing_layer_depth.and_then(|h| {
+        let p = phi_bed * density * gravity * surface_angle.to_radians().cos() * 0.5 * h;
+        (p > 0.0 && h > 0.0).then(|| surface_velocity / h * mean_diameter * (density / p).sqrt())
+    });
+    let at_rest = window.iter().filter(|d| d.profile.iter().find(|b| b.count > 0).is_none_or(|b| b.velocity <= 0.0)).count() as Real / n;
+    let settled_offset = settled.and_then(|s| s.drum.as_ref()).map_or(0.0, |d| d.centroid_offset);
+    let centroid_ratio = if settled_offset > 0.0 { mean(&|d| d.centroid_offset) / settled_offset } else { 1.0 };
+    let regime = drum_regime(centroid_ratio, mass_angle, mean(&|d| d.airborne_fraction), at_rest, (upper_angle - lower_angle).abs());
+    let bottom = phi_bed * density * gravity * mean(&|d| d.bed_depth);
+    let result = DrumResult {
+        froude: *froude,
+        angular_velocity: *angular_velocity,
+        from_time: from - first.time,
+        samples: window.len(),
+        surface_angle,
+        surface_angle_std,
+        mass_angle,
+        upper_angle,
+        lower_angle,
+        fill,
+        phi_bed,
+        airborne_fraction: mean(&|d| d.airborne_fraction),
+        drive_torque: mean(&|d| d.drive_torque),
+        surface_velocity,
+        flowing_layer_depth,
+        flow_inertial_number,
+        regime: regime.to_string(),
+        profile,
+    };
+    Some((result, bottom))
 }
 
 /// α of the visco-cohesive inertial number (N 3.1).
@@ -244,6 +437,9 @@ pub struct ExperimentResult {
     /// Deposition results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deposition: Option<DepositionResult>,
+    /// Rotating drum results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drum: Option<DrumResult>,
     /// State at the end of the run.
     pub last: State,
     /// Inertial number of the loading (of the preparation for the isotropic test).
@@ -330,6 +526,7 @@ impl Analysis {
             compaction: None,
             shear: None,
             deposition: None,
+            drum: None,
             last: State::of(last),
             inertial_number: None,
             stiffness_number: None,
@@ -348,7 +545,7 @@ impl Analysis {
                     stage("loading").filter_map(|s| s.strain.as_ref().map(|e| (e.axes.get(*axis).copied().unwrap_or(0.0), s))).collect();
                 triaxial_results(&mut r, &loading);
             }
-            Experiment::PlaneShear { preparation, shear_rate, .. } => {
+            Experiment::PlaneShear { preparation, shear_rate, rough_walls, .. } => {
                 r.stiffness_number = self.stiffness_number(preparation.pressure, mean_diameter);
                 let shear: Vec<&Sample> = stage("shear").collect();
                 // The steady state is averaged over the second half of the shear strain (the
@@ -360,10 +557,29 @@ impl Analysis {
                     if !window.is_empty() {
                         let n = window.len() as Real;
                         let mean = |f: &dyn Fn(&Sample) -> Real| window.iter().map(|s| f(s)).sum::<Real>() / n;
-                        let mu = mean(&|s| s.mu);
-                        let i = mean(&|s| s.inertial_number.unwrap_or(0.0));
+                        // Between rough walls the upper wall's load is the measure (the stress
+                        // of the box misses the glued layers' load on the walls behind them):
+                        // μ = |F_x| / F_y and σ_n its normal stress; I from σ_n.
+                        let wall_mu = |s: &Sample| {
+                            s.walls.iter().find(|w| w.name == "y_max").map_or(0.0, |w| {
+                                let (fx, fy) = (w.force.first().copied().unwrap_or(0.0), w.force.get(1).copied().unwrap_or(0.0));
+                                if fy > 0.0 {
+                                    fx.abs() / fy
+                                } else {
+                                    0.0
+                                }
+                            })
+                        };
+                        let wall_stress = |s: &Sample| s.walls.iter().find(|w| w.name == "y_max").map_or(0.0, |w| w.normal_stress);
+                        let mu_of = |s: &Sample| if *rough_walls { wall_mu(s) } else { s.mu };
+                        let mu = mean(&mu_of);
+                        let normal_stress = if *rough_walls { mean(&wall_stress) } else { mean(&|s| s.stress.yy) };
+                        let i = if *rough_walls {
+                            inertial(*shear_rate, normal_stress).unwrap_or(0.0)
+                        } else {
+                            mean(&|s| s.inertial_number.unwrap_or(0.0))
+                        };
                         r.inertial_number = Some(i);
-                        let normal_stress = mean(&|s| s.stress.yy);
                         // Wet grains: cohesion index, Stokes number, visco-cohesive inertial number.
                         let (mut xi, mut st, mut i_m) = (None, None, None);
                         if let Some(w) = self.wet.filter(|_| normal_stress > 0.0) {
@@ -379,7 +595,7 @@ impl Analysis {
                             from_strain: shear_rate * (from - first.time),
                             samples: window.len(),
                             mu,
-                            mu_std: (window.iter().map(|s| (s.mu - mu).powi(2)).sum::<Real>() / n).sqrt(),
+                            mu_std: (window.iter().map(|s| (mu_of(s) - mu).powi(2)).sum::<Real>() / n).sqrt(),
                             phi: mean(&|s| s.phi),
                             z_no_rattlers: mean(&|s| s.z_no_rattlers),
                             inertial_number: i,
@@ -389,6 +605,14 @@ impl Analysis {
                             viscocohesive_inertial_number: i_m,
                         });
                     }
+                }
+            }
+            Experiment::Drum { .. } => {
+                let rotation: Vec<&Sample> = stage("rotation").collect();
+                if let Some((d, bottom)) = drum_result(experiment, stage("filling").next_back(), &rotation, mean_diameter, density) {
+                    // The weight on the bottom of the bed sets the stiffness number.
+                    r.stiffness_number = self.stiffness_number(bottom, mean_diameter);
+                    r.drum = Some(d);
                 }
             }
             Experiment::Deposition { axis, floor_upper, .. } => {
@@ -495,7 +719,67 @@ mod tests {
             walls: Vec::new(),
             stage: Some(stage.into()),
             strain: Some(StrainSample { axes: vec![ev - axial, axial], volumetric: ev, deviatoric: 0.0 }),
+            drum: None,
         }
+    }
+
+    #[test]
+    fn drum_regimes_follow_the_stated_order() {
+        assert_eq!(drum_regime(0.05, 30.0, 0.0, 0.0, 0.0), "centrifuging");
+        assert_eq!(drum_regime(1.0, 3.0, 0.0, 0.0, 0.0), "slipping");
+        assert_eq!(drum_regime(1.0, 30.0, 0.2, 0.0, 0.0), "cataracting");
+        assert_eq!(drum_regime(1.0, 30.0, 0.0, 0.5, 0.0), "slumping");
+        assert_eq!(drum_regime(1.0, 30.0, 0.0, 0.0, 15.0), "cascading");
+        assert_eq!(drum_regime(1.0, 30.0, 0.01, 0.1, 3.0), "rolling");
+    }
+
+    #[test]
+    fn drum_means_start_after_the_transient_and_find_the_flowing_layer() {
+        let text = r#"{"dimension": 2, "method": "dem", "gravity": [0.0, -10.0],
+            "materials": {"m": {"density": 2000.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.5}},
+            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": [0.0, 0.0], "max": [0.04, 0.04], "wall_material": "m"},
+            "experiment": {"kind": "drum", "angular_velocity": 3.141592653589793, "revolutions": 1.0, "transient": 0.5}}"#;
+        let scene = parse_scene(text).expect("valid");
+        let mut a = Analysis::new(&scene);
+        let drum = |angle: f64, surface_v: f64| crate::observe::DrumSample {
+            mass_angle: angle,
+            surface_angle: Some(angle),
+            upper_angle: Some(angle),
+            lower_angle: Some(angle),
+            fill: 0.4,
+            bed_depth: 0.01,
+            centroid_offset: 0.008,
+            airborne_fraction: 0.0,
+            drive_torque: 0.1,
+            profile: vec![
+                ProfileBin { depth: 5e-4, velocity: surface_v, count: 2 },
+                ProfileBin { depth: 1.5e-3, velocity: -0.1, count: 2 },
+            ],
+        };
+        let mut filling = sample(0, "filling", 0.0, 0.0, 0.0);
+        filling.drum = Some(Box::new(drum(0.0, 0.0)));
+        a.push(&filling);
+        // One revolution takes 2 s: samples at t = 1, 1.5, 2, 2.5, 3; the window starts at t = 2.
+        for (k, (angle, v)) in [(10.0, 0.0), (20.0, 0.0), (28.0, 0.1), (30.0, 0.3), (32.0, 0.2)].iter().enumerate() {
+            let mut s = sample(0, "rotation", 0.0, 0.0, 0.0);
+            s.time = 1.0 + 0.5 * k as f64;
+            s.drum = Some(Box::new(drum(*angle, *v)));
+            a.push(&s);
+        }
+        let r = a.finish(1e-3, 2000.0).expect("result");
+        let d = r.drum.expect("drum result");
+        assert_eq!((d.samples, d.from_time), (3, 1.0));
+        assert!((d.surface_angle - 30.0).abs() < 1e-12 && (d.mass_angle - 30.0).abs() < 1e-12);
+        assert!((d.surface_velocity - 0.2).abs() < 1e-12);
+        // The mean profile crosses zero two thirds of the way from 0.5 mm to 1.5 mm.
+        let h = d.flowing_layer_depth.expect("flowing layer");
+        assert!((h - (5e-4 + 0.2 / 0.3 * 1e-3)).abs() < 1e-12, "{h}");
+        assert_eq!(d.regime, "rolling");
+        // Φ_box 0.8 - 0.001 over the fill's share of the box: Φ_box × 4 / (π × 0.4).
+        assert!((d.phi_bed - 0.799 * 4.0 / (std::f64::consts::PI * 0.4)).abs() < 1e-9);
+        // The drum turns faster than quasi-statically by design: no inertial-number warning.
+        assert!(r.warnings.iter().all(|w| !w.contains("quasi-static")), "{:?}", r.warnings);
     }
 
     fn biaxial_analysis(k_n: f64, strain_rate: f64) -> Analysis {

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::drum::DrumSample;
+
 /// Stress tensor components, Pa (compression positive; 2D: force per metre of thickness per
 /// metre, i.e. Pa for unit thickness). `zz`, `xz`, `yz` are absent in 2D.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -75,6 +77,9 @@ pub struct Sample {
     /// Strain of the box since the stage started (scenes with an experiment).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strain: Option<StrainSample>,
+    /// The rotating drum's surface, fill and flow (drum experiment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drum: Option<Box<DrumSample>>,
 }
 
 /// True strains of the box since the start of a stage, compression positive:
@@ -156,5 +161,12 @@ impl Sample {
                 .strain
                 .as_ref()
                 .is_none_or(|e| e.volumetric.is_finite() && e.deviatoric.is_finite() && e.axes.iter().all(|x| x.is_finite()))
+            && self.drum.as_ref().is_none_or(|d| {
+                [d.mass_angle, d.fill, d.centroid_offset, d.airborne_fraction, d.drive_torque]
+                    .iter()
+                    .chain([d.surface_angle, d.upper_angle, d.lower_angle].iter().flatten())
+                    .all(|x| x.is_finite())
+                    && d.profile.iter().all(|b| b.depth.is_finite() && b.velocity.is_finite())
+            })
     }
 }

@@ -46,6 +46,42 @@ pub struct Snapshot {
     pub contacts: Vec<ContactRecord>,
     /// The walls.
     pub walls: Vec<WallFace>,
+    /// The rotating drum, if any.
+    pub drum: Option<DrumShell>,
+}
+
+/// Segments of the drum's surface drawn (a polygon of this many sides).
+pub const DRUM_SEGMENTS: usize = 72;
+
+/// The rotating drum for drawing: a polygon of [`DRUM_SEGMENTS`] sides (prism faces in 3D),
+/// each with the force the grains put on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrumShell {
+    /// Axis (0, 1, 2).
+    pub axis: usize,
+    /// A point of the axis, m.
+    pub center: Vec3,
+    /// Inner radius, m.
+    pub radius: Real,
+    /// Force exerted by the particles on each segment, N; segment `k` spans the angles
+    /// `[k, k + 1) × 2π / DRUM_SEGMENTS` from the first axis across the drum's.
+    pub segment_force: Vec<Vec3>,
+}
+
+impl DrumShell {
+    /// The two unit vectors across the axis (in order of the axes), angles are measured from
+    /// the first towards the second.
+    pub fn across(&self) -> (usize, usize) {
+        let others: Vec<usize> = (0..3).filter(|&a| a != self.axis).collect();
+        (others[0], others[1])
+    }
+
+    /// Segment holding the point `x` of the surface.
+    pub fn segment_of(&self, x: &Vec3) -> usize {
+        let (a, b) = self.across();
+        let angle = (x[b] - self.center[b]).atan2(x[a] - self.center[a]).rem_euclid(std::f64::consts::TAU);
+        ((angle / std::f64::consts::TAU * DRUM_SEGMENTS as Real) as usize).min(DRUM_SEGMENTS - 1)
+    }
 }
 
 impl Snapshot {

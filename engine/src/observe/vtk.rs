@@ -15,8 +15,8 @@ use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::snapshot::Snapshot;
-use crate::math::Vec3;
+use super::snapshot::{Snapshot, DRUM_SEGMENTS};
+use crate::math::{Real, Vec3};
 
 /// Errors of the snapshot writer.
 #[derive(Debug, thiserror::Error)]
@@ -139,6 +139,8 @@ pub fn contacts_vtp(s: &Snapshot) -> String {
 }
 
 /// The walls as faces of the box.
+/// The rotating drum, if any, follows as [`DRUM_SEGMENTS`] segments (2D) or prism faces (3D)
+/// with the force the grains put on each.
 pub fn walls_vtp(s: &Snapshot) -> String {
     let mut points = Vec::new();
     let mut cells = Vec::new();
@@ -165,9 +167,46 @@ pub fn walls_vtp(s: &Snapshot) -> String {
             cells.push((first..first + 4).collect());
         }
     }
+    let mut forces: Vec<Vec3> = s.walls.iter().map(|w| w.force).collect();
+    let mut normals: Vec<Vec3> = s.walls.iter().map(|w| w.normal).collect();
+    if let Some(d) = &s.drum {
+        // The drum as a polygon (2D) or a prism (3D) spanning the box along its axis.
+        let (a, b) = d.across();
+        let point = |k: usize, end: bool| {
+            let angle = k as Real * std::f64::consts::TAU / DRUM_SEGMENTS as Real;
+            let mut p = d.center;
+            p[a] += d.radius * angle.cos();
+            p[b] += d.radius * angle.sin();
+            p[d.axis] = if s.dim == 2 {
+                0.0
+            } else if end {
+                s.hi[d.axis]
+            } else {
+                s.lo[d.axis]
+            };
+            p
+        };
+        for k in 0..DRUM_SEGMENTS {
+            let first = points.len();
+            let next = (k + 1) % DRUM_SEGMENTS;
+            if s.dim == 2 {
+                points.extend([point(k, false), point(next, false)]);
+                cells.push(vec![first, first + 1]);
+            } else {
+                points.extend([point(k, false), point(next, false), point(next, true), point(k, true)]);
+                cells.push((first..first + 4).collect());
+            }
+            let mid = (k as Real + 0.5) * std::f64::consts::TAU / DRUM_SEGMENTS as Real;
+            let mut n = Vec3::zeros();
+            n[a] = -mid.cos();
+            n[b] = -mid.sin();
+            normals.push(n);
+            forces.push(d.segment_force[k]);
+        }
+    }
     let mut cd = String::new();
-    vec_array(&mut cd, "force", s.walls.iter().map(|w| w.force));
-    vec_array(&mut cd, "normal", s.walls.iter().map(|w| w.normal));
+    vec_array(&mut cd, "force", forces.into_iter());
+    vec_array(&mut cd, "normal", normals.into_iter());
     poly_data(&points, if s.dim == 2 { "Lines" } else { "Polys" }, &cells, "", &cd)
 }
 
@@ -281,7 +320,38 @@ mod tests {
                 WallFace { name: "z_min".into(), axis: 2, position: 0.0, normal: Vec3::z(), force: Vec3::new(0.0, 0.0, -1.0) },
                 WallFace { name: "z_max".into(), axis: 2, position: 0.01, normal: -Vec3::z(), force: Vec3::zeros() },
             ],
+            drum: None,
         }
+    }
+
+    #[test]
+    fn the_drum_is_a_prism_of_segments_with_their_forces() {
+        let mut s = scene();
+        let mut shell = crate::observe::snapshot::DrumShell {
+            axis: 0,
+            center: Vec3::new(0.0, 0.005, 0.005),
+            radius: 0.005,
+            segment_force: vec![Vec3::zeros(); DRUM_SEGMENTS],
+        };
+        // A grain pushing on the drum at its lowest point (z = 0, angle 3π/2 from y towards z).
+        let k = shell.segment_of(&Vec3::new(0.003, 0.005, 0.0));
+        assert_eq!(k, 3 * DRUM_SEGMENTS / 4);
+        shell.segment_force[k] = Vec3::new(0.0, 0.0, -2.0);
+        s.drum = Some(shell);
+        let text = walls_vtp(&s);
+        let doc = roxmltree::Document::parse(&text).expect("well-formed XML");
+        assert_eq!(piece(&doc).attribute("NumberOfPolys"), Some(format!("{}", 2 + DRUM_SEGMENTS).as_str()));
+        // Every drum corner lies on the cylinder, at one end of the box along x.
+        let points = array(&doc, "points");
+        for p in points.chunks(3).skip(8) {
+            let r = ((p[1] - 0.005).powi(2) + (p[2] - 0.005).powi(2)).sqrt();
+            assert!((r - 0.005).abs() < 1e-12 && (p[0] == 0.0 || p[0] == 0.01), "{p:?}");
+        }
+        let force = array(&doc, "force");
+        assert_eq!(force[3 * (2 + k) + 2], -2.0);
+        // Normals point to the axis: at the bottom, +z.
+        let normal = array(&doc, "normal");
+        assert!((normal[3 * (2 + k) + 2] - 1.0).abs() < 0.01);
     }
 
     #[test]

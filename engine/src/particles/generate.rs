@@ -11,7 +11,7 @@ use super::Particles;
 use crate::error::EngineError;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
-use crate::scene::{Aabb, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
+use crate::scene::{Aabb, DrumDef, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
 
 /// Attempts per particle before random placement gives up.
 const MAX_ATTEMPTS: usize = 20_000;
@@ -41,6 +41,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         .fold(0.0, f64::max);
     let mut grid = OverlapGrid::new(dmax.max(1e-300));
     let mut out = Particles::default();
+    let drum = scene.container.drum.as_ref();
     for (k, set) in scene.sets.iter().enumerate() {
         let path = format!("particles[{k}]");
         let diameters = draw_diameters(set, &mut rng);
@@ -50,7 +51,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         wet.iter_mut().take(n_wet).for_each(|w| *w = true);
         wet.shuffle(&mut rng);
         let positions: Vec<Vec3> = match &set.placement {
-            Placement::Random(region) => random_positions(&diameters, region, domain, &mut grid, &mut out, &mut rng, &path)?,
+            Placement::Random(region) => random_positions(&diameters, region, domain, drum, &mut grid, &mut out, &mut rng, &path)?,
             Placement::Lattice { kind, region, spacing, random_select } => {
                 let s = spacing.unwrap_or(1.01 * diameters.iter().copied().fold(0.0, f64::max));
                 let dm = diameters.iter().copied().fold(0.0, f64::max);
@@ -61,6 +62,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                     });
                 }
                 let mut sites = lattice_sites(*kind, region, s, dm / 2.0, domain);
+                sites.retain(|p| inside_drum(drum, p, dm / 2.0));
                 if sites.len() < set.count {
                     return Err(EngineError::Build {
                         field: format!("{path}.count"),
@@ -91,6 +93,9 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                 let radii: Vec<Real> = diameters.iter().map(|d| d / 2.0).collect();
                 for (idx, (p, d)) in positions.iter().zip(&diameters).enumerate() {
                     let field = format!("{path}.placement.positions[{idx}]");
+                    if !inside_drum(drum, p, d / 2.0) {
+                        return Err(EngineError::Build { field, reason: "particle lies outside the drum".to_string() });
+                    }
                     check_free(&grid, &out, &positions[..idx], &radii[..idx], domain, p, d / 2.0, &field)?;
                     grid.insert_in(domain, p, out.len() + grid.pending());
                     grid.pending_push();
@@ -159,11 +164,21 @@ fn centre_bounds(region: &Aabb, domain: &Domain, a: usize, r: Real) -> (Real, Re
     }
 }
 
+/// True if a particle of radius `r` at `p` lies inside the drum (always without one).
+fn inside_drum(drum: Option<&DrumDef>, p: &Vec3, r: Real) -> bool {
+    drum.is_none_or(|d| {
+        let mut x = p - d.center;
+        x[d.axis] = 0.0;
+        x.norm() + r <= d.radius
+    })
+}
+
 #[allow(clippy::too_many_arguments)]
 fn random_positions(
     diameters: &[Real],
     region: &Aabb,
     domain: &Domain,
+    drum: Option<&DrumDef>,
     grid: &mut OverlapGrid,
     placed: &mut Particles,
     rng: &mut ChaCha8Rng,
@@ -190,7 +205,7 @@ fn random_positions(
                 let (l, h) = bounds[a];
                 p[a] = if h > l { rng.gen_range(l..h) } else { l };
             }
-            if grid.is_free(placed, &out, &radii, domain, &p, r) {
+            if inside_drum(drum, &p, r) && grid.is_free(placed, &out, &radii, domain, &p, r) {
                 found = Some(p);
                 break;
             }

@@ -25,7 +25,8 @@ pub struct Particles {
     pub mass: Vec<Real>,
     /// 1 / mass, 1/kg.
     pub inv_mass: Vec<Real>,
-    /// 1 / moment of inertia, 1/(kg·m²).
+    /// 1 / moment of inertia, 1/(kg·m²) (0 with `inv_mass` for a grain whose motion is
+    /// imposed, such as one glued to a wall).
     pub inv_inertia: Vec<Real>,
     /// Material index.
     pub material: Vec<u16>,
@@ -34,6 +35,21 @@ pub struct Particles {
 }
 
 impl Particles {
+    /// True if the particle moves freely (false for a grain whose motion is imposed: glued
+    /// to a wall, it is part of the wall).
+    pub fn is_free(&self, i: usize) -> bool {
+        self.inv_mass[i] > 0.0
+    }
+
+    /// Kinetic energy of particle `i` with velocity `v` (translation and rotation), J; zero
+    /// for a grain whose motion is imposed (its energy is the drive's).
+    pub fn kinetic_energy_at(&self, i: usize, v: &Vec3) -> Real {
+        if !self.is_free(i) {
+            return 0.0;
+        }
+        0.5 * self.mass[i] * v.norm_squared() + 0.5 * self.omega[i].norm_squared() / self.inv_inertia[i]
+    }
+
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.pos.len()

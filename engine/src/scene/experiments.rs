@@ -160,8 +160,24 @@ pub(crate) fn check_experiment(
             Experiment::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps }
         }
         ExperimentSpec::PlaneShear(k) => {
-            if !(container.periodic[..dim].iter().all(|&p| p)) {
+            let rough_walls = match k.boundary.as_deref() {
+                None | Some("lees_edwards") => false,
+                Some("rough_walls") => true,
+                Some(other) => {
+                    c.fail("experiment.boundary", format!("must be lees_edwards or rough_walls, got '{other}'"));
+                    false
+                }
+            };
+            if !rough_walls && !periodic {
                 c.fail("container.periodic", "the plane_shear experiment needs a fully periodic box (a Lees-Edwards cell)");
+            }
+            let only_y_walled = (0..dim).all(|a| container.periodic[a] == (a != 1));
+            if rough_walls && !only_y_walled {
+                let others = if dim == 2 { "x" } else { "x and z" };
+                c.fail(
+                    "container.periodic",
+                    format!("plane shear between rough walls needs walls on y only: make {others} periodic, not y"),
+                );
             }
             let preparation = check_preparation(c, "experiment.preparation", &k.preparation, grains);
             let scale = (preparation.pressure.max(0.0) / grains.density).sqrt() / grains.diameter;
@@ -183,7 +199,7 @@ pub(crate) fn check_experiment(
             let strain = k.strain.unwrap_or(5.0);
             c.positive("experiment.strain", strain);
             let max_steps = check_max_steps(c, "experiment.max_steps", k.max_steps, u64::MAX);
-            Experiment::PlaneShear { preparation, shear_rate, strain, max_steps }
+            Experiment::PlaneShear { preparation, rough_walls, shear_rate, strain, max_steps }
         }
         ExperimentSpec::Deposition(k) => {
             // Gravity along one axis, towards a wall.
@@ -217,6 +233,7 @@ pub(crate) fn check_experiment(
                 max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS),
             }
         }
+        ExperimentSpec::Drum(k) => check_drum(c, k, dim, container, gravity),
         ExperimentSpec::Compaction(k) => {
             need_walls(c, "compaction");
             let axis = check_axis(c, "experiment.axis", k.axis.as_deref(), dim);
@@ -269,6 +286,104 @@ pub(crate) fn check_experiment(
     (experiment, stages)
 }
 
+/// Grains whose surface lies within this fraction of the mean diameter of a wall are glued to
+/// it when plane shear between rough walls starts: the layer in contact with the wall at the
+/// end of the preparation, a bumpy surface one grain thick.
+pub const ROUGH_LAYER: Real = 0.5;
+
+/// Default Froude number of the drum: the rolling regime of a drum of a few tens of grain
+/// diameters (REFERENCES E.17: rolling for 1e-4 < Fr < 1e-2).
+pub const DRUM_FROUDE: Real = 1e-3;
+
+fn check_drum(c: &mut Checker, k: &DrumSpec, dim: usize, container: &Container, gravity: &Vec3) -> Experiment {
+    let axis = if dim == 2 {
+        if k.axis.is_some() {
+            c.fail("experiment.axis", "only in 3D: the 2D drum is a circle in the x-y plane");
+        }
+        2
+    } else {
+        match k.axis.as_deref() {
+            None => 2,
+            Some(n) => match AXES.iter().position(|a| *a == n) {
+                Some(a) => a,
+                None => {
+                    c.fail("experiment.axis", format!("must be one of x, y, z, got '{n}'"));
+                    2
+                }
+            },
+        }
+    };
+    // The drum is inscribed in the box's cross-section, which must be a square.
+    let across: Vec<usize> = (0..3).filter(|&a| a != axis).collect();
+    let (a, b) = (across[0], across[1]);
+    let (la, lb) = (container.hi[a] - container.lo[a], container.hi[b] - container.lo[b]);
+    if (la - lb).abs() > 1e-9 * la.abs().max(lb.abs()) {
+        c.fail(
+            "container.max",
+            format!(
+                "the drum is inscribed in the box: its {} and {} lengths must be equal (the drum's diameter), got {la} and {lb}",
+                AXES[a], AXES[b]
+            ),
+        );
+    }
+    for &x in &across {
+        if container.periodic[x] {
+            c.fail("container.periodic", format!("{} crosses the drum and must not be periodic", AXES[x]));
+        }
+    }
+    let radius = 0.5 * la.min(lb);
+    let mut center = 0.5 * (container.lo + container.hi);
+    center[axis] = 0.0;
+    let g = gravity.norm();
+    let mut down = Vec3::zeros();
+    if g == 0.0 {
+        c.fail("gravity", "required by the drum experiment: the grains are lifted against it");
+    } else if gravity[axis].abs() > 1e-9 * g {
+        c.fail("gravity", format!("must be perpendicular to the drum's axis {} (tilt the drum by choosing another axis)", AXES[axis]));
+    } else {
+        down = gravity / g;
+    }
+    let angular_velocity = match (k.froude, k.angular_velocity) {
+        (Some(_), Some(_)) => {
+            c.fail("experiment", "give froude or angular_velocity, not both");
+            1.0
+        }
+        (None, Some(w)) => {
+            if !(w.is_finite() && w != 0.0) {
+                c.fail("experiment.angular_velocity", format!("must be a non-zero number, got {w}"));
+            }
+            w
+        }
+        (f, None) => {
+            let f = f.unwrap_or(DRUM_FROUDE);
+            c.positive("experiment.froude", f);
+            (f.max(0.0) * g / radius.max(Real::MIN_POSITIVE)).sqrt()
+        }
+    };
+    let froude = angular_velocity * angular_velocity * radius / g.max(Real::MIN_POSITIVE);
+    let revolutions = k.revolutions.unwrap_or(1.0);
+    c.positive("experiment.revolutions", revolutions);
+    let transient = k.transient.unwrap_or(0.25_f64.min(0.5 * revolutions));
+    if !(transient >= 0.0 && transient < revolutions) {
+        c.fail("experiment.transient", format!("must be in [0, revolutions = {revolutions}), got {transient}"));
+    }
+    let local_damping = k.local_damping.unwrap_or(PREPARATION_DAMPING);
+    if !(0.0..1.0).contains(&local_damping) {
+        c.fail("experiment.local_damping", format!("must be in [0, 1), got {local_damping}"));
+    }
+    Experiment::Drum {
+        drum: DrumDef { axis, center, radius },
+        angular_velocity,
+        froude,
+        down,
+        revolutions,
+        transient,
+        local_damping,
+        equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
+        max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS),
+    }
+}
+
 fn preparation_stage(p: &Preparation, container: &Container) -> Stage {
     let mut controls = Controls { friction: Some(p.friction), local_damping: Some(p.local_damping), ..Controls::default() };
     if container.walls.is_empty() {
@@ -311,7 +426,9 @@ impl Experiment {
                 }
                 v
             }
-            Self::Compaction { max_steps, .. } | Self::Deposition { max_steps, .. } => vec![("experiment.max_steps", *max_steps)],
+            Self::Compaction { max_steps, .. } | Self::Deposition { max_steps, .. } | Self::Drum { max_steps, .. } => {
+                vec![("experiment.max_steps", *max_steps)]
+            }
             Self::PlaneShear { preparation, max_steps, .. } => {
                 let mut v = vec![("experiment.preparation.max_steps", preparation.max_steps)];
                 if *max_steps < u64::MAX {
@@ -333,6 +450,24 @@ impl Experiment {
                 equilibrium: Some(*equilibrium),
             }],
             Self::Isotropic { preparation } => vec![preparation_stage(preparation, container)],
+            Self::Drum { angular_velocity, revolutions, local_damping, equilibrium, max_steps, .. } => {
+                let filling = Stage {
+                    name: "filling".into(),
+                    controls: Controls { local_damping: Some(*local_damping), drum_angular_velocity: Some(0.0), ..Controls::default() },
+                    until: Stop { steps: Some(*max_steps), ..Stop::default() },
+                    strain_axis: None,
+                    equilibrium: Some(*equilibrium),
+                };
+                let period = 2.0 * std::f64::consts::PI / angular_velocity.abs();
+                let rotation = Stage {
+                    name: "rotation".into(),
+                    controls: Controls { drum_angular_velocity: Some(*angular_velocity), ..Controls::default() },
+                    until: Stop { time: Some(revolutions * period), ..Stop::default() },
+                    strain_axis: None,
+                    equilibrium: None,
+                };
+                vec![filling, rotation]
+            }
             Self::Triaxial { preparation, axis, strain_rate, axial_strain, max_steps } => {
                 let mut walls = Vec::new();
                 for w in &container.walls {
@@ -354,7 +489,40 @@ impl Experiment {
                 };
                 vec![preparation_stage(preparation, container), loading]
             }
-            Self::PlaneShear { preparation, shear_rate, strain, max_steps } => {
+            Self::PlaneShear { preparation, rough_walls: true, shear_rate, strain, max_steps } => {
+                // The grains within ROUGH_LAYER of a wall are glued to it; y_max slides along x
+                // at the shear rate times the gap and holds the normal stress.
+                let walls = container
+                    .walls
+                    .iter()
+                    .map(|w| WallDef {
+                        face: w.face,
+                        motion: if w.face.upper {
+                            WallMotion::Shearing {
+                                stress: preparation.pressure,
+                                shear_rate: *shear_rate,
+                                flow: 0,
+                                max_speed: f64::INFINITY,
+                            }
+                        } else {
+                            WallMotion::Fixed
+                        },
+                    })
+                    .collect();
+                let shear = Stage {
+                    name: "shear".into(),
+                    controls: Controls { walls, glue: Some(ROUGH_LAYER), ..Controls::default() },
+                    until: Stop {
+                        time: Some(strain / shear_rate),
+                        steps: (*max_steps < u64::MAX).then_some(*max_steps),
+                        ..Stop::default()
+                    },
+                    strain_axis: None,
+                    equilibrium: None,
+                };
+                vec![preparation_stage(preparation, container), shear]
+            }
+            Self::PlaneShear { preparation, rough_walls: false, shear_rate, strain, max_steps } => {
                 let p = preparation.pressure;
                 // The height must open as fast as the flow dilates (a rate of order the shear
                 // rate times a dilatancy angle), not only at the preparation's rate.
@@ -492,6 +660,94 @@ mod tests {
             json!({"kind": "plane_shear", "preparation": {"pressure": 1.0}, "shear_rate": 1.0, "inertial_number": 0.1}),
         ));
         assert!(v.iter().any(|x| x.starts_with("experiment: give shear_rate or inertial_number, not both")), "{v:?}");
+    }
+
+    #[test]
+    fn drum_settles_then_turns_at_the_froude_number() {
+        let mut s = scene(2, false, json!({"kind": "drum", "froude": 0.01, "revolutions": 2.0}));
+        s["gravity"] = json!([0.0, -9.81]);
+        let parsed = parse_scene(&s.to_string()).expect("valid");
+        let (filling, rotation) = (&parsed.stages[0], &parsed.stages[1]);
+        assert_eq!((filling.name.as_str(), rotation.name.as_str()), ("filling", "rotation"));
+        assert_eq!(filling.controls.drum_angular_velocity, Some(0.0));
+        assert!(filling.equilibrium.is_some());
+        // R = 10 mm: ω = sqrt(Fr g / R) = sqrt(9.81) rad/s; two turns.
+        let w = rotation.controls.drum_angular_velocity.expect("turns");
+        assert!((w - 9.81f64.sqrt()).abs() < 1e-12);
+        let t = rotation.until.time.expect("time");
+        assert!((t - 2.0 * 2.0 * std::f64::consts::PI / w).abs() < 1e-12);
+        let drum = parsed.container.drum.expect("a drum in the container");
+        assert_eq!((drum.axis, drum.radius), (2, 0.01));
+        assert!((drum.center - crate::math::Vec3::new(0.01, 0.01, 0.0)).norm() < 1e-15);
+        let Some(Experiment::Drum { transient, down, .. }) = parsed.experiment else { panic!("drum") };
+        assert_eq!((transient, down), (0.25, crate::math::Vec3::new(0.0, -1.0, 0.0)));
+
+        let with = |dim: usize, e: Value, gravity: Value, edit: &dyn Fn(&mut Value)| {
+            let mut s = scene(dim, false, e);
+            s["gravity"] = gravity;
+            edit(&mut s);
+            violations(&s)
+        };
+        let g2 = json!([0.0, -9.81]);
+        let cases: Vec<(Vec<String>, &str)> = vec![
+            (with(2, json!({"kind": "drum"}), json!([0.0, 0.0]), &|_| {}), "gravity: required by the drum experiment"),
+            (
+                with(3, json!({"kind": "drum", "axis": "y"}), json!([0.0, -9.81, 0.0]), &|_| {}),
+                "gravity: must be perpendicular to the drum's axis y",
+            ),
+            (
+                with(2, json!({"kind": "drum", "froude": 0.1, "angular_velocity": 1.0}), g2.clone(), &|_| {}),
+                "experiment: give froude or angular_velocity, not both",
+            ),
+            (
+                with(2, json!({"kind": "drum", "revolutions": 1.0, "transient": 1.0}), g2.clone(), &|_| {}),
+                "experiment.transient: must be in [0, revolutions = 1)",
+            ),
+            (with(2, json!({"kind": "drum", "axis": "x"}), g2.clone(), &|_| {}), "experiment.axis: only in 3D"),
+            (
+                with(2, json!({"kind": "drum"}), g2.clone(), &|s| s["container"]["max"] = json!([0.02, 0.03])),
+                "container.max: the drum is inscribed in the box: its x and y lengths must be equal",
+            ),
+            (
+                with(3, json!({"kind": "drum"}), json!([0.0, -9.81, 0.0]), &|s| s["container"]["periodic"] = json!(["x", "z"])),
+                "container.periodic: x crosses the drum and must not be periodic",
+            ),
+        ];
+        for (v, expected) in cases {
+            assert!(v.iter().any(|x| x.starts_with(expected)), "expected '{expected}' in {v:?}");
+        }
+        // In 3D the axis may be periodic (an endless drum).
+        let v = with(3, json!({"kind": "drum"}), json!([0.0, -9.81, 0.0]), &|s| s["container"]["periodic"] = json!(["z"]));
+        assert!(v.is_empty(), "{v:?}");
+    }
+
+    #[test]
+    fn plane_shear_between_rough_walls_glues_then_slides_the_upper_wall() {
+        let mut s =
+            scene(2, false, json!({"kind": "plane_shear", "boundary": "rough_walls", "preparation": {"pressure": 2500.0}, "strain": 2.0}));
+        s["container"]["periodic"] = json!(["x"]);
+        let parsed = parse_scene(&s.to_string()).expect("valid");
+        let (prep, shear) = (&parsed.stages[0], &parsed.stages[1]);
+        // The y walls compress the sample; then grains within half a diameter are glued and
+        // y_max shears the gap at 10 1/s (I = 1e-2) for a strain of 2 (0.2 s).
+        assert_eq!(prep.controls.walls.len(), 2);
+        assert_eq!(shear.controls.glue, Some(super::ROUGH_LAYER));
+        for w in &shear.controls.walls {
+            let expected = if w.face.upper {
+                WallMotion::Shearing { stress: 2500.0, shear_rate: 10.0, flow: 0, max_speed: f64::INFINITY }
+            } else {
+                WallMotion::Fixed
+            };
+            assert_eq!(w.motion, expected);
+        }
+        assert!((shear.until.time.expect("time") - 0.2).abs() < 1e-12);
+        let mut bad = s.clone();
+        bad["container"]["periodic"] = json!(["y"]);
+        assert!(violations(&bad)
+            .iter()
+            .any(|x| x.starts_with("container.periodic: plane shear between rough walls needs walls on y only")));
+        bad["experiment"]["boundary"] = json!("smooth");
+        assert!(violations(&bad).iter().any(|x| x.starts_with("experiment.boundary: must be lees_edwards or rough_walls")));
     }
 
     #[test]

@@ -334,6 +334,20 @@ pub enum WallMotion {
         /// of the container are proportional only.
         integral: bool,
     },
+    /// The upper wall of a shear cell: servo-controlled along its axis to a compressive
+    /// normal stress (with the integral action), while it slides along `flow` at
+    /// `shear_rate × L`, `L` the current gap, so that the gap shears at a constant rate
+    /// against a fixed opposite wall.
+    Shearing {
+        /// Target normal stress, Pa.
+        stress: Real,
+        /// Shear rate, 1/s.
+        shear_rate: Real,
+        /// Axis of the sliding.
+        flow: usize,
+        /// Speed limit along the axis, m/s.
+        max_speed: Real,
+    },
 }
 
 /// A wall on one face.
@@ -390,6 +404,20 @@ pub struct Container {
     pub lees_edwards: Option<(Real, bool)>,
     /// Deformation of the periodic cell.
     pub deformation: Option<Deformation>,
+    /// A rotating drum inscribed in the box (set by the `drum` experiment).
+    pub drum: Option<DrumDef>,
+}
+
+/// A cylindrical wall (a circle in 2D) about an axis of the box, which may turn about it: the
+/// rotating drum. Its surface is made of the container's wall material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrumDef {
+    /// Axis of the cylinder (z in 2D).
+    pub axis: usize,
+    /// A point of the axis, m (its coordinate along the axis is not used).
+    pub center: Vec3,
+    /// Inner radius, m.
+    pub radius: Real,
 }
 
 /// Stop criteria.
@@ -448,6 +476,12 @@ pub struct Controls {
     /// `Some(rate)`: the Lees-Edwards shear rate becomes `rate` (1/s; x and y periodic), and the
     /// grains' x-velocities get the change of the linear profile `Δrate (y - y_centre)`.
     pub shear_rate: Option<Real>,
+    /// `Some(ω)`: the drum turns at ω, rad/s (right-handed about its axis).
+    pub drum_angular_velocity: Option<Real>,
+    /// `Some(gap)`: the grains whose surface lies within `gap` mean diameters of a wall are
+    /// glued to it (rough walls): from then on they move with the wall, do not turn, and the
+    /// load the other grains put on them is the wall's.
+    pub glue: Option<Real>,
 }
 
 /// The equilibrium criterion of a stage: all must hold at `consecutive` checks in a row,
@@ -516,12 +550,16 @@ pub enum Experiment {
         /// Step limit of the loading.
         max_steps: u64,
     },
-    /// Plane shear flow in a Lees-Edwards cell (N 3.1; GDR MiDi 2004): isotropic preparation to
-    /// the pressure, then simple shear at a constant rate with the cell height (y) servo-controlled
-    /// to the normal stress σ_yy = pressure.
+    /// Plane shear flow (N 3.1; GDR MiDi 2004) under the normal stress σ_yy = pressure, at a
+    /// constant shear rate: in a Lees-Edwards cell whose height (y) is servo-controlled
+    /// (isotropic preparation by the cell), or between rough walls — grains glued to the walls
+    /// y_min and y_max, the upper one sliding along x and servo-controlled along y, x (and z)
+    /// periodic (preparation by the y walls).
     PlaneShear {
-        /// The isotropic compression (periodic cell).
+        /// The compression to the pressure.
         preparation: Preparation,
+        /// Rough walls instead of a Lees-Edwards cell.
+        rough_walls: bool,
         /// Shear rate, 1/s.
         shear_rate: Real,
         /// Shear strain at which the test ends.
@@ -551,6 +589,30 @@ pub enum Experiment {
         /// How the upper wall moves.
         drive: CompactionDrive,
         /// Step limit.
+        max_steps: u64,
+    },
+    /// Rotating drum (N 3.2.1; REFERENCES E.17): the grains settle at the bottom of the drum at
+    /// rest, then the drum turns at a constant angular velocity; the free surface, the flow
+    /// regime and the velocity profile across the flowing layer are measured once the flow is
+    /// steady.
+    Drum {
+        /// The drum.
+        drum: DrumDef,
+        /// Angular velocity, rad/s (positive: right-handed about the axis).
+        angular_velocity: Real,
+        /// Froude number `Fr = ω² R / g`.
+        froude: Real,
+        /// Unit vector of gravity (perpendicular to the axis).
+        down: Vec3,
+        /// Revolutions turned in all.
+        revolutions: Real,
+        /// Revolutions discarded before the averages start (the transient).
+        transient: Real,
+        /// Cundall's local damping while the grains settle.
+        local_damping: Real,
+        /// When the grains have settled before the drum starts.
+        equilibrium: Equilibrium,
+        /// Step limit of each stage.
         max_steps: u64,
     },
 }
@@ -586,6 +648,7 @@ impl Experiment {
             Self::Compaction { .. } => "compaction",
             Self::PlaneShear { .. } => "plane_shear",
             Self::Deposition { .. } => "deposition",
+            Self::Drum { .. } => "drum",
         }
     }
 }

@@ -430,6 +430,40 @@ pub enum ExperimentSpec {
     PlaneShear(PlaneShearSpec),
     /// Deposition under gravity onto the floor of the box, until equilibrium.
     Deposition(DepositionSpec),
+    /// Rotating drum inscribed in the box.
+    Drum(DrumSpec),
+}
+
+/// Parameters of the rotating drum: `froude` or `angular_velocity` (not both; default
+/// `froude` 1e-3).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DrumSpec {
+    /// Axis of the drum in 3D (default z); in 2D the drum is a circle in the x-y plane.
+    #[serde(default)]
+    pub axis: Option<String>,
+    /// Froude number `ω² R / g`.
+    #[serde(default)]
+    pub froude: Option<f64>,
+    /// Angular velocity, rad/s (positive: right-handed about the axis).
+    #[serde(default)]
+    pub angular_velocity: Option<f64>,
+    /// Revolutions the drum turns (default 1).
+    #[serde(default)]
+    pub revolutions: Option<f64>,
+    /// Revolutions discarded before the averages start (default 0.25).
+    #[serde(default)]
+    pub transient: Option<f64>,
+    /// Cundall's local damping while the grains settle before the drum starts (default 0.2;
+    /// the rotation runs with the method's own setting).
+    #[serde(default)]
+    pub local_damping: Option<f64>,
+    /// Equilibrium criterion of the settling.
+    #[serde(default)]
+    pub equilibrium: Option<EquilibriumSpec>,
+    /// Step limit of each stage (default 2,000,000 for the settling, none for the rotation).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
 }
 
 /// Parameters of the deposition under gravity; every field has a default.
@@ -452,8 +486,12 @@ pub struct DepositionSpec {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneShearSpec {
-    /// The isotropic compression to the normal stress (periodic cell).
+    /// The compression to the normal stress.
     pub preparation: PreparationSpec,
+    /// `lees_edwards` (default: a periodic cell) or `rough_walls` (grains glued to the walls
+    /// y_min and y_max).
+    #[serde(default)]
+    pub boundary: Option<String>,
     /// Shear rate, 1/s.
     #[serde(default)]
     pub shear_rate: Option<f64>,

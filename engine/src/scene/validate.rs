@@ -68,7 +68,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
 
     // A saved state to start from gives the particles and the box.
     let state = check_start_from(&mut c, spec.start_from.as_ref(), spec.particles.is_empty());
-    let container = match state {
+    let mut container = match state {
         Some(st) => {
             if !spec.container.min.is_empty() || !spec.container.max.is_empty() {
                 c.fail("container.min", "leave container.min and container.max out with start_from: the box is the state's");
@@ -136,6 +136,9 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
                 (None, None) => GrainScales { diameter: 1.0, density: 1.0 },
             };
             let (experiment, stages) = check_experiment(&mut c, e, dim, &container, &grains, &gravity);
+            if let Experiment::Drum { drum, .. } = &experiment {
+                container.drum = Some(*drum);
+            }
             let stop = match limits {
                 None => Stop::default(),
                 Some(s) => {
@@ -666,7 +669,7 @@ fn check_container(
     if lees_edwards.is_some() && deformation.is_some() {
         c.fail("container.deformation", "cannot be combined with lees_edwards in this version");
     }
-    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation }
+    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation, drum: None }
 }
 
 fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
@@ -688,7 +691,7 @@ fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {
             WallMotion::Fixed => false,
             WallMotion::Velocity(v) => v[w.face.axis] != 0.0,
             WallMotion::StrainRate(r) => r != 0.0,
-            WallMotion::Stress { .. } => true,
+            WallMotion::Stress { .. } | WallMotion::Shearing { .. } => true,
         };
         let deforms = container.lees_edwards.is_some_and(|(rate, _)| rate != 0.0)
             || container.deformation.is_some_and(|d| match d {

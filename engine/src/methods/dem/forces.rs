@@ -11,7 +11,7 @@ use super::{half_kick, Dem};
 use crate::contact::{ContactInput, ContactTable};
 use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
-use crate::math::Vec3;
+use crate::math::{Real, Vec3};
 use crate::particles::Particles;
 
 const CHUNK: usize = 256;
@@ -84,10 +84,13 @@ impl Dem {
     /// the particles the second half kick of the step with them.
     pub(crate) fn compute_forces(&mut self, kick: bool) {
         self.pair_forces();
-        if !self.walls.is_empty() {
+        if self.wall_slots() > 0 {
             self.wall_forces();
         }
         self.gather(kick);
+        if !self.glued.is_empty() {
+            self.glued_loads();
+        }
     }
 
     fn pair_forces(&mut self) {
@@ -265,8 +268,10 @@ impl Dem {
     }
 
     fn wall_forces(&mut self) {
-        let nw = self.walls.len();
+        let nw = self.wall_slots();
         let walls = &self.walls;
+        let drum = self.drum.as_ref();
+        let glued_to = &self.glued_to;
         let table = &self.wall_table;
         let wall_mat = self.wall_material;
         let dt = self.dt;
@@ -290,19 +295,29 @@ impl Dem {
                     let (dv, dw) = (force[i] * (0.5 * dt * inv_mass[i]), torque[i] * (0.5 * dt * inv_inertia[i]));
                     *f = Vec3::zeros();
                     *t = Vec3::zeros();
-                    for (w, wall) in walls.iter().enumerate() {
-                        let n = wall.normal();
-                        let a = wall.face.axis;
-                        let dist = (pos[i][a] - wall.position) * n[a];
-                        let delta = r - dist;
-                        if delta <= 0.0 {
+                    // Plane walls, then the drum (the last slot).
+                    // A grain glued to a wall is part of it.
+                    let own = glued_to.get(i).map_or(usize::MAX, |&w| w as usize);
+                    for w in 0..nw {
+                        let touch = match walls.get(w) {
+                            Some(_) if w == own => None,
+                            Some(wall) => {
+                                let n = wall.normal();
+                                let delta = r - (pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
+                                (delta > 0.0).then_some((n, delta, wall.velocity))
+                            }
+                            None => drum.and_then(|d| {
+                                d.touch(&pos[i], r).map(|(n, delta)| (n, delta, d.surface_velocity(&(pos[i] - n * (r - delta)))))
+                            }),
+                        };
+                        let Some((n, delta, wall_velocity)) = touch else {
                             xi[w] = Vec3::zeros();
                             roll[w] = Vec3::zeros();
                             wf[w] = Vec3::zeros();
                             continue;
-                        }
+                        };
                         let a_i = r - delta;
-                        let v_c = vel[i] - (omega[i] * a_i).cross(&n) - wall.velocity;
+                        let v_c = vel[i] - (omega[i] * a_i).cross(&n) - wall_velocity;
                         let v_damp = v_c + dv - (dw * a_i).cross(&n);
                         let input = ContactInput {
                             n,
@@ -344,10 +359,21 @@ impl Dem {
         for wall in &mut self.walls {
             wall.force = Vec3::zeros();
         }
-        for s in partial {
-            for (w, f) in s.iter().enumerate() {
-                self.walls[w].force -= f;
+        for s in &partial {
+            for (wall, f) in self.walls.iter_mut().zip(s) {
+                wall.force -= f;
             }
+        }
+        if let Some(d) = self.drum.as_mut() {
+            // Force and torque on the drum, in the same fixed order.
+            d.force = -partial.iter().map(|s| s[nw - 1]).fold(Vec3::zeros(), |a, f| a + f);
+            let torques: Vec<Real> = self
+                .wall_f
+                .par_chunks(BLOCK * nw)
+                .zip(self.p.pos.par_chunks(BLOCK))
+                .map(|(c, xs)| c.chunks(nw).zip(xs).map(|(per, x)| d.torque_of(&d.surface_point(x), &per[nw - 1])).sum::<Real>())
+                .collect();
+            d.torque = -torques.iter().sum::<Real>();
         }
     }
 }

@@ -14,9 +14,12 @@ use rayon::prelude::*;
 use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
-use crate::loading::{CellDeformation, Wall};
+use crate::loading::{CellDeformation, Drum, Wall};
 use crate::math::{Real, Vec3, AXES};
-use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView};
+use crate::observe::snapshot::{DrumShell, DRUM_SEGMENTS};
+use crate::observe::{
+    measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView,
+};
 use crate::particles::{generate::place_particles, Particles};
 use crate::run::Balance;
 use crate::run::Simulation;
@@ -79,6 +82,9 @@ const NEAR_GAP: Real = 0.15;
 const CHECK_EVERY: u64 = 20;
 const SERVO_EVERY: u64 = 10;
 
+/// Marks a particle glued to no wall in `Dem::glued_to`.
+const NOT_GLUED: u16 = u16::MAX;
+
 /// A soft-contact DEM simulation.
 pub struct Dem {
     dim: usize,
@@ -99,6 +105,12 @@ pub struct Dem {
     p: Particles,
     domain: Domain,
     walls: Vec<Wall>,
+    /// The rotating drum, if the scene has one (its contacts take the last wall slot).
+    drum: Option<Drum>,
+    /// Grains glued to a wall (rough walls): (particle, wall), in particle order.
+    glued: Vec<(u32, u16)>,
+    /// The wall each particle is glued to (`NOT_GLUED` for none); empty while none is.
+    glued_to: Vec<u16>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
     /// The pairs of `nl` close enough to touch within the next few steps.
@@ -113,6 +125,8 @@ pub struct Dem {
     xr: Vec<[Real; 4]>,
     xr_current: bool,
     needs_extra: bool,
+    /// Tangential springs, rolling springs and forces of the particle-wall contacts, `slots`
+    /// per particle: one per plane wall, then the drum.
     wall_xi: Vec<Vec3>,
     wall_roll: Vec<Vec3>,
     wall_f: Vec<Vec3>,
@@ -164,7 +178,8 @@ impl Dem {
         }
         let v_ref = params.reference_velocity.unwrap_or_else(|| reference_velocity(scene, &p));
         let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
-        let bodies = Bodies { lightest: &lightest, names: &names, wall_material: (!c.walls.is_empty()).then_some(wall_material) };
+        let has_walls = !c.walls.is_empty() || c.drum.is_some();
+        let bodies = Bodies { lightest: &lightest, names: &names, wall_material: has_walls.then_some(wall_material) };
         let collision = collision_time(&table, &bodies, v_ref);
         let dt = params.time_step.unwrap_or(params.time_step_fraction * collision.t_c);
         if !(dt.is_finite() && dt > 0.0) {
@@ -211,7 +226,8 @@ impl Dem {
                 Wall::new(w.face, pos, w.motion, gain, dashpot_per_area)
             })
             .collect();
-        let nw = walls.len();
+        let drum = c.drum.map(Drum::new);
+        let nw = walls.len() + usize::from(drum.is_some());
         let needs_extra = table.laws().iter().any(|l| l.rolling.is_some() || l.capillary.is_some());
         let n = p.len();
         let has_wall_rolling = table.laws().iter().any(|l| l.rolling.is_some());
@@ -241,6 +257,9 @@ impl Dem {
             p,
             domain,
             walls,
+            drum,
+            glued: Vec::new(),
+            glued_to: Vec::new(),
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
             near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
@@ -385,7 +404,7 @@ impl Dem {
             let touching = d.norm() < self.p.radius[c.i as usize] + self.p.radius[c.j as usize];
             records.push(ContactRecord { i: c.i, j: Some(c.j), force: c.out.force, branch: d, touching, bonded });
         }
-        let nw = self.walls.len();
+        let nw = self.wall_slots();
         for i in 0..self.p.len() {
             for (w, wall) in self.walls.iter().enumerate() {
                 let f = self.wall_f[i * nw + w];
@@ -395,6 +414,13 @@ impl Dem {
                 let n = wall.normal();
                 let dist = (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
                 records.push(ContactRecord { i: i as u32, j: None, force: f, branch: n * dist, touching: true, bonded: false });
+            }
+            if let Some(drum) = &self.drum {
+                let f = self.wall_f[i * nw + nw - 1];
+                if let Some((n, delta)) = drum.touch(&self.p.pos[i], self.p.radius[i]).filter(|_| f != Vec3::zeros()) {
+                    let branch = n * (self.p.radius[i] - delta);
+                    records.push(ContactRecord { i: i as u32, j: None, force: f, branch, touching: true, bonded: false });
+                }
             }
         }
         records
@@ -411,6 +437,81 @@ impl Dem {
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
         self.near.invalidate();
         pair_state::renumber(&mut self.contacts, &self.nl);
+    }
+
+    /// Glues to each wall the grains whose surface lies within `gap` mean diameters of it: they
+    /// keep their place against the wall, move with it and do not turn (infinite mass and
+    /// inertia for the integrator; `boundaries` sets their motion).
+    fn glue_to_walls(&mut self, gap: Real) {
+        let p = &mut self.p;
+        let mean_d = 2.0 * p.radius.iter().sum::<Real>() / p.len().max(1) as Real;
+        if self.glued_to.is_empty() {
+            self.glued_to = vec![NOT_GLUED; p.len()];
+        }
+        for i in 0..p.len() {
+            if self.glued_to[i] != NOT_GLUED {
+                continue;
+            }
+            let near = self.walls.iter().position(|w| {
+                let n = w.normal();
+                (p.pos[i][w.face.axis] - w.position) * n[w.face.axis] - p.radius[i] <= gap * mean_d
+            });
+            if let Some(w) = near {
+                self.glued_to[i] = w as u16;
+                self.glued.push((i as u32, w as u16));
+                p.inv_mass[i] = 0.0;
+                p.inv_inertia[i] = 0.0;
+                p.vel[i] = self.walls[w].velocity;
+                p.omega[i] = Vec3::zeros();
+            }
+        }
+        self.glued.sort_unstable();
+    }
+
+    /// Moves the glued grains with their walls: each takes its wall's new velocity, and its
+    /// position the correction of this step's drift (made with the velocity before the servo).
+    fn move_glued(&mut self) {
+        let dt = self.dt;
+        let mut largest: Real = 0.0;
+        for &(i, w) in &self.glued {
+            let (i, v) = (i as usize, self.walls[w as usize].velocity);
+            let correction = (v - self.p.vel[i]) * dt;
+            self.p.pos[i] += correction;
+            self.p.vel[i] = v;
+            self.p.omega[i] = Vec3::zeros();
+            let x = self.p.pos[i];
+            self.xr[i] = [x.x, x.y, x.z, self.p.radius[i]];
+            largest = largest.max(correction.norm());
+        }
+        self.near.add_motion(largest);
+    }
+
+    /// Adds to each wall the load the other grains put on the grains glued to it.
+    fn glued_loads(&mut self) {
+        for &(i, w) in &self.glued {
+            let i = i as usize;
+            let own = self.gravity * self.p.mass[i];
+            self.walls[w as usize].force += self.p.force[i] - own;
+        }
+    }
+
+    /// The drum as the measurements see it.
+    fn drum_view(&self) -> Option<DrumView> {
+        let d = self.drum.as_ref()?;
+        let g = self.gravity.norm();
+        Some(DrumView {
+            axis: d.def.axis,
+            center: d.def.center,
+            radius: d.def.radius,
+            angular_velocity: d.angular_velocity,
+            down: if g > 0.0 { self.gravity / g } else { Vec3::zeros() },
+            torque: d.torque,
+        })
+    }
+
+    /// Wall contact slots per particle: the plane walls, then the drum.
+    fn wall_slots(&self) -> usize {
+        self.walls.len() + usize::from(self.drum.is_some())
     }
 
     fn wall_area(&self, axis: usize) -> Real {
@@ -467,6 +568,9 @@ impl Dem {
             } else {
                 self.domain.lo[a] = wall.position;
             }
+        }
+        if !self.glued.is_empty() {
+            self.move_glued();
         }
         self.domain.advance_shear(dt);
         if self.deformation.is_some() {
@@ -614,6 +718,9 @@ fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
     if let Some((rate, _)) = c.lees_edwards {
         v = v.max(rate.abs() * (c.hi.y - c.lo.y));
     }
+    if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
+        v = v.max(angular_velocity.abs() * drum.radius);
+    }
     if scene.sets.iter().any(|s| matches!(s.placement, Placement::List { velocities: Some(_), .. })) {
         v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
     }
@@ -703,6 +810,7 @@ impl Simulation for Dem {
             shear: self.shear_geometry(),
             elastic_energy: self.elastic_energy(),
             rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
+            drum: self.drum_view(),
         };
         let s = measure(&view);
         if !s.is_finite() {
@@ -716,10 +824,16 @@ impl Simulation for Dem {
     }
 
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
+        if let (Some(w), Some(drum)) = (controls.drum_angular_velocity, self.drum.as_mut()) {
+            drum.angular_velocity = w;
+        }
         for def in &controls.walls {
             if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
                 w.set_motion(def.motion);
             }
+        }
+        if let Some(gap) = controls.glue {
+            self.glue_to_walls(gap);
         }
         if let Some(d) = controls.deformation {
             self.deformation = d.map(CellDeformation::new);
@@ -864,6 +978,23 @@ impl Simulation for Dem {
                 .iter()
                 .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
                 .collect(),
+            drum: self.drum.as_ref().map(|d| {
+                let mut shell = DrumShell {
+                    axis: d.def.axis,
+                    center: d.def.center,
+                    radius: d.def.radius,
+                    segment_force: vec![Vec3::zeros(); DRUM_SEGMENTS],
+                };
+                let nw = self.wall_slots();
+                for (x, f) in p.pos.iter().zip(self.wall_f.chunks(nw)) {
+                    let f = f[nw - 1];
+                    if f != Vec3::zeros() {
+                        let k = shell.segment_of(&d.surface_point(x));
+                        shell.segment_force[k] -= f;
+                    }
+                }
+                shell
+            }),
         }
     }
 }

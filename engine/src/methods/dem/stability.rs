@@ -59,11 +59,12 @@ impl Dem {
     /// Kinetic, elastic, capillary and gravitational energy.
     pub(crate) fn mechanical_energy(&self) -> Energies {
         let p = &self.p;
-        let kinetic =
-            block_sum(p.len(), |i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 * p.omega[i].norm_squared() / p.inv_inertia[i]);
+        let kinetic = block_sum(p.len(), |i| p.kinetic_energy_at(i, &p.vel[i]));
         let elastic = self.elastic_energy();
         let g = self.gravity;
-        let gravity = if g == Vec3::zeros() { 0.0 } else { -block_sum(p.len(), |i| p.mass[i] * g.dot(&p.pos[i])) };
+        // Grains whose motion is imposed belong to the wall that carries them.
+        let gravity =
+            if g == Vec3::zeros() { 0.0 } else { -block_sum(p.len(), |i| if p.is_free(i) { p.mass[i] * g.dot(&p.pos[i]) } else { 0.0 }) };
         let mut capillary = 0.0;
         for c in self.contacts.iter().flatten().filter(|c| c.extra.bridge) {
             let (i, j) = (c.i as usize, c.j as usize);
@@ -80,6 +81,10 @@ impl Dem {
         for w in &self.walls {
             // The particles push the wall with `force`; the wall does -force·v on them.
             self.budget.work_in -= w.force.dot(&w.velocity) * self.dt;
+        }
+        if let Some(d) = &self.drum {
+            // The drive turns the drum against the particles' torque.
+            self.budget.work_in -= d.torque * d.angular_velocity * self.dt;
         }
     }
 
@@ -163,7 +168,10 @@ impl Dem {
                     .fold(0.0, Real::max)
             })
             .fold(0.0, Real::max);
-        pairs.max(walls)
+        let drum = self.drum.as_ref().map_or(0.0, |d| {
+            (0..p.len()).filter_map(|i| d.touch(&p.pos[i], p.radius[i]).map(|(_, delta)| delta / p.radius[i])).fold(0.0, Real::max)
+        });
+        pairs.max(walls).max(drum)
     }
 }
 

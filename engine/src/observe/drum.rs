@@ -1,0 +1,344 @@
+//! What a rotating drum shows at one instant (REFERENCES E.17): the angle of the bed, the free
+//! surface, the fill, the grains in flight and the velocity profile across the flowing layer.
+//!
+//! Everything is measured in the drum's cross-section (in 3D the grains are projected along
+//! the axis), in a frame where the bed rises towards `+h` whatever the sense of rotation:
+//! `h` horizontal across the axis, `u` up against gravity.
+//!
+//! - **Mass angle**: the direction of the bed's centroid from the axis, measured from straight
+//!   down. For a flat free surface the bed is a circular segment whose centroid lies on the
+//!   perpendicular to the surface through the axis, so this is the surface's angle; it needs
+//!   no surface detection and is the robust one.
+//! - **Surface angle**: the slope of a least-squares line through the free surface, in the
+//!   frame tilted by the mass angle: over the middle 70% of the chord, in bins two mean
+//!   diameters wide, the top of the highest grain in contact with another (grains in flight
+//!   are not the surface). The halves of the chord give the upper and lower angles; they
+//!   differ when the surface is curved (the S shape of the cascading regime).
+//! - **Fill**: the fraction of the cross-section below the fitted surface.
+//! - **Velocity profile**: along the perpendicular to the surface through the mid-chord
+//!   (grains within a strip of ±1.5 <d> of it), the mean velocity down the slope in bins one
+//!   mean diameter deep, from the surface to the wall: positive in the flowing layer, negative
+//!   where the bed turns with the drum.
+
+use serde::{Deserialize, Serialize};
+
+use super::metrics::ContactRecord;
+use crate::math::{Real, Vec3};
+use crate::particles::Particles;
+
+/// Half-width of the part of the chord where the surface is fitted, as a fraction of the
+/// chord's half-length (the ends touch the wall and bend).
+pub const SURFACE_SPAN: Real = 0.7;
+/// Half-width of the strip about the mid-chord normal where the velocity profile is taken, in
+/// mean diameters.
+pub const PROFILE_STRIP: Real = 1.5;
+
+/// A drum as the methods show it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrumView {
+    /// Axis (0, 1, 2).
+    pub axis: usize,
+    /// A point of the axis, m.
+    pub center: Vec3,
+    /// Inner radius, m.
+    pub radius: Real,
+    /// Angular velocity, rad/s (right-handed about the axis).
+    pub angular_velocity: Real,
+    /// Unit vector of gravity (perpendicular to the axis).
+    pub down: Vec3,
+    /// Torque about the axis exerted by the grains on the drum, N·m (per metre of thickness
+    /// in 2D).
+    pub torque: Real,
+}
+
+/// One depth bin of the velocity profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ProfileBin {
+    /// Depth of the bin's middle below the free surface, m.
+    pub depth: f64,
+    /// Mean velocity down the slope, m/s (negative: up, with the drum).
+    pub velocity: f64,
+    /// Grains counted.
+    pub count: u64,
+}
+
+/// The drum at one instant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DrumSample {
+    /// Angle of the bed's centroid from straight down, degrees.
+    pub mass_angle: f64,
+    /// Angle of the free surface to the horizontal, degrees (absent when no surface was
+    /// found).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface_angle: Option<f64>,
+    /// Angle of the upper half of the surface, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub upper_angle: Option<f64>,
+    /// Angle of the lower half of the surface, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lower_angle: Option<f64>,
+    /// Fraction of the cross-section below the free surface.
+    pub fill: f64,
+    /// Depth of the bed at mid-chord (from the fitted surface to the wall), m.
+    pub bed_depth: f64,
+    /// Distance of the bed's centroid from the axis, m.
+    pub centroid_offset: f64,
+    /// Fraction of the grains in flight: touching nothing, and more than a mean diameter above
+    /// the fitted surface.
+    pub airborne_fraction: f64,
+    /// Torque the drive supplies to keep the drum turning, N·m (per metre in 2D).
+    pub drive_torque: f64,
+    /// Velocity down the slope against depth, from the surface to the wall.
+    pub profile: Vec<ProfileBin>,
+}
+
+/// Least-squares line `w = a + b s` through points; `None` with fewer than two distinct `s`.
+fn fit(points: &[(Real, Real)]) -> Option<(Real, Real)> {
+    let n = points.len() as Real;
+    if points.len() < 2 {
+        return None;
+    }
+    let (ms, mw) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
+    let (sxx, sxy) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + (p.0 - ms).powi(2), a.1 + (p.0 - ms) * (p.1 - mw)));
+    (sxx > 0.0).then(|| {
+        let b = sxy / sxx;
+        (mw - b * ms, b)
+    })
+}
+
+/// Fraction of a circle of radius `r` lying below a chord at signed height `w` from its centre.
+pub fn segment_fraction(w: Real, r: Real) -> Real {
+    let x = (w / r).clamp(-1.0, 1.0);
+    let cap_above = x.acos() - x * (1.0 - x * x).sqrt();
+    1.0 - cap_above / std::f64::consts::PI
+}
+
+/// Measures the drum in `dim` dimensions: particles, their contacts (to tell grains in flight)
+/// and the drum.
+pub fn measure_drum(dim: usize, p: &Particles, contacts: &[ContactRecord], d: &DrumView) -> DrumSample {
+    let n = p.len();
+    let mut e_axis = Vec3::zeros();
+    e_axis[d.axis] = 1.0;
+    // The bed rises towards +h: the drum's surface moves up on that side.
+    let sense = if d.angular_velocity < 0.0 { -1.0 } else { 1.0 };
+    let e_h = e_axis.cross(&d.down) * sense;
+    let e_up = -d.down;
+    let frame = |x: &Vec3| {
+        let mut r = x - d.center;
+        r[d.axis] = 0.0;
+        (r.dot(&e_h), r.dot(&e_up))
+    };
+    let mut touching = vec![false; n];
+    for c in contacts.iter().filter(|c| c.bears_load()) {
+        touching[c.i as usize] = true;
+        if let Some(j) = c.j {
+            touching[j as usize] = true;
+        }
+    }
+    let (mut vol, mut ch, mut cu) = (0.0, 0.0, 0.0);
+    for k in 0..n {
+        let v = Particles::volume_of(dim, p.radius[k]);
+        let (h, u) = frame(&p.pos[k]);
+        vol += v;
+        ch += v * h;
+        cu += v * u;
+    }
+    if vol > 0.0 {
+        ch /= vol;
+        cu /= vol;
+    }
+    let theta = ch.atan2(-cu);
+    let mean_d = if n > 0 { 2.0 * p.radius.iter().sum::<Real>() / n as Real } else { 0.0 };
+    // The frame of the surface: s along it (rising), w across it (up, out of the bed).
+    let (t, nrm) = ((theta.cos(), theta.sin()), (-theta.sin(), theta.cos()));
+    let to_surface = |x: &Vec3| {
+        let (h, u) = frame(x);
+        (h * t.0 + u * t.1, h * nrm.0 + u * nrm.1)
+    };
+    let tops: Vec<(Real, Real)> =
+        (0..n).filter(|&k| touching[k]).map(|k| (to_surface(&p.pos[k]), p.radius[k])).map(|((s, w), r)| (s, w + r)).collect();
+    // First guess of the surface height at mid-chord, then the chord.
+    let w0 = tops.iter().filter(|(s, _)| s.abs() < 2.0 * mean_d).map(|x| x.1).fold(Real::NEG_INFINITY, Real::max);
+    let (mut surface_angle, mut upper_angle, mut lower_angle) = (None, None, None);
+    let mut surface_w = w0;
+    let mut line = None;
+    if w0.is_finite() && w0.abs() < d.radius && mean_d > 0.0 {
+        let half = SURFACE_SPAN * (d.radius * d.radius - w0 * w0).sqrt();
+        let width = 2.0 * mean_d;
+        let bins = ((2.0 * half / width).floor() as usize).max(1);
+        let mut top = vec![Real::NEG_INFINITY; bins];
+        for &(s, w) in &tops {
+            if s.abs() < half {
+                let b = (((s + half) / width) as usize).min(bins - 1);
+                top[b] = top[b].max(w);
+            }
+        }
+        let points: Vec<(Real, Real)> =
+            top.iter().enumerate().filter(|(_, w)| w.is_finite()).map(|(b, &w)| (-half + (b as Real + 0.5) * width, w)).collect();
+        let deg = |slope: Real| (theta + slope.atan()).to_degrees();
+        if let Some((a, b)) = fit(&points) {
+            surface_angle = Some(deg(b));
+            surface_w = a;
+            line = Some((a, b));
+        }
+        let lower: Vec<(Real, Real)> = points.iter().copied().filter(|p| p.0 < 0.0).collect();
+        let upper: Vec<(Real, Real)> = points.iter().copied().filter(|p| p.0 >= 0.0).collect();
+        lower_angle = fit(&lower).map(|(_, b)| deg(b));
+        upper_angle = fit(&upper).map(|(_, b)| deg(b));
+    }
+    let fill = if surface_w.is_finite() { segment_fraction(surface_w, d.radius) } else { 0.0 };
+    // Velocity profile along the mid-chord normal, from the surface down to the wall.
+    let mut profile = Vec::new();
+    if surface_w.is_finite() && mean_d > 0.0 {
+        let depth_max = surface_w + d.radius;
+        let bins = (depth_max / mean_d).ceil().max(0.0) as usize;
+        let mut sum = vec![0.0; bins];
+        let mut count = vec![0u64; bins];
+        for k in (0..n).filter(|&k| touching[k]) {
+            let (s, w) = to_surface(&p.pos[k]);
+            let depth = surface_w - w;
+            if s.abs() > PROFILE_STRIP * mean_d || depth < 0.0 {
+                continue;
+            }
+            if bins == 0 {
+                continue;
+            }
+            let b = ((depth / mean_d) as usize).min(bins - 1);
+            let v = &p.vel[k];
+            let (vh, vu) = (v.dot(&e_h), v.dot(&e_up));
+            // Down the slope is -t.
+            sum[b] -= vh * t.0 + vu * t.1;
+            count[b] += 1;
+        }
+        profile = (0..bins)
+            .map(|b| ProfileBin {
+                depth: (b as Real + 0.5) * mean_d,
+                velocity: if count[b] > 0 { sum[b] / count[b] as Real } else { 0.0 },
+                count: count[b],
+            })
+            .collect();
+    }
+    // In flight: touching nothing, and more than a mean diameter above the surface (grains of
+    // a dense flowing layer are often between two collisions).
+    let airborne = (0..n)
+        .filter(|&k| !touching[k])
+        .filter(|&k| {
+            let (s, w) = to_surface(&p.pos[k]);
+            line.is_none_or(|(a, b)| w - (a + b * s) > mean_d)
+        })
+        .count();
+    DrumSample {
+        mass_angle: theta.to_degrees(),
+        surface_angle,
+        upper_angle,
+        lower_angle,
+        fill,
+        bed_depth: if surface_w.is_finite() { surface_w + d.radius } else { 0.0 },
+        centroid_offset: (ch * ch + cu * cu).sqrt(),
+        airborne_fraction: if n > 0 { airborne as Real / n as Real } else { 0.0 },
+        drive_torque: -d.torque,
+        profile,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Disks of diameter 1 on a triangular lattice filling a 2D drum of radius 20 below a
+    /// surface tilted by `tilt` degrees (rising to +x for a counter-clockwise drum), each
+    /// touching its neighbours, moving in solid rotation at ω = 1 except a layer of
+    /// `layer` diameters under the surface that slides down at speed 1.
+    fn bed(tilt: Real, layer: Real) -> (Particles, Vec<ContactRecord>, DrumView) {
+        let r_drum = 20.0;
+        let (c, s) = (tilt.to_radians().cos(), tilt.to_radians().sin());
+        let mut p = Particles::default();
+        let surface_w = -5.0;
+        let mut k = 0;
+        let mut y = -r_drum;
+        while y < r_drum {
+            let shift = if k % 2 == 0 { 0.0 } else { 0.5 };
+            let mut x = -r_drum + shift;
+            while x < r_drum {
+                // (x, y) in the surface frame; rotate into the drum's.
+                let pos = Vec3::new(x * c - y * s, x * s + y * c, 0.0);
+                if pos.norm() < r_drum - 0.5 && y < surface_w - 0.5 {
+                    let depth = surface_w - y;
+                    let vel = if depth < layer { Vec3::new(-c, -s, 0.0) } else { Vec3::new(-pos.y, pos.x, 0.0) };
+                    p.push(2, pos, vel, 0.5, 1.0, 0, false);
+                }
+                x += 1.0;
+            }
+            y += 3f64.sqrt() / 2.0;
+            k += 1;
+        }
+        let contacts: Vec<ContactRecord> = (0..p.len())
+            .map(|i| ContactRecord {
+                i: i as u32,
+                j: None,
+                force: Vec3::new(0.0, 1.0, 0.0),
+                branch: Vec3::zeros(),
+                touching: true,
+                bonded: false,
+            })
+            .collect();
+        let view = DrumView {
+            axis: 2,
+            center: Vec3::zeros(),
+            radius: r_drum,
+            angular_velocity: 1.0,
+            down: Vec3::new(0.0, -1.0, 0.0),
+            torque: -2.0,
+        };
+        (p, contacts, view)
+    }
+
+    #[test]
+    fn a_tilted_flat_bed_gives_its_angle_fill_and_profile() {
+        for tilt in [0.0, 25.0, 35.0] {
+            let (p, contacts, view) = bed(tilt, 4.0);
+            let m = measure_drum(2, &p, &contacts, &view);
+            // The lattice is symmetric about the mid-chord normal only on average: within 1.5°.
+            assert!((m.mass_angle - tilt).abs() < 1.5, "tilt {tilt}: mass angle {}", m.mass_angle);
+            let sa = m.surface_angle.expect("surface");
+            assert!((sa - tilt).abs() < 1.5, "tilt {tilt}: surface angle {sa}");
+            // Fill below a chord 5 radii-of-1 below the centre of a radius-20 drum (the top
+            // grains reach w = -5 - 0.5 + 0.5 at most, and the fit passes through the tops).
+            let expected = segment_fraction(-5.0, 20.0);
+            assert!((m.fill - expected).abs() < 0.03, "tilt {tilt}: fill {} vs {expected}", m.fill);
+            assert_eq!(m.airborne_fraction, 0.0);
+            assert_eq!(m.drive_torque, 2.0);
+            // The top layer slides down at 1; deeper grains go up with the drum (ω r > 0).
+            let first = &m.profile[0];
+            assert!((first.velocity - 1.0).abs() < 1e-9 && first.count > 0, "{:?}", m.profile);
+            let deep = m.profile.iter().filter(|b| b.depth > 6.0 && b.count > 0).collect::<Vec<_>>();
+            assert!(!deep.is_empty() && deep.iter().all(|b| b.velocity < 0.0), "{:?}", m.profile);
+        }
+    }
+
+    #[test]
+    fn the_sense_of_rotation_mirrors_the_frame() {
+        let (mut p, contacts, mut view) = bed(30.0, 2.0);
+        // Mirror the bed (x -> -x) and turn the drum the other way: the same angles.
+        for (x, v) in p.pos.iter_mut().zip(p.vel.iter_mut()) {
+            x.x = -x.x;
+            v.x = -v.x;
+        }
+        view.angular_velocity = -1.0;
+        let m = measure_drum(2, &p, &contacts, &view);
+        assert!((m.mass_angle - 30.0).abs() < 1.5, "{}", m.mass_angle);
+        assert!((m.profile[0].velocity - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn segment_fractions() {
+        assert!((segment_fraction(0.0, 1.0) - 0.5).abs() < 1e-12);
+        assert!(segment_fraction(-1.0, 1.0).abs() < 1e-12);
+        assert!((segment_fraction(1.0, 1.0) - 1.0).abs() < 1e-12);
+        // Below y = -0.5 in a unit circle: (π/3 - sqrt(3)/4) / π.
+        let expected = (std::f64::consts::PI / 3.0 - 3f64.sqrt() / 4.0) / std::f64::consts::PI;
+        assert!((segment_fraction(-0.5, 1.0) - expected).abs() < 1e-12);
+    }
+}
