@@ -440,3 +440,54 @@ fn plane_shear_between_rough_walls_matches_the_periodic_cell() {
     let (top, bottom) = (traction("y_max"), traction("y_min"));
     assert!(top.abs() > 0.0 && (top + bottom).abs() < 0.15 * top.abs(), "tractions {top} and {bottom}");
 }
+
+/// Diametral compression of a granule of 300 wet spheres (d 0.9-1.1 mm, γ = 0.0728 N/m, bridges
+/// of 1e-12 m³, μ = 0.3) at a strain rate of 3 1/s, with the surface tension `gamma`.
+fn granule(gamma: f64) -> ExperimentResult {
+    let (r, samples) = run(json!({
+        "dimension": 3,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": {
+            "wet_glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3,
+                          "liquid": {"surface_tension": gamma, "contact_angle": 0.0, "bridge_volume": 1.0e-12, "viscosity": 1.0e-3, "roughness": 1.0e-5}},
+            "plate": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3}
+        },
+        "particles": [{"material": "wet_glass", "count": 300, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
+                       "placement": {"kind": "random"}, "wet_fraction": 1.0}],
+        "container": {"min": [0, 0, 0], "max": [0.024, 0.024, 0.024], "wall_material": "plate"},
+        "experiment": {"kind": "granule_compression", "strain_rate": 3.0},
+        "sampling": {"every_steps": 2000},
+        "seed": 3
+    }));
+    let stages: Vec<&str> = samples.iter().filter_map(|s| s.stage.as_deref()).collect();
+    assert!(["forming", "relaxation", "compression"].iter().all(|n| stages.contains(n)), "{stages:?}");
+    r
+}
+
+/// N 3.2.3: the plastic strength of a wet granule is proportional to the capillary stress,
+/// σ_p = η s Z Φ σ_c / (2π) with η of order one. Measured (300 spheres): γ → σ_p = 82.9 Pa
+/// (σ_p/σ_c = 0.361, η = 0.90, Z = 5.37); 2γ → σ_p = 166.9 Pa (0.363, 0.87): the ratio is 2.01.
+/// The rate does not matter (at a tenth of the default forming field, 3 1/s and 0.5 1/s gave
+/// 49.0 and 48.8 Pa). Bounds: ratio 2 within 20% (the 2γ plateau fluctuates by ±37%), η within
+/// 0.3-3, a bonded granule (Z > 4), a plateau (std below half the mean over the window).
+#[test]
+fn granule_strength_is_proportional_to_the_capillary_stress() {
+    let (weak, strong) = (granule(0.0728), granule(0.1456));
+    for (name, r) in [("gamma", &weak), ("2 gamma", &strong)] {
+        let mut r = r.clone();
+        if let Some(g) = r.granule.as_mut() {
+            g.curve.clear();
+        }
+        eprintln!("{name}: {}", serde_json::to_string(&r).unwrap_or_default());
+    }
+    let (w, s) = (weak.granule.as_ref().expect("granule"), strong.granule.as_ref().expect("granule"));
+    assert!((w.capillary_stress * 2.0 - s.capillary_stress).abs() < 1e-9 * s.capillary_stress);
+    let ratio = s.plastic_strength / w.plastic_strength;
+    assert!((1.6..2.4).contains(&ratio), "strength ratio {ratio}: {} and {} Pa", w.plastic_strength, s.plastic_strength);
+    for g in [w, s] {
+        assert!(g.z > 4.0, "Z = {}", g.z);
+        assert!((0.3..3.0).contains(&g.eta), "eta = {}", g.eta);
+        assert!(g.plastic_strength_std < 0.5 * g.plastic_strength, "{} ± {}", g.plastic_strength, g.plastic_strength_std);
+        assert!(g.curve.len() > 10 && g.curve.iter().all(|p| p[0] >= 0.0 && p[0] <= 0.31));
+    }
+}

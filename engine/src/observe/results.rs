@@ -257,6 +257,42 @@ pub struct DrumResult {
     pub profile: Vec<ProfileBin>,
 }
 
+/// Diametral compression of a wet granule (N 3.2.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct GranuleResult {
+    /// Radius of the granule when the plates close on it (half their gap), m.
+    pub radius: f64,
+    /// Its packing fraction: the grains' solid volume over the ball (disk) of that radius.
+    pub phi: f64,
+    /// Coordination when the compression starts: force-bearing contacts and capillary bonds
+    /// per grain (`2 N_c / N`).
+    pub z: f64,
+    /// Polydispersity factor `s = <d^1/2> <d> <d^3/2> / <d^3>` (N eq. 3.12; 1 for equal grains).
+    pub s: f64,
+    /// Capillary stress `σ_c = f_c / <d>^(D-1)`, `f_c = 2π γ cos θ <d>/2`, Pa.
+    pub capillary_stress: f64,
+    /// Stress-strain curve, per sample of the compression: `[strain, σ_zz, plate stress]`.
+    /// σ_zz (Pa) is the granule's vertical stress: the Love-Weber stress of its contacts and
+    /// bridges along the axis over the granule's volume (that of the ball of radius `radius`);
+    /// the plate stress (Pa) is the plates' force over the granule's cross-section (`π R²` in
+    /// 3D, `2R` per metre in 2D), which grows as the granule flattens against them.
+    pub curve: Vec<[f64; 3]>,
+    /// Largest σ_zz, Pa.
+    pub peak_stress: f64,
+    /// Strain of the largest σ_zz.
+    pub peak_strain: f64,
+    /// Plastic strength σ_p: the mean σ_zz over the plateau window, Pa (N 3.2.3: "résistance
+    /// verticale σ_zz").
+    pub plastic_strength: f64,
+    /// Standard deviation of the stress over the window, Pa.
+    pub plastic_strength_std: f64,
+    /// `σ_p / σ_c`.
+    pub normalized_strength: f64,
+    /// Prefactor of N eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)`.
+    pub eta: f64,
+}
+
 /// Mass angle (degrees) below which the bed is not lifted: the drum slips under it.
 pub const SLIP_ANGLE: Real = 5.0;
 /// Fraction of the settled bed's centroid offset below which the grains ride the wall all
@@ -294,6 +330,70 @@ pub fn drum_regime(centroid_ratio: Real, mass_angle: Real, airborne: Real, at_re
     } else {
         "rolling"
     }
+}
+
+/// The stress-strain curve of a granule compression and what it gives.
+#[allow(clippy::too_many_arguments)]
+fn granule_result(
+    run: &[&Sample],
+    relaxed: Option<&Sample>,
+    axis: usize,
+    plateau: (Real, Real),
+    dim: usize,
+    solid: Real,
+    s: Real,
+    sigma_c: Real,
+) -> Option<GranuleResult> {
+    let first = run.first()?;
+    let name = |upper: bool| format!("{}_{}", crate::math::AXES[axis], if upper { "max" } else { "min" });
+    let wall = |x: &Sample, upper: bool| x.walls.iter().find(|w| w.name == name(upper)).cloned();
+    let (lo, hi) = (wall(first, false)?, wall(first, true)?);
+    let radius = 0.5 * (hi.position - lo.position);
+    if radius <= 0.0 {
+        return None;
+    }
+    let section = if dim == 3 { std::f64::consts::PI * radius * radius } else { 2.0 * radius };
+    let phi = solid / Particles::volume_of(dim, radius);
+    let curve: Vec<[f64; 3]> = run
+        .iter()
+        .filter_map(|x| {
+            let (lo, hi) = (wall(x, false)?, wall(x, true)?);
+            // The plates' mean compressive force along the axis.
+            let force = 0.5 * (hi.force.get(axis).copied().unwrap_or(0.0) - lo.force.get(axis).copied().unwrap_or(0.0));
+            let strain = x.strain.as_ref().and_then(|e| e.axes.get(axis).copied()).unwrap_or(0.0);
+            // The box's stress is the granule's sum over the box volume (solid / Φ_box): over
+            // the granule's, it is Φ_granule / Φ_box times larger.
+            let s = &x.stress;
+            let along = match axis {
+                0 => s.xx,
+                1 => s.yy,
+                _ => s.zz.unwrap_or(0.0),
+            };
+            let sigma = if x.phi > 0.0 { along * phi / x.phi } else { 0.0 };
+            Some([strain, sigma, force / section])
+        })
+        .collect();
+    let (peak_strain, peak_stress) = curve.iter().fold((0.0, Real::NEG_INFINITY), |a, p| if p[1] > a.1 { (p[0], p[1]) } else { a });
+    let window: Vec<Real> = curve.iter().filter(|p| p[0] >= plateau.0 && p[0] <= plateau.1).map(|p| p[1]).collect();
+    let n = window.len().max(1) as Real;
+    let plastic_strength = window.iter().sum::<Real>() / n;
+    let plastic_strength_std = (window.iter().map(|x| (x - plastic_strength).powi(2)).sum::<Real>() / n).sqrt();
+    let z = relaxed.map_or(first.z, |x| x.z);
+    let denominator = s * z * phi * sigma_c;
+    Some(GranuleResult {
+        radius,
+        phi,
+        z,
+        s,
+        capillary_stress: sigma_c,
+        peak_stress: peak_stress.max(0.0),
+        peak_strain,
+        plastic_strength,
+        plastic_strength_std,
+        normalized_strength: if sigma_c > 0.0 { plastic_strength / sigma_c } else { 0.0 },
+        eta: if denominator > 0.0 { 2.0 * std::f64::consts::PI * plastic_strength / denominator } else { 0.0 },
+        curve,
+    })
 }
 
 /// Averages the drum samples after the transient; also returns the weight per area on the
@@ -437,6 +537,9 @@ pub struct ExperimentResult {
     /// Deposition results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deposition: Option<DepositionResult>,
+    /// Granule compression results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub granule: Option<GranuleResult>,
     /// Rotating drum results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drum: Option<DrumResult>,
@@ -461,6 +564,9 @@ pub struct Analysis {
     samples: Vec<Sample>,
     /// Height and packing fraction of a deposit, from the final state.
     deposit: Option<(Real, Real)>,
+    /// Solid volume (m³, m² in 2D) and polydispersity factor `s` of the grains, from the final
+    /// state (granule compression).
+    grains: Option<(Real, Real)>,
     /// The liquid, when the grains are wet.
     wet: Option<WetScales>,
 }
@@ -478,18 +584,35 @@ impl Analysis {
             .and_then(|m| m.liquid)
             .filter(|_| any_wet)
             .map(|l| WetScales { kappa: 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos(), viscosity: l.viscosity });
-        Self { experiment: scene.experiment.clone(), dim: scene.dim, law: material.map(|m| m.law), samples: Vec::new(), deposit: None, wet }
+        Self {
+            experiment: scene.experiment.clone(),
+            dim: scene.dim,
+            law: material.map(|m| m.law),
+            samples: Vec::new(),
+            deposit: None,
+            grains: None,
+            wet,
+        }
     }
 
     /// True if the results need the final particles ([`Analysis::final_state`]).
     pub fn needs_final_state(&self) -> bool {
-        matches!(self.experiment, Some(Experiment::Deposition { .. }))
+        matches!(self.experiment, Some(Experiment::Deposition { .. } | Experiment::GranuleCompression { .. }))
     }
 
     /// Takes the final particles, for the results that depend on them (a deposit's height).
     pub fn final_state(&mut self, state: &StateFile) {
-        if let Some(Experiment::Deposition { axis, floor_upper, .. }) = self.experiment {
-            self.deposit = Some(deposit_of(state, axis, floor_upper));
+        match self.experiment {
+            Some(Experiment::Deposition { axis, floor_upper, .. }) => self.deposit = Some(deposit_of(state, axis, floor_upper)),
+            Some(Experiment::GranuleCompression { .. }) => {
+                let d: Vec<Real> = state.particles.radius.iter().map(|r| 2.0 * r).collect();
+                let n = d.len().max(1) as Real;
+                let m = |k: Real| d.iter().map(|x| x.powf(k)).sum::<Real>() / n;
+                let s = if m(3.0) > 0.0 { m(0.5) * m(1.0) * m(1.5) / m(3.0) } else { 0.0 };
+                let solid = d.iter().map(|x| Particles::volume_of(self.dim, 0.5 * x)).sum();
+                self.grains = Some((solid, s));
+            }
+            _ => {}
         }
     }
 
@@ -526,6 +649,7 @@ impl Analysis {
             compaction: None,
             shear: None,
             deposition: None,
+            granule: None,
             drum: None,
             last: State::of(last),
             inertial_number: None,
@@ -605,6 +729,17 @@ impl Analysis {
                             viscocohesive_inertial_number: i_m,
                         });
                     }
+                }
+            }
+            Experiment::GranuleCompression { axis, plateau, .. } => {
+                let relaxed = stage("relaxation").next_back();
+                let run: Vec<&Sample> = stage("compression").collect();
+                let (solid, s) = self.grains.unwrap_or((0.0, 0.0));
+                let f_c = self.wet.map_or(0.0, |w| w.kappa * 0.5 * mean_diameter);
+                let sigma_c = f_c / mean_diameter.powi(self.dim as i32 - 1);
+                r.granule = granule_result(&run, relaxed, *axis, *plateau, self.dim, solid, s, sigma_c);
+                if let Some(g) = &r.granule {
+                    r.stiffness_number = self.stiffness_number(g.plastic_strength.max(sigma_c), mean_diameter);
                 }
             }
             Experiment::Drum { .. } => {

@@ -11,7 +11,7 @@ use super::Particles;
 use crate::error::EngineError;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
-use crate::scene::{Aabb, DrumDef, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
+use crate::scene::{Aabb, Ball, DrumDef, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
 
 /// Attempts per particle before random placement gives up.
 const MAX_ATTEMPTS: usize = 20_000;
@@ -41,7 +41,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         .fold(0.0, f64::max);
     let mut grid = OverlapGrid::new(dmax.max(1e-300));
     let mut out = Particles::default();
-    let drum = scene.container.drum.as_ref();
+    let confine = Confinement { drum: scene.container.drum.as_ref(), ball: scene.container.granule.as_ref() };
     for (k, set) in scene.sets.iter().enumerate() {
         let path = format!("particles[{k}]");
         let diameters = draw_diameters(set, &mut rng);
@@ -51,7 +51,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         wet.iter_mut().take(n_wet).for_each(|w| *w = true);
         wet.shuffle(&mut rng);
         let positions: Vec<Vec3> = match &set.placement {
-            Placement::Random(region) => random_positions(&diameters, region, domain, drum, &mut grid, &mut out, &mut rng, &path)?,
+            Placement::Random(region) => random_positions(&diameters, region, domain, confine, &mut grid, &mut out, &mut rng, &path)?,
             Placement::Lattice { kind, region, spacing, random_select } => {
                 let s = spacing.unwrap_or(1.01 * diameters.iter().copied().fold(0.0, f64::max));
                 let dm = diameters.iter().copied().fold(0.0, f64::max);
@@ -62,7 +62,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                     });
                 }
                 let mut sites = lattice_sites(*kind, region, s, dm / 2.0, domain);
-                sites.retain(|p| inside_drum(drum, p, dm / 2.0));
+                sites.retain(|p| confine.holds(p, dm / 2.0));
                 if sites.len() < set.count {
                     return Err(EngineError::Build {
                         field: format!("{path}.count"),
@@ -93,8 +93,8 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                 let radii: Vec<Real> = diameters.iter().map(|d| d / 2.0).collect();
                 for (idx, (p, d)) in positions.iter().zip(&diameters).enumerate() {
                     let field = format!("{path}.placement.positions[{idx}]");
-                    if !inside_drum(drum, p, d / 2.0) {
-                        return Err(EngineError::Build { field, reason: "particle lies outside the drum".to_string() });
+                    if !confine.holds(p, d / 2.0) {
+                        return Err(EngineError::Build { field, reason: format!("particle lies outside {}", confine.name()) });
                     }
                     check_free(&grid, &out, &positions[..idx], &radii[..idx], domain, p, d / 2.0, &field)?;
                     grid.insert_in(domain, p, out.len() + grid.pending());
@@ -164,13 +164,55 @@ fn centre_bounds(region: &Aabb, domain: &Domain, a: usize, r: Real) -> (Real, Re
     }
 }
 
-/// True if a particle of radius `r` at `p` lies inside the drum (always without one).
-fn inside_drum(drum: Option<&DrumDef>, p: &Vec3, r: Real) -> bool {
-    drum.is_none_or(|d| {
-        let mut x = p - d.center;
-        x[d.axis] = 0.0;
-        x.norm() + r <= d.radius
-    })
+/// Where the grains of a scene must be placed besides the box: inside its drum, or inside the
+/// ball of its granule.
+#[derive(Clone, Copy)]
+struct Confinement<'a> {
+    drum: Option<&'a DrumDef>,
+    ball: Option<&'a Ball>,
+}
+
+impl Confinement<'_> {
+    /// True if a particle of radius `r` at `p` lies inside.
+    fn holds(&self, p: &Vec3, r: Real) -> bool {
+        let in_drum = self.drum.is_none_or(|d| {
+            let mut x = p - d.center;
+            x[d.axis] = 0.0;
+            x.norm() + r <= d.radius
+        });
+        in_drum && self.ball.is_none_or(|b| (p - b.center).norm() + r <= b.radius)
+    }
+
+    /// Interval of centre coordinates along axis `a` that may hold a particle of radius `r`
+    /// (the bounding box of the confinement), if it bounds that axis.
+    fn bounds(&self, a: usize, r: Real) -> Option<(Real, Real)> {
+        if let Some(b) = self.ball {
+            return Some((b.center[a] - (b.radius - r), b.center[a] + (b.radius - r)));
+        }
+        self.drum.filter(|d| d.axis != a).map(|d| (d.center[a] - (d.radius - r), d.center[a] + (d.radius - r)))
+    }
+
+    /// Volume that may hold the grains (m³, m² in 2D) within `region`, for messages.
+    fn volume(&self, dim: usize, region: &Aabb) -> Real {
+        let extent = |a: usize| region.hi[a] - region.lo[a];
+        match (self.ball, self.drum) {
+            (Some(b), _) => Particles::volume_of(dim, b.radius),
+            (None, Some(d)) => {
+                let along = if dim == 3 { extent(d.axis) } else { 1.0 };
+                std::f64::consts::PI * d.radius * d.radius * along
+            }
+            (None, None) => (0..dim).map(extent).product(),
+        }
+    }
+
+    /// What the grain must lie inside, for messages.
+    fn name(&self) -> &'static str {
+        if self.ball.is_some() {
+            "the granule's ball"
+        } else {
+            "the drum"
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -178,7 +220,7 @@ fn random_positions(
     diameters: &[Real],
     region: &Aabb,
     domain: &Domain,
-    drum: Option<&DrumDef>,
+    confine: Confinement<'_>,
     grid: &mut OverlapGrid,
     placed: &mut Particles,
     rng: &mut ChaCha8Rng,
@@ -191,6 +233,9 @@ fn random_positions(
         let mut bounds = [(0.0, 0.0); 3];
         for (a, b) in bounds.iter_mut().enumerate().take(domain.dim) {
             *b = centre_bounds(region, domain, a, r);
+            if let Some((lo, hi)) = confine.bounds(a, r) {
+                *b = (b.0.max(lo), b.1.min(hi));
+            }
             if b.1 < b.0 {
                 return Err(EngineError::Build {
                     field: format!("{path}.placement.region"),
@@ -205,18 +250,18 @@ fn random_positions(
                 let (l, h) = bounds[a];
                 p[a] = if h > l { rng.gen_range(l..h) } else { l };
             }
-            if inside_drum(drum, &p, r) && grid.is_free(placed, &out, &radii, domain, &p, r) {
+            if confine.holds(&p, r) && grid.is_free(placed, &out, &radii, domain, &p, r) {
                 found = Some(p);
                 break;
             }
         }
         let Some(p) = found else {
-            let vol: Real = (0..domain.dim).map(|a| region.hi[a] - region.lo[a]).product();
+            let vol = confine.volume(domain.dim, region);
             let solid: Real = diameters.iter().map(|d| Particles::volume_of(domain.dim, d / 2.0)).sum();
             return Err(EngineError::Build {
                 field: format!("{path}.count"),
                 reason: format!(
-                    "placed only {k} of {} particles at random without overlap (requested packing fraction {:.3} of the region); \
+                    "placed only {k} of {} particles at random without overlap (requested packing fraction {:.3} of the space that may hold them); \
                      random placement jams near 0.55 in 2D and 0.38 in 3D: use a larger region, fewer particles, or a lattice",
                     diameters.len(),
                     solid / vol

@@ -220,6 +220,17 @@ impl SizeDist {
             Self::Bidisperse { small, ratio, fraction_small } => small * (fraction_small + (1.0 - fraction_small) * ratio),
         }
     }
+    /// Mean of the diameter to the power `k`, `<d^k>`, m^k.
+    pub fn mean_power(&self, k: Real) -> Real {
+        match *self {
+            Self::Monodisperse(d) => d.powf(k),
+            Self::Uniform { min, max } if max > min => (max.powf(k + 1.0) - min.powf(k + 1.0)) / ((k + 1.0) * (max - min)),
+            Self::Uniform { min, .. } => min.powf(k),
+            Self::Bidisperse { small, ratio, fraction_small } => {
+                fraction_small * small.powf(k) + (1.0 - fraction_small) * (small * ratio).powf(k)
+            }
+        }
+    }
     /// Smallest diameter the distribution can produce.
     pub fn min_diameter(&self) -> Real {
         match *self {
@@ -406,6 +417,18 @@ pub struct Container {
     pub deformation: Option<Deformation>,
     /// A rotating drum inscribed in the box (set by the `drum` experiment).
     pub drum: Option<DrumDef>,
+    /// The ball (disk in 2D) the grains are placed in to form a granule (set by the
+    /// `granule_compression` experiment).
+    pub granule: Option<Ball>,
+}
+
+/// A ball (a disk in 2D: its z is not used).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ball {
+    /// Centre, m.
+    pub center: Vec3,
+    /// Radius, m.
+    pub radius: Real,
 }
 
 /// A cylindrical wall (a circle in 2D) about an axis of the box, which may turn about it: the
@@ -482,6 +505,12 @@ pub struct Controls {
     /// glued to it (rough walls): from then on they move with the wall, do not turn, and the
     /// load the other grains put on them is the wall's.
     pub glue: Option<Real>,
+    /// `Some(a)`: every grain is pulled towards the centre of the container's granule ball
+    /// with the acceleration `a`, m/s² (0 switches the field off).
+    pub centripetal: Option<Real>,
+    /// `Some(axis)`: the two walls of this axis jump to the grains' extent along it (they
+    /// touch the outermost grains) when the stage starts.
+    pub close_walls: Option<usize>,
 }
 
 /// The equilibrium criterion of a stage: all must hold at `consecutive` checks in a row,
@@ -615,6 +644,30 @@ pub enum Experiment {
         /// Step limit of each stage.
         max_steps: u64,
     },
+    /// Diametral compression of a wet granule (N 3.2.3): the grains, placed in a ball, are
+    /// pulled together by a centripetal field until equilibrium (capillary bridges form), left
+    /// to hold by themselves, then squeezed between the two plates of `axis` closing at a
+    /// constant true strain rate: stress-strain curve, plastic strength and its prediction.
+    GranuleCompression {
+        /// The ball the grains start in.
+        ball: Ball,
+        /// Axis of the plates.
+        axis: usize,
+        /// Acceleration of the centripetal field that forms the granule, m/s².
+        acceleration: Real,
+        /// True strain rate of the compression, 1/s (> 0).
+        strain_rate: Real,
+        /// Final strain `|ln(h/h_0)|`.
+        strain: Real,
+        /// Strain window over which the plastic strength is averaged.
+        plateau: (Real, Real),
+        /// Cundall's local damping while the granule forms and relaxes.
+        local_damping: Real,
+        /// When the granule has formed, and when it holds by itself.
+        equilibrium: Equilibrium,
+        /// Step limit of each stage.
+        max_steps: u64,
+    },
 }
 
 /// How the compaction wall moves.
@@ -649,6 +702,7 @@ impl Experiment {
             Self::PlaneShear { .. } => "plane_shear",
             Self::Deposition { .. } => "deposition",
             Self::Drum { .. } => "drum",
+            Self::GranuleCompression { .. } => "granule_compression",
         }
     }
 }

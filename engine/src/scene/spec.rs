@@ -432,6 +432,45 @@ pub enum ExperimentSpec {
     Deposition(DepositionSpec),
     /// Rotating drum inscribed in the box.
     Drum(DrumSpec),
+    /// Diametral compression of a wet granule between two plates.
+    GranuleCompression(GranuleCompressionSpec),
+}
+
+/// Parameters of the diametral compression of a granule; every field has a default.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GranuleCompressionSpec {
+    /// Axis of the plates (default the last one).
+    #[serde(default)]
+    pub axis: Option<String>,
+    /// Radius of the ball the grains are placed in, m (default: the radius that holds them
+    /// at a packing fraction of 0.25 in 3D, 0.45 in 2D).
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Acceleration of the centripetal field that gathers the grains, m/s² (default: the
+    /// capillary force over the mean grain's mass).
+    #[serde(default)]
+    pub acceleration: Option<f64>,
+    /// True strain rate of the compression, 1/s (default: inertial number 1e-3 at the
+    /// capillary stress).
+    #[serde(default)]
+    pub strain_rate: Option<f64>,
+    /// Final strain (default 0.3).
+    #[serde(default)]
+    pub strain: Option<f64>,
+    /// Strain window `[from, to]` of the plastic plateau (default [0.05, 0.2]).
+    #[serde(default)]
+    pub plateau: Option<[f64; 2]>,
+    /// Cundall's local damping while the granule forms and relaxes (default 0.2).
+    #[serde(default)]
+    pub local_damping: Option<f64>,
+    /// Equilibrium criterion of the forming and relaxing stages.
+    #[serde(default)]
+    pub equilibrium: Option<EquilibriumSpec>,
+    /// Step limit of each stage (default 2,000,000 for the forming and relaxing stages,
+    /// none for the compression).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
 }
 
 /// Parameters of the rotating drum: `froude` or `angular_velocity` (not both; default

@@ -5,7 +5,7 @@ use super::model::*;
 use super::spec::*;
 use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
-use crate::math::{vec_from_slice, Vec3, AXES};
+use crate::math::{vec_from_slice, Real, Vec3, AXES};
 
 /// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
 pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
@@ -125,19 +125,33 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             (None, stop, vec![stage])
         }
         (Some(e), limits) => {
-            let grains = match (&initial, sets.first()) {
-                (Some(st), _) => GrainScales {
-                    diameter: st.mean_diameter(),
-                    density: st.material.first().and_then(|&m| materials.get(m)).map_or(1.0, |m| m.density),
-                },
-                (None, Some(set)) => {
-                    GrainScales { diameter: set.size.mean_diameter(), density: materials.get(set.material).map_or(1.0, |m| m.density) }
-                }
-                (None, None) => GrainScales { diameter: 1.0, density: 1.0 },
+            let volume_of = |d: Real| crate::particles::Particles::volume_of(dim, 0.5 * d);
+            let (diameter, first_material, any_wet, solid_volume) = match (&initial, sets.first()) {
+                (Some(st), _) => (
+                    st.mean_diameter(),
+                    st.material.first().copied(),
+                    st.wet.iter().any(|&w| w),
+                    st.radius.iter().map(|&r| volume_of(2.0 * r)).sum(),
+                ),
+                (None, Some(set)) => (
+                    set.size.mean_diameter(),
+                    Some(set.material),
+                    sets.iter().any(|s| s.wet_fraction > 0.0),
+                    sets.iter().map(|s| s.count as Real * volume_of(1.0) * s.size.mean_power(dim as Real)).sum(),
+                ),
+                (None, None) => (1.0, None, false, 0.0),
             };
+            let material = first_material.and_then(|m| materials.get(m));
+            let capillary_force = material
+                .and_then(|m| m.liquid)
+                .filter(|_| any_wet)
+                .map(|l| 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos() * 0.5 * diameter);
+            let grains = GrainScales { diameter, density: material.map_or(1.0, |m| m.density), solid_volume, capillary_force };
             let (experiment, stages) = check_experiment(&mut c, e, dim, &container, &grains, &gravity);
-            if let Experiment::Drum { drum, .. } = &experiment {
-                container.drum = Some(*drum);
+            match &experiment {
+                Experiment::Drum { drum, .. } => container.drum = Some(*drum),
+                Experiment::GranuleCompression { ball, .. } => container.granule = Some(*ball),
+                _ => {}
             }
             let stop = match limits {
                 None => Stop::default(),
@@ -669,7 +683,7 @@ fn check_container(
     if lees_edwards.is_some() && deformation.is_some() {
         c.fail("container.deformation", "cannot be combined with lees_edwards in this version");
     }
-    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation, drum: None }
+    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation, drum: None, granule: None }
 }
 
 fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {

@@ -216,7 +216,9 @@ impl Dem {
     /// `kick`, the task then gives its particles the second half kick.
     fn gather(&mut self, kick: bool) {
         let g = self.gravity;
+        let field = self.field;
         let p = &mut self.p;
+        let pos = &p.pos;
         let (mass, inv_mass, inv_inertia) = (&p.mass, &p.inv_mass, &p.inv_inertia);
         let (wall_f, wall_t) = (&self.wall_total_f, &self.wall_total_t);
         let contacts = &self.contacts;
@@ -238,6 +240,16 @@ impl Dem {
             } else {
                 for (f, m) in fs.iter_mut().zip(&mass[owned.clone()]) {
                     *f = g * *m;
+                }
+            }
+            // The centripetal field that gathers a granule.
+            if let Some((centre, a)) = field {
+                for ((f, m), x) in fs.iter_mut().zip(&mass[owned.clone()]).zip(&pos[owned.clone()]) {
+                    let d = centre - x;
+                    let r = d.norm();
+                    if r > 0.0 {
+                        *f += d * (a * m / r);
+                    }
                 }
             }
             ts.fill(Vec3::zeros());

@@ -111,6 +111,10 @@ pub struct Dem {
     glued: Vec<(u32, u16)>,
     /// The wall each particle is glued to (`NOT_GLUED` for none); empty while none is.
     glued_to: Vec<u16>,
+    /// Centre of the scene's granule ball, where the centripetal field pulls.
+    granule_center: Option<Vec3>,
+    /// Centripetal field: centre and acceleration, m/s² (while a granule forms).
+    field: Option<(Vec3, Real)>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
     /// The pairs of `nl` close enough to touch within the next few steps.
@@ -260,6 +264,8 @@ impl Dem {
             drum,
             glued: Vec::new(),
             glued_to: Vec::new(),
+            granule_center: c.granule.map(|b| b.center),
+            field: None,
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
             near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
@@ -466,6 +472,24 @@ impl Dem {
             }
         }
         self.glued.sort_unstable();
+    }
+
+    /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
+    /// outermost grains.
+    fn close_walls(&mut self, axis: usize) {
+        let p = &self.p;
+        let lo = (0..p.len()).map(|i| p.pos[i][axis] - p.radius[i]).fold(Real::INFINITY, Real::min);
+        let hi = (0..p.len()).map(|i| p.pos[i][axis] + p.radius[i]).fold(Real::NEG_INFINITY, Real::max);
+        if !(lo.is_finite() && hi > lo) {
+            return;
+        }
+        for w in self.walls.iter_mut().filter(|w| w.face.axis == axis) {
+            w.position = if w.face.upper { hi } else { lo };
+        }
+        self.domain.lo[axis] = lo;
+        self.domain.hi[axis] = hi;
+        self.refresh_neighbors();
+        self.compute_forces(false);
     }
 
     /// Moves the glued grains with their walls: each takes its wall's new velocity, and its
@@ -834,6 +858,12 @@ impl Simulation for Dem {
         }
         if let Some(gap) = controls.glue {
             self.glue_to_walls(gap);
+        }
+        if let Some(a) = controls.centripetal {
+            self.field = self.granule_center.filter(|_| a != 0.0).map(|c| (c, a));
+        }
+        if let Some(axis) = controls.close_walls {
+            self.close_walls(axis);
         }
         if let Some(d) = controls.deformation {
             self.deformation = d.map(CellDeformation::new);

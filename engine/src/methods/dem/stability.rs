@@ -63,8 +63,12 @@ impl Dem {
         let elastic = self.elastic_energy();
         let g = self.gravity;
         // Grains whose motion is imposed belong to the wall that carries them.
-        let gravity =
+        let mut gravity =
             if g == Vec3::zeros() { 0.0 } else { -block_sum(p.len(), |i| if p.is_free(i) { p.mass[i] * g.dot(&p.pos[i]) } else { 0.0 }) };
+        // The centripetal field's potential, m a |x - c|.
+        if let Some((c, a)) = self.field {
+            gravity += block_sum(p.len(), |i| p.mass[i] * a * (p.pos[i] - c).norm());
+        }
         let mut capillary = 0.0;
         for c in self.contacts.iter().flatten().filter(|c| c.extra.bridge) {
             let (i, j) = (c.i as usize, c.j as usize);
