@@ -6,13 +6,15 @@
 //! [`measure`] turns it into a [`Sample`].
 
 pub mod drum;
+pub mod granule;
 pub mod metrics;
 pub mod results;
 pub mod sample;
 pub mod snapshot;
 pub mod vtk;
 
-pub use drum::{DrumSample, DrumView, ProfileBin};
+pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
+pub use granule::GranuleResult;
 pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
 pub use results::{Analysis, ExperimentResult};
 pub use sample::{Sample, StrainSample, Stress, WallSample};

@@ -13,10 +13,12 @@
 //!   and the final packing fraction, stress and strain.
 //! - **Deposition**: the height and packing fraction of the settled deposit (from the final
 //!   particles), the stress on the floor and the time to settle.
+//! - **Granule compression** (N 3.2.3): the stress-strain curve, the plastic strength and the
+//!   prefactor of its prediction, with I and the stiffness number at the plastic strength.
 //! - **Drum** (REFERENCES E.17): means over the rotation after the transient revolutions of the
 //!   surface and mass angles, fill, bed packing fraction, drive torque and velocity profile
 //!   ([`super::drum`]); the flowing layer's depth and inertial number; the flow regime
-//!   ([`drum_regime`]).
+//!   ([`super::drum::drum_regime`]).
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
@@ -25,7 +27,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::drum::ProfileBin;
+use super::drum::{drum_result, DrumResult};
+use super::granule::{granule_result, GranuleResult};
 use super::sample::Sample;
 use crate::math::Real;
 use crate::particles::Particles;
@@ -208,292 +211,6 @@ pub struct ShearResult {
     /// α = 0.062, β = 0.075 (N 3.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub viscocohesive_inertial_number: Option<f64>,
-}
-
-/// The steady rotation of a drum: means over the samples after the transient revolutions.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct DrumResult {
-    /// Froude number `ω² R / g`.
-    pub froude: f64,
-    /// Angular velocity, rad/s.
-    pub angular_velocity: f64,
-    /// Time since the drum started where the averages start, s.
-    pub from_time: f64,
-    /// Samples averaged.
-    pub samples: usize,
-    /// Dynamic angle of repose: mean angle of the fitted free surface, degrees.
-    pub surface_angle: f64,
-    /// Its standard deviation over the samples, degrees (large when the bed slumps).
-    pub surface_angle_std: f64,
-    /// Mean angle of the bed's centroid from straight down, degrees.
-    pub mass_angle: f64,
-    /// Mean angle of the upper half of the surface, degrees.
-    pub upper_angle: f64,
-    /// Mean angle of the lower half of the surface, degrees.
-    pub lower_angle: f64,
-    /// Mean fraction of the cross-section below the surface.
-    pub fill: f64,
-    /// Packing fraction of the bed (solid volume over the volume below the surface).
-    pub phi_bed: f64,
-    /// Mean fraction of grains in flight.
-    pub airborne_fraction: f64,
-    /// Mean torque the drive supplies, N·m (per metre in 2D).
-    pub drive_torque: f64,
-    /// Mean velocity down the slope of the top bin of the profile, m/s.
-    pub surface_velocity: f64,
-    /// Depth below the surface where the mean velocity down the slope changes sign, m (the
-    /// flowing layer's thickness; absent when the surface does not flow).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub flowing_layer_depth: Option<f64>,
-    /// Inertial number of the flowing layer, `(v_s / h) <d> sqrt(ρ / p)` with `p` the weight of
-    /// half the layer (`Φ ρ g cos θ h / 2`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub flow_inertial_number: Option<f64>,
-    /// `slipping`, `slumping`, `rolling`, `cascading`, `cataracting` or `centrifuging`
-    /// ([`drum_regime`]).
-    pub regime: String,
-    /// Mean velocity profile across the flowing layer (counts summed over the samples).
-    pub profile: Vec<ProfileBin>,
-}
-
-/// Diametral compression of a wet granule (N 3.2.3).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct GranuleResult {
-    /// Radius of the granule when the plates close on it (half their gap), m.
-    pub radius: f64,
-    /// Its packing fraction: the grains' solid volume over the ball (disk) of that radius.
-    pub phi: f64,
-    /// Coordination when the compression starts: force-bearing contacts and capillary bonds
-    /// per grain (`2 N_c / N`).
-    pub z: f64,
-    /// Polydispersity factor `s = <d^1/2> <d> <d^3/2> / <d^3>` (N eq. 3.12; 1 for equal grains).
-    pub s: f64,
-    /// Capillary stress `σ_c = f_c / <d>^(D-1)`, `f_c = 2π γ cos θ <d>/2`, Pa.
-    pub capillary_stress: f64,
-    /// Stress-strain curve, per sample of the compression: `[strain, σ_zz, plate stress]`.
-    /// σ_zz (Pa) is the granule's vertical stress: the Love-Weber stress of its contacts and
-    /// bridges along the axis over the granule's volume (that of the ball of radius `radius`);
-    /// the plate stress (Pa) is the plates' force over the granule's cross-section (`π R²` in
-    /// 3D, `2R` per metre in 2D), which grows as the granule flattens against them.
-    pub curve: Vec<[f64; 3]>,
-    /// Largest σ_zz, Pa.
-    pub peak_stress: f64,
-    /// Strain of the largest σ_zz.
-    pub peak_strain: f64,
-    /// Plastic strength σ_p: the mean σ_zz over the plateau window, Pa (N 3.2.3: "résistance
-    /// verticale σ_zz").
-    pub plastic_strength: f64,
-    /// Standard deviation of the stress over the window, Pa.
-    pub plastic_strength_std: f64,
-    /// `σ_p / σ_c`.
-    pub normalized_strength: f64,
-    /// Prefactor of N eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)`.
-    pub eta: f64,
-}
-
-/// Mass angle (degrees) below which the bed is not lifted: the drum slips under it.
-pub const SLIP_ANGLE: Real = 5.0;
-/// Fraction of the settled bed's centroid offset below which the grains ride the wall all
-/// round.
-pub const CENTRIFUGE_OFFSET: Real = 0.1;
-/// Fraction of grains in flight above which the flow cataracts.
-pub const CATARACT_AIRBORNE: Real = 0.05;
-/// Fraction of the samples with the surface at rest above which the flow is intermittent.
-pub const SLUMP_AT_REST: Real = 0.2;
-/// Difference of the upper and lower surface angles (degrees) above which the surface is
-/// curved (cascading).
-pub const CASCADE_CURVATURE: Real = 10.0;
-
-/// The flow regime of a drum from its measured means (Mellmann, Powder Technol. 118, 251,
-/// 2001; REFERENCES E.17), the first that applies:
-/// - `centrifuging`: the bed's centroid is within [`CENTRIFUGE_OFFSET`] of its settled offset
-///   from the axis (the grains ride the wall all round);
-/// - `slipping`: the bed's centroid turned by less than [`SLIP_ANGLE`];
-/// - `cataracting`: more than [`CATARACT_AIRBORNE`] of the grains are in flight;
-/// - `slumping`: in more than [`SLUMP_AT_REST`] of the samples the surface is not flowing down;
-/// - `cascading`: the surface's upper and lower halves differ by more than
-///   [`CASCADE_CURVATURE`] degrees;
-/// - `rolling` otherwise: a flat surface flowing steadily.
-pub fn drum_regime(centroid_ratio: Real, mass_angle: Real, airborne: Real, at_rest: Real, curvature: Real) -> &'static str {
-    if centroid_ratio < CENTRIFUGE_OFFSET {
-        "centrifuging"
-    } else if mass_angle < SLIP_ANGLE {
-        "slipping"
-    } else if airborne > CATARACT_AIRBORNE {
-        "cataracting"
-    } else if at_rest > SLUMP_AT_REST {
-        "slumping"
-    } else if curvature > CASCADE_CURVATURE {
-        "cascading"
-    } else {
-        "rolling"
-    }
-}
-
-/// The stress-strain curve of a granule compression and what it gives.
-#[allow(clippy::too_many_arguments)]
-fn granule_result(
-    run: &[&Sample],
-    relaxed: Option<&Sample>,
-    axis: usize,
-    plateau: (Real, Real),
-    dim: usize,
-    solid: Real,
-    s: Real,
-    sigma_c: Real,
-) -> Option<GranuleResult> {
-    let first = run.first()?;
-    let name = |upper: bool| format!("{}_{}", crate::math::AXES[axis], if upper { "max" } else { "min" });
-    let wall = |x: &Sample, upper: bool| x.walls.iter().find(|w| w.name == name(upper)).cloned();
-    let (lo, hi) = (wall(first, false)?, wall(first, true)?);
-    let radius = 0.5 * (hi.position - lo.position);
-    if radius <= 0.0 {
-        return None;
-    }
-    let section = if dim == 3 { std::f64::consts::PI * radius * radius } else { 2.0 * radius };
-    let phi = solid / Particles::volume_of(dim, radius);
-    let curve: Vec<[f64; 3]> = run
-        .iter()
-        .filter_map(|x| {
-            let (lo, hi) = (wall(x, false)?, wall(x, true)?);
-            // The plates' mean compressive force along the axis.
-            let force = 0.5 * (hi.force.get(axis).copied().unwrap_or(0.0) - lo.force.get(axis).copied().unwrap_or(0.0));
-            let strain = x.strain.as_ref().and_then(|e| e.axes.get(axis).copied()).unwrap_or(0.0);
-            // The box's stress is the granule's sum over the box volume (solid / Φ_box): over
-            // the granule's, it is Φ_granule / Φ_box times larger.
-            let s = &x.stress;
-            let along = match axis {
-                0 => s.xx,
-                1 => s.yy,
-                _ => s.zz.unwrap_or(0.0),
-            };
-            let sigma = if x.phi > 0.0 { along * phi / x.phi } else { 0.0 };
-            Some([strain, sigma, force / section])
-        })
-        .collect();
-    let (peak_strain, peak_stress) = curve.iter().fold((0.0, Real::NEG_INFINITY), |a, p| if p[1] > a.1 { (p[0], p[1]) } else { a });
-    let window: Vec<Real> = curve.iter().filter(|p| p[0] >= plateau.0 && p[0] <= plateau.1).map(|p| p[1]).collect();
-    let n = window.len().max(1) as Real;
-    let plastic_strength = window.iter().sum::<Real>() / n;
-    let plastic_strength_std = (window.iter().map(|x| (x - plastic_strength).powi(2)).sum::<Real>() / n).sqrt();
-    let z = relaxed.map_or(first.z, |x| x.z);
-    let denominator = s * z * phi * sigma_c;
-    Some(GranuleResult {
-        radius,
-        phi,
-        z,
-        s,
-        capillary_stress: sigma_c,
-        peak_stress: peak_stress.max(0.0),
-        peak_strain,
-        plastic_strength,
-        plastic_strength_std,
-        normalized_strength: if sigma_c > 0.0 { plastic_strength / sigma_c } else { 0.0 },
-        eta: if denominator > 0.0 { 2.0 * std::f64::consts::PI * plastic_strength / denominator } else { 0.0 },
-        curve,
-    })
-}
-
-/// Averages the drum samples after the transient; also returns the weight per area on the
-/// bottom of the bed, Pa (for the stiffness number).
-fn drum_result(
-    experiment: &Experiment,
-    settled: Option<&Sample>,
-    rotation: &[&Sample],
-    mean_diameter: Real,
-    density: Real,
-) -> Option<(DrumResult, Real)> {
-    let Experiment::Drum { drum, angular_velocity, froude, transient, .. } = experiment else { return None };
-    let first = rotation.first()?;
-    let period = 2.0 * std::f64::consts::PI / angular_velocity.abs();
-    let from = first.time + transient * period;
-    let window: Vec<&crate::observe::DrumSample> =
-        rotation.iter().filter(|s| s.time >= from - 1e-12 * period).filter_map(|s| s.drum.as_deref()).collect();
-    if window.is_empty() {
-        return None;
-    }
-    let n = window.len() as Real;
-    let mean = |f: &dyn Fn(&crate::observe::DrumSample) -> Real| window.iter().map(|d| f(d)).sum::<Real>() / n;
-    let mean_opt = |f: &dyn Fn(&crate::observe::DrumSample) -> Option<Real>| {
-        let v: Vec<Real> = window.iter().filter_map(|d| f(d)).collect();
-        if v.is_empty() {
-            0.0
-        } else {
-            v.iter().sum::<Real>() / v.len() as Real
-        }
-    };
-    let surface_angle = mean_opt(&|d| d.surface_angle);
-    let angles: Vec<Real> = window.iter().filter_map(|d| d.surface_angle).collect();
-    let surface_angle_std = if angles.is_empty() {
-        0.0
-    } else {
-        (angles.iter().map(|a| (a - surface_angle).powi(2)).sum::<Real>() / angles.len() as Real).sqrt()
-    };
-    let (upper_angle, lower_angle) = (mean_opt(&|d| d.upper_angle), mean_opt(&|d| d.lower_angle));
-    let fill = mean(&|d| d.fill);
-    // Solid volume over the volume below the surface: Φ_box × box cross-section (2R)² / (fill π R²).
-    let phi_box = rotation.iter().filter(|s| s.time >= from - 1e-12 * period).map(|s| s.phi).sum::<Real>() / n;
-    let phi_bed = if fill > 0.0 { phi_box * 4.0 / (std::f64::consts::PI * fill) } else { 0.0 };
-    // Mean profile, bins weighted by their counts.
-    let bins = window.iter().map(|d| d.profile.len()).max().unwrap_or(0);
-    let mut profile: Vec<ProfileBin> =
-        (0..bins).map(|b| ProfileBin { depth: (b as Real + 0.5) * mean_diameter, velocity: 0.0, count: 0 }).collect();
-    for d in &window {
-        for (acc, bin) in profile.iter_mut().zip(&d.profile) {
-            acc.velocity += bin.velocity * bin.count as Real;
-            acc.count += bin.count;
-        }
-    }
-    for b in &mut profile {
-        if b.count > 0 {
-            b.velocity /= b.count as Real;
-        }
-    }
-    let filled: Vec<&ProfileBin> = profile.iter().filter(|b| b.count > 0).collect();
-    let surface_velocity = filled.first().map_or(0.0, |b| b.velocity);
-    let flowing_layer_depth = if surface_velocity > 0.0 {
-        filled.windows(2).find(|w| w[1].velocity <= 0.0).map(|w| {
-            let (a, b) = (w[0], w[1]);
-            a.depth + a.velocity / (a.velocity - b.velocity) * (b.depth - a.depth)
-        })
-    } else {
-        None
-    };
-    let mass_angle = mean(&|d| d.mass_angle);
-    // g from Fr = ω² R / g.
-    let gravity = angular_velocity * angular_velocity * drum.radius / froude;
-    let flow_inertial_number = flowing_layer_depth.and_then(|h| {
-        let p = phi_bed * density * gravity * surface_angle.to_radians().cos() * 0.5 * h;
-        (p > 0.0 && h > 0.0).then(|| surface_velocity / h * mean_diameter * (density / p).sqrt())
-    });
-    let at_rest = window.iter().filter(|d| d.profile.iter().find(|b| b.count > 0).is_none_or(|b| b.velocity <= 0.0)).count() as Real / n;
-    let settled_offset = settled.and_then(|s| s.drum.as_ref()).map_or(0.0, |d| d.centroid_offset);
-    let centroid_ratio = if settled_offset > 0.0 { mean(&|d| d.centroid_offset) / settled_offset } else { 1.0 };
-    let regime = drum_regime(centroid_ratio, mass_angle, mean(&|d| d.airborne_fraction), at_rest, (upper_angle - lower_angle).abs());
-    let bottom = phi_bed * density * gravity * mean(&|d| d.bed_depth);
-    let result = DrumResult {
-        froude: *froude,
-        angular_velocity: *angular_velocity,
-        from_time: from - first.time,
-        samples: window.len(),
-        surface_angle,
-        surface_angle_std,
-        mass_angle,
-        upper_angle,
-        lower_angle,
-        fill,
-        phi_bed,
-        airborne_fraction: mean(&|d| d.airborne_fraction),
-        drive_torque: mean(&|d| d.drive_torque),
-        surface_velocity,
-        flowing_layer_depth,
-        flow_inertial_number,
-        regime: regime.to_string(),
-        profile,
-    };
-    Some((result, bottom))
 }
 
 /// α of the visco-cohesive inertial number (N 3.1).
@@ -731,7 +448,7 @@ impl Analysis {
                     }
                 }
             }
-            Experiment::GranuleCompression { axis, plateau, .. } => {
+            Experiment::GranuleCompression { axis, plateau, strain_rate, .. } => {
                 let relaxed = stage("relaxation").next_back();
                 let run: Vec<&Sample> = stage("compression").collect();
                 let (solid, s) = self.grains.unwrap_or((0.0, 0.0));
@@ -739,7 +456,10 @@ impl Analysis {
                 let sigma_c = f_c / mean_diameter.powi(self.dim as i32 - 1);
                 r.granule = granule_result(&run, relaxed, *axis, *plateau, self.dim, solid, s, sigma_c);
                 if let Some(g) = &r.granule {
-                    r.stiffness_number = self.stiffness_number(g.plastic_strength.max(sigma_c), mean_diameter);
+                    // At the plastic strength (the stress that holds the granule while it yields).
+                    let p = if g.plastic_strength > 0.0 { g.plastic_strength } else { sigma_c };
+                    r.stiffness_number = self.stiffness_number(p, mean_diameter);
+                    r.inertial_number = inertial(*strain_rate, p);
                 }
             }
             Experiment::Drum { .. } => {
@@ -834,6 +554,7 @@ fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::observe::drum::{drum_regime, ProfileBin};
     use crate::observe::{StrainSample, Stress};
     use crate::scene::parse_scene;
 

@@ -853,6 +853,16 @@ mod tests {
         for (v, expected) in cases {
             assert!(v.iter().any(|x| x.starts_with(expected)), "expected '{expected}' in {v:?}");
         }
+        // The fill sets the count of the one set: fill × Φ_bed × π R² / (π <d>²/4) in 2D.
+        let mut s = scene(2, false, json!({"kind": "drum", "fill": 0.4}));
+        s["gravity"] = json!([0.0, -9.81]);
+        s["particles"][0].as_object_mut().expect("set").remove("count");
+        let parsed = parse_scene(&s.to_string()).expect("valid");
+        assert_eq!(parsed.sets[0].count, (0.4_f64 * 0.82 * 400.0).round() as usize);
+        s["particles"][0]["count"] = json!(50);
+        assert!(violations(&s).iter().any(|x| x.starts_with("experiment.fill: give particles[0].count or experiment.fill, not both")));
+        s["experiment"]["fill"] = json!(1.5);
+        assert!(violations(&s).iter().any(|x| x.starts_with("experiment.fill: must be in (0, 1)")));
         // In 3D the axis may be periodic (an endless drum).
         let v = with(3, json!({"kind": "drum"}), json!([0.0, -9.81, 0.0]), &|s| s["container"]["periodic"] = json!(["z"]));
         assert!(v.is_empty(), "{v:?}");

@@ -487,6 +487,10 @@ pub struct DrumSpec {
     /// Angular velocity, rad/s (positive: right-handed about the axis).
     #[serde(default)]
     pub angular_velocity: Option<f64>,
+    /// Fraction of the drum's volume the bed fills, in (0, 1): sets the count of the (one,
+    /// randomly placed) particle set, which must then leave `count` out.
+    #[serde(default)]
+    pub fill: Option<f64>,
     /// Revolutions the drum turns (default 1).
     #[serde(default)]
     pub revolutions: Option<f64>,
