@@ -81,7 +81,7 @@ mod tests {
     use super::*;
 
     fn drum() -> Drum {
-        Drum::new(DrumDef { axis: 2, center: Vec3::new(1.0, 1.0, 0.0), radius: 1.0 })
+        Drum::new(DrumDef { axis: 2, center: Vec3::new(1.0, 1.0, 0.0), radius: 1.0, down: Vec3::new(0.0, -1.0, 0.0) })
     }
 
     #[test]

@@ -480,10 +480,9 @@ fn check_drum(c: &mut Checker, k: &DrumSpec, dim: usize, container: &Container, 
         c.fail("experiment.local_damping", format!("must be in [0, 1), got {local_damping}"));
     }
     Experiment::Drum {
-        drum: DrumDef { axis, center, radius },
+        drum: DrumDef { axis, center, radius, down },
         angular_velocity,
         froude,
-        down,
         revolutions,
         transient,
         local_damping,
@@ -816,8 +815,8 @@ mod tests {
         let drum = parsed.container.drum.expect("a drum in the container");
         assert_eq!((drum.axis, drum.radius), (2, 0.01));
         assert!((drum.center - crate::math::Vec3::new(0.01, 0.01, 0.0)).norm() < 1e-15);
-        let Some(Experiment::Drum { transient, down, .. }) = parsed.experiment else { panic!("drum") };
-        assert_eq!((transient, down), (0.25, crate::math::Vec3::new(0.0, -1.0, 0.0)));
+        let Some(Experiment::Drum { transient, .. }) = parsed.experiment else { panic!("drum") };
+        assert_eq!((transient, drum.down), (0.25, crate::math::Vec3::new(0.0, -1.0, 0.0)));
 
         let with = |dim: usize, e: Value, gravity: Value, edit: &dyn Fn(&mut Value)| {
             let mut s = scene(dim, false, e);

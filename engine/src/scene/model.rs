@@ -441,6 +441,8 @@ pub struct DrumDef {
     pub center: Vec3,
     /// Inner radius, m.
     pub radius: Real,
+    /// Unit vector of gravity (perpendicular to the axis), for the measurements of the bed.
+    pub down: Vec3,
 }
 
 /// Stop criteria.
@@ -631,8 +633,6 @@ pub enum Experiment {
         angular_velocity: Real,
         /// Froude number `Fr = ω² R / g`.
         froude: Real,
-        /// Unit vector of gravity (perpendicular to the axis).
-        down: Vec3,
         /// Revolutions turned in all.
         revolutions: Real,
         /// Revolutions discarded before the averages start (the transient).

@@ -353,39 +353,38 @@ impl Dem {
                 })
         };
         run(&mut self.wall_total_f, &mut self.wall_total_t, &mut self.wall_xi, &mut self.wall_roll, &mut self.wall_f);
-        // Reaction on each wall, summed in a fixed order.
+        // Reaction on each wall (and the drum's torque about its axis), summed in a fixed order
+        // in one pass.
         const BLOCK: usize = 1024;
-        let partial: Vec<Vec<Vec3>> = self
+        let drum = self.drum.as_ref();
+        let partial: Vec<(Vec<Vec3>, Real)> = self
             .wall_f
             .par_chunks(BLOCK * nw)
-            .map(|c| {
-                let mut s = vec![Vec3::zeros(); nw];
-                for per in c.chunks(nw) {
+            .zip(self.p.pos.par_chunks(BLOCK))
+            .map(|(c, xs)| {
+                let (mut s, mut torque) = (vec![Vec3::zeros(); nw], 0.0);
+                for (per, x) in c.chunks(nw).zip(xs) {
                     for (w, f) in per.iter().enumerate() {
                         s[w] += f;
                     }
+                    if let Some(d) = drum.filter(|_| per[nw - 1] != Vec3::zeros()) {
+                        torque += d.torque_of(&d.surface_point(x), &per[nw - 1]);
+                    }
                 }
-                s
+                (s, torque)
             })
             .collect();
         for wall in &mut self.walls {
             wall.force = Vec3::zeros();
         }
-        for s in &partial {
+        for (s, _) in &partial {
             for (wall, f) in self.walls.iter_mut().zip(s) {
                 wall.force -= f;
             }
         }
         if let Some(d) = self.drum.as_mut() {
-            // Force and torque on the drum, in the same fixed order.
-            d.force = -partial.iter().map(|s| s[nw - 1]).fold(Vec3::zeros(), |a, f| a + f);
-            let torques: Vec<Real> = self
-                .wall_f
-                .par_chunks(BLOCK * nw)
-                .zip(self.p.pos.par_chunks(BLOCK))
-                .map(|(c, xs)| c.chunks(nw).zip(xs).map(|(per, x)| d.torque_of(&d.surface_point(x), &per[nw - 1])).sum::<Real>())
-                .collect();
-            d.torque = -torques.iter().sum::<Real>();
+            d.force = -partial.iter().map(|(s, _)| s[nw - 1]).fold(Vec3::zeros(), |a, f| a + f);
+            d.torque = -partial.iter().map(|(_, t)| t).sum::<Real>();
         }
     }
 }

@@ -522,13 +522,12 @@ impl Dem {
     /// The drum as the measurements see it.
     fn drum_view(&self) -> Option<DrumView> {
         let d = self.drum.as_ref()?;
-        let g = self.gravity.norm();
         Some(DrumView {
             axis: d.def.axis,
             center: d.def.center,
             radius: d.def.radius,
             angular_velocity: d.angular_velocity,
-            down: if g > 0.0 { self.gravity / g } else { Vec3::zeros() },
+            down: d.def.down,
             torque: d.torque,
         })
     }
