@@ -17,6 +17,20 @@ pub enum InstabilityCause {
         /// The allowed fraction.
         limit: f64,
     },
+    /// The contact solver did not meet its convergence criterion within its iteration budget
+    /// (contact dynamics).
+    SolverBudget {
+        /// Sweeps done (the budget).
+        iterations: u32,
+        /// Relative change of the impulses over the last sweep.
+        change: f64,
+        /// Mean violation after the last sweep (fraction of the mean diameter per step).
+        violation: f64,
+        /// The tolerance on the change.
+        tolerance: f64,
+        /// The tolerance on the violation.
+        violation_tolerance: f64,
+    },
     /// Mechanical energy grew more than the work put in by walls and gravity allows.
     EnergyGrowth {
         /// Energy gained beyond the work put in, J.
@@ -35,6 +49,10 @@ impl std::fmt::Display for InstabilityCause {
             Self::Overlap { fraction, limit } => {
                 write!(f, "overlap reached {:.1}% of the smaller radius (limit {:.1}%)", fraction * 100.0, limit * 100.0)
             }
+            Self::SolverBudget { iterations, change, violation, tolerance, violation_tolerance } => write!(
+                f,
+                "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e})"
+            ),
             Self::EnergyGrowth { excess, scale } => {
                 write!(f, "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)")
             }

@@ -33,6 +33,7 @@ pub mod geometry;
 pub mod loading;
 pub mod math;
 pub mod methods;
+pub mod nscd;
 pub mod observe;
 pub mod particles;
 pub mod run;

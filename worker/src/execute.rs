@@ -35,13 +35,13 @@ pub fn run_scene_with_snapshots(
 /// hand-off to another pool at every step.
 pub fn apply_thread_budget(scene: &mut Scene, budget: usize) -> usize {
     let budget = budget.max(1);
-    match &mut scene.method {
-        Method::Dem(p) => {
-            let n = if p.threads == 0 { budget } else { p.threads.min(budget) };
-            p.threads = 0;
-            n
-        }
-    }
+    let threads = match &mut scene.method {
+        Method::Dem(p) => &mut p.threads,
+        Method::Cd(p) => &mut p.threads,
+    };
+    let n = if *threads == 0 { budget } else { (*threads).min(budget) };
+    *threads = 0;
+    n
 }
 
 /// A pool of `threads` threads for one job.
@@ -64,7 +64,7 @@ impl Drop for CancelOnDrop {
 
 /// What the engine thread sends to the async side.
 enum Msg {
-    Sample(Sample, Progress),
+    Sample(Box<Sample>, Progress),
     Snapshot(SnapshotFiles),
 }
 
@@ -120,7 +120,7 @@ pub async fn execute<S: JobSource>(
                     &runner,
                     &mut |s, p| {
                         // Never blocks: the physics does not wait for the reports.
-                        let _ = tx.send(Msg::Sample(s.clone(), *p));
+                        let _ = tx.send(Msg::Sample(Box::new(s.clone()), *p));
                     },
                     &mut |s| {
                         let _ = snapshots_tx.send(Msg::Snapshot(SnapshotFiles::encode(index, s)));
@@ -223,7 +223,7 @@ fn receive(msg: Msg, pending: &mut Report, last_step: &mut u64) {
             *last_step = s.step;
             pending.fraction = p.fraction;
             pending.remaining_seconds = p.remaining;
-            pending.samples.push(s);
+            pending.samples.push(*s);
         }
         Msg::Snapshot(f) => pending.snapshots.push(f),
     }

@@ -1,7 +1,9 @@
 //! Simulation methods. Each implements [`Simulation`](crate::run::Simulation); [`build`] picks
 //! the one a scene asks for.
 
+pub mod cd;
 pub mod dem;
+pub(crate) mod world;
 
 use crate::error::EngineError;
 use crate::run::Simulation;
@@ -11,5 +13,6 @@ use crate::scene::{Method, Scene};
 pub fn build(scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
     match &scene.method {
         Method::Dem(params) => Ok(Box::new(dem::Dem::new(scene, params)?)),
+        Method::Cd(params) => Ok(Box::new(cd::Cd::new(scene, params)?)),
     }
 }

@@ -197,6 +197,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         stage: None,
         strain: None,
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
+        solver: None,
     }
 }
 

@@ -576,6 +576,7 @@ mod tests {
             stage: Some(stage.into()),
             strain: Some(StrainSample { axes: vec![ev - axial, axial], volumetric: ev, deviatoric: 0.0 }),
             drum: None,
+            solver: None,
         }
     }
 

@@ -80,6 +80,29 @@ pub struct Sample {
     /// The rotating drum's surface, fill and flow (drum experiment).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drum: Option<Box<DrumSample>>,
+    /// The contact solver's work on the last step (contact dynamics).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<Box<SolverSample>>,
+}
+
+/// What the contact solver of contact dynamics did on the step before a sample
+/// ([`crate::nscd::nlgs`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct SolverSample {
+    /// NLGS sweeps.
+    pub iterations: u32,
+    /// Relative change of the impulses over the last sweep.
+    pub change: f64,
+    /// Mean violation of the Signorini condition after the last sweep, as a fraction of the
+    /// mean diameter per step.
+    pub violation: f64,
+    /// Contacts solved (closed or closing within the step).
+    pub contacts: u64,
+    /// Largest interpenetration at the start of the step / smaller radius of its pair.
+    pub max_interpenetration: f64,
+    /// Mean interpenetration of the contacts / smaller radius of each pair.
+    pub mean_interpenetration: f64,
 }
 
 /// True strains of the box since the start of a stage, compression positive:
@@ -168,5 +191,9 @@ impl Sample {
                     .all(|x| x.is_finite())
                     && d.profile.iter().all(|b| b.depth.is_finite() && b.velocity.is_finite())
             })
+            && self
+                .solver
+                .as_ref()
+                .is_none_or(|v| [v.change, v.violation, v.max_interpenetration, v.mean_interpenetration].iter().all(|x| x.is_finite()))
     }
 }

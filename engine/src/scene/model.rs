@@ -53,6 +53,8 @@ impl Scene {
 pub enum Method {
     /// Soft-contact DEM (PHYSICS.md §2).
     Dem(DemParams),
+    /// Contact dynamics, Moreau-Jean (PHYSICS.md §3).
+    Cd(CdParams),
 }
 
 impl Method {
@@ -60,6 +62,7 @@ impl Method {
     pub fn name(&self) -> &'static str {
         match self {
             Self::Dem(_) => "dem",
+            Self::Cd(_) => "cd",
         }
     }
 }
@@ -93,6 +96,50 @@ impl Default for DemParams {
             max_overlap: 0.1,
             threads: 0,
             local_damping: 0.0,
+        }
+    }
+}
+
+/// Parameters of contact dynamics (Moreau-Jean; PHYSICS.md §3).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CdParams {
+    /// Time step, s; `None`: the reference velocity covers `max_displacement` of the smallest
+    /// diameter in one step.
+    pub time_step: Option<Real>,
+    /// Largest expected displacement per step / smallest diameter (default time step).
+    pub max_displacement: Real,
+    /// Fastest expected motion, m/s (`None`: estimated from the scene).
+    pub reference_velocity: Option<Real>,
+    /// Implicitness of the theta-scheme, in [0.5, 1].
+    pub theta: Real,
+    /// Tolerance of the NLGS criterion on the relative change of the impulses over a sweep.
+    pub tolerance: Real,
+    /// Tolerance of the NLGS criterion on the mean violation (fraction of the mean diameter per
+    /// step).
+    pub violation_tolerance: Real,
+    /// Largest number of NLGS sweeps per step.
+    pub max_iterations: u32,
+    /// Largest allowed interpenetration / smaller radius.
+    pub max_interpenetration: Real,
+    /// Verlet skin as a fraction of the smallest diameter.
+    pub skin: Real,
+    /// Threads; 0 = rayon's global pool.
+    pub threads: usize,
+}
+
+impl Default for CdParams {
+    fn default() -> Self {
+        Self {
+            time_step: None,
+            max_displacement: 0.02,
+            reference_velocity: None,
+            theta: 0.5,
+            tolerance: 1e-3,
+            violation_tolerance: 1e-6,
+            max_iterations: 5000,
+            max_interpenetration: 0.05,
+            skin: 0.3,
+            threads: 0,
         }
     }
 }

@@ -414,6 +414,49 @@ pub struct DemParamsSpec {
     pub local_damping: Option<f64>,
 }
 
+/// Parameters of the `cd` method (contact dynamics, PHYSICS.md §3).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CdParamsSpec {
+    /// Always `"cd"`.
+    pub kind: String,
+    /// Time step, s. Default: the time the reference velocity takes to cover
+    /// `max_displacement` of the smallest diameter.
+    #[serde(default)]
+    pub time_step: Option<f64>,
+    /// Largest expected displacement per step as a fraction of the smallest diameter, for the
+    /// default time step. Default 0.02.
+    #[serde(default)]
+    pub max_displacement: Option<f64>,
+    /// Fastest expected motion, m/s, for the default time step. Default from the scene (as for
+    /// DEM: initial speeds, free fall across the box, wall speeds, at least 0.1 m/s).
+    #[serde(default)]
+    pub reference_velocity: Option<f64>,
+    /// Implicitness of the theta-scheme in [0.5, 1]. Default 0.5.
+    #[serde(default)]
+    pub theta: Option<f64>,
+    /// Tolerance of the NLGS criterion on the relative change of the impulses over a sweep.
+    /// Default 1e-3.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// Tolerance of the NLGS criterion on the mean violation of the Signorini condition, as a
+    /// fraction of the mean diameter per step. Default 1e-6.
+    #[serde(default)]
+    pub violation_tolerance: Option<f64>,
+    /// Largest number of NLGS sweeps per step. Default 5000.
+    #[serde(default)]
+    pub max_iterations: Option<u32>,
+    /// Largest allowed interpenetration as a fraction of the smaller radius. Default 0.05.
+    #[serde(default)]
+    pub max_interpenetration: Option<f64>,
+    /// Verlet skin as a fraction of the smallest diameter. Default 0.3.
+    #[serde(default)]
+    pub skin: Option<f64>,
+    /// Threads (0 or absent: rayon's global pool).
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
 /// A standard experiment (`docs/scene-format.md` §13).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

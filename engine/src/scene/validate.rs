@@ -10,7 +10,7 @@ use crate::math::{vec_from_slice, Real, Vec3, AXES};
 /// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
 pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
 /// Methods this version can run (`auto` picks among them).
-pub const AVAILABLE_METHODS: [&str; 2] = ["dem", "auto"];
+pub const AVAILABLE_METHODS: [&str; 3] = ["dem", "cd", "auto"];
 
 /// Parses scene JSON text and validates it.
 ///
@@ -44,7 +44,8 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     if names.is_empty() {
         c.fail("materials", "must define at least one material");
     }
-    let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m)).collect();
+    let rigid = matches!(method, Method::Cd(_));
+    let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m, rigid)).collect();
     let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
     if let Some(first) = materials.first() {
         for m in &materials[1..] {
@@ -286,26 +287,14 @@ fn check_start_from<'a>(c: &mut Checker, s: Option<&'a StartFromSpec>, no_sets: 
 fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
     let fallback = (Method::Dem(DemParams::default()), String::new());
     // A plain name is reported at `method`, an object's name at `method.kind`.
-    let (kind, kind_path, params): (String, &str, Option<DemParamsSpec>) = match v {
+    let (kind, kind_path, object) = match v {
         serde_json::Value::String(s) => (s.clone(), "method", None),
         serde_json::Value::Object(map) => {
             let Some(kind) = map.get("kind").and_then(|k| k.as_str()) else {
                 c.fail("method.kind", "must be a string naming the method (e.g. \"dem\")");
                 return fallback;
             };
-            if kind != "dem" && kind != "auto" {
-                (kind.to_string(), "method.kind", None)
-            } else {
-                // `auto` picks among the available methods; today that is DEM, so it takes
-                // DEM's parameters (and rejects unknown ones like any other object).
-                match serde_path_to_error::deserialize::<_, DemParamsSpec>(v) {
-                    Ok(p) => (kind.to_string(), "method.kind", Some(p)),
-                    Err(e) => {
-                        c.fail(format!("method.{}", e.path()), e.into_inner().to_string());
-                        return fallback;
-                    }
-                }
-            }
+            (kind.to_string(), "method.kind", Some(v))
         }
         _ => {
             c.fail("method", "must be a method name or an object with a \"kind\"");
@@ -317,62 +306,146 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
         return fallback;
     }
     if !AVAILABLE_METHODS.contains(&kind.as_str()) {
-        c.fail(kind_path, format!("method '{kind}' is not available in this version; available: dem, auto"));
+        c.fail(kind_path, format!("method '{kind}' is not available in this version; available: {}", AVAILABLE_METHODS.join(", ")));
         return fallback;
     }
-    let mut p = DemParams::default();
-    if let Some(s) = params {
-        if let Some(dt) = s.time_step {
-            if c.positive("method.time_step", dt) {
-                p.time_step = Some(dt);
-            }
-        }
-        if let Some(f) = s.time_step_fraction {
-            if s.time_step.is_some() {
-                c.fail("method.time_step_fraction", "give either time_step or time_step_fraction, not both");
-            } else if c.within("method.time_step_fraction", f, 1e-6, 0.5) {
-                p.time_step_fraction = f;
-            }
-        }
-        if let Some(skin) = s.skin {
-            if c.within("method.skin", skin, 1e-3, 2.0) {
-                p.skin = skin;
-            }
-        }
-        if let Some(v) = s.reference_velocity {
-            if c.positive("method.reference_velocity", v) {
-                p.reference_velocity = Some(v);
-            }
-        }
-        if let Some(o) = s.max_overlap {
-            if c.within("method.max_overlap", o, 1e-4, 1.0) {
-                p.max_overlap = o;
-            }
-        }
-        if let Some(a) = s.local_damping {
-            if !(a.is_finite() && (0.0..1.0).contains(&a)) {
-                c.fail("method.local_damping", format!("must be >= 0 and < 1, got {a}"));
-            } else {
-                p.local_damping = a;
-            }
-        }
-        if let Some(t) = s.threads {
-            if t > 1024 {
-                c.fail("method.threads", format!("must be <= 1024, got {t}"));
-            } else {
-                p.threads = t;
+    /// The method object's parameters, with unknown ones rejected at their path.
+    fn params<T: serde::de::DeserializeOwned + Default>(c: &mut Checker, object: Option<&serde_json::Value>) -> Option<T> {
+        let Some(v) = object else { return Some(T::default()) };
+        match serde_path_to_error::deserialize::<_, T>(v) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                c.fail(format!("method.{}", e.path()), e.into_inner().to_string());
+                None
             }
         }
     }
+    if kind == "cd" {
+        let Some(s) = params::<CdParamsSpec>(c, object) else { return fallback };
+        return (Method::Cd(check_cd_params(c, &s)), "chosen by the scene".to_string());
+    }
+    // `auto` picks the soft-contact DEM for now, so it takes DEM's parameters (and rejects
+    // unknown ones like any other object).
+    let Some(s) = params::<DemParamsSpec>(c, object) else { return fallback };
+    let p = check_dem_params(c, &s);
     let reason = if kind == "auto" {
-        "auto: soft-contact DEM is the only method available in this version".to_string()
+        "auto: soft-contact DEM until the method advisor lands (contact dynamics must be asked for by name)".to_string()
     } else {
         "chosen by the scene".to_string()
     };
     (Method::Dem(p), reason)
 }
 
-fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> Material {
+fn check_dem_params(c: &mut Checker, s: &DemParamsSpec) -> DemParams {
+    let mut p = DemParams::default();
+    if let Some(dt) = s.time_step {
+        if c.positive("method.time_step", dt) {
+            p.time_step = Some(dt);
+        }
+    }
+    if let Some(f) = s.time_step_fraction {
+        if s.time_step.is_some() {
+            c.fail("method.time_step_fraction", "give either time_step or time_step_fraction, not both");
+        } else if c.within("method.time_step_fraction", f, 1e-6, 0.5) {
+            p.time_step_fraction = f;
+        }
+    }
+    if let Some(skin) = s.skin {
+        if c.within("method.skin", skin, 1e-3, 2.0) {
+            p.skin = skin;
+        }
+    }
+    if let Some(v) = s.reference_velocity {
+        if c.positive("method.reference_velocity", v) {
+            p.reference_velocity = Some(v);
+        }
+    }
+    if let Some(o) = s.max_overlap {
+        if c.within("method.max_overlap", o, 1e-4, 1.0) {
+            p.max_overlap = o;
+        }
+    }
+    if let Some(a) = s.local_damping {
+        if !(a.is_finite() && (0.0..1.0).contains(&a)) {
+            c.fail("method.local_damping", format!("must be >= 0 and < 1, got {a}"));
+        } else {
+            p.local_damping = a;
+        }
+    }
+    if let Some(t) = s.threads {
+        p.threads = check_threads(c, t);
+    }
+    p
+}
+
+fn check_threads(c: &mut Checker, t: usize) -> usize {
+    if t > 1024 {
+        c.fail("method.threads", format!("must be <= 1024, got {t}"));
+        return 0;
+    }
+    t
+}
+
+fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
+    let mut p = CdParams::default();
+    if let Some(dt) = s.time_step {
+        if c.positive("method.time_step", dt) {
+            p.time_step = Some(dt);
+        }
+    }
+    if let Some(f) = s.max_displacement {
+        if s.time_step.is_some() {
+            c.fail("method.max_displacement", "give either time_step or max_displacement, not both");
+        } else if c.within("method.max_displacement", f, 1e-6, 0.5) {
+            p.max_displacement = f;
+        }
+    }
+    if let Some(v) = s.reference_velocity {
+        if c.positive("method.reference_velocity", v) {
+            p.reference_velocity = Some(v);
+        }
+    }
+    if let Some(t) = s.theta {
+        if c.within("method.theta", t, 0.5, 1.0) {
+            p.theta = t;
+        }
+    }
+    if let Some(t) = s.tolerance {
+        if c.within("method.tolerance", t, 1e-14, 0.1) {
+            p.tolerance = t;
+        }
+    }
+    if let Some(t) = s.violation_tolerance {
+        if c.within("method.violation_tolerance", t, 1e-14, 0.1) {
+            p.violation_tolerance = t;
+        }
+    }
+    if let Some(n) = s.max_iterations {
+        if !(1..=1_000_000).contains(&n) {
+            c.fail("method.max_iterations", format!("must be between 1 and 1000000, got {n}"));
+        } else {
+            p.max_iterations = n;
+        }
+    }
+    if let Some(o) = s.max_interpenetration {
+        if c.within("method.max_interpenetration", o, 1e-6, 1.0) {
+            p.max_interpenetration = o;
+        }
+    }
+    if let Some(skin) = s.skin {
+        if c.within("method.skin", skin, 1e-3, 2.0) {
+            p.skin = skin;
+        }
+    }
+    if let Some(t) = s.threads {
+        p.threads = check_threads(c, t);
+    }
+    p
+}
+
+/// Checks a material; `rigid`: for contact dynamics, where the restitution is an impact law
+/// (0 allowed: perfectly plastic impacts) and not a damping ratio.
+fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) -> Material {
     let p = format!("materials.{name}");
     c.positive(&format!("{p}.density"), m.density);
     let law = match m.contact {
@@ -390,14 +463,18 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> Material {
             ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
         }
     };
-    if !(m.restitution.is_finite() && m.restitution > 0.0 && m.restitution <= 1.0) {
+    if rigid {
+        if !(m.restitution.is_finite() && (0.0..=1.0).contains(&m.restitution)) {
+            c.fail(format!("{p}.restitution"), format!("must be >= 0 and <= 1 with method cd, got {}", m.restitution));
+        }
+    } else if !(m.restitution.is_finite() && m.restitution > 0.0 && m.restitution <= 1.0) {
         c.fail(format!("{p}.restitution"), format!("must be > 0 and <= 1, got {}", m.restitution));
     }
     c.non_negative(&format!("{p}.friction"), m.friction);
     let ratio = m.tangential_damping_ratio.unwrap_or(0.5);
     c.non_negative(&format!("{p}.tangential_damping_ratio"), ratio);
     let limit_damping = m.limit_damping.unwrap_or(true);
-    if limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
+    if !rigid && limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
         c.fail(
             format!("{p}.restitution"),
             format!(
@@ -802,5 +879,67 @@ fn check_sampling(c: &mut Checker, s: Option<&SamplingSpec>, stop: &Stop) -> Sam
             (None, Some(t)) => Sampling::Time(t / 100.0),
             _ => Sampling::Steps(1000),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene_with(method: serde_json::Value, restitution: f64) -> String {
+        serde_json::json!({
+            "dimension": 2, "method": method,
+            "materials": {"glass": {"density": 2500, "contact": {"law": "linear", "k_n": 1e5}, "restitution": restitution, "friction": 0.3}},
+            "particles": [{"material": "glass", "count": 10, "size": {"kind": "monodisperse", "diameter": 0.001}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+            "stop": {"steps": 10}
+        })
+        .to_string()
+    }
+
+    fn rules(text: &str) -> Vec<String> {
+        match parse_scene(text) {
+            Ok(_) => Vec::new(),
+            Err(v) => v.iter().map(|v| format!("{}: {}", v.field, v.rule)).collect(),
+        }
+    }
+
+    #[test]
+    fn contact_dynamics_parameters_are_checked_by_path_and_rule() {
+        let ok = parse_scene(&scene_with(serde_json::json!({"kind": "cd", "time_step": 1e-4, "theta": 0.6, "tolerance": 1e-6}), 0.5));
+        match ok.map(|s| s.method) {
+            Ok(Method::Cd(p)) => {
+                assert_eq!(
+                    (p.time_step, p.theta, p.tolerance, p.max_iterations),
+                    (Some(1e-4), 0.6, 1e-6, CdParams::default().max_iterations)
+                )
+            }
+            other => panic!("{other:?}"),
+        }
+        let bad = rules(&scene_with(
+            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "time_step": 1e-4, "max_displacement": 0.1}),
+            0.5,
+        ));
+        assert_eq!(
+            bad,
+            vec![
+                "method.max_displacement: give either time_step or max_displacement, not both",
+                "method.theta: must be between 0.5 and 1, got 0.3",
+                "method.max_iterations: must be between 1 and 1000000, got 0",
+            ]
+        );
+        let unknown = rules(&scene_with(serde_json::json!({"kind": "cd", "skn": 0.1}), 0.5));
+        assert_eq!(unknown.len(), 1);
+        assert!(unknown[0].starts_with("method.skn: unknown field"), "{unknown:?}");
+    }
+
+    #[test]
+    fn zero_restitution_is_an_impact_law_for_contact_dynamics_only() {
+        assert!(rules(&scene_with(serde_json::json!("cd"), 0.0)).is_empty());
+        assert_eq!(rules(&scene_with(serde_json::json!("dem"), 0.0)), vec!["materials.glass.restitution: must be > 0 and <= 1, got 0"]);
+        assert_eq!(
+            rules(&scene_with(serde_json::json!("cd"), 1.5)),
+            vec!["materials.glass.restitution: must be >= 0 and <= 1 with method cd, got 1.5"]
+        );
     }
 }

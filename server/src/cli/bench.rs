@@ -78,7 +78,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     // As in a job: the whole run inside one pool, not a hand-off to the method's pool per step.
     let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
     let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
-    let Method::Dem(params) = &scene.method;
+    let Method::Dem(params) = &scene.method else { anyhow::bail!("the DEM benchmark scene must use method dem") };
     let mut sim = pool.install(|| Dem::new(&scene, params))?;
     if let Some(path) = &a.lammps_data {
         write_lammps_data(&sim, path).with_context(|| format!("cannot write {}", path.display()))?;

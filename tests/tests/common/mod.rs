@@ -14,7 +14,7 @@ pub fn scene(v: serde_json::Value) -> Scene {
 
 /// Builds the DEM simulation of a scene.
 pub fn dem(s: &Scene) -> Dem {
-    let Method::Dem(p) = &s.method;
+    let Method::Dem(p) = &s.method else { panic!("not a DEM scene") };
     match Dem::new(s, p) {
         Ok(d) => d,
         Err(e) => panic!("cannot build test scene: {e}"),
@@ -24,4 +24,13 @@ pub fn dem(s: &Scene) -> Dem {
 /// A material object with a linear law.
 pub fn linear_material(k_n: f64, e: f64, mu: f64) -> serde_json::Value {
     serde_json::json!({"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": e, "friction": mu})
+}
+
+/// Builds the contact-dynamics simulation of a scene.
+pub fn cd(s: &Scene) -> sable_engine::methods::cd::Cd {
+    let Method::Cd(p) = &s.method else { panic!("not a CD scene") };
+    match sable_engine::methods::cd::Cd::new(s, p) {
+        Ok(d) => d,
+        Err(e) => panic!("cannot build test scene: {e}"),
+    }
 }

@@ -11,20 +11,18 @@ pub mod timestep;
 
 use rayon::prelude::*;
 
+use super::world;
 use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Drum, Wall};
-use crate::math::{Real, Vec3, AXES};
+use crate::math::{Real, Vec3};
 use crate::observe::snapshot::{DrumShell, DRUM_SEGMENTS};
-use crate::observe::{
-    measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView, WallFace, WallView,
-};
-use crate::particles::{generate::place_particles, Particles};
+use crate::observe::{measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView, WallFace};
+use crate::particles::Particles;
 use crate::run::Balance;
 use crate::run::Simulation;
-use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
-use crate::scene::{Controls, Deformation, DemParams, Material, Placement, Scene, StateFile, WallMotion};
+use crate::scene::{Controls, Deformation, DemParams, Material, Scene, StateFile};
 use forces::LOOP_CHUNK;
 use pair_state::PairContact;
 use stability::EnergyBudget;
@@ -150,25 +148,7 @@ impl Dem {
     /// and evaluates the initial forces.
     pub fn new(scene: &Scene, params: &DemParams) -> Result<Self, EngineError> {
         let c = &scene.container;
-        let mut domain = Domain {
-            dim: scene.dim,
-            lo: c.lo,
-            hi: c.hi,
-            periodic: c.periodic,
-            shear_rate: c.lees_edwards.map_or(0.0, |le| le.0),
-            le_offset: 0.0,
-        };
-        let mut p = place_particles(scene, &domain)?;
-        if p.is_empty() {
-            return Err(EngineError::Build { field: "particles".into(), reason: "the scene has no particle".into() });
-        }
-        if let Some((rate, true)) = c.lees_edwards {
-            let ymid = 0.5 * (domain.lo.y + domain.hi.y);
-            for (x, v) in p.pos.iter().zip(p.vel.iter_mut()) {
-                v.x += rate * (x.y - ymid);
-            }
-        }
-        sort_by_cell(&mut p, &domain);
+        let (p, domain) = world::initial_particles(scene)?;
         let table = ContactTable::new(&scene.materials);
         let wall_material = c.wall_material.unwrap_or(0);
 
@@ -180,7 +160,7 @@ impl Dem {
             e.0 = e.0.min(p.mass[k]);
             e.1 = e.1.min(p.radius[k]);
         }
-        let v_ref = params.reference_velocity.unwrap_or_else(|| reference_velocity(scene, &p));
+        let v_ref = params.reference_velocity.unwrap_or_else(|| world::reference_velocity(scene, &p));
         let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
         let has_walls = !c.walls.is_empty() || c.drum.is_some();
         let bodies = Bodies { lightest: &lightest, names: &names, wall_material: has_walls.then_some(wall_material) };
@@ -245,8 +225,6 @@ impl Dem {
         } else {
             None
         };
-        // A state saved from a sheared Lees-Edwards cell keeps its image offset.
-        domain.le_offset = scene.initial.as_ref().map_or(0.0, |st| st.lees_edwards_offset);
         let mut sim = Self {
             dim: scene.dim,
             dt,
@@ -538,7 +516,7 @@ impl Dem {
     }
 
     fn wall_area(&self, axis: usize) -> Real {
-        (0..self.dim).filter(|&a| a != axis).map(|a| self.domain.length(a)).product()
+        world::wall_area(&self.domain, axis)
     }
 
     /// Diagonal of the stress tensor from the virial of the current forces and the kinetic part
@@ -665,22 +643,7 @@ impl Dem {
     }
 
     fn shear_geometry(&self) -> Option<ShearGeometry> {
-        if self.domain.sheared() {
-            return Some(ShearGeometry { rate: self.domain.shear_rate, flow: 0, gradient: 1, streaming: true });
-        }
-        // A wall sliding tangentially against a fixed opposite wall shears the gap between them.
-        for w in &self.walls {
-            let a = w.face.axis;
-            let mut tangential = w.velocity;
-            tangential[a] = 0.0;
-            if let Some(flow) = (0..self.dim).find(|&b| b != a && tangential[b] != 0.0) {
-                let gap = self.domain.length(a);
-                let opposite = self.walls.iter().find(|o| o.face.axis == a && o.face.upper != w.face.upper);
-                let rel = tangential[flow] - opposite.map_or(0.0, |o| o.velocity[flow]);
-                return Some(ShearGeometry { rate: rel / gap, flow, gradient: a, streaming: false });
-            }
-        }
-        None
+        world::shear_geometry(&self.domain, &self.walls)
     }
 }
 
@@ -720,48 +683,6 @@ fn local_damping(f: &Vec3, v: &Vec3, alpha: Real) -> Vec3 {
 fn collision_stiffness(c: &CollisionTime, p: &Particles) -> Real {
     let m = p.mass.iter().copied().fold(Real::INFINITY, f64::min);
     0.5 * m * (std::f64::consts::PI / c.t_c).powi(2)
-}
-
-/// Impact velocity used for the Hertz collision time when none is given: the largest of the
-/// initial speeds, free fall across the box, wall speeds, the shear velocity across the box, and
-/// 0.1 m/s.
-fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
-    let c = &scene.container;
-    let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
-    let mut v: Real = 0.1;
-    v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
-    v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
-    for w in &c.walls {
-        match w.motion {
-            WallMotion::Velocity(u) => v = v.max(u.norm()),
-            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[w.face.axis] - c.lo[w.face.axis])).abs()),
-            _ => {}
-        }
-    }
-    if let Some((rate, _)) = c.lees_edwards {
-        v = v.max(rate.abs() * (c.hi.y - c.lo.y));
-    }
-    if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
-        v = v.max(angular_velocity.abs() * drum.radius);
-    }
-    if scene.sets.iter().any(|s| matches!(s.placement, Placement::List { velocities: Some(_), .. })) {
-        v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
-    }
-    v
-}
-
-/// Reorders particles by cell so that neighbours sit close in memory (done once, before any
-/// history exists).
-fn sort_by_cell(p: &mut Particles, domain: &Domain) {
-    let rmax = p.radius.iter().copied().fold(0.0, f64::max);
-    let w = (4.0 * rmax).max(1e-300);
-    let key = |x: &Vec3| -> (i64, i64, i64) {
-        let k = |a: usize| ((x[a] - domain.lo[a]) / w).floor() as i64;
-        (k(2), k(1), k(0))
-    };
-    let mut order: Vec<usize> = (0..p.len()).collect();
-    order.sort_by_key(|&i| key(&p.pos[i]));
-    p.permute(&order);
 }
 
 impl Simulation for Dem {
@@ -811,17 +732,7 @@ impl Simulation for Dem {
     fn sample(&mut self) -> Result<Sample, EngineError> {
         self.check_stability()?;
         let contacts = self.contacts();
-        let walls: Vec<WallView> = self
-            .walls
-            .iter()
-            .map(|w| WallView {
-                name: w.face.name(),
-                position: w.position,
-                normal: w.normal(),
-                force: w.force,
-                area: self.wall_area(w.face.axis),
-            })
-            .collect();
+        let walls = world::wall_views(&self.walls, &self.domain);
         let view = SystemView {
             dim: self.dim,
             step: self.step,
@@ -948,43 +859,7 @@ impl Simulation for Dem {
     }
 
     fn saved_state(&self) -> StateFile {
-        let p = &self.p;
-        let d = self.dim;
-        let mut st = StateFile {
-            format: STATE_FORMAT.to_string(),
-            version: STATE_VERSION,
-            dimension: d as u8,
-            time: self.time,
-            steps: self.step,
-            min: self.domain.lo.as_slice()[..d].to_vec(),
-            max: self.domain.hi.as_slice()[..d].to_vec(),
-            periodic: (0..d).filter(|&a| self.domain.periodic[a]).map(|a| AXES[a].to_string()).collect(),
-            lees_edwards_offset: self.domain.le_offset,
-            materials: Vec::new(),
-            particles: StateParticles {
-                material: Vec::with_capacity(p.len()),
-                radius: p.radius.clone(),
-                wet: if p.wet.iter().any(|&w| w) { p.wet.clone() } else { Vec::new() },
-                ..StateParticles::default()
-            },
-        };
-        // Only the materials the particles use (walls' and unused ones need not exist where the
-        // state goes), numbered in order of first use.
-        let mut number: Vec<Option<u16>> = vec![None; self.materials.len()];
-        for &m in &p.material {
-            let slot = &mut number[m as usize];
-            let k = *slot.get_or_insert_with(|| {
-                st.materials.push(self.materials[m as usize].name.clone());
-                (st.materials.len() - 1) as u16
-            });
-            st.particles.material.push(k);
-        }
-        let (position, velocity) = self.wrapped();
-        let q = &mut st.particles;
-        q.position = position.iter().map(|x| x.as_slice()[..d].to_vec()).collect();
-        q.velocity = velocity.iter().map(|v| v.as_slice()[..d].to_vec()).collect();
-        q.angular_velocity = p.omega.iter().map(|w| if d == 2 { vec![w.z] } else { w.as_slice().to_vec() }).collect();
-        st
+        world::saved_state(self.time, self.step, &self.domain, &self.materials, &self.p)
     }
 
     fn snapshot(&self) -> Snapshot {
@@ -1029,15 +904,8 @@ impl Simulation for Dem {
 }
 
 impl Dem {
-    /// Copies of the positions and velocities brought back into the periodic box (particles
-    /// return into it only at neighbour builds; crossing a Lees-Edwards boundary changes the
-    /// velocity too).
     fn wrapped(&self) -> (Vec<Vec3>, Vec<Vec3>) {
-        let (mut position, mut velocity) = (self.p.pos.clone(), self.p.vel.clone());
-        for (x, v) in position.iter_mut().zip(velocity.iter_mut()) {
-            self.domain.wrap(x, v);
-        }
-        (position, velocity)
+        world::wrapped(&self.domain, &self.p)
     }
 
     /// The stages of one step, in the order of [`Stage`].

@@ -1,0 +1,637 @@
+//! Contact dynamics (Moreau-Jean non-smooth contact dynamics; N 1.1.2, RC 2.2.3, PHYSICS.md §3)
+//! for rigid disks and spheres: implicit time stepping, no contact stiffness, the contact
+//! impulses found by the non-linear Gauss-Seidel solver of [`crate::nscd`].
+//!
+//! One step, with `h` the time step and `theta` the implicitness:
+//! 1. `NeighborUpdate`: the Verlet list is rebuilt if a particle moved more than half the skin;
+//! 2. `Detect`: every listed pair and every particle-wall pair whose gap `g` at the start of
+//!    the step, advanced by `(1 - theta) h u_n` (the approach at the start-of-step normal
+//!    velocity), is closed becomes a contact of the step, with its frame, Delassus block,
+//!    restitution target and friction, and as warm start the impulse the same pair carried at
+//!    the last step (projected on the new frame);
+//! 3. `Free`: velocities advance under gravity alone;
+//! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities;
+//! 5. `Integrate`: positions advance by `h (theta v+ + (1 - theta) v-)` (theta-scheme); forces
+//!    and torques are stored as the mean over the step, `m (v+ - v-) / h`;
+//! 6. `Boundaries`: walls take the reaction of their contacts and move;
+//! 7. `Check`: non-finite values, interpenetration beyond `max_interpenetration`.
+//!
+//! Not yet with this method (rejected at build with the field named): stress-controlled and
+//! shearing walls, Lees-Edwards shear, cell deformation, the drum, rolling resistance, liquid,
+//! and the experiments' loading programs.
+
+mod laws;
+
+use crate::error::{EngineError, InstabilityCause};
+use crate::geometry::{Domain, NeighborList};
+use crate::loading::Wall;
+use crate::math::{Real, Vec3};
+use crate::nscd::nlgs::{law_for, RigidBodies};
+use crate::nscd::{ContactFrame, Convergence, Nlgs, NlgsReport, RigidContact, Side};
+use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView, WallFace};
+use crate::particles::Particles;
+use crate::run::{Balance, Simulation};
+use crate::scene::{CdParams, Controls, Material, Scene, StateFile, WallMotion};
+use laws::PairLaws;
+
+use super::world;
+
+/// Gap below which a contact counts as closed, as a fraction of the smaller radius: a resting
+/// contact whose normal velocity came out of the solver at +1e-20 m/s instead of 0 would
+/// otherwise look separating, be left out, and let its grain fall freely for one step. A contact
+/// this close that does not close is held at that distance at most (1e-9 of the radius).
+pub const ALERT: Real = 1e-9;
+
+/// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
+const WALL_KEY: u32 = u32::MAX;
+
+/// A contact-dynamics simulation.
+pub struct Cd {
+    dim: usize,
+    dt: Real,
+    gravity: Vec3,
+    params: CdParams,
+    materials: Vec<Material>,
+    laws: PairLaws,
+    p: Particles,
+    domain: Domain,
+    walls: Vec<Wall>,
+    nl: NeighborList,
+    /// The neighbour list must be rebuilt before the next step (particles moved from outside).
+    force_rebuild: bool,
+    /// The contacts of the last step, with their impulses.
+    contacts: Vec<RigidContact>,
+    /// The pair of each contact: `(i, j)` with `i < j`, or `(i, WALL_KEY - w)`.
+    keys: Vec<(u32, u32)>,
+    /// Impulse of each contact of the step before (global components, N·s), sorted by key.
+    previous: Vec<((u32, u32), Vec3)>,
+    /// Velocities and spins at the start of the step (scratch).
+    vel_start: Vec<Vec3>,
+    omega_start: Vec<Vec3>,
+    solver: Nlgs,
+    report: NlgsReport,
+    /// Largest and mean interpenetration of the contacts at the last detection, as fractions
+    /// of the smaller radius.
+    interpenetration: (Real, Real),
+    step: u64,
+    time: Real,
+    len0: Vec3,
+    solid_volume: Real,
+    mean_diameter: Real,
+    pool: Option<rayon::ThreadPool>,
+}
+
+impl Cd {
+    /// Builds the simulation: places particles, chooses the time step and builds the
+    /// neighbour list.
+    pub fn new(scene: &Scene, params: &CdParams) -> Result<Self, EngineError> {
+        reject_unsupported(scene)?;
+        let c = &scene.container;
+        let (p, domain) = world::initial_particles(scene)?;
+        let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
+        let rmax = p.radius.iter().copied().fold(0.0, f64::max);
+        let dt = match params.time_step {
+            Some(dt) => dt,
+            None => {
+                let v = params.reference_velocity.unwrap_or_else(|| world::reference_velocity(scene, &p));
+                params.max_displacement * 2.0 * rmin / v
+            }
+        };
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(EngineError::Build {
+                field: "method.time_step".into(),
+                reason: format!("the time step {dt:e} s is not usable; give method.time_step"),
+            });
+        }
+        let skin = params.skin * 2.0 * rmin;
+        for a in 0..scene.dim {
+            let need = 2.0 * (2.0 * rmax + skin);
+            if c.periodic[a] && domain.length(a) < need {
+                return Err(EngineError::Build {
+                    field: format!("container.max[{a}]"),
+                    reason: format!(
+                        "periodic length {:e} m along {} is below {need:e} m (twice the interaction reach): enlarge the box",
+                        domain.length(a),
+                        crate::math::AXES[a]
+                    ),
+                });
+            }
+        }
+        let walls: Vec<Wall> = c
+            .walls
+            .iter()
+            .map(|w| {
+                let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
+                Wall::new(w.face, pos, w.motion, 0.0, 0.0)
+            })
+            .collect();
+        let pool = if params.threads > 0 {
+            Some(rayon::ThreadPoolBuilder::new().num_threads(params.threads).build().map_err(|e| EngineError::Build {
+                field: "method.threads".into(),
+                reason: format!("cannot start {} threads: {e}", params.threads),
+            })?)
+        } else {
+            None
+        };
+        let n = p.len();
+        let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
+        let mean_diameter = 2.0 * p.radius.iter().sum::<Real>() / n as Real;
+        let mut sim = Self {
+            dim: scene.dim,
+            dt,
+            gravity: scene.gravity,
+            params: params.clone(),
+            materials: scene.materials.clone(),
+            laws: PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None),
+            p,
+            len0: domain.hi - domain.lo,
+            domain,
+            walls,
+            nl: NeighborList::new(0.0, skin),
+            force_rebuild: true,
+            contacts: Vec::new(),
+            keys: Vec::new(),
+            previous: Vec::new(),
+            vel_start: vec![Vec3::zeros(); n],
+            omega_start: vec![Vec3::zeros(); n],
+            solver: Nlgs::new(Convergence {
+                tolerance: params.tolerance,
+                violation_tolerance: params.violation_tolerance,
+                max_iterations: params.max_iterations,
+            }),
+            report: NlgsReport::default(),
+            interpenetration: (0.0, 0.0),
+            step: 0,
+            time: 0.0,
+            solid_volume,
+            mean_diameter,
+            pool,
+        };
+        sim.refresh_neighbors();
+        Ok(sim)
+    }
+
+    /// Time step, s.
+    pub fn time_step(&self) -> Real {
+        self.dt
+    }
+
+    /// The particles (read only).
+    pub fn particles(&self) -> &Particles {
+        &self.p
+    }
+
+    /// Mutable access to the particles, for tests and custom set-ups (the neighbour list is
+    /// rebuilt before the next step).
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        self.force_rebuild = true;
+        &mut self.p
+    }
+
+    /// The walls.
+    pub fn walls(&self) -> &[Wall] {
+        &self.walls
+    }
+
+    /// The contacts of the last step with their impulses.
+    pub fn contact_list(&self) -> &[RigidContact] {
+        &self.contacts
+    }
+
+    /// The solver's report of the last step.
+    pub fn solver_report(&self) -> NlgsReport {
+        self.report
+    }
+
+    /// The solver's criterion after each sweep of the last step.
+    pub fn residual_history(&self) -> &[crate::nscd::Iterate] {
+        &self.solver.history
+    }
+
+    /// Largest and mean interpenetration at the last detection, as fractions of the smaller
+    /// radius of each contact.
+    pub fn interpenetration(&self) -> (Real, Real) {
+        self.interpenetration
+    }
+
+    /// Heap bytes held by the simulation.
+    pub fn heap_bytes(&self) -> usize {
+        self.p.heap_bytes()
+            + self.nl.heap_bytes()
+            + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
+            + self.keys.capacity() * 8
+            + self.previous.capacity() * std::mem::size_of::<((u32, u32), Vec3)>()
+            + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
+    }
+
+    fn refresh_neighbors(&mut self) {
+        let domain = &self.domain;
+        for (x, v) in self.p.pos.iter_mut().zip(self.p.vel.iter_mut()) {
+            domain.wrap(x, v);
+        }
+        self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        self.force_rebuild = false;
+    }
+}
+
+impl Cd {
+    /// The contacts of the step from the current positions and velocities (see the module
+    /// documentation), with their warm-start impulses; records the interpenetration.
+    fn detect(&mut self) {
+        let h = self.dt;
+        let ahead = (1.0 - self.params.theta) * h;
+        let gh = self.gravity.norm() * h;
+        let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
+        self.contacts.clear();
+        self.keys.clear();
+        let (mut worst, mut sum, mut count): (Real, Real, usize) = (0.0, 0.0, 0);
+        let mut overlap = |g: Real, r: Real| {
+            if g < 0.0 {
+                let f = -g / r;
+                worst = worst.max(f);
+                sum += f;
+            }
+            count += 1;
+        };
+        let previous = &self.previous;
+        let warm = |key: (u32, u32), frame: &ContactFrame| match previous.binary_search_by(|e| e.0.cmp(&key)) {
+            Ok(k) => frame.to_local(&previous[k].1),
+            Err(_) => Vec3::zeros(),
+        };
+        for i in 0..p.len() {
+            let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
+            for pr in &nl.pair[s..e] {
+                let j = pr.j as usize;
+                let d = p.pos[i] - p.pos[j] - domain.image_shift(pr.image);
+                let dist = d.norm();
+                let (ri, rj) = (p.radius[i], p.radius[j]);
+                let g = dist - ri - rj;
+                let alert = ALERT * ri.min(rj);
+                if g > alert && ahead == 0.0 {
+                    continue;
+                }
+                let n = d / dist;
+                let drive = Vec3::new(domain.image_velocity(pr.image[1]), 0.0, 0.0);
+                // The spins do not move the contact point along the normal of round bodies.
+                let u_n = (p.vel[i] - p.vel[j] - drive).dot(&n);
+                if g + ahead * u_n > alert {
+                    continue;
+                }
+                overlap(g, ri.min(rj));
+                let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
+                let frame = ContactFrame::new(dim, n);
+                let (e, mu) = laws.pair(p.material[i], p.material[j]);
+                let key = (i as u32, pr.j);
+                let w = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], a_i, p.inv_mass[j], p.inv_inertia[j], a_j);
+                self.contacts.push(RigidContact {
+                    i: i as u32,
+                    j: Side::Body(pr.j),
+                    frame,
+                    a_i,
+                    a_j,
+                    drive,
+                    w,
+                    law: law_for(u_n, e, mu, 0.0),
+                    r: warm(key, &frame),
+                    scale: (u_n.abs() + gh) / w.n,
+                });
+                self.keys.push(key);
+            }
+        }
+        for (w, wall) in self.walls.iter().enumerate() {
+            let n = wall.normal();
+            let a = wall.face.axis;
+            for i in 0..p.len() {
+                let r = p.radius[i];
+                let dist = (p.pos[i][a] - wall.position) * n[a];
+                let g = dist - r;
+                if g > ALERT * r && ahead == 0.0 {
+                    continue;
+                }
+                let u_n = (p.vel[i] - wall.velocity).dot(&n);
+                if g + ahead * u_n > ALERT * r {
+                    continue;
+                }
+                overlap(g, r);
+                let frame = ContactFrame::new(dim, n);
+                let (e, mu) = laws.wall(p.material[i]);
+                let key = (i as u32, WALL_KEY - w as u32);
+                let wd = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], dist, 0.0, 0.0, 0.0);
+                self.contacts.push(RigidContact {
+                    i: i as u32,
+                    j: Side::Boundary,
+                    frame,
+                    a_i: dist,
+                    a_j: 0.0,
+                    drive: wall.velocity,
+                    w: wd,
+                    law: law_for(u_n, e, mu, 0.0),
+                    r: warm(key, &frame),
+                    scale: (u_n.abs() + gh) / wd.n,
+                });
+                self.keys.push(key);
+            }
+        }
+        self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
+    }
+
+    /// The stages of one step, in the order of the module documentation.
+    fn step_stages(&mut self) -> Result<(), EngineError> {
+        let h = self.dt;
+        let theta = self.params.theta;
+        if self.force_rebuild || self.nl.needs_rebuild(&self.p.pos, &self.domain) {
+            self.refresh_neighbors();
+        }
+        self.detect();
+        if self.interpenetration.0 > self.params.max_interpenetration {
+            return Err(
+                self.unstable(InstabilityCause::Overlap { fraction: self.interpenetration.0, limit: self.params.max_interpenetration })
+            );
+        }
+        // Free motion under gravity (bodies of imposed motion keep theirs).
+        self.vel_start.copy_from_slice(&self.p.vel);
+        self.omega_start.copy_from_slice(&self.p.omega);
+        let g = self.gravity;
+        for (v, im) in self.p.vel.iter_mut().zip(&self.p.inv_mass) {
+            if *im > 0.0 {
+                *v += g * h;
+            }
+        }
+        let p = &mut self.p;
+        let mut bodies = RigidBodies { vel: &mut p.vel, omega: &mut p.omega, inv_mass: &p.inv_mass, inv_inertia: &p.inv_inertia };
+        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter);
+        if !self.report.converged {
+            let r = self.report;
+            return Err(self.unstable(InstabilityCause::SolverBudget {
+                iterations: r.iterations,
+                change: r.last.change,
+                violation: r.last.violation,
+                tolerance: self.params.tolerance,
+                violation_tolerance: self.params.violation_tolerance,
+            }));
+        }
+        // Theta-scheme positions; mean forces and torques over the step.
+        let p = &mut self.p;
+        for i in 0..p.len() {
+            let (v0, v1) = (self.vel_start[i], p.vel[i]);
+            p.pos[i] += (v1 * theta + v0 * (1.0 - theta)) * h;
+            p.force[i] = (v1 - v0) * (p.mass[i] / h);
+            let inertia = if p.inv_inertia[i] > 0.0 { 1.0 / p.inv_inertia[i] } else { 0.0 };
+            p.torque[i] = (p.omega[i] - self.omega_start[i]) * (inertia / h);
+        }
+        // Walls: the reaction of their contacts, then their motion.
+        for w in &mut self.walls {
+            w.force = Vec3::zeros();
+        }
+        for (c, key) in self.contacts.iter().zip(&self.keys) {
+            if let Side::Boundary = c.j {
+                self.walls[(WALL_KEY - key.1) as usize].force -= c.force(h);
+            }
+        }
+        for w in 0..self.walls.len() {
+            let area = world::wall_area(&self.domain, self.walls[w].face.axis);
+            let length = self.domain.length(self.walls[w].face.axis);
+            let wall = &mut self.walls[w];
+            wall.servo(area, length);
+            wall.advance(h);
+            let a = wall.face.axis;
+            if wall.face.upper {
+                self.domain.hi[a] = wall.position;
+            } else {
+                self.domain.lo[a] = wall.position;
+            }
+        }
+        // Warm start of the next step: this step's impulses by pair.
+        self.previous.clear();
+        self.previous
+            .extend(self.keys.iter().zip(&self.contacts).filter(|(_, c)| c.r != Vec3::zeros()).map(|(k, c)| (*k, c.frame.to_global(&c.r))));
+        self.previous.sort_unstable_by_key(|e| e.0);
+        self.step += 1;
+        self.time += h;
+        self.check()
+    }
+
+    /// Non-finite positions or velocities stop the run.
+    fn check(&self) -> Result<(), EngineError> {
+        let p = &self.p;
+        if let Some(i) = (0..p.len()).find(|&i| !(p.pos[i].iter().all(|x| x.is_finite()) && p.vel[i].iter().all(|x| x.is_finite()))) {
+            return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
+        }
+        Ok(())
+    }
+
+    /// Builds the typed error for `cause`, with what to change.
+    fn unstable(&self, cause: InstabilityCause) -> EngineError {
+        let suggestion = match &cause {
+            InstabilityCause::SolverBudget { .. } => format!(
+                "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.violation_tolerance (now {:.1e}), or lower method.time_step (now {:.3e} s): fewer contacts change per step",
+                self.params.max_iterations, self.params.tolerance, self.params.violation_tolerance, self.dt
+            ),
+            InstabilityCause::Overlap { .. } => format!(
+                "lower method.time_step (now {:.3e} s) so that grains move less per step, or tighten method.violation_tolerance (now {:.1e})",
+                self.dt, self.params.violation_tolerance
+            ),
+            _ => format!("lower method.time_step (now {:.3e} s)", self.dt),
+        };
+        EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
+    }
+
+    /// Contact forces (mean over the last step) as records, for metrics and tests.
+    pub fn contacts(&self) -> Vec<ContactRecord> {
+        let h = self.dt;
+        self.contacts
+            .iter()
+            .filter(|c| c.r != Vec3::zeros())
+            .map(|c| {
+                let (j, branch) = match c.j {
+                    Side::Body(j) => (Some(j), c.frame.n * (c.a_i + c.a_j)),
+                    Side::Boundary => (None, c.frame.n * c.a_i),
+                };
+                ContactRecord { i: c.i, j, force: c.force(h), branch, touching: c.r.x > 0.0, bonded: false }
+            })
+            .collect()
+    }
+}
+
+/// Rejects what this method does not do yet, naming the field.
+fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
+    let c = &scene.container;
+    let no = |field: String, what: &str| {
+        Err(EngineError::Build { field, reason: format!("{what} is not available with method \"cd\" yet; use method \"dem\"") })
+    };
+    if scene.experiment.is_some() {
+        return no("experiment".into(), "a standard experiment");
+    }
+    if c.lees_edwards.is_some() {
+        return no("container.lees_edwards".into(), "Lees-Edwards shear");
+    }
+    if c.deformation.is_some() {
+        return no("container.deformation".into(), "an imposed deformation of the cell");
+    }
+    for w in &c.walls {
+        if matches!(w.motion, WallMotion::Stress { .. } | WallMotion::Shearing { .. }) {
+            return no(format!("container.walls.{}", w.face.name()), "a stress-controlled wall");
+        }
+    }
+    for m in &scene.materials {
+        if m.rolling.is_some() {
+            return no(format!("materials.{}.rolling", m.name), "rolling resistance");
+        }
+        if m.liquid.is_some() {
+            return no(format!("materials.{}.liquid", m.name), "interstitial liquid");
+        }
+    }
+    Ok(())
+}
+
+impl Simulation for Cd {
+    fn method(&self) -> &'static str {
+        "cd"
+    }
+
+    fn step(&mut self) -> Result<(), EngineError> {
+        match self.pool.take() {
+            Some(pool) => {
+                let r = pool.install(|| self.step_stages());
+                self.pool = Some(pool);
+                r
+            }
+            None => self.step_stages(),
+        }
+    }
+
+    fn steps_done(&self) -> u64 {
+        self.step
+    }
+
+    fn time(&self) -> Real {
+        self.time
+    }
+
+    fn dt(&self) -> Real {
+        self.dt
+    }
+
+    fn particle_count(&self) -> usize {
+        self.p.len()
+    }
+
+    fn packing_fraction(&self) -> Real {
+        self.solid_volume / self.domain.volume()
+    }
+
+    fn strain(&self) -> Real {
+        (0..self.dim).map(|a| (self.domain.length(a) / self.len0[a]).ln().abs()).fold(0.0, f64::max)
+    }
+
+    fn box_lengths(&self) -> Vec3 {
+        self.domain.hi - self.domain.lo
+    }
+
+    fn sample(&mut self) -> Result<Sample, EngineError> {
+        self.check()?;
+        let contacts = self.contacts();
+        let walls = world::wall_views(&self.walls, &self.domain);
+        let view = SystemView {
+            dim: self.dim,
+            step: self.step,
+            time: self.time,
+            particles: &self.p,
+            volume: self.domain.volume(),
+            contacts: &contacts,
+            walls: &walls,
+            shear: world::shear_geometry(&self.domain, &self.walls),
+            elastic_energy: 0.0,
+            rattler_threshold: rattler_threshold(self.dim, self.laws.frictional()),
+            drum: None,
+        };
+        let mut s = measure(&view);
+        s.solver = Some(Box::new(SolverSample {
+            iterations: self.report.iterations,
+            change: self.report.last.change,
+            violation: self.report.last.violation,
+            contacts: self.report.contacts as u64,
+            max_interpenetration: self.interpenetration.0,
+            mean_interpenetration: self.interpenetration.1,
+        }));
+        if !s.is_finite() {
+            return Err(self.unstable(InstabilityCause::NonFinite { particle: 0 }));
+        }
+        Ok(s)
+    }
+
+    fn snapshot(&self) -> Snapshot {
+        let p = &self.p;
+        let (position, velocity) = world::wrapped(&self.domain, p);
+        Snapshot {
+            dim: self.dim,
+            step: self.step,
+            time: self.time,
+            lo: self.domain.lo,
+            hi: self.domain.hi,
+            position,
+            radius: p.radius.clone(),
+            velocity,
+            omega: p.omega.clone(),
+            force: p.force.clone(),
+            contacts: self.contacts(),
+            walls: self
+                .walls
+                .iter()
+                .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
+                .collect(),
+            drum: None,
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.heap_bytes()
+    }
+
+    fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
+        let no = |what: &str| {
+            Err(EngineError::Build { field: "experiment".into(), reason: format!("{what} is not available with method \"cd\" yet") })
+        };
+        if controls.glue.is_some() {
+            return no("gluing grains to walls");
+        }
+        if controls.centripetal.is_some() || controls.close_walls.is_some() {
+            return no("the granule's loading");
+        }
+        if controls.deformation.is_some() || controls.shear_rate.is_some() {
+            return no("a cell deformation or shear");
+        }
+        if controls.drum_angular_velocity.is_some() {
+            return no("the drum");
+        }
+        for def in &controls.walls {
+            if matches!(def.motion, WallMotion::Stress { .. } | WallMotion::Shearing { .. }) {
+                return no("a stress-controlled wall");
+            }
+            if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
+                w.set_motion(def.motion);
+            }
+        }
+        self.laws.set_friction(controls.friction);
+        Ok(())
+    }
+
+    fn balance(&self) -> Balance {
+        let p = &self.p;
+        let kinetic: Real = 0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>();
+        let net: Real = p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real;
+        let forces: Vec<Real> = self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| c.force(self.dt).norm()).collect();
+        let mean_contact = if forces.is_empty() { 0.0 } else { forces.iter().sum::<Real>() / forces.len() as Real };
+        let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
+        Balance { kinetic_energy: kinetic, elastic_energy: 0.0, unbalanced_force, stress_error: 0.0 }
+    }
+
+    fn grain_scales(&self) -> (Real, Real) {
+        let mass: Real = self.p.mass.iter().sum();
+        (self.mean_diameter, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
+    }
+
+    fn saved_state(&self) -> StateFile {
+        world::saved_state(self.time, self.step, &self.domain, &self.materials, &self.p)
+    }
+}

@@ -1,0 +1,171 @@
+//! What every particle method builds and reports the same way: the initial particles in their
+//! box, the reference velocity of a scene, the shear geometry the metrics need, the walls as
+//! the metrics see them, and the saved state.
+
+use crate::error::EngineError;
+use crate::geometry::Domain;
+use crate::loading::Wall;
+use crate::math::{Real, Vec3, AXES};
+use crate::observe::{ShearGeometry, WallView};
+use crate::particles::{generate::place_particles, Particles};
+use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
+use crate::scene::{Material, Placement, Scene, StateFile, WallMotion};
+
+/// The scene's box and its particles, placed, given the Lees-Edwards velocity profile and
+/// sorted by cell (neighbours close in memory).
+pub(crate) fn initial_particles(scene: &Scene) -> Result<(Particles, Domain), EngineError> {
+    let c = &scene.container;
+    let mut domain = Domain {
+        dim: scene.dim,
+        lo: c.lo,
+        hi: c.hi,
+        periodic: c.periodic,
+        shear_rate: c.lees_edwards.map_or(0.0, |le| le.0),
+        le_offset: 0.0,
+    };
+    let mut p = place_particles(scene, &domain)?;
+    if p.is_empty() {
+        return Err(EngineError::Build { field: "particles".into(), reason: "the scene has no particle".into() });
+    }
+    if let Some((rate, true)) = c.lees_edwards {
+        let ymid = 0.5 * (domain.lo.y + domain.hi.y);
+        for (x, v) in p.pos.iter().zip(p.vel.iter_mut()) {
+            v.x += rate * (x.y - ymid);
+        }
+    }
+    sort_by_cell(&mut p, &domain);
+    // A state saved from a sheared Lees-Edwards cell keeps its image offset.
+    domain.le_offset = scene.initial.as_ref().map_or(0.0, |st| st.lees_edwards_offset);
+    Ok((p, domain))
+}
+
+/// Reorders particles by cell so that neighbours sit close in memory (done once, before any
+/// history exists).
+fn sort_by_cell(p: &mut Particles, domain: &Domain) {
+    let rmax = p.radius.iter().copied().fold(0.0, f64::max);
+    let w = (4.0 * rmax).max(1e-300);
+    let key = |x: &Vec3| -> (i64, i64, i64) {
+        let k = |a: usize| ((x[a] - domain.lo[a]) / w).floor() as i64;
+        (k(2), k(1), k(0))
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by_key(|&i| key(&p.pos[i]));
+    p.permute(&order);
+}
+
+/// Fastest motion expected in a scene, m/s: the largest of the initial speeds, free fall across
+/// the box, wall speeds, the shear velocity across the box, the drum's rim and 0.1 m/s.
+pub(crate) fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
+    let c = &scene.container;
+    let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
+    let mut v: Real = 0.1;
+    v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
+    v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
+    for w in &c.walls {
+        match w.motion {
+            WallMotion::Velocity(u) => v = v.max(u.norm()),
+            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[w.face.axis] - c.lo[w.face.axis])).abs()),
+            _ => {}
+        }
+    }
+    if let Some((rate, _)) = c.lees_edwards {
+        v = v.max(rate.abs() * (c.hi.y - c.lo.y));
+    }
+    if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
+        v = v.max(angular_velocity.abs() * drum.radius);
+    }
+    if scene.sets.iter().any(|s| matches!(s.placement, Placement::List { velocities: Some(_), .. })) {
+        v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
+    }
+    v
+}
+
+/// Area (length in 2D) of the faces normal to `axis`, m^(D-1).
+pub(crate) fn wall_area(domain: &Domain, axis: usize) -> Real {
+    (0..domain.dim).filter(|&a| a != axis).map(|a| domain.length(a)).product()
+}
+
+/// The walls as the metrics see them.
+pub(crate) fn wall_views(walls: &[Wall], domain: &Domain) -> Vec<WallView> {
+    walls
+        .iter()
+        .map(|w| WallView {
+            name: w.face.name(),
+            position: w.position,
+            normal: w.normal(),
+            force: w.force,
+            area: wall_area(domain, w.face.axis),
+        })
+        .collect()
+}
+
+/// Where a shear rate is defined: a Lees-Edwards cell, or a wall sliding tangentially against
+/// the opposite one.
+pub(crate) fn shear_geometry(domain: &Domain, walls: &[Wall]) -> Option<ShearGeometry> {
+    if domain.sheared() {
+        return Some(ShearGeometry { rate: domain.shear_rate, flow: 0, gradient: 1, streaming: true });
+    }
+    for w in walls {
+        let a = w.face.axis;
+        let mut tangential = w.velocity;
+        tangential[a] = 0.0;
+        if let Some(flow) = (0..domain.dim).find(|&b| b != a && tangential[b] != 0.0) {
+            let gap = domain.length(a);
+            let opposite = walls.iter().find(|o| o.face.axis == a && o.face.upper != w.face.upper);
+            let rel = tangential[flow] - opposite.map_or(0.0, |o| o.velocity[flow]);
+            return Some(ShearGeometry { rate: rel / gap, flow, gradient: a, streaming: false });
+        }
+    }
+    None
+}
+
+/// Copies of the positions and velocities brought back into the periodic box (particles
+/// return into it only at neighbour builds; crossing a Lees-Edwards boundary changes the
+/// velocity too).
+pub(crate) fn wrapped(domain: &Domain, p: &Particles) -> (Vec<Vec3>, Vec<Vec3>) {
+    let (mut position, mut velocity) = (p.pos.clone(), p.vel.clone());
+    for (x, v) in position.iter_mut().zip(velocity.iter_mut()) {
+        domain.wrap(x, v);
+    }
+    (position, velocity)
+}
+
+/// The particles and box now, as a state file to start another run from.
+pub(crate) fn saved_state(time: Real, steps: u64, domain: &Domain, materials: &[Material], p: &Particles) -> StateFile {
+    let d = domain.dim;
+    let mut st = StateFile {
+        format: STATE_FORMAT.to_string(),
+        version: STATE_VERSION,
+        dimension: d as u8,
+        time,
+        steps,
+        min: domain.lo.as_slice()[..d].to_vec(),
+        max: domain.hi.as_slice()[..d].to_vec(),
+        periodic: (0..d).filter(|&a| domain.periodic[a]).map(|a| AXES[a].to_string()).collect(),
+        lees_edwards_offset: domain.le_offset,
+        materials: Vec::new(),
+        particles: StateParticles {
+            material: Vec::with_capacity(p.len()),
+            radius: p.radius.clone(),
+            wet: if p.wet.iter().any(|&w| w) { p.wet.clone() } else { Vec::new() },
+            ..StateParticles::default()
+        },
+    };
+    // Only the materials the particles use (walls' and unused ones need not exist where the
+    // state goes), numbered in order of first use.
+    let mut number: Vec<Option<u16>> = vec![None; materials.len()];
+    for &m in &p.material {
+        let slot = &mut number[m as usize];
+        let k = *slot.get_or_insert_with(|| {
+            st.materials.push(materials[m as usize].name.clone());
+            (st.materials.len() - 1) as u16
+        });
+        st.particles.material.push(k);
+    }
+    let (position, velocity) = wrapped(domain, p);
+    let q = &mut st.particles;
+    q.position = position.iter().map(|x| x.as_slice()[..d].to_vec()).collect();
+    q.velocity = velocity.iter().map(|v| v.as_slice()[..d].to_vec()).collect();
+    q.angular_velocity = p.omega.iter().map(|w| if d == 2 { vec![w.z] } else { w.as_slice().to_vec() }).collect();
+    st
+}

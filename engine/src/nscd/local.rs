@@ -1,0 +1,155 @@
+//! The contact laws of contact dynamics as graphs, and their exact local solvers (Moreau 1988,
+//! 1994; Jean 1999; PHYSICS.md §3; RC 2.2.3 for the cohesion).
+//!
+//! At one contact, with the others frozen, the local velocity is affine in the local impulse:
+//! `U = u + W r`, `u` the velocity the contact would have without its own impulse and `W` the
+//! local block of the Delassus operator. The laws, in the local frame `(n, t1, t2)`:
+//! - **Signorini at velocity level**, shifted by the cohesion: with `rho = r_n + c >= 0`,
+//!   `U_n >= b`, `rho (U_n - b) = 0`. `b = -e min(u_n^-, 0)` is Moreau's formal-velocity
+//!   condition `(U_n + e u_n^-) / (1 + e) >= 0` for the normal restitution `e` and the velocity
+//!   `u_n^-` at the start of the step; `c` is the impulse of a cohesive force over the step
+//!   (`F_0 h` for a constant attraction F_0 within D_0);
+//! - **Coulomb**: `|r_t| <= mu rho`; where `|r_t| < mu rho` the contact sticks (`U_t = 0`),
+//!   otherwise it slides with `U_t` opposite to `r_t`.
+//!
+//! For two spheres (or disks), or a sphere and a wall, `W` is diagonal in the contact frame:
+//! translations act on every direction alike (`1/m_i + 1/m_j`), the spins only on the
+//! tangential ones (`a_i²/I_i + a_j²/I_j` more), and isotropic inertia couples no direction to
+//! another. Then the normal part decouples and the tangential part is isotropic, so the
+//! solution below — normal impulse from the Signorini graph, then the sticking impulse
+//! projected on the disk of radius `mu rho` — solves the 2x2 (2D) and 3x3 (3D) problem exactly.
+
+use super::frame::tangential_norm;
+use crate::math::{Real, Vec3};
+
+/// The local block of the Delassus operator of a contact between round bodies, 1/kg: `n` on the
+/// normal, `t` on each tangent (no coupling between directions; see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Delassus {
+    /// Normal entry, 1/kg.
+    pub n: Real,
+    /// Tangential entry, 1/kg.
+    pub t: Real,
+}
+
+impl Delassus {
+    /// `W r` for a local impulse `r`.
+    #[inline(always)]
+    pub fn apply(&self, r: &Vec3) -> Vec3 {
+        Vec3::new(self.n * r.x, self.t * r.y, self.t * r.z)
+    }
+}
+
+/// The law of one contact for the current step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalLaw {
+    /// Lower bound `b` of the normal velocity at the end of the step, m/s (the restitution
+    /// term; see the module documentation).
+    pub target: Real,
+    /// Coulomb friction coefficient.
+    pub friction: Real,
+    /// Cohesive impulse `c` over the step, N·s (>= 0): the normal impulse may go down to `-c`.
+    pub cohesion: Real,
+}
+
+/// Solves the local problem exactly: the impulse `r` (local components, N·s) such that
+/// `U = u + W r` and `r` satisfy the law. `u` is the local velocity without the contact's own
+/// impulse.
+#[inline(always)]
+pub fn solve(w: &Delassus, u: &Vec3, law: &LocalLaw) -> Vec3 {
+    // Normal: rho = max(0, (b - u_n)/w_n + c).
+    let rho = ((law.target - u.x) / w.n + law.cohesion).max(0.0);
+    let r_n = rho - law.cohesion;
+    // Tangential: the sticking impulse, projected on the disk |r_t| <= mu rho.
+    let (mut r1, mut r2) = (-u.y / w.t, -u.z / w.t);
+    let stick = (r1 * r1 + r2 * r2).sqrt();
+    let limit = law.friction * rho;
+    if stick > limit {
+        let s = if stick > 0.0 { limit / stick } else { 0.0 };
+        r1 *= s;
+        r2 *= s;
+    }
+    Vec3::new(r_n, r1, r2)
+}
+
+/// How far `(r, U = u + W r)` is from satisfying the law, in velocity units (m/s): the
+/// violation of the Signorini graph (`max(0, b - U_n)`, and `U_n - b` where `rho > 0`), of the
+/// friction cone and of the sliding rule. Zero for the exact solution. For tests and
+/// diagnostics.
+pub fn law_residual(w: &Delassus, u: &Vec3, law: &LocalLaw, r: &Vec3) -> Real {
+    let big_u = u + w.apply(r);
+    let rho = r.x + law.cohesion;
+    let mut res = (law.target - big_u.x).max(0.0);
+    if rho < 0.0 {
+        res = res.max(-rho * w.n);
+    } else if rho > 0.0 {
+        res = res.max((big_u.x - law.target).abs().min(rho * w.n));
+    }
+    let rt = tangential_norm(r);
+    let ut = tangential_norm(&big_u);
+    let limit = law.friction * rho.max(0.0);
+    res = res.max((rt - limit).max(0.0) * w.t);
+    if rt < limit * (1.0 - 1e-12) {
+        res = res.max(ut);
+    } else if rt > 0.0 {
+        // Sliding: U_t opposite to r_t, i.e. U_t + (|U_t|/|r_t|) r_t = 0.
+        let k = ut / rt;
+        res = res.max(((big_u.y + k * r.y).powi(2) + (big_u.z + k * r.z).powi(2)).sqrt());
+    }
+    res
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (no dependency for tests of a pure function).
+    fn lcg(state: &mut u64) -> Real {
+        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*state >> 11) as Real) / ((1u64 << 53) as Real)
+    }
+
+    #[test]
+    fn the_local_solution_satisfies_the_law() {
+        let mut s = 7u64;
+        for case in 0..20_000 {
+            let w = Delassus { n: 0.1 + 10.0 * lcg(&mut s), t: 0.0 };
+            let w = Delassus { t: w.n * (1.0 + 3.0 * lcg(&mut s)), ..w };
+            let u = Vec3::new(4.0 * lcg(&mut s) - 2.0, 4.0 * lcg(&mut s) - 2.0, if case % 2 == 0 { 0.0 } else { 4.0 * lcg(&mut s) - 2.0 });
+            let law = LocalLaw {
+                target: if case % 3 == 0 { 0.0 } else { lcg(&mut s) },
+                friction: if case % 5 == 0 { 0.0 } else { lcg(&mut s) },
+                cohesion: if case % 4 == 0 { 0.3 * lcg(&mut s) } else { 0.0 },
+            };
+            let r = solve(&w, &u, &law);
+            let res = law_residual(&w, &u, &law, &r);
+            assert!(res < 1e-12, "case {case}: residual {res:e} for u {u:?}, law {law:?}, r {r:?}");
+        }
+    }
+
+    #[test]
+    fn known_cases() {
+        let w = Delassus { n: 2.0, t: 7.0 };
+        let free = LocalLaw { target: 0.0, friction: 0.5, cohesion: 0.0 };
+        // Separating: no impulse.
+        assert_eq!(solve(&w, &Vec3::new(1.0, 3.0, 0.0), &free), Vec3::zeros());
+        // Approaching head-on, perfectly plastic: the impulse stops it.
+        let r = solve(&w, &Vec3::new(-1.0, 0.0, 0.0), &free);
+        assert!((r.x - 0.5).abs() < 1e-15 && r.y == 0.0);
+        // Elastic rebound: b = 1 m/s doubles the impulse.
+        let r = solve(&w, &Vec3::new(-1.0, 0.0, 0.0), &LocalLaw { target: 1.0, ..free });
+        assert!((r.x - 1.0).abs() < 1e-15);
+        // Sticks: the tangential impulse within the cone cancels the slip.
+        let r = solve(&w, &Vec3::new(-1.0, 0.7, 0.0), &free);
+        assert!((r.y + 0.1).abs() < 1e-15 && (r.y.abs() - 0.1).abs() < 1e-15);
+        // Slides: at the cone, opposite to the slip.
+        let r = solve(&w, &Vec3::new(-1.0, 7.0, 0.0), &free);
+        assert!((r.y + 0.25).abs() < 1e-15);
+        // Cohesion holds a separating contact up to the cohesive impulse.
+        let coh = LocalLaw { cohesion: 0.2, ..free };
+        let r = solve(&w, &Vec3::new(0.3, 0.0, 0.0), &coh);
+        assert!((r.x + 0.15).abs() < 1e-15, "{r:?}");
+        let r = solve(&w, &Vec3::new(1.0, 0.0, 0.0), &coh);
+        assert!((r.x + 0.2).abs() < 1e-15, "{r:?}");
+    }
+}

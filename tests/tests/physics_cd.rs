@@ -1,0 +1,247 @@
+//! Contact dynamics (Moreau-Jean, PHYSICS.md §3) against statics and kinematics with known
+//! answers (REFERENCES.md §23): resting grains and columns, blocks and round grains on an
+//! incline, the three-disk pile, the bouncing ball.
+//!
+//! Tolerances: rigid contacts and an implicit scheme make the static answers exact up to the
+//! solver's tolerance (1e-10 here: forces within 1e-6 relative need the impulses converged
+//! well below it); kinematic answers carry the error of the time discretisation, stated per
+//! test.
+
+mod common;
+
+use sable_engine::methods::cd::Cd;
+use sable_engine::run::Simulation;
+use serde_json::json;
+
+const G: f64 = 9.81;
+const D: f64 = 0.002;
+const R: f64 = D / 2.0;
+const RHO: f64 = 2500.0;
+
+fn material(e: f64, mu: f64) -> serde_json::Value {
+    json!({"density": RHO, "contact": {"law": "linear", "k_n": 1e5}, "restitution": e, "friction": mu})
+}
+
+fn mass(dim: usize) -> f64 {
+    if dim == 2 {
+        RHO * std::f64::consts::PI * R * R
+    } else {
+        RHO * 4.0 / 3.0 * std::f64::consts::PI * R * R * R
+    }
+}
+
+/// A scene of grains at `positions` in a box periodic along x (and z), floor and ceiling walls,
+/// with gravity `gravity`, contact dynamics at `dt`.
+fn scene(
+    dim: usize,
+    positions: serde_json::Value,
+    gravity: serde_json::Value,
+    particle: serde_json::Value,
+    wall: serde_json::Value,
+    dt: f64,
+) -> Cd {
+    let count = positions.as_array().map_or(0, Vec::len);
+    let (min, max, periodic) = if dim == 2 {
+        (json!([0, 0]), json!([0.02, 0.05]), json!(["x"]))
+    } else {
+        (json!([0, 0, 0]), json!([0.02, 0.05, 0.02]), json!(["x", "z"]))
+    };
+    let s = common::scene(json!({
+        "dimension": dim,
+        "method": {"kind": "cd", "time_step": dt, "tolerance": 1e-10, "violation_tolerance": 1e-12, "max_iterations": 100000},
+        "materials": {"grain": particle, "wall": wall},
+        "particles": [{"material": "grain", "placement": {"kind": "list", "positions": positions, "diameters": vec![D; count]}}],
+        "container": {"min": min, "max": max, "periodic": periodic, "wall_material": "wall"},
+        "gravity": gravity,
+        "stop": {"steps": 1}
+    }));
+    common::cd(&s)
+}
+
+fn point(dim: usize, x: f64, y: f64) -> serde_json::Value {
+    if dim == 2 {
+        json!([x, y])
+    } else {
+        json!([x, y, 0.01])
+    }
+}
+
+fn down(dim: usize) -> serde_json::Value {
+    if dim == 2 {
+        json!([0.0, -G])
+    } else {
+        json!([0.0, -G, 0.0])
+    }
+}
+
+/// Force the particles exert on the floor, N (positive pressing down).
+fn floor_load(sim: &Cd) -> f64 {
+    sim.walls().iter().find(|w| w.face.name() == "y_min").map_or(f64::NAN, |w| -w.force.y)
+}
+
+#[test]
+fn a_grain_and_a_column_rest_and_load_the_floor_with_their_weight() {
+    for dim in [2, 3] {
+        for n in [1usize, 5] {
+            let positions: Vec<_> = (0..n).map(|k| point(dim, 0.01, R + k as f64 * D)).collect();
+            let mut sim = scene(dim, json!(positions), down(dim), material(0.5, 0.3), material(0.5, 0.3), 1e-4);
+            let start = sim.particles().pos.clone();
+            for _ in 0..500 {
+                sim.step().expect("stable");
+            }
+            let weight = n as f64 * mass(dim) * G;
+            let load = floor_load(&sim);
+            assert!(((load - weight) / weight).abs() < 1e-6, "dim {dim}, {n} grains: floor load {load:e} N, weight {weight:e} N");
+            let drift = sim.particles().pos.iter().zip(&start).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+            assert!(drift < 1e-9 * R, "dim {dim}, {n} grains: drifted {drift:e} m");
+            // Placed touching up to rounding (1e-19 m): contacts within ALERT count as closed,
+            // so no grain ever falls into another.
+            let (worst, _) = sim.interpenetration();
+            assert!(worst < 1e-12, "dim {dim}, {n} grains: interpenetration {worst:e} of the radius");
+            let report = sim.solver_report();
+            assert!(report.converged && report.contacts == n);
+        }
+    }
+}
+
+/// Velocity along the slope and spin of a grain on an incline tilted by `theta` (gravity
+/// rotated), after `t` seconds from rest; `spin` false holds the grain's rotation (a block).
+fn incline(dim: usize, theta: f64, mu: f64, spin: bool, t: f64) -> (f64, f64) {
+    let dt = 1e-4;
+    let gravity = if dim == 2 { json!([G * theta.sin(), -G * theta.cos()]) } else { json!([G * theta.sin(), -G * theta.cos(), 0.0]) };
+    let mut sim = scene(dim, json!([point(dim, 0.01, R)]), gravity, material(0.0, mu), material(0.0, mu), dt);
+    if !spin {
+        sim.particles_mut().inv_inertia[0] = 0.0;
+    }
+    let steps = (t / dt).round() as usize;
+    for _ in 0..steps {
+        sim.step().expect("stable");
+    }
+    let p = sim.particles();
+    assert!(p.pos[0].y > R * (1.0 - 1e-9) && p.vel[0].y.abs() < 1e-12, "stays on the plane: {:?} {:?}", p.pos[0], p.vel[0]);
+    (p.vel[0].x, p.omega[0].z)
+}
+
+#[test]
+fn a_block_rests_on_an_incline_iff_tan_theta_is_at_most_mu_and_otherwise_slides_at_the_coulomb_rate() {
+    let mu: f64 = 0.4;
+    let t = 0.05;
+    for dim in [2, 3] {
+        // At rest just below the friction angle.
+        let (v, _) = incline(dim, (0.99 * mu).atan(), mu, false, t);
+        assert!(v.abs() < 1e-12, "dim {dim}: slid at {v:e} m/s below the friction angle");
+        // Slides above it at a = g (sin θ - μ cos θ): the implicit step makes it exact for a
+        // constant acceleration (velocity v = a t).
+        for deg in [25.0f64, 40.0] {
+            let theta = deg.to_radians();
+            let (v, _) = incline(dim, theta, mu, false, t);
+            let expected = G * (theta.sin() - mu * theta.cos()) * t;
+            assert!(((v - expected) / expected).abs() < 1e-9, "dim {dim}, {deg}°: v {v} against {expected}");
+        }
+    }
+}
+
+#[test]
+fn round_grains_roll_without_slip_at_the_rigid_body_rate_and_slip_past_the_friction_bound() {
+    let t = 0.05;
+    let theta = 30f64.to_radians();
+    for (dim, factor, bound) in [(3, 5.0 / 7.0, 2.0 / 7.0), (2, 2.0 / 3.0, 1.0 / 3.0)] {
+        // Rolling: mu above the no-slip bound, a = factor g sin θ and v = ω R.
+        let mu = 1.2 * bound * theta.tan();
+        let (v, w) = incline(dim, theta, mu, true, t);
+        let expected = factor * G * theta.sin() * t;
+        assert!(((v - expected) / expected).abs() < 1e-9, "dim {dim}: rolling at {v} against {expected}");
+        assert!((v + w * R).abs() < 1e-9 * v, "dim {dim}: slips while rolling (v {v}, ω R {})", w * R);
+        // Slipping: mu below the bound, a = g (sin θ - μ cos θ), and the spin lags.
+        let mu = 0.8 * bound * theta.tan();
+        let (v, w) = incline(dim, theta, mu, true, t);
+        let expected = G * (theta.sin() - mu * theta.cos()) * t;
+        assert!(((v - expected) / expected).abs() < 1e-9, "dim {dim}: slipping at {v} against {expected}");
+        assert!(-w * R < 0.99 * v, "dim {dim}: should slip (v {v}, ω R {})", -w * R);
+    }
+}
+
+/// Height the top disk of a three-disk pile falls in `t` seconds, with disk-disk friction
+/// `mu` (floor friction well above its own bound).
+fn pile_fall(mu: f64, t: f64) -> f64 {
+    // Touching up to 1e-9 of the radius (exact contact would count as an overlap at placement).
+    let gap = 1e-9 * R;
+    let h = R + 3f64.sqrt() * (R + gap);
+    let positions = json!([[0.01 - R - gap, R], [0.01 + R + gap, R], [0.01, h]]);
+    let dt = 1e-4;
+    // Walls' friction mixes with the disks' as a geometric mean: sqrt(mu · 1) >= 0.45 here, far
+    // above the floor bound (2 - √3)/3 = 0.089.
+    let mut sim = scene(2, positions, down(2), material(0.0, mu), material(0.0, 1.0), dt);
+    for _ in 0..20 {
+        sim.step().expect("stable");
+    }
+    let h = sim.particles().pos[2].y;
+    for _ in 0..(t / dt).round() as usize {
+        sim.step().expect("stable");
+    }
+    h - sim.particles().pos[2].y
+}
+
+#[test]
+fn the_three_disk_pile_stands_iff_friction_reaches_two_minus_root_three() {
+    let bound = 2.0 - 3f64.sqrt();
+    let t = 0.1;
+    let stands = pile_fall(1.05 * bound, t);
+    assert!(stands.abs() < 1e-9 * R, "μ = 1.05 (2 - √3): the top disk fell {stands:e} m");
+    let falls = pile_fall(0.95 * bound, t);
+    assert!(falls > 0.05 * R, "μ = 0.95 (2 - √3): the top disk fell only {falls:e} m in {t} s");
+}
+
+#[test]
+fn rebound_heights_of_a_bouncing_grain_scale_by_e_squared() {
+    let e: f64 = 0.8;
+    for dim in [2, 3] {
+        let h0 = 0.02;
+        let dt = 2e-5;
+        let mut sim = scene(dim, json!([point(dim, 0.01, R + h0)]), down(dim), material(e, 0.0), material(e, 0.0), dt);
+        // Apex heights: the grain's height where its vertical velocity turns from up to down.
+        let mut apexes = Vec::new();
+        let mut last_v = 0.0;
+        while apexes.len() < 3 && sim.time() < 1.0 {
+            sim.step().expect("stable");
+            let p = sim.particles();
+            let v = p.vel[0].y;
+            if last_v > 0.0 && v <= 0.0 {
+                apexes.push(p.pos[0].y - R);
+            }
+            last_v = v;
+        }
+        assert_eq!(apexes.len(), 3, "dim {dim}: apexes {apexes:?}");
+        // The impact is resolved within one step: the speed at the start of that step differs
+        // from the true impact speed by at most g dt (1e-3 relative here), the height by twice
+        // that; 1% covers it with margin, and a wrong law (e instead of e², or no restitution)
+        // misses by 20% or more.
+        let mut previous = h0;
+        for h in &apexes {
+            let ratio = h / previous;
+            assert!((ratio / (e * e) - 1.0).abs() < 0.01, "dim {dim}: apexes {apexes:?}, ratio {ratio} against e² = {}", e * e);
+            previous = *h;
+        }
+    }
+}
+
+#[test]
+fn what_contact_dynamics_does_not_do_yet_is_refused_with_the_field_named() {
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": "cd",
+        "materials": {"grain": material(0.5, 0.3)},
+        "particles": [{"material": "grain", "count": 20, "size": {"kind": "monodisperse", "diameter": D}, "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"], "lees_edwards": {"shear_rate": 1.0}},
+        "stop": {"steps": 1}
+    }));
+    let sable_engine::scene::Method::Cd(p) = &s.method else { panic!("cd") };
+    match Cd::new(&s, p) {
+        Err(sable_engine::EngineError::Build { field, reason }) => {
+            assert_eq!(field, "container.lees_edwards");
+            assert!(reason.contains("not available with method \"cd\""), "{reason}");
+        }
+        Err(e) => panic!("wrong error {e}"),
+        Ok(_) => panic!("Lees-Edwards with cd must be refused until it exists"),
+    }
+}
