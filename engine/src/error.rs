@@ -88,7 +88,7 @@ pub enum EngineError {
     },
     /// A stage that runs until equilibrium reached its step or time limit first.
     #[error(
-        "stage '{stage}' did not reach equilibrium within its limit (step {step}): kinetic/elastic energy {kinetic_ratio:.2e} (needs < {kinetic_limit:.1e}), unbalanced force {unbalanced_force:.2e} (needs < {unbalanced_limit:.1e}), stress error {stress_error:.2e} (needs < {stress_limit:.1e}); raise the stage's max_steps, loosen its equilibrium criterion, or add local damping"
+        "stage '{stage}' did not reach equilibrium within its limit (step {step}): kinetic/reference energy {kinetic_ratio:.2e} (needs < {kinetic_limit:.1e}), unbalanced force {unbalanced_force:.2e} (needs < {unbalanced_limit:.1e}), stress error {stress_error:.2e} (needs < {stress_limit:.1e}); raise the stage's max_steps, loosen its equilibrium criterion, or add local damping"
     )]
     NotConverged {
         /// Stage name.

@@ -245,3 +245,76 @@ fn what_contact_dynamics_does_not_do_yet_is_refused_with_the_field_named() {
         Ok(_) => panic!("Lees-Edwards with cd must be refused until it exists"),
     }
 }
+
+/// A 2D scene with explicit walls, for the stress-controlled wall tests.
+fn walled(positions: serde_json::Value, container: serde_json::Value, gravity: serde_json::Value, tolerance: f64) -> Cd {
+    let count = positions.as_array().map_or(0, Vec::len);
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "cd", "time_step": 1e-4, "tolerance": tolerance, "violation_tolerance": 1e-12, "max_iterations": 1000000},
+        "materials": {"grain": material(0.0, 0.3), "wall": material(0.0, 0.3)},
+        "particles": [{"material": "grain", "placement": {"kind": "list", "positions": positions, "diameters": vec![D; count]}}],
+        "container": container,
+        "gravity": gravity,
+        "stop": {"steps": 1}
+    }));
+    common::cd(&s)
+}
+
+#[test]
+fn a_stress_controlled_lid_comes_to_rest_on_a_column_carrying_its_target() {
+    // Three disks stacked on the floor; the lid starts 10 mm above them and is pushed down by
+    // 50 Pa over the box width 0.02 m (1 N/m), at most 0.05 m/s.
+    let positions = json!([[0.01, R], [0.01, R + D], [0.01, R + 2.0 * D]]);
+    let container = json!({
+        "min": [0, 0], "max": [0.02, 0.016], "periodic": ["x"], "wall_material": "wall",
+        "walls": {"y_max": {"kind": "stress", "stress": 50.0, "max_speed": 0.05}}
+    });
+    let mut sim = walled(positions, container, down(2), 1e-10);
+    for _ in 0..5000 {
+        sim.step().expect("stable");
+    }
+    let lid = sim.walls().iter().find(|w| w.face.name() == "y_max").expect("lid");
+    let weight = 3.0 * mass(2) * G;
+    let push = 50.0 * 0.02;
+
+    // At rest the lid sits on the top disk — within one step's travel, at max_speed plus the
+    // push of its target over the step (Moreau-Jean stops velocities, not gaps) — and the
+    // contacts carry exactly its target.
+    let travel = 1e-4 * (0.05 + 1e-4 * push / sim.wall_mass());
+    assert!((lid.position - 3.0 * D).abs() <= travel, "lid at {} m, column top at {} m", lid.position, 3.0 * D);
+    assert!((lid.force.y - push).abs() < 1e-6 * push, "lid carries {} N/m against {push}", lid.force.y);
+    let load = floor_load(&sim);
+    assert!((load - weight - push).abs() < 1e-6 * (weight + push), "floor {load} N/m against {}", weight + push);
+    assert!(sim.particles().vel.iter().all(|v| v.norm() < 1e-9), "the column is at rest");
+}
+
+#[test]
+fn two_stress_controlled_walls_of_an_axis_squeeze_symmetrically_without_drifting() {
+    // A row of three disks with gaps, off centre, between the x walls at 80 Pa each (y periodic,
+    // no gravity). The walls share the box length as one degree of freedom: they close on the
+    // row from both sides at opposite speeds, so the box centre never moves, and at rest each
+    // carries its target.
+    let positions = json!([[0.005, 0.01], [0.008, 0.01], [0.0115, 0.01]]);
+    let container = json!({
+        "min": [0, 0], "max": [0.02, 0.02], "periodic": ["y"], "wall_material": "wall",
+        "walls": {"x_min": {"kind": "stress", "stress": 80.0, "max_speed": 0.05}, "x_max": {"kind": "stress", "stress": 80.0, "max_speed": 0.05}}
+    });
+    let mut sim = walled(positions, container, json!([0.0, 0.0]), 1e-10);
+    for _ in 0..5000 {
+        sim.step().expect("stable");
+        let w = sim.walls();
+        let centre = 0.5 * (w[0].position + w[1].position);
+        assert!((centre - 0.01).abs() < 1e-12, "the box centre moved to {centre}");
+    }
+    let w = sim.walls();
+    // Each wall lands within one step's travel of the row's end: at max_speed plus the push of
+    // its target over the step (h σ A / M), which acts before the contacts stop it.
+    let push = 80.0 * 0.02;
+    let travel = 1e-4 * (0.05 + 1e-4 * push / sim.wall_mass());
+    let gap = w[1].position - w[0].position;
+    assert!((gap - 3.0 * D).abs() <= 2.0 * travel, "walls {} apart against {} (travel {travel:e})", gap, 3.0 * D);
+    for wall in w {
+        assert!((wall.force.x.abs() - push).abs() < 1e-6 * push, "{} carries {} N/m against {push}", wall.face.name(), wall.force.x);
+    }
+}

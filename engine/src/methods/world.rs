@@ -85,6 +85,17 @@ pub(crate) fn wall_area(domain: &Domain, axis: usize) -> Real {
     (0..domain.dim).filter(|&a| a != axis).map(|a| domain.length(a)).product()
 }
 
+/// Largest relative error of a stress-controlled wall against its target (0 if none).
+pub(crate) fn wall_stress_error(walls: &[Wall], domain: &Domain) -> Real {
+    let mut error: Real = 0.0;
+    for w in walls {
+        if let Some(target) = w.target_stress() {
+            error = error.max((w.normal_stress(wall_area(domain, w.face.axis)) - target).abs() / target);
+        }
+    }
+    error
+}
+
 /// The walls as the metrics see them.
 pub(crate) fn wall_views(walls: &[Wall], domain: &Domain) -> Vec<WallView> {
     walls

@@ -17,4 +17,4 @@ pub mod nlgs;
 
 pub use frame::ContactFrame;
 pub use local::{Delassus, LocalLaw};
-pub use nlgs::{Convergence, Iterate, Nlgs, NlgsReport, RigidContact, Side};
+pub use nlgs::{Convergence, Iterate, Mobility, Nlgs, NlgsReport, RigidContact, Side};

@@ -10,10 +10,11 @@
 //!
 //! **Convergence criterion** (checked after every sweep), both below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
-//!   (LMGC90's "quadratic" norm), where each contact's impulse scale `s` — the impulse that
-//!   stops its approach plus one step of gravity — keeps contacts that carry (almost) nothing
-//!   from turning rounding noise into a large relative change (a column in free fall has all
-//!   its impulses at 1e-17 N·s, changing by their own size at every sweep);
+//!   (LMGC90's "quadratic" norm), where each contact's impulse scale `s` (set by the method:
+//!   the impulse that stops its approach, one step of gravity, and the bodies' speeds at the
+//!   level of rounding) keeps contacts that carry (almost) nothing from turning rounding noise
+//!   into a large relative change (a column in free fall has all its impulses at 1e-17 N·s,
+//!   changing by their own size at every sweep);
 //! - the mean violation of the Signorini condition, `h <max(0, b - U_n)> / <d>`: how far, as a
 //!   fraction of the mean diameter, the contacts would interpenetrate over the step beyond
 //!   what the law allows, measured on each contact just before it is solved in the sweep.
@@ -27,8 +28,9 @@ use crate::math::{Real, Vec3};
 pub enum Side {
     /// Another body (particle index).
     Body(u32),
-    /// A boundary of imposed motion (wall, drum): infinite mass.
-    Boundary,
+    /// A boundary (wall, drum), by its index in [`RigidBodies::boundary_vel`]: of imposed
+    /// motion, or free to translate along one direction (a stress-controlled wall).
+    Boundary(u32),
 }
 
 /// One contact between a round body `i` and a body or boundary `j`, with its law for the step
@@ -45,9 +47,9 @@ pub struct RigidContact {
     pub a_i: Real,
     /// Distance from the centre of `j` to the contact point (along `n`), m (0 for a boundary).
     pub a_j: Real,
-    /// Velocity of the second member's material point that does not come from body `j`'s
-    /// velocities: the boundary's surface velocity, or the Lees-Edwards velocity of the
-    /// periodic image of `j`, m/s.
+    /// Velocity of the second member's material point that does not come from the velocities
+    /// of body or boundary `j`: the surface velocity of a turning drum, or the Lees-Edwards
+    /// velocity of the periodic image of `j`, m/s.
     pub drive: Vec3,
     /// Local Delassus block, 1/kg.
     pub w: Delassus,
@@ -57,8 +59,28 @@ pub struct RigidContact {
     /// exit.
     pub r: Vec3,
     /// Impulse scale of the contact for the convergence criterion, N·s (see the module
-    /// documentation): `(|u_n| + |g| h) / w_n`.
+    /// documentation): for a method like CD, `(|u_n| + |g| h + 1e-6 (|v_i| + |v_j|)) / w_n`,
+    /// the impulse that stops its approach, one step of gravity, and the bodies' speeds at
+    /// the level of rounding.
     pub scale: Real,
+}
+
+/// How a boundary may move within the contact problem.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mobility {
+    /// Unit direction along which it translates freely.
+    pub direction: Vec3,
+    /// Inverse mass along it, 1/kg (0: imposed motion).
+    pub inv_mass: Real,
+    /// A boundary that moves opposite to this one (the two walls of an axis that share one
+    /// degree of freedom, the box length, so that the box cannot drift as a whole): an impulse
+    /// on either changes both velocities, by opposite amounts.
+    pub partner: Option<u32>,
+}
+
+impl Mobility {
+    /// A boundary of imposed motion.
+    pub const FIXED: Self = Self { direction: Vec3::new(0.0, 0.0, 0.0), inv_mass: 0.0, partner: None };
 }
 
 /// The velocities and inverse inertias of the bodies the contacts act on.
@@ -71,6 +93,10 @@ pub struct RigidBodies<'a> {
     pub inv_mass: &'a [Real],
     /// 1/I, 1/(kg·m²) (isotropic inertia).
     pub inv_inertia: &'a [Real],
+    /// Velocities of the boundaries (rigid translation), m/s.
+    pub boundary_vel: &'a mut [Vec3],
+    /// How each boundary may move ([`Mobility`]).
+    pub boundary_mobility: &'a [Mobility],
 }
 
 impl RigidContact {
@@ -81,17 +107,28 @@ impl RigidContact {
         Delassus { n: translation, t: translation + a_i * a_i * ii_i + a_j * a_j * ii_j }
     }
 
+    /// Local Delassus block of a round body of inverse mass and inertia `(im, ii)` at lever
+    /// arm `a` against a boundary that translates freely along the contact normal with inverse
+    /// mass `im_b` (0 for imposed motion). The boundary adds `im_b` on the normal only: plane
+    /// walls move along their normal, so the block stays diagonal.
+    pub fn delassus_boundary(im: Real, ii: Real, a: Real, im_b: Real) -> Delassus {
+        Delassus { n: im + im_b, t: im + a * a * ii }
+    }
+
     /// Relative velocity of the contact point of `i` against that of `j` (global), m/s.
     #[inline(always)]
-    pub fn relative_velocity(&self, vel: &[Vec3], omega: &[Vec3]) -> Vec3 {
+    pub fn relative_velocity(&self, vel: &[Vec3], omega: &[Vec3], boundary_vel: &[Vec3]) -> Vec3 {
         let i = self.i as usize;
         let n = &self.frame.n;
         let mut spin = omega[i] * self.a_i;
         let mut u = vel[i] - self.drive;
-        if let Side::Body(j) = self.j {
-            let j = j as usize;
-            u -= vel[j];
-            spin += omega[j] * self.a_j;
+        match self.j {
+            Side::Body(j) => {
+                let j = j as usize;
+                u -= vel[j];
+                spin += omega[j] * self.a_j;
+            }
+            Side::Boundary(k) => u -= boundary_vel[k as usize],
         }
         u - spin.cross(n)
     }
@@ -104,10 +141,22 @@ impl RigidContact {
         let nxp = n.cross(p);
         bodies.vel[i] += p * bodies.inv_mass[i];
         bodies.omega[i] -= nxp * (self.a_i * bodies.inv_inertia[i]);
-        if let Side::Body(j) = self.j {
-            let j = j as usize;
-            bodies.vel[j] -= p * bodies.inv_mass[j];
-            bodies.omega[j] -= nxp * (self.a_j * bodies.inv_inertia[j]);
+        match self.j {
+            Side::Body(j) => {
+                let j = j as usize;
+                bodies.vel[j] -= p * bodies.inv_mass[j];
+                bodies.omega[j] -= nxp * (self.a_j * bodies.inv_inertia[j]);
+            }
+            Side::Boundary(k) => {
+                let m = bodies.boundary_mobility[k as usize];
+                if m.inv_mass > 0.0 {
+                    let dv = m.direction * (p.dot(&m.direction) * m.inv_mass);
+                    bodies.boundary_vel[k as usize] -= dv;
+                    if let Some(other) = m.partner {
+                        bodies.boundary_vel[other as usize] += dv;
+                    }
+                }
+            }
         }
     }
 
@@ -183,7 +232,7 @@ impl Nlgs {
         for it in 1..=self.settings.max_iterations {
             let (mut change2, mut size2, mut violation) = (0.0, 0.0, 0.0);
             let mut visit = |c: &mut RigidContact| {
-                let u_now = c.frame.to_local(&c.relative_velocity(bodies.vel, bodies.omega));
+                let u_now = c.frame.to_local(&c.relative_velocity(bodies.vel, bodies.omega, bodies.boundary_vel));
                 violation += (c.law.target - u_now.x).max(0.0);
                 let u_free = u_now - c.w.apply(&c.r);
                 let r = local::solve(&c.w, &u_free, &c.law);
@@ -263,7 +312,14 @@ mod tests {
             c.law = law_for(0.0, 0.0, 0.0, 0.0);
         }
         let mut solver = Nlgs::new(Convergence { tolerance: 1e-10, violation_tolerance: 1e-10, max_iterations: 10_000 });
-        let mut bodies = RigidBodies { vel: &mut vel, omega: &mut omega, inv_mass: &im, inv_inertia: &ii };
+        let mut bodies = RigidBodies {
+            vel: &mut vel,
+            omega: &mut omega,
+            inv_mass: &im,
+            inv_inertia: &ii,
+            boundary_vel: &mut [],
+            boundary_mobility: &[],
+        };
         let report = solver.solve(&mut contacts, &mut bodies, 1.0);
         assert!(report.converged, "{report:?}");
         for v in &vel {
@@ -287,7 +343,7 @@ mod tests {
         let (im, ii) = (vec![1.0 / m], vec![1.0 / inertia]);
         let mut contacts = vec![RigidContact {
             i: 0,
-            j: Side::Boundary,
+            j: Side::Boundary(0),
             frame: ContactFrame::new(2, Vec3::y()),
             a_i: r,
             a_j: 0.0,
@@ -298,7 +354,15 @@ mod tests {
             scale: 0.0,
         }];
         let mut solver = Nlgs::new(Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, max_iterations: 100 });
-        let mut bodies = RigidBodies { vel: &mut vel, omega: &mut omega, inv_mass: &im, inv_inertia: &ii };
+        let mut wall = [Vec3::zeros()];
+        let mut bodies = RigidBodies {
+            vel: &mut vel,
+            omega: &mut omega,
+            inv_mass: &im,
+            inv_inertia: &ii,
+            boundary_vel: &mut wall,
+            boundary_mobility: &[Mobility::FIXED],
+        };
         let report = solver.solve(&mut contacts, &mut bodies, 1.0);
         assert!(report.converged);
         // Normal impulse m * 0.5 = 1 N·s; friction 0.2 N·s against the slip (t1 = -x for n = y).
@@ -308,5 +372,43 @@ mod tests {
         // Torque of -0.2 x at the bottom point: spin -0.2 * r / I about z (clockwise: rolling
         // towards +x).
         assert!((omega[0].z + 0.2 * r / inertia).abs() < 1e-12, "{:?}", omega[0]);
+    }
+
+    /// A free plate of mass M falling at V onto a resting disk of mass m (no restitution): both
+    /// end at the common velocity M V / (M + m), momentum kept.
+    #[test]
+    fn a_free_boundary_shares_its_momentum_with_the_grain_it_hits() {
+        let (m, big_m, v): (f64, f64, f64) = (1.0, 3.0, -2.0);
+        let mut vel = vec![Vec3::zeros()];
+        let mut omega = vec![Vec3::zeros()];
+        let (im, ii) = (vec![1.0 / m], vec![10.0]);
+        // The plate is above the disk: the normal points from the plate down to the disk.
+        let n = -Vec3::y();
+        let mut contacts = vec![RigidContact {
+            i: 0,
+            j: Side::Boundary(0),
+            frame: ContactFrame::new(2, n),
+            a_i: 0.1,
+            a_j: 0.0,
+            drive: Vec3::zeros(),
+            w: RigidContact::delassus_boundary(1.0 / m, 10.0, 0.1, 1.0 / big_m),
+            law: law_for(-v.abs(), 0.0, 0.5, 0.0),
+            r: Vec3::zeros(),
+            scale: 0.0,
+        }];
+        let mut plate = [Vec3::new(0.0, v, 0.0)];
+        let mut solver = Nlgs::new(Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, max_iterations: 100 });
+        let mut bodies = RigidBodies {
+            vel: &mut vel,
+            omega: &mut omega,
+            inv_mass: &im,
+            inv_inertia: &ii,
+            boundary_vel: &mut plate,
+            boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None }],
+        };
+        assert!(solver.solve(&mut contacts, &mut bodies, 1.0).converged);
+        let common = big_m * v / (big_m + m);
+        assert!((vel[0].y - common).abs() < 1e-12 && (plate[0].y - common).abs() < 1e-12, "{:?} {:?}", vel[0], plate[0]);
+        assert!((m * vel[0].y + big_m * plate[0].y - big_m * v).abs() < 1e-12);
     }
 }

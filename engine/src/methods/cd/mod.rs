@@ -8,16 +8,22 @@
 //!    the step, advanced by `(1 - theta) h u_n` (the approach at the start-of-step normal
 //!    velocity), is closed becomes a contact of the step, with its frame, Delassus block,
 //!    restitution target and friction, and as warm start the impulse the same pair carried at
-//!    the last step (projected on the new frame);
-//! 3. `Free`: velocities advance under gravity alone;
-//! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities;
+//!    the last step (projected on the new frame). Restitution applies to impacts: a pair that
+//!    carried an impulse at the last step is a lasting contact and gets none (otherwise the
+//!    approach velocity left by an unconverged solve, or by a wall pressing on, bounces back
+//!    at every step and keeps a confined packing agitated);
+//! 3. `Free`: velocities advance under gravity alone; walls take their imposed velocity, and a
+//!    stress-controlled wall — a rigid plate of mass [`Cd::wall_mass`] free to move along its
+//!    axis — is pushed by its target stress times its area (at most `max_speed`);
+//! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities of grains and free walls
+//!    together (the walls are bodies of the contact problem, as in LMGC90);
 //! 5. `Integrate`: positions advance by `h (theta v+ + (1 - theta) v-)` (theta-scheme); forces
 //!    and torques are stored as the mean over the step, `m (v+ - v-) / h`;
-//! 6. `Boundaries`: walls take the reaction of their contacts and move;
+//! 6. `Boundaries`: walls take the reaction of their contacts and move by the theta-scheme;
 //! 7. `Check`: non-finite values, interpenetration beyond `max_interpenetration`.
 //!
-//! Not yet with this method (rejected at build with the field named): stress-controlled and
-//! shearing walls, Lees-Edwards shear, cell deformation, the drum, rolling resistance, liquid,
+//! Not yet with this method (rejected at build with the field named): shearing walls,
+//! Lees-Edwards shear, cell deformation, the drum, rolling resistance, liquid,
 //! and the experiments' loading programs.
 
 mod laws;
@@ -27,7 +33,7 @@ use crate::geometry::{Domain, NeighborList};
 use crate::loading::Wall;
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{law_for, RigidBodies};
-use crate::nscd::{ContactFrame, Convergence, Nlgs, NlgsReport, RigidContact, Side};
+use crate::nscd::{ContactFrame, Convergence, Mobility, Nlgs, NlgsReport, RigidContact, Side};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView, WallFace};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
@@ -41,6 +47,12 @@ use super::world;
 /// otherwise look separating, be left out, and let its grain fall freely for one step. A contact
 /// this close that does not close is held at that distance at most (1e-9 of the radius).
 pub const ALERT: Real = 1e-9;
+
+/// Fraction of the bodies' speeds below which a change of a contact's velocity is rounding
+/// noise, for the impulse scale of the convergence criterion ([`crate::nscd::nlgs`]): two disks
+/// carried along at 0.05 m/s by a wall exchange impulses of 1e-11 N·s, and the rounding of
+/// their velocities (1e-17 m/s) alone changes them by 2e-9 of that at every sweep.
+const SPEED_FLOOR: Real = 1e-6;
 
 /// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
 const WALL_KEY: u32 = u32::MAX;
@@ -56,6 +68,11 @@ pub struct Cd {
     p: Particles,
     domain: Domain,
     walls: Vec<Wall>,
+    /// Mass of a stress-controlled wall, kg ([`Cd::wall_mass`]).
+    wall_mass: Real,
+    /// Velocities of the walls within the step (scratch for the solver) and how each may move.
+    wall_vel: Vec<Vec3>,
+    wall_mobility: Vec<Mobility>,
     nl: NeighborList,
     /// The neighbour list must be rebuilt before the next step (particles moved from outside).
     force_rebuild: bool,
@@ -136,6 +153,9 @@ impl Cd {
         let n = p.len();
         let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
         let mean_diameter = 2.0 * p.radius.iter().sum::<Real>() / n as Real;
+        // One layer of grains across the box's largest length.
+        let span = (0..scene.dim).map(|a| domain.length(a)).fold(0.0, Real::max);
+        let wall_mass = p.mass.iter().sum::<Real>() * (mean_diameter / span).min(1.0);
         let mut sim = Self {
             dim: scene.dim,
             dt,
@@ -146,7 +166,10 @@ impl Cd {
             p,
             len0: domain.hi - domain.lo,
             domain,
+            wall_vel: vec![Vec3::zeros(); walls.len()],
+            wall_mobility: vec![Mobility::FIXED; walls.len()],
             walls,
+            wall_mass,
             nl: NeighborList::new(0.0, skin),
             force_rebuild: true,
             contacts: Vec::new(),
@@ -193,6 +216,14 @@ impl Cd {
         &self.walls
     }
 
+    /// Mass of a stress-controlled wall, kg: that of one layer of grains across the box's
+    /// largest length at the start (total mass × mean diameter / length). Light enough to follow
+    /// the sample, heavy enough not to rattle on single grains; it sets how fast the wall answers
+    /// a stress change (the wall is a body of the contact problem, not a servo).
+    pub fn wall_mass(&self) -> Real {
+        self.wall_mass
+    }
+
     /// The contacts of the last step with their impulses.
     pub fn contact_list(&self) -> &[RigidContact] {
         &self.contacts
@@ -235,6 +266,52 @@ impl Cd {
 }
 
 impl Cd {
+    /// The walls' velocities for the step before the contacts act: imposed ones (a wall driven
+    /// at a strain rate takes it from the current length), and for a stress-controlled wall its
+    /// velocity plus the push of its target stress over the step. Stress-controlled walls
+    /// become free along their axis; when both walls of an axis are, they share one degree of
+    /// freedom, the box length (each moves opposite to the other, with half its inverse mass):
+    /// two independent free walls would let the box and its grains drift as a whole, at
+    /// whatever velocity the compression left them.
+    fn free_walls(&mut self) {
+        let h = self.dt;
+        let stress = |w: &Wall| match w.motion {
+            WallMotion::Stress { stress, .. } => Some(stress),
+            _ => None,
+        };
+        for w in 0..self.walls.len() {
+            let wall = &self.walls[w];
+            let a = wall.face.axis;
+            let area = world::wall_area(&self.domain, a);
+            let mut axis = Vec3::zeros();
+            axis[a] = 1.0;
+            let Some(target) = stress(wall) else {
+                let length = self.domain.length(a);
+                // Sets the velocity of a wall driven at a strain rate (the others keep theirs).
+                let wall = &mut self.walls[w];
+                wall.servo(area, length);
+                self.wall_vel[w] = wall.velocity;
+                self.wall_mobility[w] = Mobility::FIXED;
+                continue;
+            };
+            let partner = (0..self.walls.len()).find(|&o| o != w && self.walls[o].face.axis == a && stress(&self.walls[o]).is_some());
+            let (push, inv_mass) = match partner {
+                // The gap's velocity: each wall's inward speed, pushed by both targets against
+                // both masses.
+                Some(o) => {
+                    let other = stress(&self.walls[o]).unwrap_or(0.0);
+                    (0.5 * (target + other) * area * h / self.wall_mass, 0.5 / self.wall_mass)
+                }
+                None => (target * area * h / self.wall_mass, 1.0 / self.wall_mass),
+            };
+            // `max_speed` bounds the speed the wall ends the step with (`step_stages`), not the
+            // push: a wall at rest on the grains must still push with its whole target.
+            let n = wall.normal();
+            self.wall_vel[w] = n * (wall.velocity.dot(&n) + push);
+            self.wall_mobility[w] = Mobility { direction: axis, inv_mass, partner: partner.map(|o| o as u32) };
+        }
+    }
+
     /// The contacts of the step from the current positions and velocities (see the module
     /// documentation), with their warm-start impulses; records the interpenetration.
     fn detect(&mut self) {
@@ -254,9 +331,10 @@ impl Cd {
             count += 1;
         };
         let previous = &self.previous;
-        let warm = |key: (u32, u32), frame: &ContactFrame| match previous.binary_search_by(|e| e.0.cmp(&key)) {
-            Ok(k) => frame.to_local(&previous[k].1),
-            Err(_) => Vec3::zeros(),
+        // The impulse the pair carried at the last step, if it did: the warm start, and the
+        // mark of a lasting contact, whose impact is over (no restitution).
+        let held = |key: (u32, u32), frame: &ContactFrame| {
+            previous.binary_search_by(|e| e.0.cmp(&key)).ok().map(|k| frame.to_local(&previous[k].1))
         };
         for i in 0..p.len() {
             let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
@@ -282,6 +360,7 @@ impl Cd {
                 let frame = ContactFrame::new(dim, n);
                 let (e, mu) = laws.pair(p.material[i], p.material[j]);
                 let key = (i as u32, pr.j);
+                let warm = held(key, &frame);
                 let w = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], a_i, p.inv_mass[j], p.inv_inertia[j], a_j);
                 self.contacts.push(RigidContact {
                     i: i as u32,
@@ -291,9 +370,9 @@ impl Cd {
                     a_j,
                     drive,
                     w,
-                    law: law_for(u_n, e, mu, 0.0),
-                    r: warm(key, &frame),
-                    scale: (u_n.abs() + gh) / w.n,
+                    law: law_for(u_n, if warm.is_some() { 0.0 } else { e }, mu, 0.0),
+                    r: warm.unwrap_or_default(),
+                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n,
                 });
                 self.keys.push(key);
             }
@@ -316,18 +395,19 @@ impl Cd {
                 let frame = ContactFrame::new(dim, n);
                 let (e, mu) = laws.wall(p.material[i]);
                 let key = (i as u32, WALL_KEY - w as u32);
-                let wd = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], dist, 0.0, 0.0, 0.0);
+                let warm = held(key, &frame);
+                let wd = RigidContact::delassus_boundary(p.inv_mass[i], p.inv_inertia[i], dist, self.wall_mobility[w].inv_mass);
                 self.contacts.push(RigidContact {
                     i: i as u32,
-                    j: Side::Boundary,
+                    j: Side::Boundary(w as u32),
                     frame,
                     a_i: dist,
                     a_j: 0.0,
-                    drive: wall.velocity,
+                    drive: Vec3::zeros(),
                     w: wd,
-                    law: law_for(u_n, e, mu, 0.0),
-                    r: warm(key, &frame),
-                    scale: (u_n.abs() + gh) / wd.n,
+                    law: law_for(u_n, if warm.is_some() { 0.0 } else { e }, mu, 0.0),
+                    r: warm.unwrap_or_default(),
+                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + wall.velocity.norm())) / wd.n,
                 });
                 self.keys.push(key);
             }
@@ -342,6 +422,7 @@ impl Cd {
         if self.force_rebuild || self.nl.needs_rebuild(&self.p.pos, &self.domain) {
             self.refresh_neighbors();
         }
+        self.free_walls();
         self.detect();
         if self.interpenetration.0 > self.params.max_interpenetration {
             return Err(
@@ -358,7 +439,14 @@ impl Cd {
             }
         }
         let p = &mut self.p;
-        let mut bodies = RigidBodies { vel: &mut p.vel, omega: &mut p.omega, inv_mass: &p.inv_mass, inv_inertia: &p.inv_inertia };
+        let mut bodies = RigidBodies {
+            vel: &mut p.vel,
+            omega: &mut p.omega,
+            inv_mass: &p.inv_mass,
+            inv_inertia: &p.inv_inertia,
+            boundary_vel: &mut self.wall_vel,
+            boundary_mobility: &self.wall_mobility,
+        };
         self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter);
         if !self.report.converged {
             let r = self.report;
@@ -383,18 +471,20 @@ impl Cd {
         for w in &mut self.walls {
             w.force = Vec3::zeros();
         }
-        for (c, key) in self.contacts.iter().zip(&self.keys) {
-            if let Side::Boundary = c.j {
-                self.walls[(WALL_KEY - key.1) as usize].force -= c.force(h);
+        for c in &self.contacts {
+            if let Side::Boundary(w) = c.j {
+                self.walls[w as usize].force -= c.force(h);
             }
         }
-        for w in 0..self.walls.len() {
-            let area = world::wall_area(&self.domain, self.walls[w].face.axis);
-            let length = self.domain.length(self.walls[w].face.axis);
-            let wall = &mut self.walls[w];
-            wall.servo(area, length);
-            wall.advance(h);
+        for (wall, v1) in self.walls.iter_mut().zip(self.wall_vel.iter_mut()) {
             let a = wall.face.axis;
+            // A stress-controlled wall ends the step at most at `max_speed` (crossing empty space
+            // it would otherwise gain the push of its target at every step).
+            if let WallMotion::Stress { max_speed, .. } = wall.motion {
+                v1[a] = v1[a].clamp(-max_speed, max_speed);
+            }
+            wall.position += h * (theta * v1[a] + (1.0 - theta) * wall.velocity[a]);
+            wall.velocity = *v1;
             if wall.face.upper {
                 self.domain.hi[a] = wall.position;
             } else {
@@ -445,12 +535,36 @@ impl Cd {
             .map(|c| {
                 let (j, branch) = match c.j {
                     Side::Body(j) => (Some(j), c.frame.n * (c.a_i + c.a_j)),
-                    Side::Boundary => (None, c.frame.n * c.a_i),
+                    Side::Boundary(_) => (None, c.frame.n * c.a_i),
                 };
                 ContactRecord { i: c.i, j, force: c.force(h), branch, touching: c.r.x > 0.0, bonded: false }
             })
             .collect()
     }
+}
+
+/// What of a stage's controls this method does not do yet, if anything. Local damping is not
+/// used: rigid grains need none.
+fn supported_controls(controls: &Controls) -> Result<(), &'static str> {
+    if controls.glue.is_some() {
+        return Err("gluing grains to walls (rough walls)");
+    }
+    if controls.centripetal.is_some() || controls.close_walls.is_some() {
+        return Err("the granule's loading");
+    }
+    if controls.deformation.is_some() {
+        return Err("a deformation of the periodic cell");
+    }
+    if controls.shear_rate.is_some() {
+        return Err("Lees-Edwards shear");
+    }
+    if controls.drum_angular_velocity.is_some() {
+        return Err("the drum");
+    }
+    if controls.walls.iter().any(|w| matches!(w.motion, WallMotion::Shearing { .. })) {
+        return Err("a shearing wall");
+    }
+    Ok(())
 }
 
 /// Rejects what this method does not do yet, naming the field.
@@ -459,18 +573,29 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
     let no = |field: String, what: &str| {
         Err(EngineError::Build { field, reason: format!("{what} is not available with method \"cd\" yet; use method \"dem\"") })
     };
+    // The loading programs need an equilibrium criterion that rigid grains meet: at the default
+    // tolerance the solver leaves a kinetic-energy floor (about 1e-3 of the walls' push per step)
+    // above the bound of the `kinetic_ratio` criterion, so a preparation never ends.
     if scene.experiment.is_some() {
         return no("experiment".into(), "a standard experiment");
     }
+    for stage in &scene.stages {
+        if let Err(what) = supported_controls(&stage.controls) {
+            return no("experiment".into(), &format!("{what} (stage '{}')", stage.name));
+        }
+    }
     if c.lees_edwards.is_some() {
         return no("container.lees_edwards".into(), "Lees-Edwards shear");
+    }
+    if c.drum.is_some() {
+        return no("experiment".into(), "the rotating drum");
     }
     if c.deformation.is_some() {
         return no("container.deformation".into(), "an imposed deformation of the cell");
     }
     for w in &c.walls {
-        if matches!(w.motion, WallMotion::Stress { .. } | WallMotion::Shearing { .. }) {
-            return no(format!("container.walls.{}", w.face.name()), "a stress-controlled wall");
+        if matches!(w.motion, WallMotion::Shearing { .. }) {
+            return no(format!("container.walls.{}", w.face.name()), "a shearing wall");
         }
     }
     for m in &scene.materials {
@@ -589,25 +714,13 @@ impl Simulation for Cd {
     }
 
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
-        let no = |what: &str| {
-            Err(EngineError::Build { field: "experiment".into(), reason: format!("{what} is not available with method \"cd\" yet") })
-        };
-        if controls.glue.is_some() {
-            return no("gluing grains to walls");
-        }
-        if controls.centripetal.is_some() || controls.close_walls.is_some() {
-            return no("the granule's loading");
-        }
-        if controls.deformation.is_some() || controls.shear_rate.is_some() {
-            return no("a cell deformation or shear");
-        }
-        if controls.drum_angular_velocity.is_some() {
-            return no("the drum");
+        if let Err(what) = supported_controls(controls) {
+            return Err(EngineError::Build {
+                field: "experiment".into(),
+                reason: format!("{what} is not available with method \"cd\" yet"),
+            });
         }
         for def in &controls.walls {
-            if matches!(def.motion, WallMotion::Stress { .. } | WallMotion::Shearing { .. }) {
-                return no("a stress-controlled wall");
-            }
             if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
                 w.set_motion(def.motion);
             }
@@ -623,7 +736,27 @@ impl Simulation for Cd {
         let forces: Vec<Real> = self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| c.force(self.dt).norm()).collect();
         let mean_contact = if forces.is_empty() { 0.0 } else { forces.iter().sum::<Real>() / forces.len() as Real };
         let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
-        Balance { kinetic_energy: kinetic, elastic_energy: 0.0, unbalanced_force, stress_error: 0.0 }
+        // Mean stress of the contacts: tr(sum f ⊗ l) / (D V).
+        let h = self.dt;
+        let virial: Real = self
+            .contacts
+            .iter()
+            .filter(|c| c.r.x != 0.0)
+            .map(|c| {
+                let arm = match c.j {
+                    Side::Body(_) => c.a_i + c.a_j,
+                    Side::Boundary(_) => c.a_i,
+                };
+                c.r.x / h * arm
+            })
+            .sum();
+        let pressure = virial / (self.dim as Real * self.domain.volume());
+        Balance {
+            kinetic_energy: kinetic,
+            reference_energy: crate::run::rigid_reference_energy(pressure, self.solid_volume),
+            unbalanced_force,
+            stress_error: world::wall_stress_error(&self.walls, &self.domain),
+        }
     }
 
     fn grain_scales(&self) -> (Real, Real) {

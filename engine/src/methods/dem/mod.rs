@@ -829,13 +829,7 @@ impl Simulation for Dem {
         let mean_contact = if count > 0 { sum / count as Real } else { 0.0 };
         let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
         // Stress-controlled boundaries against their targets.
-        let mut stress_error: Real = 0.0;
-        for w in &self.walls {
-            if let Some(target) = w.target_stress() {
-                let area = self.wall_area(w.face.axis);
-                stress_error = stress_error.max((w.normal_stress(area) - target).abs() / target);
-            }
-        }
+        let mut stress_error = world::wall_stress_error(&self.walls, &self.domain);
         match self.deformation.as_ref().map(|d| d.kind) {
             Some(Deformation::Pressure { target, .. }) => {
                 let (stress, _) = self.stress_and_stiffness();
@@ -848,7 +842,7 @@ impl Simulation for Dem {
             }
             _ => {}
         }
-        Balance { kinetic_energy: kinetic, elastic_energy: elastic, unbalanced_force, stress_error }
+        Balance { kinetic_energy: kinetic, reference_energy: elastic, unbalanced_force, stress_error }
     }
 
     fn grain_scales(&self) -> (Real, Real) {
