@@ -6,7 +6,7 @@ use crate::error::EngineError;
 use crate::geometry::Domain;
 use crate::loading::Wall;
 use crate::math::{Real, Vec3, AXES};
-use crate::observe::{ShearGeometry, WallView};
+use crate::observe::{ShearGeometry, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
 use crate::scene::{Material, Placement, Scene, StateFile, WallMotion};
@@ -108,6 +108,32 @@ pub(crate) fn wall_views(walls: &[Wall], domain: &Domain) -> Vec<WallView> {
             area: wall_area(domain, w.face.axis),
         })
         .collect()
+}
+
+/// The walls as snapshots draw them.
+pub(crate) fn wall_faces(walls: &[Wall]) -> Vec<WallFace> {
+    walls
+        .iter()
+        .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
+        .collect()
+}
+
+/// Runs `f` (one step of a method) on the method's own thread pool when it has one, so that
+/// every parallel loop of the step uses it; the pool is taken out of `slot` for the call and
+/// put back.
+pub(crate) fn in_own_pool<S, R>(sim: &mut S, slot: fn(&mut S) -> &mut Option<rayon::ThreadPool>, f: impl FnOnce(&mut S) -> R + Send) -> R
+where
+    S: Send,
+    R: Send,
+{
+    match slot(sim).take() {
+        Some(pool) => {
+            let r = pool.install(|| f(sim));
+            *slot(sim) = Some(pool);
+            r
+        }
+        None => f(sim),
+    }
 }
 
 /// Where a shear rate is defined: a Lees-Edwards cell, or a wall sliding tangentially against

@@ -6,7 +6,8 @@
 //! 1. `NeighborUpdate`: the Verlet list is rebuilt if a particle moved more than half the skin;
 //! 2. `Detect`: every listed pair and every particle-wall pair whose gap `g` at the start of
 //!    the step, advanced by `(1 - theta) h u_n` (the approach at the start-of-step normal
-//!    velocity), is closed becomes a contact of the step, with its frame, Delassus block,
+//!    velocity), is closed (within [`ALERT`] of the smaller radius) becomes a contact of the
+//!    step, with its frame, Delassus block,
 //!    restitution target and friction, and as warm start the impulse the same pair carried at
 //!    the last step (projected on the new frame). Restitution applies to impacts: a pair that
 //!    carried an impulse at the last step is a lasting contact and gets none (otherwise the
@@ -14,17 +15,19 @@
 //!    at every step and keeps a confined packing agitated);
 //! 3. `Free`: velocities advance under gravity alone; walls take their imposed velocity, and a
 //!    stress-controlled wall — a rigid plate of mass [`Cd::wall_mass`] free to move along its
-//!    axis — is pushed by its target stress times its area (at most `max_speed`);
+//!    axis — is pushed by its target stress times its area;
 //! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities of grains and free walls
 //!    together (the walls are bodies of the contact problem, as in LMGC90);
 //! 5. `Integrate`: positions advance by `h (theta v+ + (1 - theta) v-)` (theta-scheme); forces
 //!    and torques are stored as the mean over the step, `m (v+ - v-) / h`;
-//! 6. `Boundaries`: walls take the reaction of their contacts and move by the theta-scheme;
-//! 7. `Check`: non-finite values, interpenetration beyond `max_interpenetration`.
+//! 6. `Boundaries`: walls take the reaction of their contacts and move by the theta-scheme (a
+//!    stress-controlled one at most at `max_speed`);
+//! 7. `Check`: non-finite values; interpenetration beyond `max_interpenetration` is checked
+//!    when the next step detects its contacts.
 //!
-//! Not yet with this method (rejected at build with the field named): shearing walls,
-//! Lees-Edwards shear, cell deformation, the drum, rolling resistance, liquid,
-//! and the experiments' loading programs.
+//! Not yet with this method (rejected at build with the field named): the standard
+//! experiments, shearing walls, Lees-Edwards shear, cell deformation, the drum, rolling
+//! resistance, liquid, cohesion.
 
 mod laws;
 
@@ -34,7 +37,7 @@ use crate::loading::Wall;
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{law_for, RigidBodies};
 use crate::nscd::{ContactFrame, Convergence, Mobility, Nlgs, NlgsReport, RigidContact, Side};
-use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView, WallFace};
+use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
 use crate::scene::{CdParams, Controls, Material, Scene, StateFile, WallMotion};
@@ -615,14 +618,7 @@ impl Simulation for Cd {
     }
 
     fn step(&mut self) -> Result<(), EngineError> {
-        match self.pool.take() {
-            Some(pool) => {
-                let r = pool.install(|| self.step_stages());
-                self.pool = Some(pool);
-                r
-            }
-            None => self.step_stages(),
-        }
+        world::in_own_pool(self, |s| &mut s.pool, Self::step_stages)
     }
 
     fn steps_done(&self) -> u64 {
@@ -700,11 +696,7 @@ impl Simulation for Cd {
             omega: p.omega.clone(),
             force: p.force.clone(),
             contacts: self.contacts(),
-            walls: self
-                .walls
-                .iter()
-                .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
-                .collect(),
+            walls: world::wall_faces(&self.walls),
             drum: None,
         }
     }

@@ -18,7 +18,7 @@ use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Drum, Wall};
 use crate::math::{Real, Vec3};
 use crate::observe::snapshot::{DrumShell, DRUM_SEGMENTS};
-use crate::observe::{measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView, WallFace};
+use crate::observe::{measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView};
 use crate::particles::Particles;
 use crate::run::Balance;
 use crate::run::Simulation;
@@ -691,15 +691,7 @@ impl Simulation for Dem {
     }
 
     fn step(&mut self) -> Result<(), EngineError> {
-        // Every parallel loop of the step runs on the simulation's own pool when it has one.
-        match self.pool.take() {
-            Some(pool) => {
-                let r = pool.install(|| self.step_stages());
-                self.pool = Some(pool);
-                r
-            }
-            None => self.step_stages(),
-        }
+        world::in_own_pool(self, |s| &mut s.pool, Self::step_stages)
     }
 
     fn steps_done(&self) -> u64 {
@@ -871,11 +863,7 @@ impl Simulation for Dem {
             omega: p.omega.clone(),
             force: p.force.clone(),
             contacts: self.contacts(),
-            walls: self
-                .walls
-                .iter()
-                .map(|w| WallFace { name: w.face.name(), axis: w.face.axis, position: w.position, normal: w.normal(), force: w.force })
-                .collect(),
+            walls: world::wall_faces(&self.walls),
             drum: self.drum.as_ref().map(|d| {
                 let mut shell = DrumShell {
                     axis: d.def.axis,
