@@ -318,3 +318,69 @@ fn two_stress_controlled_walls_of_an_axis_squeeze_symmetrically_without_drifting
         assert!((wall.force.x.abs() - push).abs() < 1e-6 * push, "{} carries {} N/m against {push}", wall.face.name(), wall.force.x);
     }
 }
+
+/// Force-bearing contacts (all, particle-particle and wall) and particles of the backbone: the
+/// particles left after removing, recursively, those with fewer than `threshold` contacts
+/// carrying more than `floor` N (walls included).
+fn backbone(sim: &Cd, threshold: usize, floor: f64) -> (usize, usize) {
+    let n = sim.particles().len();
+    let contacts: Vec<_> = sim.contacts().into_iter().filter(|c| c.force.norm() > floor).collect();
+    let mut alive = vec![true; n];
+    loop {
+        let mut count = vec![0usize; n];
+        for c in &contacts {
+            let (i, j) = (c.i as usize, c.j.map(|j| j as usize));
+            if alive[i] && j.is_none_or(|j| alive[j]) {
+                count[i] += 1;
+                if let Some(j) = j {
+                    count[j] += 1;
+                }
+            }
+        }
+        let removed: Vec<usize> = (0..n).filter(|&i| alive[i] && count[i] < threshold).collect();
+        if removed.is_empty() {
+            let kept = contacts.iter().filter(|c| alive[c.i as usize] && c.j.is_none_or(|j| alive[j as usize])).count();
+            return (kept, alive.iter().filter(|&&a| a).count());
+        }
+        for i in removed {
+            alive[i] = false;
+        }
+    }
+}
+
+#[test]
+fn a_frictionless_packing_compressed_by_stress_walls_is_isostatic() {
+    // 120 frictionless disks (50:50, size ratio 1.4) compressed from a gas by the four walls at
+    // 100 Pa, no gravity, no restitution. Rigid frictionless disks at rest are isostatic:
+    // the force-bearing contacts of the backbone (walls included) number exactly the equations
+    // of its equilibrium, D per disk plus one per axis for the two paired walls' shared degree
+    // of freedom (Roux 2000; PHYSICS.md §8).
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "cd", "time_step": 1e-4, "tolerance": 1e-6, "violation_tolerance": 1e-9, "max_iterations": 200000},
+        "materials": {"grain": material(0.0, 0.0)},
+        "particles": [{"material": "grain", "count": 120, "size": {"kind": "bidisperse", "diameter": 0.001, "ratio": 1.4},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.03, 0.03], "wall_material": "grain",
+            "walls": {
+                "x_min": {"kind": "stress", "stress": 100.0, "max_speed": 0.02}, "x_max": {"kind": "stress", "stress": 100.0, "max_speed": 0.02},
+                "y_min": {"kind": "stress", "stress": 100.0, "max_speed": 0.02}, "y_max": {"kind": "stress", "stress": 100.0, "max_speed": 0.02}
+            }},
+        "gravity": [0.0, 0.0],
+        "seed": 5,
+        "stop": {"steps": 1}
+    }));
+    let mut sim = common::cd(&s);
+    for _ in 0..8000 {
+        sim.step().expect("stable");
+    }
+    let mean = {
+        let c = sim.contacts();
+        c.iter().map(|c| c.force.norm()).sum::<f64>() / c.len().max(1) as f64
+    };
+    let (contacts, particles) = backbone(&sim, 3, 1e-6 * mean);
+    let equations = 2 * particles + 2;
+    eprintln!("backbone {particles} disks, {contacts} contacts, {equations} equations, phi {}", sim.packing_fraction());
+    assert!(particles > 100, "the backbone holds most disks: {particles}");
+    assert_eq!(contacts, equations, "isostatic: {contacts} force-bearing contacts for {equations} equations");
+}
