@@ -6,9 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use sable_engine::methods::cd::Cd;
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::dem_benchmark, Method};
+use sable_engine::scene::{parse_scene, presets::cd_benchmark, presets::dem_benchmark, Method};
 use serde::Serialize;
 
 /// What `sable bench` measures.
@@ -16,6 +17,8 @@ use serde::Serialize;
 pub enum BenchCommand {
     /// Soft-contact DEM on the standard 3D periodic scene (particle-steps per second).
     Dem(BenchArgs),
+    /// Contact dynamics on a dense pile of rigid spheres (contact-iterations per second).
+    Cd(CdBenchArgs),
     /// The service: submission latency and throughput, WatchJob fan-out.
     Service(super::bench_service::ServiceBenchArgs),
 }
@@ -24,6 +27,7 @@ pub enum BenchCommand {
 pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Dem(a) => bench(a),
+        BenchCommand::Cd(a) => bench_cd(a),
         BenchCommand::Service(a) => super::bench_service::bench(a),
     }
 }
@@ -68,6 +72,100 @@ struct BenchResult {
     near_filters: u64,
     kinetic_energy_start: f64,
     kinetic_energy_end: f64,
+}
+
+/// Arguments of `sable bench cd`.
+#[derive(Debug, Args)]
+pub struct CdBenchArgs {
+    /// Number of spheres.
+    #[arg(long, default_value_t = 20_000)]
+    pub particles: usize,
+    /// Steps timed (after `warmup` steps that let the pile form).
+    #[arg(long, default_value_t = 50)]
+    pub steps: u64,
+    /// Steps run before timing.
+    #[arg(long, default_value_t = 20)]
+    pub warmup: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct CdBenchResult {
+    method: &'static str,
+    particles: usize,
+    steps: u64,
+    threads: usize,
+    wall_seconds: f64,
+    /// Contacts solved per step, mean over the timed steps.
+    contacts_per_step: f64,
+    /// NLGS sweeps per step, mean over the timed steps.
+    iterations_per_step: f64,
+    /// Local solves (contacts × sweeps) per second: the method's natural unit.
+    contact_iterations_per_second: f64,
+    particle_steps_per_second: f64,
+    bytes_per_particle: f64,
+}
+
+/// `sable bench cd`: the dense pile of [`cd_benchmark`], `warmup` steps untimed, then `steps`
+/// timed; the solver's sweeps and contacts are summed step by step.
+pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
+    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let mut scene = parse_scene(&cd_benchmark(a.particles, a.steps, threads).to_string())
+        .map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
+    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
+    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
+    let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
+    let mut sim = pool.install(|| Cd::new(&scene, params))?;
+    pool.install(|| (0..a.warmup).try_for_each(|_| sim.step()))?;
+    let (mut contacts, mut iterations, mut work) = (0u64, 0u64, 0u64);
+    let start = std::time::Instant::now();
+    pool.install(|| {
+        (0..a.steps).try_for_each(|_| {
+            sim.step()?;
+            let r = sim.solver_report();
+            contacts += r.contacts as u64;
+            iterations += u64::from(r.iterations);
+            work += r.contacts as u64 * u64::from(r.iterations);
+            Ok::<(), sable_engine::EngineError>(())
+        })
+    })?;
+    let wall = start.elapsed().as_secs_f64();
+    let steps = a.steps.max(1) as f64;
+    let r = CdBenchResult {
+        method: "cd",
+        particles: sim.particle_count(),
+        steps: a.steps,
+        threads,
+        wall_seconds: wall,
+        contacts_per_step: contacts as f64 / steps,
+        iterations_per_step: iterations as f64 / steps,
+        contact_iterations_per_second: work as f64 / wall,
+        particle_steps_per_second: sim.particle_count() as f64 * a.steps as f64 / wall,
+        bytes_per_particle: sim.memory_bytes() as f64 / sim.particle_count() as f64,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "cd: {} spheres x {} steps on {} thread(s): {:.3} s, {:.3e} contact-iterations/s ({:.0} contacts and {:.1} sweeps per step), \
+             {:.3e} particle-steps/s, {:.0} bytes/particle",
+            r.particles,
+            r.steps,
+            r.threads,
+            r.wall_seconds,
+            r.contact_iterations_per_second,
+            r.contacts_per_step,
+            r.iterations_per_step,
+            r.particle_steps_per_second,
+            r.bytes_per_particle
+        );
+    }
+    Ok(())
 }
 
 /// `sable bench dem`.
