@@ -230,19 +230,20 @@ fn what_contact_dynamics_does_not_do_yet_is_refused_with_the_field_named() {
     let s = common::scene(json!({
         "dimension": 2,
         "method": "cd",
-        "materials": {"grain": material(0.5, 0.3)},
+        "materials": {"grain": {"density": RHO, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3,
+                                "rolling": {"stiffness": 1e-4, "friction": 0.1}}},
         "particles": [{"material": "grain", "count": 20, "size": {"kind": "monodisperse", "diameter": D}, "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"], "lees_edwards": {"shear_rate": 1.0}},
+        "container": {"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]},
         "stop": {"steps": 1}
     }));
     let sable_engine::scene::Method::Cd(p) = &s.method else { panic!("cd") };
     match Cd::new(&s, p) {
         Err(sable_engine::EngineError::Build { field, reason }) => {
-            assert_eq!(field, "container.lees_edwards");
+            assert_eq!(field, "materials.grain.rolling");
             assert!(reason.contains("not available with method \"cd\""), "{reason}");
         }
         Err(e) => panic!("wrong error {e}"),
-        Ok(_) => panic!("Lees-Edwards with cd must be refused until it exists"),
+        Ok(_) => panic!("rolling resistance with cd must be refused until it exists"),
     }
 }
 
