@@ -10,6 +10,7 @@
 mod common;
 
 use sable_engine::methods::cd::Cd;
+use sable_engine::observe::metrics::rattlers;
 use sable_engine::run::Simulation;
 use serde_json::json;
 
@@ -321,32 +322,14 @@ fn two_stress_controlled_walls_of_an_axis_squeeze_symmetrically_without_drifting
 }
 
 /// Force-bearing contacts (all, particle-particle and wall) and particles of the backbone: the
-/// particles left after removing, recursively, those with fewer than `threshold` contacts
-/// carrying more than `floor` N (walls included).
+/// particles left after removing the rattlers (fewer than `threshold` contacts, walls included,
+/// recursively; [`rattlers`]), counting only contacts that carry more than `floor` N.
 fn backbone(sim: &Cd, threshold: usize, floor: f64) -> (usize, usize) {
     let n = sim.particles().len();
-    let contacts: Vec<_> = sim.contacts().into_iter().filter(|c| c.force.norm() > floor).collect();
-    let mut alive = vec![true; n];
-    loop {
-        let mut count = vec![0usize; n];
-        for c in &contacts {
-            let (i, j) = (c.i as usize, c.j.map(|j| j as usize));
-            if alive[i] && j.is_none_or(|j| alive[j]) {
-                count[i] += 1;
-                if let Some(j) = j {
-                    count[j] += 1;
-                }
-            }
-        }
-        let removed: Vec<usize> = (0..n).filter(|&i| alive[i] && count[i] < threshold).collect();
-        if removed.is_empty() {
-            let kept = contacts.iter().filter(|c| alive[c.i as usize] && c.j.is_none_or(|j| alive[j as usize])).count();
-            return (kept, alive.iter().filter(|&&a| a).count());
-        }
-        for i in removed {
-            alive[i] = false;
-        }
-    }
+    let contacts: Vec<_> = sim.contacts().into_iter().filter(|c| c.bears_load() && c.force.norm() > floor).collect();
+    let rattler = rattlers(n, threshold, &contacts);
+    let kept = contacts.iter().filter(|c| !rattler[c.i as usize] && c.j.is_none_or(|j| !rattler[j as usize])).count();
+    (kept, rattler.iter().filter(|r| !**r).count())
 }
 
 #[test]

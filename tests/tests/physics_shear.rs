@@ -94,8 +94,7 @@ fn lees_edwards_shear_develops_the_linear_velocity_profile() {
     for seed in [1, 2] {
         let s = common::scene(shear_scene(seed));
         let mut sim = common::dem(&s);
-        let dt = sim.time_step();
-        develops_the_profile(&mut sim, |s| s.particles(), dt, seed);
+        develops_the_profile(&mut sim, |s| s.particles(), seed);
     }
 }
 
@@ -110,68 +109,65 @@ fn lees_edwards_shear_develops_the_linear_velocity_profile_with_contact_dynamics
     scene["method"] = json!({"kind": "cd", "max_interpenetration": 0.3});
     let s = common::scene(scene);
     let mut sim = common::cd(&s);
-    let dt = sim.time_step();
-    develops_the_profile(&mut sim, |s| s.particles(), dt, 1);
+    develops_the_profile(&mut sim, |s| s.particles(), 1);
 }
 
 /// Runs the sheared gas from rest through DEVELOP strain units, then averages the profile over
 /// AVERAGE more and checks it, and the samples' inertial number, friction and pressure.
-fn develops_the_profile<S: Simulation>(sim: &mut S, particles: fn(&S) -> &sable_engine::particles::Particles, dt: f64, seed: u64) {
-    {
-        assert!(particles(sim).vel.iter().all(|v| v.norm() == 0.0), "the gas must start at rest");
-        let per_strain = 1.0 / (RATE * dt);
-        // Development: the early profile is far from the imposed one (it is built by momentum
-        // diffusing from the shearing boundary).
-        let mut early = Profile::default();
-        for k in 0..(DEVELOP * per_strain) as usize {
-            sim.step().expect("stable");
-            if k % 50 == 0 && (k as f64) < 2.0 * per_strain {
-                early.add(particles(sim));
-            }
+fn develops_the_profile<S: Simulation>(sim: &mut S, particles: fn(&S) -> &sable_engine::particles::Particles, seed: u64) {
+    assert!(particles(sim).vel.iter().all(|v| v.norm() == 0.0), "the gas must start at rest");
+    let per_strain = 1.0 / (RATE * sim.dt());
+    // Development: the early profile is far from the imposed one (it is built by momentum
+    // diffusing from the shearing boundary).
+    let mut early = Profile::default();
+    for k in 0..(DEVELOP * per_strain) as usize {
+        sim.step().expect("stable");
+        if k % 50 == 0 && (k as f64) < 2.0 * per_strain {
+            early.add(particles(sim));
         }
-        let (early_slope, _) = early.fit();
-        // Average over AVERAGE strain units, in three sub-windows to measure the noise.
-        let mut total = Profile::default();
-        let mut parts = vec![Profile::default(); 3];
-        let n_avg = (AVERAGE * per_strain) as usize;
-        let mut samples = Vec::new();
-        for k in 0..n_avg {
-            sim.step().expect("stable");
-            if k % 50 == 0 {
-                total.add(particles(sim));
-                parts[3 * k / n_avg].add(particles(sim));
-            }
-            if k % (n_avg / 10) == 0 {
-                samples.push(sim.sample().expect("sample"));
-            }
+    }
+    let (early_slope, _) = early.fit();
+    // Average over AVERAGE strain units, in three sub-windows to measure the noise.
+    let mut total = Profile::default();
+    let mut parts = vec![Profile::default(); 3];
+    let n_avg = (AVERAGE * per_strain) as usize;
+    let mut samples = Vec::new();
+    for k in 0..n_avg {
+        sim.step().expect("stable");
+        if k % 50 == 0 {
+            total.add(particles(sim));
+            parts[3 * k / n_avg].add(particles(sim));
         }
-        let (slope, r2) = total.fit();
-        let sub: Vec<f64> = parts.iter().map(|p| p.fit().0 / RATE).collect();
-        println!(
-            "seed {seed}: first 2 strain units slope/rate {:.3}; averaged slope/rate {:.4}, R² {r2:.5}; sub-windows {sub:.3?}",
-            early_slope / RATE,
-            slope / RATE
-        );
-        for smp in &samples {
-            println!("  strain {:.1}: I {:?}, mu {:.3}, p {:.3e}", smp.time * RATE, smp.inertial_number, smp.mu, smp.p);
+        if k % (n_avg / 10) == 0 {
+            samples.push(sim.sample().expect("sample"));
         }
-        assert!(early_slope < 0.5 * RATE, "seed {seed}: the profile must develop, not be imposed (early slope {early_slope})");
-        // Noise: slopes over 10-strain sub-windows scatter by ~1.5% (measured 0.980, 0.996,
-        // 0.990 and 1.022, 1.017, 0.988 for seeds 1 and 2; a 150-strain run gives the same
-        // spread around 0.995-1.0), so the 30-strain average is good to ~1% (measured 0.989 and
-        // 1.009); the residual development after strain 30 is ~1%. 5% is 3 sub-window standard
-        // deviations and still catches a wrong image velocity (sign, factor L_y) or a profile
-        // that does not span the cell (a boundary slip shows up as a lower slope).
-        assert!((slope / RATE - 1.0).abs() < 0.05, "seed {seed}: profile slope {slope} vs imposed rate {RATE}");
-        // Linear: the 8 bin means lie on a line (measured R² = 0.9998 and 0.9999).
-        assert!(r2 > 0.995, "seed {seed}: profile not linear, R² = {r2}");
-        for smp in &samples {
-            let i = smp.inertial_number.expect("a shear rate is defined, so is the inertial number");
-            // A dilute, collisional gas: I is of order 1 (measured 0.6-0.85) and the stress
-            // (mostly kinetic) is compressive.
-            assert!(i.is_finite() && i > 0.0, "inertial number {i}");
-            assert!(smp.mu.is_finite() && smp.mu >= 0.0, "mu {}", smp.mu);
-            assert!(smp.p > 0.0, "pressure {}", smp.p);
-        }
+    }
+    let (slope, r2) = total.fit();
+    let sub: Vec<f64> = parts.iter().map(|p| p.fit().0 / RATE).collect();
+    println!(
+        "seed {seed}: first 2 strain units slope/rate {:.3}; averaged slope/rate {:.4}, R² {r2:.5}; sub-windows {sub:.3?}",
+        early_slope / RATE,
+        slope / RATE
+    );
+    for smp in &samples {
+        println!("  strain {:.1}: I {:?}, mu {:.3}, p {:.3e}", smp.time * RATE, smp.inertial_number, smp.mu, smp.p);
+    }
+    assert!(early_slope < 0.5 * RATE, "seed {seed}: the profile must develop, not be imposed (early slope {early_slope})");
+    // Noise: slopes over 10-strain sub-windows scatter by ~1.5% (measured 0.980, 0.996,
+    // 0.990 and 1.022, 1.017, 0.988 for seeds 1 and 2; a 150-strain run gives the same
+    // spread around 0.995-1.0), so the 30-strain average is good to ~1% (measured 0.989 and
+    // 1.009); the residual development after strain 30 is ~1%. 5% is 3 sub-window standard
+    // deviations and still catches a wrong image velocity (sign, factor L_y) or a profile
+    // that does not span the cell (a boundary slip shows up as a lower slope).
+    assert!((slope / RATE - 1.0).abs() < 0.05, "seed {seed}: profile slope {slope} vs imposed rate {RATE}");
+    // Linear: the 8 bin means lie on a line (measured R² = 0.9998 and 0.9999).
+    assert!(r2 > 0.995, "seed {seed}: profile not linear, R² = {r2}");
+    for smp in &samples {
+        let i = smp.inertial_number.expect("a shear rate is defined, so is the inertial number");
+        // A dilute, collisional gas: I is of order 1 (measured 0.6-0.85 with DEM, 0.5-1.05 with CD) and the stress
+        // (mostly kinetic) is compressive.
+        assert!(i.is_finite() && i > 0.0, "inertial number {i}");
+        assert!(smp.mu.is_finite() && smp.mu >= 0.0, "mu {}", smp.mu);
+        assert!(smp.p > 0.0, "pressure {}", smp.p);
     }
 }

@@ -209,20 +209,34 @@ pub fn coordination(n: usize, threshold: usize, contacts: &[ContactRecord]) -> (
     if n == 0 {
         return (0.0, 0.0);
     }
-    let bearing = ContactRecord::bears_load;
+    let pairs = contacts.iter().filter(|c| c.bears_load() && c.j.is_some()).count();
+    let z = 2.0 * pairs as Real / n as Real;
+    let rattler = rattlers(n, threshold, contacts);
+    let kept = rattler.iter().filter(|r| !**r).count();
+    let backbone_pairs = contacts
+        .iter()
+        .filter(|c| c.bears_load())
+        .filter_map(|c| c.j.map(|j| (c.i, j)))
+        .filter(|&(i, j)| !rattler[i as usize] && !rattler[j as usize])
+        .count();
+    let z_nr = if kept > 0 { 2.0 * backbone_pairs as Real / kept as Real } else { 0.0 };
+    (z, z_nr)
+}
+
+/// The rattlers among `n` particles: removed, recursively, while they have fewer than
+/// `threshold` force-bearing contacts ([`ContactRecord::bears_load`]; wall contacts count) with
+/// particles not yet removed. `true` marks a rattler; the others form the backbone.
+pub fn rattlers(n: usize, threshold: usize, contacts: &[ContactRecord]) -> Vec<bool> {
     let mut count = vec![0u32; n];
     let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
-    let mut pairs = 0usize;
-    for c in contacts.iter().filter(|c| bearing(c)) {
+    for c in contacts.iter().filter(|c| c.bears_load()) {
         count[c.i as usize] += 1;
         if let Some(j) = c.j {
             count[j as usize] += 1;
             adjacency[c.i as usize].push(j);
             adjacency[j as usize].push(c.i);
-            pairs += 1;
         }
     }
-    let z = 2.0 * pairs as Real / n as Real;
     let need = threshold as u32;
     let mut removed = vec![false; n];
     let mut stack: Vec<usize> = (0..n).filter(|&i| count[i] < need).collect();
@@ -241,9 +255,5 @@ pub fn coordination(n: usize, threshold: usize, contacts: &[ContactRecord]) -> (
             }
         }
     }
-    let kept = removed.iter().filter(|r| !**r).count();
-    let backbone_pairs: usize =
-        (0..n).filter(|&i| !removed[i]).map(|i| adjacency[i].iter().filter(|&&j| !removed[j as usize]).count()).sum::<usize>() / 2;
-    let z_nr = if kept > 0 { 2.0 * backbone_pairs as Real / kept as Real } else { 0.0 };
-    (z, z_nr)
+    removed
 }

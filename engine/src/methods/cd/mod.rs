@@ -63,6 +63,14 @@ const SPEED_FLOOR: Real = 1e-6;
 /// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
 const WALL_KEY: u32 = u32::MAX;
 
+/// The pair a contact joins, for the warm start: `(i, j)` with `i < j`, or `(i, WALL_KEY - w)`.
+fn key_of(c: &RigidContact) -> (u32, u32) {
+    match c.j {
+        Side::Body(j) => (c.i, j),
+        Side::Boundary(w) => (c.i, WALL_KEY - w),
+    }
+}
+
 /// A contact-dynamics simulation.
 pub struct Cd {
     dim: usize,
@@ -84,9 +92,8 @@ pub struct Cd {
     force_rebuild: bool,
     /// The contacts of the last step, with their impulses.
     contacts: Vec<RigidContact>,
-    /// The pair of each contact: `(i, j)` with `i < j`, or `(i, WALL_KEY - w)`.
-    keys: Vec<(u32, u32)>,
-    /// Impulse of each contact of the step before (global components, N·s), sorted by key.
+    /// Impulse of each contact of the step before (global components, N·s), sorted by its
+    /// pair ([`key_of`]).
     previous: Vec<((u32, u32), Vec3)>,
     /// Velocities and spins at the start of the step (scratch).
     vel_start: Vec<Vec3>,
@@ -179,7 +186,6 @@ impl Cd {
             nl: NeighborList::new(0.0, skin),
             force_rebuild: true,
             contacts: Vec::new(),
-            keys: Vec::new(),
             previous: Vec::new(),
             vel_start: vec![Vec3::zeros(); n],
             omega_start: vec![Vec3::zeros(); n],
@@ -256,7 +262,6 @@ impl Cd {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
-            + self.keys.capacity() * 8
             + self.previous.capacity() * std::mem::size_of::<((u32, u32), Vec3)>()
             + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
     }
@@ -326,7 +331,6 @@ impl Cd {
         let gh = self.gravity.norm() * h;
         let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
         self.contacts.clear();
-        self.keys.clear();
         let (mut worst, mut sum, mut count): (Real, Real, usize) = (0.0, 0.0, 0);
         let mut overlap = |g: Real, r: Real| {
             if g < 0.0 {
@@ -380,7 +384,6 @@ impl Cd {
                     r: warm.unwrap_or_default(),
                     scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n,
                 });
-                self.keys.push(key);
             }
         }
         for (w, wall) in self.walls.iter().enumerate() {
@@ -415,7 +418,6 @@ impl Cd {
                     r: warm.unwrap_or_default(),
                     scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + wall.velocity.norm())) / wd.n,
                 });
-                self.keys.push(key);
             }
         }
         self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
@@ -500,8 +502,7 @@ impl Cd {
         }
         // Warm start of the next step: this step's impulses by pair.
         self.previous.clear();
-        self.previous
-            .extend(self.keys.iter().zip(&self.contacts).filter(|(_, c)| c.r != Vec3::zeros()).map(|(k, c)| (*k, c.frame.to_global(&c.r))));
+        self.previous.extend(self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| (key_of(c), c.frame.to_global(&c.r))));
         self.previous.sort_unstable_by_key(|e| e.0);
         self.step += 1;
         self.time += h;
@@ -585,11 +586,6 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
     // above the bound of the `kinetic_ratio` criterion, so a preparation never ends.
     if scene.experiment.is_some() {
         return no("experiment".into(), "a standard experiment");
-    }
-    for stage in &scene.stages {
-        if let Err(what) = supported_controls(&stage.controls) {
-            return no("experiment".into(), &format!("{what} (stage '{}')", stage.name));
-        }
     }
     if c.drum.is_some() {
         return no("experiment".into(), "the rotating drum");
