@@ -41,8 +41,11 @@ pub trait Simulation: Send {
     /// Applies the controls of a new stage of the loading program (wall motions, cell
     /// deformation, friction, damping).
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError>;
-    /// How far the system is from static equilibrium (for stages that run until it).
-    fn balance(&self) -> Balance;
+    /// How far the system is from static equilibrium (for stages that run until it). A method
+    /// may measure it over the interval since its previous call (contact dynamics does: its
+    /// step-to-step velocities carry the solver's residual), so the runner calls it once per
+    /// check.
+    fn balance(&mut self) -> Balance;
     /// Number-mean diameter (m) and solid density (kg/m³) of the grains.
     fn grain_scales(&self) -> (Real, Real);
     /// The current particles and box, to start another run from ([`crate::scene::state`]).

@@ -191,9 +191,13 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
 /// Stiffness number 2e3 at the floor (deflections 5e-4 d, which change Φ by ~1e-3) and
 /// restitution 0.2 keep the run short.
 fn deposition(friction: f64) -> ExperimentResult {
+    deposition_with(json!({"kind": "dem", "threads": 1}), friction)
+}
+
+fn deposition_with(method: serde_json::Value, friction: f64) -> ExperimentResult {
     let (r, samples) = run(json!({
         "dimension": 3,
-        "method": {"kind": "dem", "threads": 1},
+        "method": method,
         "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 200.0}, "restitution": 0.2, "friction": friction}},
         "particles": [{"material": "glass", "count": 500, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
                        "placement": {"kind": "random"}}],
@@ -226,6 +230,22 @@ fn deposited_spheres_are_looser_with_friction() {
     assert!((0.55..0.61).contains(&f.phi_bed), "frictional deposit phi {}", f.phi_bed);
     assert!(s.phi_bed - f.phi_bed > 0.02, "phi {} vs {}", s.phi_bed, f.phi_bed);
     assert!(smooth.last.z_no_rattlers > rough.last.z_no_rattlers + 0.5, "Z {} vs {}", smooth.last.z_no_rattlers, rough.last.z_no_rattlers);
+}
+
+/// The same deposit at μ = 0.5 with contact dynamics (rigid spheres; the deposition's local
+/// damping makes impacts inelastic): Φ_bed within the bounds of the DEM deposit above (0.55-0.61),
+/// Z within 0.3 of DEM's 4.52, and the floor carries the weight of the deposit (1%: at rest the
+/// rigid contacts carry it exactly, up to the solver's tolerance 1e-3).
+#[test]
+fn contact_dynamics_deposits_spheres_like_dem() {
+    let r = deposition_with(json!({"kind": "cd", "threads": 1}), 0.5);
+    eprintln!("cd: {}", serde_json::to_string(&r).unwrap_or_default());
+    let d = r.deposition.as_ref().expect("deposition");
+    let weight = d.phi_bed * d.bed_height * 2500.0 * 9.81;
+    assert!((d.floor_stress - weight).abs() < 0.01 * weight, "floor {} Pa, weight {weight} Pa", d.floor_stress);
+    assert!((0.55..0.61).contains(&d.phi_bed), "deposit phi {}", d.phi_bed);
+    assert!((r.last.z_no_rattlers - 4.52).abs() < 0.3, "Z {}", r.last.z_no_rattlers);
+    assert!(r.stiffness_number.is_none(), "rigid grains have no stiffness number");
 }
 
 /// A plane shear of 500 polydisperse spheres (d 0.9-1.1 mm, μ_p = 0.5) at 1 kPa, stiffness

@@ -368,3 +368,41 @@ fn a_frictionless_packing_compressed_by_stress_walls_is_isostatic() {
     assert!(particles > 100, "the backbone holds most disks: {particles}");
     assert_eq!(contacts, equations, "isostatic: {contacts} force-bearing contacts for {equations} equations");
 }
+
+#[test]
+fn grains_faster_than_the_default_step_allows_get_shorter_steps() {
+    // Two disks at rest in a closed box without gravity: the default step lets the 0.1 m/s
+    // floor of the reference velocity cover 0.02 of a diameter (4e-4 s). Launched head-on at
+    // 2 m/s each, a step that long would carry them 0.8 diameters into each other; the steps
+    // shorten so that the pair closes by at most 0.02 diameters per step, the interpenetration
+    // stays below that, and the impact restores e = 0.5 of the approach exactly (velocities
+    // swap to ∓1 m/s within the solver's tolerance).
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "cd", "tolerance": 1e-10, "violation_tolerance": 1e-12, "max_iterations": 100000},
+        "materials": {"grain": material(0.5, 0.0)},
+        "particles": [{"material": "grain", "placement": {"kind": "list", "positions": [[0.006, 0.01], [0.014, 0.01]], "diameters": [D, D]}}],
+        "container": {"min": [0, 0], "max": [0.02, 0.02], "wall_material": "grain"},
+        "gravity": [0.0, 0.0],
+        "stop": {"steps": 1}
+    }));
+    let mut sim = common::cd(&s);
+    let dt = sim.time_step();
+    assert!((dt - 0.02 * D / 0.1).abs() < 1e-12 * dt, "default step {dt}");
+    sim.particles_mut().vel[0].x = 2.0;
+    sim.particles_mut().vel[1].x = -2.0;
+    let mut worst: f64 = 0.0;
+    // They meet after 1.5 ms and reach the walls after 10 ms: 300 steps end in between.
+    for _ in 0..300 {
+        let (t, fastest) = (sim.time(), sim.particles().vel.iter().map(|v| v.norm()).fold(0.0, f64::max));
+        sim.step().expect("stable");
+        let h = sim.time() - t;
+        let expected = dt.min(0.02 * D / (2.0 * fastest));
+        assert!((h - expected).abs() < 1e-9 * expected, "step {h} s, expected {expected} s");
+        worst = worst.max(sim.interpenetration().0);
+    }
+    let v = &sim.particles().vel;
+    assert!((v[0].x + 1.0).abs() < 1e-6 && (v[1].x - 1.0).abs() < 1e-6, "after the impact {} and {} m/s", v[0].x, v[1].x);
+    assert!(worst <= 0.04, "interpenetration {worst} of the radius");
+    assert!(sim.time() < 300.0 * dt / 10.0, "the steps were shortened: {} s", sim.time());
+}

@@ -9,7 +9,7 @@ use crate::math::{Real, Vec3, AXES};
 use crate::observe::{ShearGeometry, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
-use crate::scene::{Material, Placement, Scene, StateFile, WallMotion};
+use crate::scene::{Material, Scene, StateFile, WallMotion};
 
 /// The scene's box and its particles, placed, given the Lees-Edwards velocity profile and
 /// sorted by cell (neighbours close in memory).
@@ -53,18 +53,33 @@ fn sort_by_cell(p: &mut Particles, domain: &Domain) {
     p.permute(&order);
 }
 
-/// Fastest motion expected in a scene, m/s: the largest of the initial speeds, free fall across
-/// the box, wall speeds, the shear velocity across the box, the drum's rim and 0.1 m/s.
+/// Floor of [`reference_velocity`], m/s.
+const REFERENCE_FLOOR: Real = 0.1;
+
+/// Fastest motion expected in a scene, m/s: the largest of [`imposed_speed`] (without the
+/// stages' walls) and 0.1 m/s.
 pub(crate) fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
+    REFERENCE_FLOOR.max(imposed_speed(scene, p, false))
+}
+
+/// Fastest motion the scene sets, m/s (0 if none): the initial speeds, free fall across the
+/// box, the walls' speeds (imposed velocity, strain rate times length, a stress-controlled
+/// wall's finite `max_speed`) in the container and, with `stages`, in every stage of the
+/// loading program, the shear velocity across the box, the drum's rim.
+pub(crate) fn imposed_speed(scene: &Scene, p: &Particles, stages: bool) -> Real {
     let c = &scene.container;
     let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
-    let mut v: Real = 0.1;
-    v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
+    let mut v: Real = p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max);
     v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
-    for w in &c.walls {
-        match w.motion {
+    let mut walls: Vec<(usize, WallMotion)> = c.walls.iter().map(|w| (w.face.axis, w.motion)).collect();
+    if stages {
+        walls.extend(scene.stages.iter().flat_map(|s| s.controls.walls.iter().map(|w| (w.face.axis, w.motion))));
+    }
+    for (axis, motion) in walls {
+        match motion {
             WallMotion::Velocity(u) => v = v.max(u.norm()),
-            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[w.face.axis] - c.lo[w.face.axis])).abs()),
+            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[axis] - c.lo[axis])).abs()),
+            WallMotion::Stress { max_speed, .. } if stages && max_speed.is_finite() => v = v.max(max_speed),
             _ => {}
         }
     }
@@ -73,9 +88,6 @@ pub(crate) fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
     }
     if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
         v = v.max(angular_velocity.abs() * drum.radius);
-    }
-    if scene.sets.iter().any(|s| matches!(s.placement, Placement::List { velocities: Some(_), .. })) {
-        v = v.max(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max));
     }
     v
 }

@@ -304,7 +304,8 @@ impl Analysis {
         Self {
             experiment: scene.experiment.clone(),
             dim: scene.dim,
-            law: material.map(|m| m.law),
+            // Rigid grains (contact dynamics) have no stiffness number: they are the rigid limit.
+            law: material.map(|m| m.law).filter(|_| !matches!(scene.method, crate::scene::Method::Cd(_))),
             samples: Vec::new(),
             deposit: None,
             grains: None,

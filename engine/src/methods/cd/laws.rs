@@ -14,6 +14,8 @@ pub struct PairLaws {
     /// The materials' own friction, restored when a stage's override ends.
     base_friction: Vec<Real>,
     wall_material: usize,
+    /// Impacts are perfectly inelastic (a damped stage, [`PairLaws::set_inelastic`]).
+    inelastic: bool,
 }
 
 impl PairLaws {
@@ -30,8 +32,14 @@ impl PairLaws {
                 base_friction[a * n + b] = gm(ma.friction, mb.friction);
             }
         }
-        let mut laws =
-            Self { n, restitution, friction: base_friction.clone(), base_friction, wall_material: wall_material.min(n.saturating_sub(1)) };
+        let mut laws = Self {
+            n,
+            restitution,
+            friction: base_friction.clone(),
+            base_friction,
+            wall_material: wall_material.min(n.saturating_sub(1)),
+            inelastic: false,
+        };
         laws.set_friction(friction);
         laws
     }
@@ -45,18 +53,37 @@ impl PairLaws {
         };
     }
 
+    /// Makes every impact perfectly inelastic (`true`) or restores the materials' restitution:
+    /// the counterpart, for rigid grains, of the local damping a stage asks for (a preparation's
+    /// cushion). Rigid grains have no vibrations to damp; what the damping takes from a
+    /// compressed gas of grains — the agitation that the walls feed and that elastic impacts
+    /// keep — inelastic impacts take.
+    pub fn set_inelastic(&mut self, inelastic: bool) {
+        self.inelastic = inelastic;
+    }
+
+    /// The restitution of the pair `k`, 0 in an inelastic stage.
+    #[inline(always)]
+    fn restitution(&self, k: usize) -> Real {
+        if self.inelastic {
+            0.0
+        } else {
+            self.restitution[k]
+        }
+    }
+
     /// Restitution and friction between particles of materials `a` and `b`.
     #[inline(always)]
     pub fn pair(&self, a: u16, b: u16) -> (Real, Real) {
         let k = a as usize * self.n + b as usize;
-        (self.restitution[k], self.friction[k])
+        (self.restitution(k), self.friction[k])
     }
 
     /// Restitution and friction between a particle of material `a` and a wall.
     #[inline(always)]
     pub fn wall(&self, a: u16) -> (Real, Real) {
         let k = a as usize * self.n + self.wall_material;
-        (self.restitution[k], self.base_friction[k])
+        (self.restitution(k), self.base_friction[k])
     }
 
     /// True if some particle pair has friction.

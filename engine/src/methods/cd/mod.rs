@@ -28,10 +28,17 @@
 //! Lees-Edwards cells: a pair across the sheared boundary sees the image's velocity in its
 //! contact velocity (`drive`), and the image offset advances with the positions.
 //!
-//! Not yet with this method (rejected at build with the field named): the standard
-//! experiments, shearing walls, cell deformation, the drum, rolling resistance, liquid,
-//! cohesion.
+//! Experiments: the compaction and the deposition run (a stage with local damping makes impacts
+//! inelastic, [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over
+//! the check interval, [`balance`]). Not yet with this method (rejected at build with the field
+//! named): the isotropic, biaxial and triaxial experiments and plane shear, shearing walls, cell
+//! deformation, the drum, the granule, rolling resistance, liquid, cohesion.
+//!
+//! The step is `dt` (the scene's `time_step`, or the time the fastest imposed motion takes to
+//! cover `max_displacement` of the smallest diameter), shortened when grains move faster
+//! ([`Cd::step_length`]).
 
+mod balance;
 mod laws;
 
 use crate::error::{EngineError, InstabilityCause};
@@ -44,6 +51,7 @@ use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
 use crate::scene::{CdParams, Controls, Material, Scene, StateFile, WallMotion};
+use balance::Window;
 use laws::PairLaws;
 
 use super::world;
@@ -74,7 +82,13 @@ fn key_of(c: &RigidContact) -> (u32, u32) {
 /// A contact-dynamics simulation.
 pub struct Cd {
     dim: usize,
+    /// The time step, s (`method.time_step` or the default one).
     dt: Real,
+    /// Length of the current (or last) step, s: `dt`, or less when grains move fast
+    /// ([`Cd::step_length`]).
+    h: Real,
+    /// Smallest diameter, m.
+    d_min: Real,
     gravity: Vec3,
     params: CdParams,
     materials: Vec<Material>,
@@ -103,6 +117,8 @@ pub struct Cd {
     /// Largest and mean interpenetration of the contacts at the last detection, as fractions
     /// of the smaller radius.
     interpenetration: (Real, Real),
+    /// Displacements and impulses since the last equilibrium check ([`balance`]).
+    window: Window,
     step: u64,
     time: Real,
     len0: Vec3,
@@ -123,7 +139,11 @@ impl Cd {
         let dt = match params.time_step {
             Some(dt) => dt,
             None => {
-                let v = params.reference_velocity.unwrap_or_else(|| world::reference_velocity(scene, &p));
+                // The fastest imposed motion, stages included (0.1 m/s if nothing moves).
+                let v = params.reference_velocity.unwrap_or_else(|| match world::imposed_speed(scene, &p, true) {
+                    v if v > 0.0 => v,
+                    _ => world::reference_velocity(scene, &p),
+                });
                 params.max_displacement * 2.0 * rmin / v
             }
         };
@@ -172,6 +192,8 @@ impl Cd {
         let mut sim = Self {
             dim: scene.dim,
             dt,
+            h: dt,
+            d_min: 2.0 * rmin,
             gravity: scene.gravity,
             params: params.clone(),
             materials: scene.materials.clone(),
@@ -196,6 +218,7 @@ impl Cd {
             }),
             report: NlgsReport::default(),
             interpenetration: (0.0, 0.0),
+            window: Window::default(),
             step: 0,
             time: 0.0,
             solid_volume,
@@ -203,6 +226,7 @@ impl Cd {
             pool,
         };
         sim.refresh_neighbors();
+        sim.window.open(&sim.p.vel, sim.walls.len());
         Ok(sim)
     }
 
@@ -264,6 +288,7 @@ impl Cd {
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
             + self.previous.capacity() * std::mem::size_of::<((u32, u32), Vec3)>()
             + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
+            + self.window.heap_bytes()
     }
 
     fn refresh_neighbors(&mut self) {
@@ -285,7 +310,7 @@ impl Cd {
     /// two independent free walls would let the box and its grains drift as a whole, at
     /// whatever velocity the compression left them.
     fn free_walls(&mut self) {
-        let h = self.dt;
+        let h = self.h;
         let stress = |w: &Wall| match w.motion {
             WallMotion::Stress { stress, .. } => Some(stress),
             _ => None,
@@ -326,7 +351,7 @@ impl Cd {
     /// The contacts of the step from the current positions and velocities (see the module
     /// documentation), with their warm-start impulses; records the interpenetration.
     fn detect(&mut self) {
-        let h = self.dt;
+        let h = self.h;
         let ahead = (1.0 - self.params.theta) * h;
         let gh = self.gravity.norm() * h;
         let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
@@ -423,9 +448,30 @@ impl Cd {
         self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
     }
 
+    /// Length of the next step: `dt` if the scene gave `method.time_step`; otherwise `dt`
+    /// shortened, if need be, so that no pair closes by more than `max_displacement` of the
+    /// smallest diameter (two grains at the largest current speed, or a grain and a wall, head
+    /// on). The default `dt` covers the imposed motions, but rigid grains squeezed between
+    /// converging neighbours or struck by a wall can leave faster, and a pair that Moreau's
+    /// anticipation has not caught interpenetrates by up to its closing over a step.
+    fn step_length(&self) -> Real {
+        if self.params.time_step.is_some() {
+            return self.dt;
+        }
+        let fastest = |v: &[Vec3]| v.iter().map(|v| v.norm_squared()).fold(0.0, Real::max).sqrt();
+        let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel));
+        let reach = self.params.max_displacement * self.d_min;
+        if closing * self.dt > reach {
+            reach / closing
+        } else {
+            self.dt
+        }
+    }
+
     /// The stages of one step, in the order of the module documentation.
     fn step_stages(&mut self) -> Result<(), EngineError> {
-        let h = self.dt;
+        self.h = self.step_length();
+        let h = self.h;
         let theta = self.params.theta;
         if self.force_rebuild || self.nl.needs_rebuild(&self.p.pos, &self.domain) {
             self.refresh_neighbors();
@@ -470,7 +516,9 @@ impl Cd {
         let p = &mut self.p;
         for i in 0..p.len() {
             let (v0, v1) = (self.vel_start[i], p.vel[i]);
-            p.pos[i] += (v1 * theta + v0 * (1.0 - theta)) * h;
+            let dx = (v1 * theta + v0 * (1.0 - theta)) * h;
+            p.pos[i] += dx;
+            self.window.travel(i, dx);
             p.force[i] = (v1 - v0) * (p.mass[i] / h);
             let inertia = if p.inv_inertia[i] > 0.0 { 1.0 / p.inv_inertia[i] } else { 0.0 };
             p.torque[i] = (p.omega[i] - self.omega_start[i]) * (inertia / h);
@@ -482,8 +530,10 @@ impl Cd {
         for c in &self.contacts {
             if let Side::Boundary(w) = c.j {
                 self.walls[w as usize].force -= c.force(h);
+                self.window.wall_impulse(w as usize, -c.frame.to_global(&c.r));
             }
         }
+        self.window.advance(h);
         self.domain.advance_shear(h);
         for (wall, v1) in self.walls.iter_mut().zip(self.wall_vel.iter_mut()) {
             let a = wall.face.axis;
@@ -536,7 +586,7 @@ impl Cd {
 
     /// Contact forces (mean over the last step) as records, for metrics and tests.
     pub fn contacts(&self) -> Vec<ContactRecord> {
-        let h = self.dt;
+        let h = self.h;
         self.contacts
             .iter()
             .filter(|c| c.r != Vec3::zeros())
@@ -551,8 +601,8 @@ impl Cd {
     }
 }
 
-/// What of a stage's controls this method does not do yet, if anything. Local damping is not
-/// used: rigid grains need none.
+/// What of a stage's controls this method does not do yet, if anything. Local damping makes
+/// the stage's impacts inelastic ([`PairLaws::set_inelastic`]).
 fn supported_controls(controls: &Controls) -> Result<(), &'static str> {
     if controls.glue.is_some() {
         return Err("gluing grains to walls (rough walls)");
@@ -581,11 +631,20 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
     let no = |field: String, what: &str| {
         Err(EngineError::Build { field, reason: format!("{what} is not available with method \"cd\" yet; use method \"dem\"") })
     };
-    // The loading programs need an equilibrium criterion that rigid grains meet: at the default
-    // tolerance the solver leaves a kinetic-energy floor (about 1e-3 of the walls' push per step)
-    // above the bound of the `kinetic_ratio` criterion, so a preparation never ends.
-    if scene.experiment.is_some() {
-        return no("experiment".into(), "a standard experiment");
+    // The preparations by stress-controlled walls (isotropic, biaxial, triaxial, plane shear) are
+    // not reliable yet: at the default tolerances NLGS can stall just above the violation bound
+    // once the packing is at rest (a 200-disk preparation did after 5,000 sweeps; a 400-disk one
+    // reached equilibrium), and the biaxial loading's first step from the frictionless packing
+    // stalls near 1e-5; a looser bound lets the interpenetration creep. They wait for gap
+    // restoration.
+    use crate::scene::Experiment;
+    if let Some(e @ (Experiment::Isotropic { .. } | Experiment::Triaxial { .. } | Experiment::PlaneShear { .. })) = &scene.experiment {
+        return no("experiment.kind".into(), &format!("the {} experiment", e.kind(scene.dim)));
+    }
+    for stage in &scene.stages {
+        if let Err(what) = supported_controls(&stage.controls) {
+            return no("experiment".into(), what);
+        }
     }
     if c.drum.is_some() {
         return no("experiment".into(), "the rotating drum");
@@ -718,18 +777,19 @@ impl Simulation for Cd {
             }
         }
         self.laws.set_friction(controls.friction);
+        self.laws.set_inelastic(controls.local_damping.is_some_and(|a| a > 0.0));
         Ok(())
     }
 
-    fn balance(&self) -> Balance {
-        let p = &self.p;
-        let kinetic: Real = 0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>();
-        let net: Real = p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real;
-        let forces: Vec<Real> = self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| c.force(self.dt).norm()).collect();
+    /// Means over the interval since the last check ([`balance`]): the kinetic energy of the
+    /// grains' mean velocities, their mean net force against the mean contact force of the last
+    /// step, and the walls' mean stress against their targets; against the reference energy
+    /// `p V_s / KAPPA_REF` of the last step's contact stress.
+    fn balance(&mut self) -> Balance {
+        let h = self.h;
+        let forces: Vec<Real> = self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| c.force(h).norm()).collect();
         let mean_contact = if forces.is_empty() { 0.0 } else { forces.iter().sum::<Real>() / forces.len() as Real };
-        let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
         // Mean stress of the contacts: tr(sum f ⊗ l) / (D V).
-        let h = self.dt;
         let virial: Real = self
             .contacts
             .iter()
@@ -743,11 +803,21 @@ impl Simulation for Cd {
             })
             .sum();
         let pressure = virial / (self.dim as Real * self.domain.volume());
+        let p = &self.p;
+        let (kinetic_energy, net, stress_error) = match self.window.close(&p.vel, &p.mass, &self.walls) {
+            Some(m) => (m.kinetic_energy, m.net_force, world::wall_stress_error(&m.walls, &self.domain)),
+            // No step since the last check: the state of the last step.
+            None => (
+                0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>(),
+                p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real,
+                world::wall_stress_error(&self.walls, &self.domain),
+            ),
+        };
         Balance {
-            kinetic_energy: kinetic,
+            kinetic_energy,
             reference_energy: crate::run::rigid_reference_energy(pressure, self.solid_volume),
-            unbalanced_force,
-            stress_error: world::wall_stress_error(&self.walls, &self.domain),
+            unbalanced_force: if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY },
+            stress_error,
         }
     }
 

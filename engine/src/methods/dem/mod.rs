@@ -800,7 +800,7 @@ impl Simulation for Dem {
         self.domain.hi - self.domain.lo
     }
 
-    fn balance(&self) -> Balance {
+    fn balance(&mut self) -> Balance {
         let p = &self.p;
         // Translational kinetic energy only: a rattler spinning between frictionless walls keeps
         // its spin for ever (nothing exerts a torque on it), yet the packing is at rest.
