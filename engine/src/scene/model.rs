@@ -119,6 +119,8 @@ pub struct CdParams {
     pub violation_tolerance: Real,
     /// Largest number of NLGS sweeps per step.
     pub max_iterations: u32,
+    /// Relaxation of the NLGS updates, in (0, 1] ([`crate::nscd::Convergence::relaxation`]).
+    pub relaxation: Real,
     /// Largest allowed interpenetration / smaller radius.
     pub max_interpenetration: Real,
     /// Verlet skin as a fraction of the smallest diameter.
@@ -137,6 +139,7 @@ impl Default for CdParams {
             tolerance: 1e-3,
             violation_tolerance: 1e-6,
             max_iterations: 5000,
+            relaxation: 1.0,
             max_interpenetration: 0.05,
             skin: 0.3,
             threads: 0,

@@ -446,6 +446,9 @@ pub struct CdParamsSpec {
     /// Largest number of NLGS sweeps per step. Default 5000.
     #[serde(default)]
     pub max_iterations: Option<u32>,
+    /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
+    #[serde(default)]
+    pub relaxation: Option<f64>,
     /// Largest allowed interpenetration as a fraction of the smaller radius. Default 0.05.
     #[serde(default)]
     pub max_interpenetration: Option<f64>,

@@ -427,6 +427,13 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.max_iterations = n;
         }
     }
+    if let Some(w) = s.relaxation {
+        if !(w > 0.0 && w <= 1.0) {
+            c.fail("method.relaxation", format!("must be in (0, 1], got {w}"));
+        } else {
+            p.relaxation = w;
+        }
+    }
     if let Some(o) = s.max_interpenetration {
         if c.within("method.max_interpenetration", o, 1e-6, 1.0) {
             p.max_interpenetration = o;
@@ -917,7 +924,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         let bad = rules(&scene_with(
-            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "time_step": 1e-4, "max_displacement": 0.1}),
+            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "relaxation": 1.5, "time_step": 1e-4, "max_displacement": 0.1}),
             0.5,
         ));
         assert_eq!(
@@ -926,6 +933,7 @@ mod tests {
                 "method.max_displacement: give either time_step or max_displacement, not both",
                 "method.theta: must be between 0.5 and 1, got 0.3",
                 "method.max_iterations: must be between 1 and 1000000, got 0",
+                "method.relaxation: must be in (0, 1], got 1.5",
             ]
         );
         let unknown = rules(&scene_with(serde_json::json!({"kind": "cd", "skn": 0.1}), 0.5));
