@@ -63,9 +63,10 @@ pub(crate) fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
 }
 
 /// Fastest motion the scene sets, m/s (0 if none): the initial speeds, free fall across the
-/// box, the walls' speeds (imposed velocity, strain rate times length, a stress-controlled
-/// wall's finite `max_speed`) in the container and, with `stages`, in every stage of the
-/// loading program, the shear velocity across the box, the drum's rim.
+/// box, the walls' speeds (imposed velocity, strain rate times length) in the container, the
+/// shear velocity across the box, the drum's rim; with `stages`, also the walls of every stage
+/// of the loading program and the finite `max_speed` of stress-controlled walls (left out
+/// without, which keeps DEM's impact-velocity estimate as it was).
 pub(crate) fn imposed_speed(scene: &Scene, p: &Particles, stages: bool) -> Real {
     let c = &scene.container;
     let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);

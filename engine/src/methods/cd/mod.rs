@@ -85,7 +85,8 @@ pub const RESTORE: Real = 0.02;
 /// a step of `h` seconds (Baumgarte's stabilisation of the gap, kept gentle). Velocity Signorini
 /// stops approaches, not gaps: what a solve converged to `violation_tolerance` leaves as
 /// approach, a packing held at rest by stress-controlled walls accumulates step after step (at
-/// a bound of 1e-5, a 400-disk preparation crept to the 5% limit of the radius by step 16,600). At 1/50 of the excess per step the restoration speed stays of the order of the
+/// a bound of 1e-5, a 400-disk preparation crept to the 5% limit of the radius by step
+/// 16,600). At 1/50 of the excess per step the restoration speed stays of the order of the
 /// violation that feeds it, so that it does not stir a packing at rest; the slop leaves alone
 /// the overlaps Moreau's anticipation makes anyway.
 fn restoring(mut law: LocalLaw, g: Real, radius: Real, h: Real) -> LocalLaw {
