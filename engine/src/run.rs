@@ -41,6 +41,12 @@ pub trait Simulation: Send {
     /// Applies the controls of a new stage of the loading program (wall motions, cell
     /// deformation, friction, damping).
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError>;
+    /// Starts a stage of the loading program: applies its controls, and whatever else the method
+    /// sets per stage (contact dynamics: the solver's violation bound, tighter in a stage that
+    /// runs until equilibrium than in an experiment's loading).
+    fn begin_stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
+        self.apply_controls(&stage.controls)
+    }
     /// How far the system is from static equilibrium (for stages that run until it). A method
     /// may measure it over the interval since its previous call (contact dynamics does: its
     /// step-to-step velocities carry the solver's residual), so the runner calls it once per
@@ -321,7 +327,7 @@ impl Runner {
             Ok(s)
         };
         let begin = |sim: &mut dyn Simulation, index: usize| -> Result<StageStart, EngineError> {
-            sim.apply_controls(&self.stages[index].controls)?;
+            sim.begin_stage(&self.stages[index])?;
             Ok(StageStart { index, step: sim.steps_done(), time: sim.time(), lengths: sim.box_lengths(), strain: sim.strain() })
         };
         let mut start = begin(sim, 0)?;

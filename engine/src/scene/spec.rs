@@ -446,6 +446,10 @@ pub struct CdParamsSpec {
     /// Largest number of NLGS sweeps per step. Default 5000.
     #[serde(default)]
     pub max_iterations: Option<u32>,
+    /// Violation bound during an experiment's loading stages (those that do not run until
+    /// equilibrium), same units as `violation_tolerance`. Default 1e-4.
+    #[serde(default)]
+    pub loading_violation_tolerance: Option<f64>,
     /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
     #[serde(default)]
     pub relaxation: Option<f64>,

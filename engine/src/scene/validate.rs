@@ -427,6 +427,11 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.max_iterations = n;
         }
     }
+    if let Some(t) = s.loading_violation_tolerance {
+        if c.within("method.loading_violation_tolerance", t, 1e-14, 0.1) {
+            p.loading_violation_tolerance = t;
+        }
+    }
     if let Some(w) = s.relaxation {
         if !(w > 0.0 && w <= 1.0) {
             c.fail("method.relaxation", format!("must be in (0, 1], got {w}"));
@@ -924,7 +929,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         let bad = rules(&scene_with(
-            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "relaxation": 1.5, "time_step": 1e-4, "max_displacement": 0.1}),
+            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "loading_violation_tolerance": 0.5, "relaxation": 1.5, "time_step": 1e-4, "max_displacement": 0.1}),
             0.5,
         ));
         assert_eq!(
@@ -933,6 +938,7 @@ mod tests {
                 "method.max_displacement: give either time_step or max_displacement, not both",
                 "method.theta: must be between 0.5 and 1, got 0.3",
                 "method.max_iterations: must be between 1 and 1000000, got 0",
+                "method.loading_violation_tolerance: must be between 0.00000000000001 and 0.1, got 0.5",
                 "method.relaxation: must be in (0, 1], got 1.5",
             ]
         );

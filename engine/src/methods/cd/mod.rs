@@ -29,12 +29,13 @@
 //! Lees-Edwards cells: a pair across the sheared boundary sees the image's velocity in its
 //! contact velocity (`drive`), and the image offset advances with the positions.
 //!
-//! Experiments: the compaction, the deposition and the isotropic compression between walls run (a
-//! stage with local damping makes impacts inelastic, [`laws::PairLaws::set_inelastic`]; a stage's
-//! equilibrium is judged on means over the check interval, [`balance`]). Not yet with this method
-//! (rejected at build with the field named): the biaxial and triaxial experiments and plane
-//! shear, shearing walls, cell deformation, the drum, the granule, rolling resistance, liquid,
-//! cohesion.
+//! Experiments: the compaction, the deposition, the isotropic compression between walls and the
+//! biaxial/triaxial tests run (a stage with local damping makes impacts inelastic,
+//! [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over the check
+//! interval, [`balance`]; an experiment's loading stages take the looser
+//! `loading_violation_tolerance`, [`Cd::begin_stage`]). Not yet with this method (rejected at
+//! build with the field named): plane shear, shearing walls, cell deformation, the drum, the
+//! granule, rolling resistance, liquid, cohesion.
 //!
 //! Contacts interpenetrated beyond [`SLOP`] of the radius are pulled back by [`RESTORE`] of the
 //! excess per step ([`restoring`]).
@@ -55,7 +56,7 @@ use crate::nscd::{ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsRepor
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
-use crate::scene::{CdParams, Controls, Material, Scene, StateFile, WallMotion};
+use crate::scene::{CdParams, Controls, Material, Scene, Stage, StateFile, WallMotion};
 use balance::Window;
 use laws::PairLaws;
 
@@ -148,6 +149,9 @@ pub struct Cd {
     interpenetration: (Real, Real),
     /// Displacements and impulses since the last equilibrium check ([`balance`]).
     window: Window,
+    /// The scene runs a standard experiment (its loading stages take
+    /// `loading_violation_tolerance`).
+    experiment: bool,
     step: u64,
     time: Real,
     len0: Vec3,
@@ -249,6 +253,7 @@ impl Cd {
             report: NlgsReport::default(),
             interpenetration: (0.0, 0.0),
             window: Window::default(),
+            experiment: scene.experiment.is_some(),
             step: 0,
             time: 0.0,
             solid_volume,
@@ -539,7 +544,7 @@ impl Cd {
                 change: r.last.change,
                 violation: r.last.violation,
                 tolerance: self.params.tolerance,
-                violation_tolerance: self.params.violation_tolerance,
+                violation_tolerance: self.solver.settings.violation_tolerance,
             }));
         }
         // Theta-scheme positions; mean forces and torques over the step.
@@ -600,14 +605,17 @@ impl Cd {
 
     /// Builds the typed error for `cause`, with what to change.
     fn unstable(&self, cause: InstabilityCause) -> EngineError {
+        // The violation bound in effect, and the field that sets it ([`Cd::begin_stage`]).
+        let bound = self.solver.settings.violation_tolerance;
+        let field = if bound == self.params.violation_tolerance { "violation_tolerance" } else { "loading_violation_tolerance" };
         let suggestion = match &cause {
             InstabilityCause::SolverBudget { .. } => format!(
-                "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.violation_tolerance (now {:.1e}), or lower method.time_step (now {:.3e} s): fewer contacts change per step",
-                self.params.max_iterations, self.params.tolerance, self.params.violation_tolerance, self.dt
+                "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), or lower method.time_step (now {:.3e} s): fewer contacts change per step",
+                self.params.max_iterations, self.params.tolerance, self.dt
             ),
             InstabilityCause::Overlap { .. } => format!(
-                "lower method.time_step (now {:.3e} s) so that grains move less per step, or tighten method.violation_tolerance (now {:.1e})",
-                self.dt, self.params.violation_tolerance
+                "lower method.time_step (now {:.3e} s) so that grains move less per step, or tighten method.{field} (now {bound:.1e})",
+                self.dt
             ),
             _ => format!("lower method.time_step (now {:.3e} s)", self.dt),
         };
@@ -661,15 +669,9 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
     let no = |field: String, what: &str| {
         Err(EngineError::Build { field, reason: format!("{what} is not available with method \"cd\" yet; use method \"dem\"") })
     };
-    // The biaxial and triaxial loadings need a looser violation bound than their preparation's
-    // equilibrium allows: from a 400-disk preparation at rest, the loading at the default bound
-    // 1e-6 stalls (step 36; at relaxation 0.7, step 362, each after 200,000 sweeps; without the
-    // gap restoration it runs at relaxation 0.7, about 3,000 sweeps a step), while at 1e-4 it
-    // runs 15% of strain in 940 steps of about 50 sweeps — but at that bound a preparation
-    // creeps and never meets its equilibrium criterion. They wait for solver settings per
-    // stage. Plane shear needs the cell servo or rough walls.
+    // Plane shear needs the cell servo (periodic) or grains glued to the walls (rough walls).
     use crate::scene::Experiment;
-    if let Some(e @ (Experiment::Triaxial { .. } | Experiment::PlaneShear { .. })) = &scene.experiment {
+    if let Some(e @ Experiment::PlaneShear { .. }) = &scene.experiment {
         return no("experiment.kind".into(), &format!("the {} experiment", e.kind(scene.dim)));
     }
     for stage in &scene.stages {
@@ -809,6 +811,17 @@ impl Simulation for Cd {
         }
         self.laws.set_friction(controls.friction);
         self.laws.set_inelastic(controls.local_damping.is_some_and(|a| a > 0.0));
+        Ok(())
+    }
+
+    /// Applies the stage's controls, and the violation bound of its kind: an experiment's
+    /// loading stage (one that does not run until equilibrium) takes
+    /// `loading_violation_tolerance`, every other stage `violation_tolerance`.
+    fn begin_stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
+        self.apply_controls(&stage.controls)?;
+        let loading = self.experiment && stage.equilibrium.is_none();
+        self.solver.settings.violation_tolerance =
+            if loading { self.params.loading_violation_tolerance } else { self.params.violation_tolerance };
         Ok(())
     }
 
