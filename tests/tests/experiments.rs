@@ -248,11 +248,19 @@ fn contact_dynamics_deposits_spheres_like_dem() {
     assert!(r.stiffness_number.is_none(), "rigid grains have no stiffness number");
 }
 
-/// The isotropic compression of 200 frictionless disks (d 0.8-1.2 mm) by four stress-controlled
-/// frictionless walls to 100 Pa, no gravity, run by DEM (k_n = 1e5 N/m: stiffness number 1e3) and by contact
-/// dynamics (rigid disks) from the same scene, method section aside.
+/// The isotropic compression of 200 disks (frictionless during it) by four stress-controlled
+/// frictionless walls to 100 Pa, no gravity, run by DEM (k_n = 1e5 N/m: stiffness number 1e3)
+/// and by contact dynamics (rigid disks) from the same scene, method section aside.
 fn isotropic_2d(method: serde_json::Value) -> ExperimentResult {
-    let (r, samples) = run(json!({
+    let (r, samples) = run(disks_2d(method, json!({"kind": "isotropic", "preparation": {"pressure": 100.0, "friction": 0.0}})));
+    assert!(samples.iter().all(|s| s.stage.as_deref() == Some("preparation")));
+    r
+}
+
+/// 200 disks (d 0.8-1.2 mm, μ = 0.5, e = 0.5) in a 21 mm box with frictionless walls, no
+/// gravity, running `experiment` with `method`, sampled every 5 ms.
+fn disks_2d(method: serde_json::Value, experiment: serde_json::Value) -> serde_json::Value {
+    json!({
         "dimension": 2,
         "method": method,
         "materials": {
@@ -261,12 +269,10 @@ fn isotropic_2d(method: serde_json::Value) -> ExperimentResult {
         },
         "particles": [{"material": "disks", "count": 200, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3}, "placement": {"kind": "random"}}],
         "container": {"min": [0, 0], "max": [0.021, 0.021], "wall_material": "platen"},
-        "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0, "friction": 0.0}},
-        "sampling": {"every_time": 0.1},
+        "experiment": experiment,
+        "sampling": {"every_time": 0.005},
         "seed": 3
-    }));
-    assert!(samples.iter().all(|s| s.stage.as_deref() == Some("preparation")));
-    r
+    })
 }
 
 /// Both end at equilibrium at the target pressure (1%), and the rigid packing is the DEM one at
@@ -299,21 +305,8 @@ fn contact_dynamics_prepares_the_isotropic_packing_of_dem() {
 /// 400-disk comparison in the note agrees within 8%).
 #[test]
 fn contact_dynamics_runs_the_biaxial_test_of_dem() {
-    let scene = |method: serde_json::Value| {
-        json!({
-            "dimension": 2,
-            "method": method,
-            "materials": {
-                "disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5},
-                "platen": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.0}
-            },
-            "particles": [{"material": "disks", "count": 200, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.021, 0.021], "wall_material": "platen"},
-            "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": 0.15},
-            "sampling": {"every_time": 0.005},
-            "seed": 3
-        })
-    };
+    let biaxial = json!({"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": 0.15});
+    let scene = |method: serde_json::Value| disks_2d(method, biaxial.clone());
     let (cd, _) = run(scene(json!({"kind": "cd", "threads": 1})));
     let (dem, _) = run(scene(json!({"kind": "dem", "threads": 1})));
     eprintln!("cd {}\ndem {}", serde_json::to_string(&cd).unwrap_or_default(), serde_json::to_string(&dem).unwrap_or_default());
