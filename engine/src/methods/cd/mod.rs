@@ -816,12 +816,14 @@ impl Simulation for Cd {
 
     /// Applies the stage's controls, and the violation bound of its kind: an experiment's
     /// loading stage (one that does not run until equilibrium) takes
-    /// `loading_violation_tolerance`, every other stage `violation_tolerance`.
+    /// `loading_violation_tolerance`, every other stage `violation_tolerance`. The stage's first
+    /// equilibrium check measures from its start.
     fn begin_stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
         self.apply_controls(&stage.controls)?;
         let loading = self.experiment && stage.equilibrium.is_none();
         self.solver.settings.violation_tolerance =
             if loading { self.params.loading_violation_tolerance } else { self.params.violation_tolerance };
+        self.window.open(&self.p.vel, self.walls.len());
         Ok(())
     }
 
