@@ -111,14 +111,24 @@ struct CdBenchResult {
     bytes_per_particle: f64,
 }
 
+/// The benchmark scene `make` builds for the thread count asked (all cores by default), the
+/// threads it gets after the job's budget, and the pool it runs in — as in a job: the whole run
+/// inside one pool, not a hand-off to the method's pool per step.
+fn prepare(
+    threads: Option<usize>,
+    make: impl FnOnce(usize) -> serde_json::Value,
+) -> anyhow::Result<(sable_engine::scene::Scene, usize, rayon::ThreadPool)> {
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let mut scene = parse_scene(&make(threads).to_string()).map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
+    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
+    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
+    Ok((scene, threads, pool))
+}
+
 /// `sable bench cd`: the dense pile of [`cd_benchmark`], `warmup` steps untimed, then `steps`
 /// timed; the solver's sweeps and contacts are summed step by step.
 pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
-    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let mut scene = parse_scene(&cd_benchmark(a.particles, a.steps, threads).to_string())
-        .map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
-    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
-    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
+    let (scene, threads, pool) = prepare(a.threads, |t| cd_benchmark(a.particles, a.steps, t))?;
     let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
     let mut sim = pool.install(|| Cd::new(&scene, params))?;
     pool.install(|| (0..a.warmup).try_for_each(|_| sim.step()))?;
@@ -170,12 +180,7 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
 
 /// `sable bench dem`.
 pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
-    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let mut scene = parse_scene(&dem_benchmark(a.particles, a.steps, threads).to_string())
-        .map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
-    // As in a job: the whole run inside one pool, not a hand-off to the method's pool per step.
-    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
-    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
+    let (scene, threads, pool) = prepare(a.threads, |t| dem_benchmark(a.particles, a.steps, t))?;
     let Method::Dem(params) = &scene.method else { anyhow::bail!("the DEM benchmark scene must use method dem") };
     let mut sim = pool.install(|| Dem::new(&scene, params))?;
     if let Some(path) = &a.lammps_data {
