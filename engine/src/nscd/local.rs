@@ -4,13 +4,17 @@
 //! At one contact, with the others frozen, the local velocity is affine in the local impulse:
 //! `U = u + W r`, `u` the velocity the contact would have without its own impulse and `W` the
 //! local block of the Delassus operator. The laws, in the local frame `(n, t1, t2)`:
-//! - **Signorini at velocity level**, shifted by the cohesion: with `rho = r_n + c >= 0`,
+//! - **Signorini at velocity level**, shifted by the cohesion: with `rho = r_n + c >= 0` (the
+//!   contact's part of the normal impulse; with a liquid, below, `r_n + c + k U_n`),
 //!   `U_n >= b`, `rho (U_n - b) = 0`. `b = -e min(u_n^-, 0)` is Moreau's formal-velocity
 //!   condition `(U_n + e u_n^-) / (1 + e) >= 0` for the normal restitution `e` and the velocity
 //!   `u_n^-` at the start of the step; `c` is the impulse of a cohesive force over the step
 //!   (`F_0 h` for a constant attraction F_0 within D_0);
 //! - **Coulomb**: `|r_t| <= mu rho`; where `|r_t| < mu rho` the contact sticks (`U_t = 0`),
-//!   otherwise it slides with `U_t` opposite to `r_t`.
+//!   otherwise it slides with `U_t` opposite to `r_t`;
+//! - **viscous liquid** (lubrication, N 1.9-1.11), implicit: a normal impulse `-k U_n` on top of
+//!   the contact's, `k` the lubrication coefficient times the step (kg), so that the normal
+//!   impulse is `r_n = rho - c - k U_n`. The friction cone bounds the contact's part `rho`.
 //!
 //! For two spheres (or disks), or a sphere and a wall, `W` is diagonal in the contact frame:
 //! translations act on every direction alike (`1/m_i + 1/m_j`), the spins only on the
@@ -18,6 +22,10 @@
 //! another. Then the normal part decouples and the tangential part is isotropic, so the
 //! solution below — normal impulse from the Signorini graph, then the sticking impulse
 //! projected on the disk of radius `mu rho` — solves the 2x2 (2D) and 3x3 (3D) problem exactly.
+//!
+//! Rolling resistance ([`Rolling`]) is a graph of its own on the moment impulse, solved as a
+//! separate block of the Gauss-Seidel sweep (its bound depends on the normal impulse as
+//! Coulomb's does).
 
 use super::frame::tangential_norm;
 use crate::math::{Real, Vec3};
@@ -50,6 +58,18 @@ pub struct LocalLaw {
     pub friction: Real,
     /// Cohesive impulse `c` over the step, N·s (>= 0): the normal impulse may go down to `-c`.
     pub cohesion: Real,
+    /// Viscous coefficient `k` over the step, kg (>= 0): the liquid's normal impulse per m/s of
+    /// approach at the end of the step.
+    pub viscosity: Real,
+}
+
+impl LocalLaw {
+    /// The contact's compressive part `rho` of a normal impulse `r_n` that leaves the normal
+    /// velocity `u_n`, N·s.
+    #[inline(always)]
+    pub fn contact_part(&self, r_n: Real, u_n: Real) -> Real {
+        r_n + self.cohesion + self.viscosity * u_n
+    }
 }
 
 /// Solves the local problem exactly: the impulse `r` (local components, N·s) such that
@@ -57,9 +77,15 @@ pub struct LocalLaw {
 /// impulse.
 #[inline(always)]
 pub fn solve(w: &Delassus, u: &Vec3, law: &LocalLaw) -> Vec3 {
-    // Normal: rho = max(0, (b - u_n)/w_n + c).
-    let rho = ((law.target - u.x) / w.n + law.cohesion).max(0.0);
-    let r_n = rho - law.cohesion;
+    // Normal, open (rho = 0): U_n = u_n + w_n (-c - k U_n). If that leaves U_n below b, the
+    // contact closes: U_n = b, r_n = (b - u_n) / w_n and rho = r_n + c + k b.
+    let open = (u.x - w.n * law.cohesion) / (1.0 + w.n * law.viscosity);
+    let (r_n, rho) = if open >= law.target {
+        (-law.cohesion - law.viscosity * open, 0.0)
+    } else {
+        let r_n = (law.target - u.x) / w.n;
+        (r_n, law.contact_part(r_n, law.target))
+    };
     // Tangential: the sticking impulse, projected on the disk |r_t| <= mu rho.
     let (mut r1, mut r2) = (-u.y / w.t, -u.z / w.t);
     let stick = (r1 * r1 + r2 * r2).sqrt();
@@ -72,13 +98,52 @@ pub fn solve(w: &Delassus, u: &Vec3, law: &LocalLaw) -> Vec3 {
     Vec3::new(r_n, r1, r2)
 }
 
+/// Rolling resistance of a contact as a graph (the rigid-plastic limit of RC 2.1.6's moment
+/// law; the elastic stiffness plays no part between rigid grains): the rolling moment impulse
+/// `m` (N·m·s on the first body, the opposite on the second) lies in the tangent plane, with
+/// `|m| <= bound rho` (`bound = mu_r R*`, m; `rho` the contact's compressive normal impulse);
+/// where `|m| < bound rho` the pair does not roll (the tangential part of `omega_i - omega_j`
+/// vanishes), otherwise it rolls against `m`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Rolling {
+    /// `mu_r R*`, m (0: no rolling resistance).
+    pub bound: Real,
+    /// Rolling block of the Delassus operator, `1/I_i + 1/I_j`, 1/(kg·m²).
+    pub w: Real,
+    /// Moment impulse, global components, N·m·s: the warm start on entry, the solution on
+    /// exit.
+    pub m: Vec3,
+}
+
+/// Solves the rolling graph exactly with the rest frozen: the moment impulse for a rolling
+/// velocity `free` (the tangential part of `omega_i - omega_j` without the contact's own
+/// moment, rad/s) and the compressive normal impulse `rho`, N·s.
+#[inline(always)]
+pub fn solve_rolling(rolling: &Rolling, free: &Vec3, rho: Real) -> Vec3 {
+    let m = -free / rolling.w;
+    let (size, limit) = (m.norm(), rolling.bound * rho.max(0.0));
+    if size > limit {
+        if size > 0.0 {
+            m * (limit / size)
+        } else {
+            Vec3::zeros()
+        }
+    } else {
+        m
+    }
+}
+
 /// How far `(r, U = u + W r)` is from satisfying the law, in velocity units (m/s): the
 /// violation of the Signorini graph (`max(0, b - U_n)`, and `U_n - b` where `rho > 0`), of the
 /// friction cone and of the sliding rule. Zero for the exact solution. For tests and
 /// diagnostics.
 pub fn law_residual(w: &Delassus, u: &Vec3, law: &LocalLaw, r: &Vec3) -> Real {
     let big_u = u + w.apply(r);
-    let rho = r.x + law.cohesion;
+    let mut rho = law.contact_part(r.x, big_u.x);
+    // Zero up to the rounding of the terms that make it.
+    if rho.abs() <= 1e-12 * (r.x.abs() + law.cohesion + law.viscosity * big_u.x.abs()) {
+        rho = 0.0;
+    }
     let mut res = (law.target - big_u.x).max(0.0);
     if rho < 0.0 {
         res = res.max(-rho * w.n);
@@ -120,6 +185,7 @@ mod tests {
                 target: if case % 3 == 0 { 0.0 } else { lcg(&mut s) },
                 friction: if case % 5 == 0 { 0.0 } else { lcg(&mut s) },
                 cohesion: if case % 4 == 0 { 0.3 * lcg(&mut s) } else { 0.0 },
+                viscosity: if case % 7 < 3 { 2.0 * lcg(&mut s) } else { 0.0 },
             };
             let r = solve(&w, &u, &law);
             let res = law_residual(&w, &u, &law, &r);
@@ -130,7 +196,7 @@ mod tests {
     #[test]
     fn known_cases() {
         let w = Delassus { n: 2.0, t: 7.0 };
-        let free = LocalLaw { target: 0.0, friction: 0.5, cohesion: 0.0 };
+        let free = LocalLaw { target: 0.0, friction: 0.5, cohesion: 0.0, viscosity: 0.0 };
         // Separating: no impulse.
         assert_eq!(solve(&w, &Vec3::new(1.0, 3.0, 0.0), &free), Vec3::zeros());
         // Approaching head-on, perfectly plastic: the impulse stops it.
@@ -146,10 +212,24 @@ mod tests {
         let r = solve(&w, &Vec3::new(-1.0, 7.0, 0.0), &free);
         assert!((r.y + 0.25).abs() < 1e-15);
         // Cohesion holds a separating contact up to the cohesive impulse.
+        // Rolling: stops a rolling velocity within the bound, or resists it at the bound.
+        let roll = Rolling { bound: 0.01, w: 4.0, m: Vec3::zeros() };
+        let m = solve_rolling(&roll, &Vec3::new(0.0, 0.0, 0.2), 10.0);
+        assert!((m.z + 0.05).abs() < 1e-15, "{m:?}");
+        let m = solve_rolling(&roll, &Vec3::new(0.0, 0.0, 2.0), 10.0);
+        assert!((m.z + 0.1).abs() < 1e-15, "{m:?}");
+        assert_eq!(solve_rolling(&roll, &Vec3::new(0.0, 0.0, 2.0), -1.0), Vec3::zeros());
         let coh = LocalLaw { cohesion: 0.2, ..free };
         let r = solve(&w, &Vec3::new(0.3, 0.0, 0.0), &coh);
         assert!((r.x + 0.15).abs() < 1e-15, "{r:?}");
         let r = solve(&w, &Vec3::new(1.0, 0.0, 0.0), &coh);
         assert!((r.x + 0.2).abs() < 1e-15, "{r:?}");
+        // A liquid of k = 0.5 kg slows an open approach: U = u / (1 + w k) = -0.5 m/s, impulse
+        // -k U = 0.25 N·s; at a target of -0.4 m/s the contact closes and takes the rest.
+        let wet = LocalLaw { viscosity: 0.5, target: -1.0, ..free };
+        let r = solve(&w, &Vec3::new(-1.0, 0.0, 0.0), &wet);
+        assert!((r.x - 0.25).abs() < 1e-15, "{r:?}");
+        let r = solve(&w, &Vec3::new(-1.0, 0.0, 0.0), &LocalLaw { target: -0.4, ..wet });
+        assert!((r.x - 0.3).abs() < 1e-15 && (wet.contact_part(r.x, -0.4) - 0.1).abs() < 1e-15, "{r:?}");
     }
 }

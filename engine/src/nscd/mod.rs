@@ -4,8 +4,8 @@
 //!
 //! - [`frame`]: the local frame of a contact (normal, tangents);
 //! - [`local`]: the laws as graphs (velocity Signorini with restitution through the formal
-//!   velocity, Coulomb friction, cohesion as a shift of the Signorini graph) and their exact
-//!   local solvers;
+//!   velocity, Coulomb friction, cohesion as a shift of the Signorini graph, rolling resistance)
+//!   and their exact local solvers;
 //! - [`nlgs`]: the non-linear Gauss-Seidel loop over the contacts of rigid bodies, with warm
 //!   start, its convergence criterion and the residual history of the step.
 //!
@@ -16,5 +16,5 @@ pub mod local;
 pub mod nlgs;
 
 pub use frame::ContactFrame;
-pub use local::{Delassus, LocalLaw};
+pub use local::{Delassus, LocalLaw, Rolling};
 pub use nlgs::{Convergence, Iterate, Mobility, Nlgs, NlgsReport, RigidContact, Side};

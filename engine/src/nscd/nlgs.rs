@@ -20,7 +20,7 @@
 //!   what the law allows, measured on each contact just before it is solved in the sweep.
 
 use super::frame::ContactFrame;
-use super::local::{self, Delassus, LocalLaw};
+use super::local::{self, Delassus, LocalLaw, Rolling};
 use crate::math::{Real, Vec3};
 
 /// The second member of a contact.
@@ -58,6 +58,8 @@ pub struct RigidContact {
     /// Impulse in local components (n, t1, t2), N·s: the warm start on entry, the solution on
     /// exit.
     pub r: Vec3,
+    /// Rolling resistance and its moment impulse ([`Rolling`]; `bound` 0: none).
+    pub rolling: Rolling,
     /// Impulse scale of the contact for the convergence criterion, N·s (see the module
     /// documentation): for a method like CD, `(|u_n| + |g| h + 1e-6 (|v_i| + |v_j|)) / w_n`,
     /// the impulse that stops its approach, one step of gravity, and the bodies' speeds at
@@ -160,6 +162,28 @@ impl RigidContact {
         }
     }
 
+    /// Applies the moment impulse `m` (on `i`; `-m` on `j`) to the bodies' spins.
+    #[inline(always)]
+    pub fn apply_moment(&self, m: &Vec3, bodies: &mut RigidBodies<'_>) {
+        let i = self.i as usize;
+        bodies.omega[i] += m * bodies.inv_inertia[i];
+        if let Side::Body(j) = self.j {
+            let j = j as usize;
+            bodies.omega[j] -= m * bodies.inv_inertia[j];
+        }
+    }
+
+    /// The rolling velocity of the contact: the tangential part of `omega_i - omega_j`, rad/s.
+    #[inline(always)]
+    pub fn rolling_velocity(&self, omega: &[Vec3]) -> Vec3 {
+        let mut w = omega[self.i as usize];
+        if let Side::Body(j) = self.j {
+            w -= omega[j as usize];
+        }
+        let n = &self.frame.n;
+        w - n * n.dot(&w)
+    }
+
     /// Force this contact exerts on `i` over a step of `h` seconds (global), N.
     pub fn force(&self, h: Real) -> Vec3 {
         self.frame.to_global(&self.r) / h
@@ -224,9 +248,19 @@ impl Nlgs {
     pub fn solve(&mut self, contacts: &mut [RigidContact], bodies: &mut RigidBodies<'_>, violation_scale: Real) -> NlgsReport {
         self.history.clear();
         let mut report = NlgsReport { contacts: contacts.len(), ..NlgsReport::default() };
-        for c in contacts.iter() {
+        for c in contacts.iter_mut() {
             if c.r != Vec3::zeros() {
                 c.apply(&c.frame.to_global(&c.r), bodies);
+            }
+            if c.rolling.bound > 0.0 {
+                // The warm moment in the current tangent plane.
+                let n = c.frame.n;
+                c.rolling.m -= n * n.dot(&c.rolling.m);
+                if c.rolling.m != Vec3::zeros() {
+                    c.apply_moment(&c.rolling.m, bodies);
+                }
+            } else {
+                c.rolling.m = Vec3::zeros();
             }
         }
         if contacts.is_empty() {
@@ -252,6 +286,23 @@ impl Nlgs {
                 }
                 size2 += r.norm_squared().max(c.scale * c.scale);
                 c.r = r;
+                if c.rolling.bound > 0.0 {
+                    // The rolling block, with the normal impulse just found (its moments
+                    // counted as impulses at the lever a_i).
+                    let free = c.rolling_velocity(bodies.omega) - c.rolling.m * c.rolling.w;
+                    let rho = c.law.contact_part(r.x, u_free.x + c.w.n * r.x);
+                    let mut m = local::solve_rolling(&c.rolling, &free, rho);
+                    if omega != 1.0 {
+                        m = c.rolling.m + (m - c.rolling.m) * omega;
+                    }
+                    let dm = m - c.rolling.m;
+                    if dm != Vec3::zeros() {
+                        c.apply_moment(&dm, bodies);
+                        change2 += dm.norm_squared() / (c.a_i * c.a_i);
+                    }
+                    size2 += m.norm_squared() / (c.a_i * c.a_i);
+                    c.rolling.m = m;
+                }
             };
             // Always forward: sweeping backward every other time (symmetric Gauss-Seidel)
             // took 40% more sweeps on the quickstart deposition.
@@ -280,7 +331,7 @@ impl Nlgs {
 /// restitution `e`, friction `mu` and cohesive impulse `c`: the formal-velocity target
 /// `b = -e min(u_n, 0)` ([`super::local`]).
 pub fn law_for(u_n: Real, e: Real, mu: Real, c: Real) -> LocalLaw {
-    LocalLaw { target: -e * u_n.min(0.0), friction: mu, cohesion: c }
+    LocalLaw { target: -e * u_n.min(0.0), friction: mu, cohesion: c, viscosity: 0.0 }
 }
 
 #[cfg(test)]
@@ -320,6 +371,7 @@ mod tests {
                 w: RigidContact::delassus(1.0, 2.0, 0.5, 1.0, 2.0, 0.5),
                 law: law_for(-1.0, 0.0, 0.0, 0.0),
                 r: Vec3::zeros(),
+                rolling: Rolling::default(),
                 scale: 0.0,
             })
             .collect();
@@ -368,6 +420,7 @@ mod tests {
             w: RigidContact::delassus(1.0 / m, 1.0 / inertia, r, 0.0, 0.0, 0.0),
             law: law_for(-0.5, 0.0, 0.2, 0.0),
             r: Vec3::zeros(),
+            rolling: Rolling::default(),
             scale: 0.0,
         }];
         let mut solver = Nlgs::new(Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, max_iterations: 100, relaxation: 1.0 });
@@ -411,6 +464,7 @@ mod tests {
             w: RigidContact::delassus_boundary(1.0 / m, 10.0, 0.1, 1.0 / big_m),
             law: law_for(-v.abs(), 0.0, 0.5, 0.0),
             r: Vec3::zeros(),
+            rolling: Rolling::default(),
             scale: 0.0,
         }];
         let mut plate = [Vec3::new(0.0, v, 0.0)];

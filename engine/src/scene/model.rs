@@ -174,6 +174,8 @@ pub struct Material {
     pub rolling: Option<Rolling>,
     /// Interstitial liquid.
     pub liquid: Option<Liquid>,
+    /// Dry cohesion.
+    pub cohesion: Option<Cohesion>,
 }
 
 /// Elastic contact law of a material.
@@ -202,6 +204,15 @@ pub struct Rolling {
     pub stiffness: Real,
     /// Rolling friction coefficient.
     pub friction: Real,
+}
+
+/// Dry cohesion (RC 2.2.3): a constant attraction within a distance of contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cohesion {
+    /// Attraction F_0, N.
+    pub force: Real,
+    /// Range D_0 beyond contact, m.
+    pub distance: Real,
 }
 
 /// Interstitial liquid parameters.

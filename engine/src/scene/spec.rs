@@ -92,6 +92,9 @@ pub struct MaterialSpec {
     /// Optional interstitial liquid (capillary bridges and lubrication).
     #[serde(default)]
     pub liquid: Option<LiquidSpec>,
+    /// Optional dry cohesion: a constant attraction within a distance (RC 2.2.3).
+    #[serde(default)]
+    pub cohesion: Option<CohesionSpec>,
 }
 
 /// The elastic part of the contact law.
@@ -123,6 +126,17 @@ pub struct RollingSpec {
     pub stiffness: f64,
     /// Rolling friction coefficient mu_r (moment limit mu_r R* f_n).
     pub friction: f64,
+}
+
+/// Dry cohesion (RC 2.2.3): a constant attraction `force` between surfaces closer than
+/// `distance`, in contact included.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CohesionSpec {
+    /// Attraction F_0, N (> 0).
+    pub force: f64,
+    /// Range D_0 beyond contact, m (>= 0).
+    pub distance: f64,
 }
 
 /// Interstitial liquid (N 1.5-1.11).

@@ -526,6 +526,11 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) ->
             roughness,
         }
     });
+    let cohesion = m.cohesion.as_ref().map(|k| {
+        c.positive(&format!("{p}.cohesion.force"), k.force);
+        c.non_negative(&format!("{p}.cohesion.distance"), k.distance);
+        Cohesion { force: k.force, distance: k.distance }
+    });
     Material {
         name: name.to_string(),
         density: m.density,
@@ -536,6 +541,7 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) ->
         limit_damping,
         rolling,
         liquid,
+        cohesion,
     }
 }
 

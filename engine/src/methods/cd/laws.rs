@@ -1,16 +1,42 @@
-//! Restitution and friction of each pair of materials for contact dynamics (the elastic
-//! constants of the materials play no part: grains are rigid).
+//! The laws of each pair of materials for contact dynamics: restitution, friction, rolling
+//! resistance and cohesion (the elastic constants of the materials play no part: grains are
+//! rigid).
 
+use crate::contact::capillary_richefeu::CapillaryRichefeu;
+use crate::contact::lubrication::Lubrication;
 use crate::math::Real;
 use crate::scene::Material;
 
-/// Restitution and friction between materials, and against the wall material; mixing as for
-/// DEM (geometric means, [`crate::contact::PairLaw::between`]).
+/// What attracts two grains of a pair of materials (both materials must carry it, as in DEM).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Attraction {
+    /// Constant attraction F_0 (N) within D_0 (m) of contact (RC 2.2.3), geometric means of
+    /// the materials'.
+    pub constant: Option<(Real, Real)>,
+    /// Capillary bridge between wet grains (N 1.5-1.8), the parameters mixed as in DEM.
+    pub capillary: Option<CapillaryRichefeu>,
+    /// Lubrication by the bridge's liquid (N 1.9-1.11; acts while the bridge holds).
+    pub lubrication: Option<Lubrication>,
+}
+
+impl Attraction {
+    /// Distance beyond contact within which the pair may attract, m.
+    pub fn range(&self) -> Real {
+        let constant = self.constant.map_or(0.0, |(_, d)| d);
+        constant.max(self.capillary.map_or(0.0, |c| c.rupture_distance))
+    }
+}
+
+/// Restitution, friction, rolling friction and attraction between materials, and against the
+/// wall material; mixing as for DEM (geometric means, [`crate::contact::PairLaw::between`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairLaws {
     n: usize,
     restitution: Vec<Real>,
     friction: Vec<Real>,
+    /// Rolling friction coefficient mu_r (0: none; both materials must define `rolling`).
+    rolling: Vec<Real>,
+    attraction: Vec<Attraction>,
     /// The materials' own friction, restored when a stage's override ends.
     base_friction: Vec<Real>,
     wall_material: usize,
@@ -26,15 +52,30 @@ impl PairLaws {
         let gm = |x: Real, y: Real| (x * y).sqrt();
         let mut restitution = vec![0.0; n * n];
         let mut base_friction = vec![0.0; n * n];
+        let mut rolling = vec![0.0; n * n];
+        let mut attraction = vec![Attraction::default(); n * n];
         for (a, ma) in materials.iter().enumerate() {
             for (b, mb) in materials.iter().enumerate() {
-                restitution[a * n + b] = gm(ma.restitution, mb.restitution);
-                base_friction[a * n + b] = gm(ma.friction, mb.friction);
+                let k = a * n + b;
+                restitution[k] = gm(ma.restitution, mb.restitution);
+                base_friction[k] = gm(ma.friction, mb.friction);
+                if let (Some(ra), Some(rb)) = (ma.rolling, mb.rolling) {
+                    rolling[k] = gm(ra.friction, rb.friction);
+                }
+                let constant = match (ma.cohesion, mb.cohesion) {
+                    (Some(ca), Some(cb)) => Some((gm(ca.force, cb.force), gm(ca.distance, cb.distance))),
+                    _ => None,
+                };
+                // The liquid's parameters as DEM mixes them.
+                let dem = crate::contact::PairLaw::between(ma, mb);
+                attraction[k] = Attraction { constant, capillary: dem.capillary, lubrication: dem.lubrication };
             }
         }
         let mut laws = Self {
             n,
             restitution,
+            rolling,
+            attraction,
             friction: base_friction.clone(),
             base_friction,
             wall_material: wall_material.min(n.saturating_sub(1)),
@@ -84,6 +125,36 @@ impl PairLaws {
     pub fn wall(&self, a: u16) -> (Real, Real) {
         let k = a as usize * self.n + self.wall_material;
         (self.restitution(k), self.base_friction[k])
+    }
+
+    /// Rolling friction coefficient between particles of materials `a` and `b` (0: none).
+    #[inline(always)]
+    pub fn rolling(&self, a: u16, b: u16) -> Real {
+        self.rolling[a as usize * self.n + b as usize]
+    }
+
+    /// Rolling friction coefficient between a particle of material `a` and a wall (0: none).
+    #[inline(always)]
+    pub fn wall_rolling(&self, a: u16) -> Real {
+        self.rolling[a as usize * self.n + self.wall_material]
+    }
+
+    /// What attracts particles of materials `a` and `b`.
+    #[inline(always)]
+    pub fn attraction(&self, a: u16, b: u16) -> &Attraction {
+        &self.attraction[a as usize * self.n + b as usize]
+    }
+
+    /// What attracts a particle of material `a` to a wall (no capillary bridges with walls, as
+    /// in DEM).
+    #[inline(always)]
+    pub fn wall_attraction(&self, a: u16) -> Attraction {
+        Attraction { capillary: None, lubrication: None, ..self.attraction[a as usize * self.n + self.wall_material] }
+    }
+
+    /// Largest range of attraction beyond contact over all pairs, m.
+    pub fn range(&self) -> Real {
+        self.attraction.iter().map(Attraction::range).fold(0.0, Real::max)
     }
 
     /// True if some particle pair has friction.

@@ -35,7 +35,14 @@
 //! interval, [`balance`]; an experiment's loading stages take the looser
 //! `loading_violation_tolerance`, [`Cd::begin_stage`]). Not yet with this method (rejected at
 //! build with the field named): plane shear, shearing walls, cell deformation, the drum, the
-//! granule, rolling resistance, liquid, cohesion.
+//! granule.
+//!
+//! Rolling resistance is a graph on the contact's moment impulse ([`crate::nscd::Rolling`]).
+//! Cohesion — the constant attraction F_0 within D_0 of RC 2.2.3, and the capillary bridges of
+//! wet grains (N 1.5-1.8, formed on contact, broken beyond the rupture distance) — shifts the
+//! Signorini graph by the attraction over the step at the gap of the step's start; a pair
+//! within range but apart is held by [`open_law`]. The bridges' lubrication (N 1.9-1.11) acts
+//! implicitly on the end-of-step normal velocity ([`crate::nscd::LocalLaw::viscosity`]).
 //!
 //! Contacts interpenetrated beyond [`SLOP`] of the radius are pulled back by [`RESTORE`] of the
 //! excess per step ([`restoring`]).
@@ -52,7 +59,7 @@ use crate::geometry::{Domain, NeighborList};
 use crate::loading::Wall;
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{law_for, RigidBodies};
-use crate::nscd::{ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Side};
+use crate::nscd::{ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
@@ -98,6 +105,44 @@ fn restoring(mut law: LocalLaw, g: Real, radius: Real, h: Real) -> LocalLaw {
     law
 }
 
+/// The law of a pair that is open over the step but attracts (`cohesion` > 0, N·s): the
+/// Signorini bound at position level, `U_n >= -(g + (1 - theta) h u_n) / (theta h)` — the
+/// approach that closes the gap `g` by the end of the step under the theta-scheme — so that the
+/// attraction acts freely (`r_n = -cohesion`) unless it would pull the grains into each other,
+/// where the contact stops them. `ahead` is `(1 - theta) h`, `theta_h` is `theta h`, s. An impact
+/// within the range of attraction is inelastic.
+fn open_law(g: Real, u_n: Real, ahead: Real, theta_h: Real, mu: Real, cohesion: Real) -> LocalLaw {
+    LocalLaw { target: -(g + ahead * u_n) / theta_h, friction: mu, cohesion, viscosity: 0.0 }
+}
+
+/// What a pair carried at the end of a step, for the next one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Held {
+    /// The pair ([`key_of`]).
+    key: (u32, u32),
+    /// Impulse, global components, N·s (the warm start).
+    r: Vec3,
+    /// Rolling moment impulse, N·m·s (the warm start).
+    m: Vec3,
+    /// The contact pressed (compressive normal impulse): the next step's contact is a lasting
+    /// one, without restitution.
+    pressed: bool,
+    /// A capillary bridge joins the pair.
+    bridge: bool,
+}
+
+/// What a contact of the step is, beside its impulse.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Status {
+    /// The grains touch (gap within [`ALERT`] at the start of the step).
+    touching: bool,
+    /// A capillary bridge joins them.
+    bridge: bool,
+    /// The contact's part of the normal impulse is compressive at the end of the step
+    /// ([`LocalLaw::contact_part`]; set after the solve).
+    pressed: bool,
+}
+
 /// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
 const WALL_KEY: u32 = u32::MAX;
 
@@ -136,9 +181,10 @@ pub struct Cd {
     force_rebuild: bool,
     /// The contacts of the last step, with their impulses.
     contacts: Vec<RigidContact>,
-    /// Impulse of each contact of the step before (global components, N·s), sorted by its
-    /// pair ([`key_of`]).
-    previous: Vec<((u32, u32), Vec3)>,
+    /// What each contact of the last step is (parallel to `contacts`).
+    status: Vec<Status>,
+    /// What each pair carried at the end of the last step, sorted by pair ([`key_of`]).
+    previous: Vec<Held>,
     /// Velocities and spins at the start of the step (scratch).
     vel_start: Vec<Vec3>,
     omega_start: Vec<Vec3>,
@@ -187,8 +233,10 @@ impl Cd {
             });
         }
         let skin = params.skin * 2.0 * rmin;
+        let laws = PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None);
+        let reach = laws.range();
         for a in 0..scene.dim {
-            let need = 2.0 * (2.0 * rmax + skin);
+            let need = 2.0 * (2.0 * rmax + reach + skin);
             if c.periodic[a] && domain.length(a) < need {
                 return Err(EngineError::Build {
                     field: format!("container.max[{a}]"),
@@ -230,7 +278,7 @@ impl Cd {
             gravity: scene.gravity,
             params: params.clone(),
             materials: scene.materials.clone(),
-            laws: PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None),
+            laws,
             p,
             len0: domain.hi - domain.lo,
             domain,
@@ -238,9 +286,10 @@ impl Cd {
             wall_mobility: vec![Mobility::FIXED; walls.len()],
             walls,
             wall_mass,
-            nl: NeighborList::new(0.0, skin),
+            nl: NeighborList::new(reach, skin),
             force_rebuild: true,
             contacts: Vec::new(),
+            status: Vec::new(),
             previous: Vec::new(),
             vel_start: vec![Vec3::zeros(); n],
             omega_start: vec![Vec3::zeros(); n],
@@ -321,7 +370,8 @@ impl Cd {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
-            + self.previous.capacity() * std::mem::size_of::<((u32, u32), Vec3)>()
+            + self.status.capacity() * std::mem::size_of::<Status>()
+            + self.previous.capacity() * std::mem::size_of::<Held>()
             + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
             + self.window.heap_bytes()
     }
@@ -387,10 +437,12 @@ impl Cd {
     /// documentation), with their warm-start impulses; records the interpenetration.
     fn detect(&mut self) {
         let h = self.h;
-        let ahead = (1.0 - self.params.theta) * h;
+        let theta = self.params.theta;
+        let ahead = (1.0 - theta) * h;
         let gh = self.gravity.norm() * h;
         let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
         self.contacts.clear();
+        self.status.clear();
         let (mut worst, mut sum, mut count): (Real, Real, usize) = (0.0, 0.0, 0);
         let mut overlap = |g: Real, r: Real| {
             if g < 0.0 {
@@ -401,10 +453,12 @@ impl Cd {
             count += 1;
         };
         let previous = &self.previous;
-        // The impulse the pair carried at the last step, if it did: the warm start, and the
-        // mark of a lasting contact, whose impact is over (no restitution).
-        let held = |key: (u32, u32), frame: &ContactFrame| {
-            previous.binary_search_by(|e| e.0.cmp(&key)).ok().map(|k| frame.to_local(&previous[k].1))
+        // What the pair carried at the last step, if anything: the warm start, and whether it
+        // was pressed (a lasting contact, whose impact is over: no restitution) or bridged.
+        let held = |key: (u32, u32)| previous.binary_search_by(|e| e.key.cmp(&key)).ok().map(|k| previous[k]);
+        let mut push = |c: RigidContact, touching: bool, bridge: bool| {
+            self.contacts.push(c);
+            self.status.push(Status { touching, bridge, pressed: false });
         };
         for i in 0..p.len() {
             let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
@@ -414,25 +468,53 @@ impl Cd {
                 let dist = d.norm();
                 let (ri, rj) = (p.radius[i], p.radius[j]);
                 let g = dist - ri - rj;
-                let alert = ALERT * ri.min(rj);
-                if g > alert && ahead == 0.0 {
+                let r = ri.min(rj);
+                let attraction = laws.attraction(p.material[i], p.material[j]);
+                if g > ALERT * r && ahead == 0.0 && g > attraction.range() {
                     continue;
                 }
                 let n = d / dist;
                 let drive = Vec3::new(domain.image_velocity(pr.image[1]), 0.0, 0.0);
                 // The spins do not move the contact point along the normal of round bodies.
                 let u_n = (p.vel[i] - p.vel[j] - drive).dot(&n);
-                if g + ahead * u_n > alert {
+                let alert = ALERT * r;
+                let closing = g + ahead * u_n <= alert;
+                if !closing && g > attraction.range() {
                     continue;
                 }
-                overlap(g, ri.min(rj));
-                let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
+                let old = held((i as u32, pr.j));
+                let wet = p.wet[i] && p.wet[j];
+                // A capillary bridge forms on contact and holds up to its rupture distance.
+                let bridge =
+                    attraction.capillary.filter(|cap| wet && (g <= alert || (old.is_some_and(|o| o.bridge) && g <= cap.rupture_distance)));
+                let cohesion = h
+                    * (attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0)
+                        - bridge.map_or(0.0, |cap| cap.force(g, ri, rj)));
+                if !closing && cohesion == 0.0 {
+                    continue;
+                }
                 let frame = ContactFrame::new(dim, n);
+                let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
                 let (e, mu) = laws.pair(p.material[i], p.material[j]);
-                let key = (i as u32, pr.j);
-                let warm = held(key, &frame);
                 let w = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], a_i, p.inv_mass[j], p.inv_inertia[j], a_j);
-                self.contacts.push(RigidContact {
+                let mut law = if closing {
+                    overlap(g, r);
+                    let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
+                    restoring(law_for(u_n, e, mu, cohesion), g, r, h)
+                } else {
+                    open_law(g, u_n, ahead, theta * h, mu, cohesion)
+                };
+                // The bridge's liquid resists the approach, implicitly (force per m/s of
+                // approach at the gap of the step's start, times the step).
+                if let (true, Some(lub)) = (bridge.is_some(), attraction.lubrication) {
+                    law.viscosity = h * lub.force(g, 1.0, ri, rj);
+                }
+                let rolling = Rolling {
+                    bound: laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj),
+                    w: p.inv_inertia[i] + p.inv_inertia[j],
+                    m: old.map_or(Vec3::zeros(), |o| o.m),
+                };
+                let contact = RigidContact {
                     i: i as u32,
                     j: Side::Body(pr.j),
                     frame,
@@ -440,10 +522,12 @@ impl Cd {
                     a_j,
                     drive,
                     w,
-                    law: restoring(law_for(u_n, if warm.is_some() { 0.0 } else { e }, mu, 0.0), g, ri.min(rj), h),
-                    r: warm.unwrap_or_default(),
-                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n,
-                });
+                    law,
+                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
+                    rolling,
+                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n + cohesion,
+                };
+                push(contact, g <= alert, bridge.is_some());
             }
         }
         for (w, wall) in self.walls.iter().enumerate() {
@@ -453,20 +537,34 @@ impl Cd {
                 let r = p.radius[i];
                 let dist = (p.pos[i][a] - wall.position) * n[a];
                 let g = dist - r;
-                if g > ALERT * r && ahead == 0.0 {
+                let attraction = laws.wall_attraction(p.material[i]);
+                if g > ALERT * r && ahead == 0.0 && g > attraction.range() {
                     continue;
                 }
                 let u_n = (p.vel[i] - wall.velocity).dot(&n);
-                if g + ahead * u_n > ALERT * r {
+                let alert = ALERT * r;
+                let closing = g + ahead * u_n <= alert;
+                if !closing && g > attraction.range() {
                     continue;
                 }
-                overlap(g, r);
+                let cohesion = h * attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0);
+                if !closing && cohesion == 0.0 {
+                    continue;
+                }
                 let frame = ContactFrame::new(dim, n);
                 let (e, mu) = laws.wall(p.material[i]);
-                let key = (i as u32, WALL_KEY - w as u32);
-                let warm = held(key, &frame);
+                let old = held((i as u32, WALL_KEY - w as u32));
                 let wd = RigidContact::delassus_boundary(p.inv_mass[i], p.inv_inertia[i], dist, self.wall_mobility[w].inv_mass);
-                self.contacts.push(RigidContact {
+                let law = if closing {
+                    overlap(g, r);
+                    let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
+                    restoring(law_for(u_n, e, mu, cohesion), g, r, h)
+                } else {
+                    open_law(g, u_n, ahead, theta * h, mu, cohesion)
+                };
+                let rolling =
+                    Rolling { bound: laws.wall_rolling(p.material[i]) * r, w: p.inv_inertia[i], m: old.map_or(Vec3::zeros(), |o| o.m) };
+                let contact = RigidContact {
                     i: i as u32,
                     j: Side::Boundary(w as u32),
                     frame,
@@ -474,10 +572,12 @@ impl Cd {
                     a_j: 0.0,
                     drive: Vec3::zeros(),
                     w: wd,
-                    law: restoring(law_for(u_n, if warm.is_some() { 0.0 } else { e }, mu, 0.0), g, r, h),
-                    r: warm.unwrap_or_default(),
-                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + wall.velocity.norm())) / wd.n,
-                });
+                    law,
+                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
+                    rolling,
+                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + wall.velocity.norm())) / wd.n + cohesion,
+                };
+                push(contact, g <= alert, false);
             }
         }
         self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
@@ -585,10 +685,21 @@ impl Cd {
                 self.domain.lo[a] = wall.position;
             }
         }
+        // Which contacts press, from their impulses and end-of-step normal velocities.
+        for (c, s) in self.contacts.iter().zip(self.status.iter_mut()) {
+            let u_n = c.frame.n.dot(&c.relative_velocity(&self.p.vel, &self.p.omega, &self.wall_vel));
+            s.pressed = c.law.contact_part(c.r.x, u_n) > 0.0;
+        }
         // Warm start of the next step: this step's impulses by pair.
         self.previous.clear();
-        self.previous.extend(self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| (key_of(c), c.frame.to_global(&c.r))));
-        self.previous.sort_unstable_by_key(|e| e.0);
+        self.previous.extend(
+            self.contacts
+                .iter()
+                .zip(&self.status)
+                .filter(|(c, s)| c.r != Vec3::zeros() || c.rolling.m != Vec3::zeros() || s.bridge || s.pressed)
+                .map(|(c, s)| Held { key: key_of(c), r: c.frame.to_global(&c.r), m: c.rolling.m, pressed: s.pressed, bridge: s.bridge }),
+        );
+        self.previous.sort_unstable_by_key(|e| e.key);
         self.step += 1;
         self.time += h;
         self.check()
@@ -627,13 +738,18 @@ impl Cd {
         let h = self.h;
         self.contacts
             .iter()
-            .filter(|c| c.r != Vec3::zeros())
-            .map(|c| {
+            .zip(&self.status)
+            .filter_map(|(c, s)| {
                 let (j, branch) = match c.j {
                     Side::Body(j) => (Some(j), c.frame.n * (c.a_i + c.a_j)),
                     Side::Boundary(_) => (None, c.frame.n * c.a_i),
                 };
-                ContactRecord { i: c.i, j, force: c.force(h), branch, touching: c.r.x > 0.0, bonded: false }
+                // Touching: in contact at the start of the step, or pressed by its end. Bonded:
+                // a capillary bridge, or cohesion holding grains in contact (whose net force
+                // may be zero: the attraction balanced by the contact's reaction).
+                let touching = s.touching || s.pressed;
+                let bonded = s.bridge || (touching && c.law.cohesion > 0.0);
+                (c.r != Vec3::zeros() || bonded).then(|| ContactRecord { i: c.i, j, force: c.force(h), branch, touching, bonded })
             })
             .collect()
     }
@@ -688,14 +804,6 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
     for w in &c.walls {
         if matches!(w.motion, WallMotion::Shearing { .. }) {
             return no(format!("container.walls.{}", w.face.name()), "a shearing wall");
-        }
-    }
-    for m in &scene.materials {
-        if m.rolling.is_some() {
-            return no(format!("materials.{}.rolling", m.name), "rolling resistance");
-        }
-        if m.liquid.is_some() {
-            return no(format!("materials.{}.liquid", m.name), "interstitial liquid");
         }
     }
     Ok(())

@@ -147,6 +147,14 @@ impl Dem {
     /// Builds the simulation: places particles, chooses the time step, builds the neighbour list
     /// and evaluates the initial forces.
     pub fn new(scene: &Scene, params: &DemParams) -> Result<Self, EngineError> {
+        if let Some(m) = scene.materials.iter().find(|m| m.cohesion.is_some()) {
+            // RC 2.2.3's constant attraction is a law for rigid grains; soft contacts would need
+            // RC's own adhesion law (a force growing with the overlap), which DEM lacks.
+            return Err(EngineError::Build {
+                field: format!("materials.{}.cohesion", m.name),
+                reason: "the constant cohesion F_0 within D_0 is a law of rigid grains: use method \"cd\"".into(),
+            });
+        }
         let c = &scene.container;
         let (p, domain) = world::initial_particles(scene)?;
         let table = ContactTable::new(&scene.materials);
