@@ -19,6 +19,9 @@
 //!   fraction of the mean diameter, the contacts would interpenetrate over the step beyond
 //!   what the law allows, measured on each contact just before it is solved in the sweep.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::colour::Colours;
 use super::frame::ContactFrame;
 use super::local::{self, Delassus, LocalLaw, Rolling};
 use crate::math::{Real, Vec3};
@@ -101,6 +104,167 @@ pub struct RigidBodies<'a> {
     pub boundary_mobility: &'a [Mobility],
 }
 
+/// What the sweep reads and changes of the bodies: plain slices when one thread sweeps
+/// ([`RigidBodies`]), shared cells when a colour is swept by several ([`SolveBodies`]).
+/// Monomorphised: the serial sweep pays nothing for the parallel one.
+pub(crate) trait BodyStore {
+    /// Velocity of body `i`, m/s.
+    fn vel(&self, i: usize) -> Vec3;
+    /// Spin of body `i`, rad/s.
+    fn omega(&self, i: usize) -> Vec3;
+    /// Velocity of boundary `k`, m/s.
+    fn boundary_vel(&self, k: usize) -> Vec3;
+    /// Adds `dv` to the velocity of body `i`.
+    fn add_vel(&mut self, i: usize, dv: Vec3);
+    /// Adds `dw` to the spin of body `i`.
+    fn add_omega(&mut self, i: usize, dw: Vec3);
+    /// Adds `dv` to the velocity of boundary `k`.
+    fn add_boundary_vel(&mut self, k: usize, dv: Vec3);
+    /// 1/m of body `i`, 1/kg.
+    fn inv_mass(&self, i: usize) -> Real;
+    /// 1/I of body `i`, 1/(kg·m²).
+    fn inv_inertia(&self, i: usize) -> Real;
+    /// How boundary `k` may move.
+    fn mobility(&self, k: usize) -> Mobility;
+}
+
+impl BodyStore for RigidBodies<'_> {
+    #[inline(always)]
+    fn vel(&self, i: usize) -> Vec3 {
+        self.vel[i]
+    }
+    #[inline(always)]
+    fn omega(&self, i: usize) -> Vec3 {
+        self.omega[i]
+    }
+    #[inline(always)]
+    fn boundary_vel(&self, k: usize) -> Vec3 {
+        self.boundary_vel[k]
+    }
+    #[inline(always)]
+    fn add_vel(&mut self, i: usize, dv: Vec3) {
+        self.vel[i] += dv;
+    }
+    #[inline(always)]
+    fn add_omega(&mut self, i: usize, dw: Vec3) {
+        self.omega[i] += dw;
+    }
+    #[inline(always)]
+    fn add_boundary_vel(&mut self, k: usize, dv: Vec3) {
+        self.boundary_vel[k] += dv;
+    }
+    #[inline(always)]
+    fn inv_mass(&self, i: usize) -> Real {
+        self.inv_mass[i]
+    }
+    #[inline(always)]
+    fn inv_inertia(&self, i: usize) -> Real {
+        self.inv_inertia[i]
+    }
+    #[inline(always)]
+    fn mobility(&self, k: usize) -> Mobility {
+        self.boundary_mobility[k]
+    }
+}
+
+impl BodyStore for &SolveBodies<'_> {
+    #[inline(always)]
+    fn vel(&self, i: usize) -> Vec3 {
+        self.vel[i].get()
+    }
+    #[inline(always)]
+    fn omega(&self, i: usize) -> Vec3 {
+        self.omega[i].get()
+    }
+    #[inline(always)]
+    fn boundary_vel(&self, k: usize) -> Vec3 {
+        self.boundary_vel[k].get()
+    }
+    #[inline(always)]
+    fn add_vel(&mut self, i: usize, dv: Vec3) {
+        self.vel[i].add(dv);
+    }
+    #[inline(always)]
+    fn add_omega(&mut self, i: usize, dw: Vec3) {
+        self.omega[i].add(dw);
+    }
+    #[inline(always)]
+    fn add_boundary_vel(&mut self, k: usize, dv: Vec3) {
+        self.boundary_vel[k].add(dv);
+    }
+    #[inline(always)]
+    fn inv_mass(&self, i: usize) -> Real {
+        self.inv_mass[i]
+    }
+    #[inline(always)]
+    fn inv_inertia(&self, i: usize) -> Real {
+        self.inv_inertia[i]
+    }
+    #[inline(always)]
+    fn mobility(&self, k: usize) -> Mobility {
+        self.boundary_mobility[k]
+    }
+}
+
+/// A vector whose components threads may read and write: each `f64` held in an `AtomicU64`,
+/// loaded and stored with relaxed ordering (plain moves on common hardware). The sweep never
+/// lets two threads at one body at the same time ([`super::colour`]); the atomics make that a
+/// matter of correctness, not of memory safety, and rayon's joins order the colours.
+#[derive(Debug, Default)]
+pub(crate) struct SharedVec3([AtomicU64; 3]);
+
+impl SharedVec3 {
+    fn new(v: &Vec3) -> Self {
+        Self([AtomicU64::new(v.x.to_bits()), AtomicU64::new(v.y.to_bits()), AtomicU64::new(v.z.to_bits())])
+    }
+
+    #[inline(always)]
+    fn get(&self) -> Vec3 {
+        let c = |k: usize| Real::from_bits(self.0[k].load(Ordering::Relaxed));
+        Vec3::new(c(0), c(1), c(2))
+    }
+
+    #[inline(always)]
+    fn add(&self, dv: Vec3) {
+        let v = self.get() + dv;
+        for (k, x) in v.iter().enumerate() {
+            self.0[k].store(x.to_bits(), Ordering::Relaxed);
+        }
+    }
+}
+
+/// The bodies as a solve sees them: [`RigidBodies`] with its velocities copied into cells that
+/// the coloured sweep shares between threads, and copied back when the solve ends.
+pub(crate) struct SolveBodies<'a> {
+    vel: Vec<SharedVec3>,
+    omega: Vec<SharedVec3>,
+    boundary_vel: Vec<SharedVec3>,
+    inv_mass: &'a [Real],
+    inv_inertia: &'a [Real],
+    boundary_mobility: &'a [Mobility],
+}
+
+impl<'a> SolveBodies<'a> {
+    fn new(b: &RigidBodies<'a>) -> Self {
+        let copy = |v: &[Vec3]| v.iter().map(SharedVec3::new).collect();
+        Self {
+            vel: copy(b.vel),
+            omega: copy(b.omega),
+            boundary_vel: copy(b.boundary_vel),
+            inv_mass: b.inv_mass,
+            inv_inertia: b.inv_inertia,
+            boundary_mobility: b.boundary_mobility,
+        }
+    }
+
+    fn store(&self, b: &mut RigidBodies<'_>) {
+        let back = |from: &[SharedVec3], to: &mut [Vec3]| to.iter_mut().zip(from).for_each(|(t, f)| *t = f.get());
+        back(&self.vel, b.vel);
+        back(&self.omega, b.omega);
+        back(&self.boundary_vel, b.boundary_vel);
+    }
+}
+
 impl RigidContact {
     /// Local Delassus block of a contact between bodies of inverse masses and inertias
     /// `(im_i, ii_i)` and `(im_j, ii_j)` (zeros for a boundary) at lever arms `a_i`, `a_j`.
@@ -120,42 +284,53 @@ impl RigidContact {
     /// Relative velocity of the contact point of `i` against that of `j` (global), m/s.
     #[inline(always)]
     pub fn relative_velocity(&self, vel: &[Vec3], omega: &[Vec3], boundary_vel: &[Vec3]) -> Vec3 {
+        self.relative_with(|i| vel[i], |i| omega[i], |k| boundary_vel[k])
+    }
+
+    /// [`RigidContact::relative_velocity`] within the solve.
+    #[inline(always)]
+    fn velocity_in(&self, bodies: &impl BodyStore) -> Vec3 {
+        self.relative_with(|i| bodies.vel(i), |i| bodies.omega(i), |k| bodies.boundary_vel(k))
+    }
+
+    #[inline(always)]
+    fn relative_with(&self, vel: impl Fn(usize) -> Vec3, omega: impl Fn(usize) -> Vec3, boundary_vel: impl Fn(usize) -> Vec3) -> Vec3 {
         let i = self.i as usize;
         let n = &self.frame.n;
-        let mut spin = omega[i] * self.a_i;
-        let mut u = vel[i] - self.drive;
+        let mut spin = omega(i) * self.a_i;
+        let mut u = vel(i) - self.drive;
         match self.j {
             Side::Body(j) => {
                 let j = j as usize;
-                u -= vel[j];
-                spin += omega[j] * self.a_j;
+                u -= vel(j);
+                spin += omega(j) * self.a_j;
             }
-            Side::Boundary(k) => u -= boundary_vel[k as usize],
+            Side::Boundary(k) => u -= boundary_vel(k as usize),
         }
         u - spin.cross(n)
     }
 
     /// Applies the global impulse `p` (on `i`; `-p` on `j`) to the bodies' velocities.
     #[inline(always)]
-    pub fn apply(&self, p: &Vec3, bodies: &mut RigidBodies<'_>) {
+    fn apply(&self, p: &Vec3, bodies: &mut impl BodyStore) {
         let i = self.i as usize;
         let n = &self.frame.n;
         let nxp = n.cross(p);
-        bodies.vel[i] += p * bodies.inv_mass[i];
-        bodies.omega[i] -= nxp * (self.a_i * bodies.inv_inertia[i]);
+        bodies.add_vel(i, p * bodies.inv_mass(i));
+        bodies.add_omega(i, -nxp * (self.a_i * bodies.inv_inertia(i)));
         match self.j {
             Side::Body(j) => {
                 let j = j as usize;
-                bodies.vel[j] -= p * bodies.inv_mass[j];
-                bodies.omega[j] -= nxp * (self.a_j * bodies.inv_inertia[j]);
+                bodies.add_vel(j, -p * bodies.inv_mass(j));
+                bodies.add_omega(j, -nxp * (self.a_j * bodies.inv_inertia(j)));
             }
             Side::Boundary(k) => {
-                let m = bodies.boundary_mobility[k as usize];
+                let m = bodies.mobility(k as usize);
                 if m.inv_mass > 0.0 {
                     let dv = m.direction * (p.dot(&m.direction) * m.inv_mass);
-                    bodies.boundary_vel[k as usize] -= dv;
+                    bodies.add_boundary_vel(k as usize, -dv);
                     if let Some(other) = m.partner {
-                        bodies.boundary_vel[other as usize] += dv;
+                        bodies.add_boundary_vel(other as usize, dv);
                     }
                 }
             }
@@ -164,21 +339,21 @@ impl RigidContact {
 
     /// Applies the moment impulse `m` (on `i`; `-m` on `j`) to the bodies' spins.
     #[inline(always)]
-    pub fn apply_moment(&self, m: &Vec3, bodies: &mut RigidBodies<'_>) {
+    fn apply_moment(&self, m: &Vec3, bodies: &mut impl BodyStore) {
         let i = self.i as usize;
-        bodies.omega[i] += m * bodies.inv_inertia[i];
+        bodies.add_omega(i, m * bodies.inv_inertia(i));
         if let Side::Body(j) = self.j {
             let j = j as usize;
-            bodies.omega[j] -= m * bodies.inv_inertia[j];
+            bodies.add_omega(j, -m * bodies.inv_inertia(j));
         }
     }
 
     /// The rolling velocity of the contact: the tangential part of `omega_i - omega_j`, rad/s.
     #[inline(always)]
-    pub fn rolling_velocity(&self, omega: &[Vec3]) -> Vec3 {
-        let mut w = omega[self.i as usize];
+    fn rolling_velocity(&self, bodies: &impl BodyStore) -> Vec3 {
+        let mut w = bodies.omega(self.i as usize);
         if let Side::Body(j) = self.j {
-            w -= omega[j as usize];
+            w -= bodies.omega(j as usize);
         }
         let n = &self.frame.n;
         w - n * n.dot(&w)
@@ -244,9 +419,43 @@ impl Nlgs {
     }
 
     /// Solves the contacts (see the module documentation). `violation_scale` turns a velocity
-    /// violation into the criterion's units: `h / <d>`, s/m.
-    pub fn solve(&mut self, contacts: &mut [RigidContact], bodies: &mut RigidBodies<'_>, violation_scale: Real) -> NlgsReport {
+    /// violation into the criterion's units: `h / <d>`, s/m. With `colours`, the contacts are
+    /// in colour order ([`super::colour`]) and each colour is swept in parallel.
+    pub fn solve(
+        &mut self,
+        contacts: &mut [RigidContact],
+        bodies: &mut RigidBodies<'_>,
+        violation_scale: Real,
+        colours: Option<&Colours>,
+    ) -> NlgsReport {
         self.history.clear();
+        match colours {
+            None => self.sweeps(contacts, bodies, violation_scale, |contacts, bodies, omega| {
+                let mut sums = Sums::default();
+                for c in contacts.iter_mut() {
+                    visit(c, bodies, omega, &mut sums);
+                }
+                sums
+            }),
+            Some(colours) => {
+                // The velocities in cells the threads of a colour share, for the solve.
+                let shared = SolveBodies::new(bodies);
+                let report =
+                    self.sweeps(contacts, &mut &shared, violation_scale, |contacts, bodies, omega| colours.sweep(contacts, bodies, omega));
+                shared.store(bodies);
+                report
+            }
+        }
+    }
+
+    /// The warm start and the sweeps of [`Nlgs::solve`], `sweep` doing one sweep.
+    fn sweeps<B: BodyStore>(
+        &mut self,
+        contacts: &mut [RigidContact],
+        bodies: &mut B,
+        violation_scale: Real,
+        sweep: impl Fn(&mut [RigidContact], &mut B, Real) -> Sums,
+    ) -> NlgsReport {
         let mut report = NlgsReport { contacts: contacts.len(), ..NlgsReport::default() };
         for c in contacts.iter_mut() {
             if c.r != Vec3::zeros() {
@@ -270,51 +479,17 @@ impl Nlgs {
         let (tol, vtol) = (self.settings.tolerance, self.settings.violation_tolerance);
         let omega = self.settings.relaxation;
         for it in 1..=self.settings.max_iterations {
-            let (mut change2, mut size2, mut violation) = (0.0, 0.0, 0.0);
-            let mut visit = |c: &mut RigidContact| {
-                let u_now = c.frame.to_local(&c.relative_velocity(bodies.vel, bodies.omega, bodies.boundary_vel));
-                violation += (c.law.target - u_now.x).max(0.0);
-                let u_free = u_now - c.w.apply(&c.r);
-                let mut r = local::solve(&c.w, &u_free, &c.law);
-                if omega != 1.0 {
-                    r = c.r + (r - c.r) * omega;
-                }
-                let dr = r - c.r;
-                if dr != Vec3::zeros() {
-                    c.apply(&c.frame.to_global(&dr), bodies);
-                    change2 += dr.norm_squared();
-                }
-                size2 += r.norm_squared().max(c.scale * c.scale);
-                c.r = r;
-                if c.rolling.bound > 0.0 {
-                    // The rolling block, with the normal impulse just found (its moments
-                    // counted as impulses at the lever a_i).
-                    let free = c.rolling_velocity(bodies.omega) - c.rolling.m * c.rolling.w;
-                    let rho = c.law.contact_part(r.x, u_free.x + c.w.n * r.x);
-                    let mut m = local::solve_rolling(&c.rolling, &free, rho);
-                    if omega != 1.0 {
-                        m = c.rolling.m + (m - c.rolling.m) * omega;
-                    }
-                    let dm = m - c.rolling.m;
-                    if dm != Vec3::zeros() {
-                        c.apply_moment(&dm, bodies);
-                        change2 += dm.norm_squared() / (c.a_i * c.a_i);
-                    }
-                    size2 += m.norm_squared() / (c.a_i * c.a_i);
-                    c.rolling.m = m;
-                }
-            };
             // Always forward: sweeping backward every other time (symmetric Gauss-Seidel)
             // took 40% more sweeps on the quickstart deposition.
-            contacts.iter_mut().for_each(&mut visit);
-            let change = if size2 > 0.0 {
-                (change2 / size2).sqrt()
-            } else if change2 > 0.0 {
+            let sums = sweep(contacts, bodies, omega);
+            let change = if sums.size2 > 0.0 {
+                (sums.change2 / sums.size2).sqrt()
+            } else if sums.change2 > 0.0 {
                 Real::INFINITY
             } else {
                 0.0
             };
-            let last = Iterate { change, violation: violation_scale * violation / contacts.len() as Real };
+            let last = Iterate { change, violation: violation_scale * sums.violation / contacts.len() as Real };
             self.history.push(last);
             report.iterations = it;
             report.last = last;
@@ -324,6 +499,60 @@ impl Nlgs {
             }
         }
         report
+    }
+}
+
+/// What a sweep adds up for the criterion: the squared changes and sizes of the impulses, and
+/// the violations.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Sums {
+    pub(crate) change2: Real,
+    pub(crate) size2: Real,
+    pub(crate) violation: Real,
+}
+
+impl std::ops::AddAssign for Sums {
+    fn add_assign(&mut self, o: Self) {
+        self.change2 += o.change2;
+        self.size2 += o.size2;
+        self.violation += o.violation;
+    }
+}
+
+/// One contact's turn in a sweep: its violation measured, its local problem solved exactly with
+/// the rest frozen (then its rolling block), the change of its impulses applied to its bodies.
+#[inline(always)]
+pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Real, sums: &mut Sums) {
+    let u_now = c.frame.to_local(&c.velocity_in(bodies));
+    sums.violation += (c.law.target - u_now.x).max(0.0);
+    let u_free = u_now - c.w.apply(&c.r);
+    let mut r = local::solve(&c.w, &u_free, &c.law);
+    if omega != 1.0 {
+        r = c.r + (r - c.r) * omega;
+    }
+    let dr = r - c.r;
+    if dr != Vec3::zeros() {
+        c.apply(&c.frame.to_global(&dr), bodies);
+        sums.change2 += dr.norm_squared();
+    }
+    sums.size2 += r.norm_squared().max(c.scale * c.scale);
+    c.r = r;
+    if c.rolling.bound > 0.0 {
+        // The rolling block, with the normal impulse just found (its moments counted as
+        // impulses at the lever a_i).
+        let free = c.rolling_velocity(bodies) - c.rolling.m * c.rolling.w;
+        let rho = c.law.contact_part(r.x, u_free.x + c.w.n * r.x);
+        let mut m = local::solve_rolling(&c.rolling, &free, rho);
+        if omega != 1.0 {
+            m = c.rolling.m + (m - c.rolling.m) * omega;
+        }
+        let dm = m - c.rolling.m;
+        if dm != Vec3::zeros() {
+            c.apply_moment(&dm, bodies);
+            sums.change2 += dm.norm_squared() / (c.a_i * c.a_i);
+        }
+        sums.size2 += m.norm_squared() / (c.a_i * c.a_i);
+        c.rolling.m = m;
     }
 }
 
@@ -388,7 +617,7 @@ mod tests {
             boundary_vel: &mut [],
             boundary_mobility: &[],
         };
-        let report = solver.solve(&mut contacts, &mut bodies, 1.0);
+        let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
         assert!(report.converged, "{report:?}");
         for v in &vel {
             assert!((v.x - 0.2).abs() < 1e-8, "{vel:?}");
@@ -433,7 +662,7 @@ mod tests {
             boundary_vel: &mut wall,
             boundary_mobility: &[Mobility::FIXED],
         };
-        let report = solver.solve(&mut contacts, &mut bodies, 1.0);
+        let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
         assert!(report.converged);
         // Normal impulse m * 0.5 = 1 N·s; friction 0.2 N·s against the slip (t1 = -x for n = y).
         let p = contacts[0].frame.to_global(&contacts[0].r);
@@ -477,7 +706,7 @@ mod tests {
             boundary_vel: &mut plate,
             boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None }],
         };
-        assert!(solver.solve(&mut contacts, &mut bodies, 1.0).converged);
+        assert!(solver.solve(&mut contacts, &mut bodies, 1.0, None).converged);
         let common = big_m * v / (big_m + m);
         assert!((vel[0].y - common).abs() < 1e-12 && (plate[0].y - common).abs() < 1e-12, "{:?} {:?}", vel[0], plate[0]);
         assert!((m * vel[0].y + big_m * plate[0].y - big_m * v).abs() < 1e-12);

@@ -126,6 +126,8 @@ pub struct CdParams {
     pub loading_violation_tolerance: Real,
     /// Relaxation of the NLGS updates, in (0, 1] ([`crate::nscd::Convergence::relaxation`]).
     pub relaxation: Real,
+    /// Order of the NLGS sweep.
+    pub sweep: Sweep,
     /// Largest allowed interpenetration / smaller radius.
     pub max_interpenetration: Real,
     /// Verlet skin as a fraction of the smallest diameter.
@@ -146,9 +148,39 @@ impl Default for CdParams {
             max_iterations: 5000,
             loading_violation_tolerance: 1e-4,
             relaxation: 1.0,
+            sweep: Sweep::Auto,
             max_interpenetration: 0.05,
             skin: 0.3,
             threads: 0,
+        }
+    }
+}
+
+/// Order of the contact-dynamics sweep ([`crate::nscd::colour`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sweep {
+    /// `coloured` from [`Sweep::PARALLEL_FROM`] contacts, `serial` below.
+    #[default]
+    Auto,
+    /// The contacts in detection order, on one thread.
+    Serial,
+    /// The contacts coloured so that none of a colour share a body, each colour swept in
+    /// parallel.
+    Coloured,
+}
+
+impl Sweep {
+    /// Contacts from which `auto` colours: below, a colour holds too few contacts to share
+    /// between threads.
+    pub const PARALLEL_FROM: usize = 4096;
+
+    /// Whether a step with `contacts` contacts sweeps in colours.
+    pub fn coloured(self, contacts: usize) -> bool {
+        match self {
+            Sweep::Auto => contacts >= Self::PARALLEL_FROM,
+            Sweep::Serial => false,
+            Sweep::Coloured => true,
         }
     }
 }

@@ -467,6 +467,9 @@ pub struct CdParamsSpec {
     /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
     #[serde(default)]
     pub relaxation: Option<f64>,
+    /// Order of the NLGS sweep: `serial`, `coloured` (parallel) or `auto`. Default `auto`.
+    #[serde(default)]
+    pub sweep: Option<super::model::Sweep>,
     /// Largest allowed interpenetration as a fraction of the smaller radius. Default 0.05.
     #[serde(default)]
     pub max_interpenetration: Option<f64>,

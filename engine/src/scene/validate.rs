@@ -432,6 +432,9 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.loading_violation_tolerance = t;
         }
     }
+    if let Some(w) = s.sweep {
+        p.sweep = w;
+    }
     if let Some(w) = s.relaxation {
         if !(w > 0.0 && w <= 1.0) {
             c.fail("method.relaxation", format!("must be in (0, 1], got {w}"));
@@ -951,6 +954,16 @@ mod tests {
         let unknown = rules(&scene_with(serde_json::json!({"kind": "cd", "skn": 0.1}), 0.5));
         assert_eq!(unknown.len(), 1);
         assert!(unknown[0].starts_with("method.skn: unknown field"), "{unknown:?}");
+        let sweep = rules(&scene_with(serde_json::json!({"kind": "cd", "sweep": "parallel"}), 0.5));
+        assert_eq!(sweep.len(), 1);
+        assert!(
+            sweep[0].starts_with("method.sweep: unknown variant `parallel`, expected one of `auto`, `serial`, `coloured`"),
+            "{sweep:?}"
+        );
+        match parse_scene(&scene_with(serde_json::json!({"kind": "cd", "sweep": "coloured"}), 0.5)).map(|s| s.method) {
+            Ok(Method::Cd(p)) => assert_eq!(p.sweep, Sweep::Coloured),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::cd_benchmark, presets::dem_benchmark, Method};
+use sable_engine::scene::{parse_scene, presets::cd_benchmark, presets::dem_benchmark, Method, Sweep};
 use serde::Serialize;
 
 /// What `sable bench` measures.
@@ -89,6 +89,9 @@ pub struct CdBenchArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Order of the NLGS sweep: `auto`, `serial` or `coloured` (the scene's `method.sweep`).
+    #[arg(long, default_value = "auto")]
+    pub sweep: String,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -97,6 +100,7 @@ pub struct CdBenchArgs {
 #[derive(Debug, Serialize)]
 struct CdBenchResult {
     method: &'static str,
+    sweep: Sweep,
     particles: usize,
     steps: u64,
     threads: usize,
@@ -128,7 +132,12 @@ fn prepare(
 /// `sable bench cd`: the dense pile of [`cd_benchmark`], `warmup` steps untimed, then `steps`
 /// timed; the solver's sweeps and contacts are summed step by step.
 pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
-    let (scene, threads, pool) = prepare(a.threads, |t| cd_benchmark(a.particles, a.steps, t))?;
+    let sweep: Sweep = serde_json::from_value(serde_json::Value::String(a.sweep.clone()))
+        .map_err(|_| anyhow::anyhow!("--sweep: must be auto, serial or coloured, got {:?}", a.sweep))?;
+    let (mut scene, threads, pool) = prepare(a.threads, |t| cd_benchmark(a.particles, a.steps, t))?;
+    let Method::Cd(mut params) = scene.method.clone() else { anyhow::bail!("the CD benchmark scene must use method cd") };
+    params.sweep = sweep;
+    scene.method = Method::Cd(params);
     let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
     let mut sim = pool.install(|| Cd::new(&scene, params))?;
     pool.install(|| (0..a.warmup).try_for_each(|_| sim.step()))?;
@@ -148,6 +157,7 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
     let steps = a.steps.max(1) as f64;
     let r = CdBenchResult {
         method: "cd",
+        sweep,
         particles: sim.particle_count(),
         steps: a.steps,
         threads,

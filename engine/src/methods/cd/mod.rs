@@ -18,7 +18,10 @@
 //!    stress-controlled wall — a rigid plate of mass [`Cd::wall_mass`] free to move along its
 //!    axis — is pushed by its target stress times its area;
 //! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities of grains and free walls
-//!    together (the walls are bodies of the contact problem, as in LMGC90);
+//!    together (the walls are bodies of the contact problem, as in LMGC90); with
+//!    `method.sweep` coloured (by default from [`crate::scene::Sweep::PARALLEL_FROM`] contacts),
+//!    the contacts are stored in colour order and each colour is swept in parallel
+//!    ([`crate::nscd::colour`]);
 //! 5. `Integrate`: positions advance by `h (theta v+ + (1 - theta) v-)` (theta-scheme); forces
 //!    and torques are stored as the mean over the step, `m (v+ - v-) / h`;
 //! 6. `Boundaries`: walls take the reaction of their contacts and move by the theta-scheme (a
@@ -59,7 +62,7 @@ use crate::geometry::{Domain, NeighborList};
 use crate::loading::Wall;
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{law_for, RigidBodies};
-use crate::nscd::{ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
+use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
@@ -183,6 +186,8 @@ pub struct Cd {
     contacts: Vec<RigidContact>,
     /// What each contact of the last step is (parallel to `contacts`).
     status: Vec<Status>,
+    /// The colour order of the contacts of the step (scratch of the parallel sweep).
+    order: Vec<u32>,
     /// What each pair carried at the end of the last step, sorted by pair ([`key_of`]).
     previous: Vec<Held>,
     /// Velocities and spins at the start of the step (scratch).
@@ -290,6 +295,7 @@ impl Cd {
             force_rebuild: true,
             contacts: Vec::new(),
             status: Vec::new(),
+            order: Vec::new(),
             previous: Vec::new(),
             vel_start: vec![Vec3::zeros(); n],
             omega_start: vec![Vec3::zeros(); n],
@@ -371,6 +377,7 @@ impl Cd {
             + self.nl.heap_bytes()
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
             + self.status.capacity() * std::mem::size_of::<Status>()
+            + self.order.capacity() * std::mem::size_of::<u32>()
             + self.previous.capacity() * std::mem::size_of::<Held>()
             + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
             + self.window.heap_bytes()
@@ -628,6 +635,13 @@ impl Cd {
             }
         }
         let p = &mut self.p;
+        // The parallel sweep: the contacts (and their status) stored in colour order.
+        let colours = self.params.sweep.coloured(self.contacts.len()).then(|| {
+            let colours = Colours::new(&self.contacts, p.len(), &self.wall_mobility, &mut self.order);
+            self.contacts = self.order.iter().map(|&k| self.contacts[k as usize]).collect();
+            self.status = self.order.iter().map(|&k| self.status[k as usize]).collect();
+            colours
+        });
         let mut bodies = RigidBodies {
             vel: &mut p.vel,
             omega: &mut p.omega,
@@ -636,7 +650,7 @@ impl Cd {
             boundary_vel: &mut self.wall_vel,
             boundary_mobility: &self.wall_mobility,
         };
-        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter);
+        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter, colours.as_ref());
         if !self.report.converged {
             let r = self.report;
             return Err(self.unstable(InstabilityCause::SolverBudget {
