@@ -53,8 +53,7 @@ fn vector(dim: usize, x: f64, y: f64) -> serde_json::Value {
     }
 }
 
-/// Grains of material `grain` at `positions` in a box periodic along x (and z) between a floor
-/// and a ceiling of material `wall`, contact dynamics at the step `dt`, solved tightly.
+/// [`common::cd_box`] for grains of diameter `D`.
 fn scene(
     dim: usize,
     positions: serde_json::Value,
@@ -63,22 +62,7 @@ fn scene(
     wall: serde_json::Value,
     dt: f64,
 ) -> Cd {
-    let count = positions.as_array().map_or(0, Vec::len);
-    let (min, max, periodic) = if dim == 2 {
-        (json!([0, 0]), json!([0.02, 0.05]), json!(["x"]))
-    } else {
-        (json!([0, 0, 0]), json!([0.02, 0.05, 0.02]), json!(["x", "z"]))
-    };
-    let s = common::scene(json!({
-        "dimension": dim,
-        "method": {"kind": "cd", "time_step": dt, "tolerance": 1e-10, "violation_tolerance": 1e-12, "max_iterations": 100000},
-        "materials": {"grain": grain, "wall": wall},
-        "particles": [{"material": "grain", "placement": {"kind": "list", "positions": positions, "diameters": vec![D; count]}}],
-        "container": {"min": min, "max": max, "periodic": periodic, "wall_material": "wall"},
-        "gravity": gravity,
-        "stop": {"steps": 1}
-    }));
-    common::cd(&s)
+    common::cd_box(dim, positions, D, gravity, grain, wall, dt)
 }
 
 /// A rigid material (the contact stiffness is never used by contact dynamics) with `extra`

@@ -34,3 +34,33 @@ pub fn cd(s: &Scene) -> sable_engine::methods::cd::Cd {
         Err(e) => panic!("cannot build test scene: {e}"),
     }
 }
+
+/// Contact dynamics for grains of diameter `d` at `positions` in a box periodic along x (and
+/// z), 0.02 m wide and 0.05 m high, between a floor and a ceiling of material `wall`, with
+/// gravity `gravity`, at the step `dt`, solved tightly (relative change 1e-10, violation 1e-12).
+pub fn cd_box(
+    dim: usize,
+    positions: serde_json::Value,
+    d: f64,
+    gravity: serde_json::Value,
+    grain: serde_json::Value,
+    wall: serde_json::Value,
+    dt: f64,
+) -> sable_engine::methods::cd::Cd {
+    use serde_json::json;
+    let count = positions.as_array().map_or(0, Vec::len);
+    let (min, max, periodic) = if dim == 2 {
+        (json!([0, 0]), json!([0.02, 0.05]), json!(["x"]))
+    } else {
+        (json!([0, 0, 0]), json!([0.02, 0.05, 0.02]), json!(["x", "z"]))
+    };
+    cd(&scene(json!({
+        "dimension": dim,
+        "method": {"kind": "cd", "time_step": dt, "tolerance": 1e-10, "violation_tolerance": 1e-12, "max_iterations": 100000},
+        "materials": {"grain": grain, "wall": wall},
+        "particles": [{"material": "grain", "placement": {"kind": "list", "positions": positions, "diameters": vec![d; count]}}],
+        "container": {"min": min, "max": max, "periodic": periodic, "wall_material": "wall"},
+        "gravity": gravity,
+        "stop": {"steps": 1}
+    })))
+}
