@@ -5,8 +5,10 @@
 //! each contact its warm-start impulse (the previous step's, or zero). The solver adds the
 //! warm-start impulses to the bodies, then sweeps the contacts in order: each one's local
 //! problem is solved exactly with the others frozen ([`super::local::solve`]) and the change of
-//! its impulse is applied to its two bodies at once, so the next contact sees it. Sweeps repeat
-//! until the convergence criterion holds or the budget is spent.
+//! its impulse is applied to its two bodies at once, so the next contact sees it (then its
+//! rolling block, if it has one). Sweeps repeat until the convergence criterion holds or the
+//! budget is spent. The order is the contacts' order, or colour by colour with each colour swept
+//! in parallel ([`super::colour`]).
 //!
 //! **Convergence criterion** (checked after every sweep), both below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
