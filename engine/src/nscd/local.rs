@@ -108,7 +108,8 @@ pub fn solve(w: &Delassus, u: &Vec3, law: &LocalLaw) -> Vec3 {
 pub struct Rolling {
     /// `mu_r R*`, m (0: no rolling resistance).
     pub bound: Real,
-    /// Rolling block of the Delassus operator, `1/I_i + 1/I_j`, 1/(kg·m²).
+    /// Rolling block of the Delassus operator, `1/I_i + 1/I_j`, 1/(kg·m²) (0, bodies that do
+    /// not turn: no rolling block).
     pub w: Real,
     /// Moment impulse, global components, N·m·s: the warm start on entry, the solution on
     /// exit.

@@ -463,7 +463,7 @@ impl Nlgs {
             if c.r != Vec3::zeros() {
                 c.apply(&c.frame.to_global(&c.r), bodies);
             }
-            if c.rolling.bound > 0.0 {
+            if c.rolling.bound > 0.0 && c.rolling.w > 0.0 {
                 // The warm moment in the current tangent plane.
                 let n = c.frame.n;
                 c.rolling.m -= n * n.dot(&c.rolling.m);
@@ -539,7 +539,7 @@ pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Re
     }
     sums.size2 += r.norm_squared().max(c.scale * c.scale);
     c.r = r;
-    if c.rolling.bound > 0.0 {
+    if c.rolling.bound > 0.0 && c.rolling.w > 0.0 {
         // The rolling block, with the normal impulse just found (its moments counted as
         // impulses at the lever a_i).
         let free = c.rolling_velocity(bodies) - c.rolling.m * c.rolling.w;
