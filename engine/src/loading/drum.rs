@@ -2,6 +2,8 @@
 //! angular velocity. Grains touch it from inside.
 
 use crate::math::{Real, Vec3};
+use crate::observe::snapshot::{DrumShell, DRUM_SEGMENTS};
+use crate::observe::DrumView;
 use crate::scene::DrumDef;
 
 /// A drum and the load the grains put on it.
@@ -73,6 +75,33 @@ impl Drum {
     /// Torque about the axis of a force `f` (N) applied at `x`, N·m.
     pub fn torque_of(&self, x: &Vec3, f: &Vec3) -> Real {
         self.radial(x).cross(f)[self.def.axis]
+    }
+    /// The drum as the measurements see it.
+    pub fn view(&self) -> DrumView {
+        DrumView {
+            axis: self.def.axis,
+            center: self.def.center,
+            radius: self.def.radius,
+            angular_velocity: self.angular_velocity,
+            down: self.def.down,
+            torque: self.torque,
+        }
+    }
+
+    /// The drum for drawing, from the forces the grains centred at `x` receive from it,
+    /// `(x, f)` (N), each applied on the segment the grain touches.
+    pub fn shell(&self, loads: impl Iterator<Item = (Vec3, Vec3)>) -> DrumShell {
+        let mut shell = DrumShell {
+            axis: self.def.axis,
+            center: self.def.center,
+            radius: self.def.radius,
+            segment_force: vec![Vec3::zeros(); DRUM_SEGMENTS],
+        };
+        for (x, f) in loads.filter(|(_, f)| *f != Vec3::zeros()) {
+            let k = shell.segment_of(&self.surface_point(&x));
+            shell.segment_force[k] -= f;
+        }
+        shell
     }
 }
 

@@ -219,3 +219,19 @@ pub(crate) fn saved_state(time: Real, steps: u64, domain: &Domain, materials: &[
     q.angular_velocity = p.omega.iter().map(|w| if d == 2 { vec![w.z] } else { w.as_slice().to_vec() }).collect();
     st
 }
+
+/// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
+/// outermost grains (the granule's plates); false if there are no grains to close on.
+pub(crate) fn close_walls(p: &Particles, walls: &mut [Wall], domain: &mut Domain, axis: usize) -> bool {
+    let lo = (0..p.len()).map(|i| p.pos[i][axis] - p.radius[i]).fold(Real::INFINITY, Real::min);
+    let hi = (0..p.len()).map(|i| p.pos[i][axis] + p.radius[i]).fold(Real::NEG_INFINITY, Real::max);
+    if !(lo.is_finite() && hi > lo) {
+        return false;
+    }
+    for w in walls.iter_mut().filter(|w| w.face.axis == axis) {
+        w.position = if w.face.upper { hi } else { lo };
+    }
+    domain.lo[axis] = lo;
+    domain.hi[axis] = hi;
+    true
+}

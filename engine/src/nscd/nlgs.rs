@@ -104,6 +104,10 @@ pub struct RigidBodies<'a> {
     pub boundary_vel: &'a mut [Vec3],
     /// How each boundary may move ([`Mobility`]).
     pub boundary_mobility: &'a [Mobility],
+    /// Angular velocity of each boundary (imposed: a turning drum), rad/s; empty when none
+    /// turns. Its surface velocity at a contact is the contact's `drive`; its spin enters the
+    /// rolling velocity.
+    pub boundary_omega: &'a [Vec3],
 }
 
 /// What the sweep reads and changes of the bodies: plain slices when one thread sweeps
@@ -128,6 +132,8 @@ pub(crate) trait BodyStore {
     fn inv_inertia(&self, i: usize) -> Real;
     /// How boundary `k` may move.
     fn mobility(&self, k: usize) -> Mobility;
+    /// Angular velocity of boundary `k`, rad/s.
+    fn boundary_omega(&self, k: usize) -> Vec3;
 }
 
 impl BodyStore for RigidBodies<'_> {
@@ -166,6 +172,10 @@ impl BodyStore for RigidBodies<'_> {
     #[inline(always)]
     fn mobility(&self, k: usize) -> Mobility {
         self.boundary_mobility[k]
+    }
+    #[inline(always)]
+    fn boundary_omega(&self, k: usize) -> Vec3 {
+        self.boundary_omega.get(k).copied().unwrap_or_else(Vec3::zeros)
     }
 }
 
@@ -206,6 +216,10 @@ impl BodyStore for &SolveBodies<'_> {
     fn mobility(&self, k: usize) -> Mobility {
         self.boundary_mobility[k]
     }
+    #[inline(always)]
+    fn boundary_omega(&self, k: usize) -> Vec3 {
+        self.boundary_omega.get(k).copied().unwrap_or_else(Vec3::zeros)
+    }
 }
 
 /// A vector whose components threads may read and write: each `f64` held in an `AtomicU64`,
@@ -244,6 +258,7 @@ pub(crate) struct SolveBodies<'a> {
     inv_mass: &'a [Real],
     inv_inertia: &'a [Real],
     boundary_mobility: &'a [Mobility],
+    boundary_omega: &'a [Vec3],
 }
 
 impl<'a> SolveBodies<'a> {
@@ -256,6 +271,7 @@ impl<'a> SolveBodies<'a> {
             inv_mass: b.inv_mass,
             inv_inertia: b.inv_inertia,
             boundary_mobility: b.boundary_mobility,
+            boundary_omega: b.boundary_omega,
         }
     }
 
@@ -350,12 +366,14 @@ impl RigidContact {
         }
     }
 
-    /// The rolling velocity of the contact: the tangential part of `omega_i - omega_j`, rad/s.
+    /// The rolling velocity of the contact: the tangential part of `omega_i - omega_j`, rad/s
+    /// (`omega_j` a boundary's own spin).
     #[inline(always)]
     fn rolling_velocity(&self, bodies: &impl BodyStore) -> Vec3 {
         let mut w = bodies.omega(self.i as usize);
-        if let Side::Body(j) = self.j {
-            w -= bodies.omega(j as usize);
+        match self.j {
+            Side::Body(j) => w -= bodies.omega(j as usize),
+            Side::Boundary(k) => w -= bodies.boundary_omega(k as usize),
         }
         let n = &self.frame.n;
         w - n * n.dot(&w)
@@ -618,6 +636,7 @@ mod tests {
             inv_inertia: &ii,
             boundary_vel: &mut [],
             boundary_mobility: &[],
+            boundary_omega: &[],
         };
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
         assert!(report.converged, "{report:?}");
@@ -663,6 +682,7 @@ mod tests {
             inv_inertia: &ii,
             boundary_vel: &mut wall,
             boundary_mobility: &[Mobility::FIXED],
+            boundary_omega: &[],
         };
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
         assert!(report.converged);
@@ -707,6 +727,7 @@ mod tests {
             inv_inertia: &ii,
             boundary_vel: &mut plate,
             boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None }],
+            boundary_omega: &[],
         };
         assert!(solver.solve(&mut contacts, &mut bodies, 1.0, None).converged);
         let common = big_m * v / (big_m + m);

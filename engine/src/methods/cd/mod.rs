@@ -37,8 +37,9 @@
 //! [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over the check
 //! interval, [`balance`]; an experiment's loading stages take the looser
 //! `loading_violation_tolerance`, [`Cd::begin_stage`]). Not yet with this method (rejected at
-//! build with the field named): plane shear, shearing walls, cell deformation, the drum, the
-//! granule.
+//! build with the field named): plane shear, shearing walls, cell deformation, rough (glued)
+//! walls. The rotating drum is the boundary after the walls (its contacts drive the grains with
+//! the rim's velocity and spin); the granule's centripetal field acts in the free motion.
 //!
 //! Rolling resistance is a graph on the contact's moment impulse ([`crate::nscd::Rolling`]).
 //! Cohesion — the constant attraction F_0 within D_0 of RC 2.2.3, and the capillary bridges of
@@ -59,7 +60,7 @@ mod laws;
 
 use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::{Domain, NeighborList};
-use crate::loading::Wall;
+use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{law_for, RigidBodies};
 use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
@@ -176,9 +177,17 @@ pub struct Cd {
     walls: Vec<Wall>,
     /// Mass of a stress-controlled wall, kg ([`Cd::wall_mass`]).
     wall_mass: Real,
-    /// Velocities of the walls within the step (scratch for the solver) and how each may move.
+    /// The rotating drum, if the scene has one: the boundary after the walls.
+    drum: Option<Drum>,
+    /// Velocities of the boundaries (walls, then the drum) within the step (scratch for the
+    /// solver), how each may move, and their spins (the drum's; empty without a drum).
     wall_vel: Vec<Vec3>,
     wall_mobility: Vec<Mobility>,
+    wall_omega: Vec<Vec3>,
+    /// Centre of the scene's granule ball, where the centripetal field pulls.
+    granule_center: Option<Vec3>,
+    /// Centripetal field: centre and acceleration, m/s² (while a granule forms).
+    field: Option<(Vec3, Real)>,
     nl: NeighborList,
     /// The neighbour list must be rebuilt before the next step (particles moved from outside).
     force_rebuild: bool,
@@ -270,6 +279,8 @@ impl Cd {
             None
         };
         let n = p.len();
+        let drum = c.drum.map(Drum::new);
+        let slots = walls.len() + usize::from(drum.is_some());
         let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
         let mean_diameter = 2.0 * p.radius.iter().sum::<Real>() / n as Real;
         // One layer of grains across the box's largest length.
@@ -287,9 +298,13 @@ impl Cd {
             p,
             len0: domain.hi - domain.lo,
             domain,
-            wall_vel: vec![Vec3::zeros(); walls.len()],
-            wall_mobility: vec![Mobility::FIXED; walls.len()],
+            wall_vel: vec![Vec3::zeros(); slots],
+            wall_mobility: vec![Mobility::FIXED; slots],
+            wall_omega: if drum.is_some() { vec![Vec3::zeros(); slots] } else { Vec::new() },
             walls,
+            drum,
+            granule_center: c.granule.map(|b| b.center),
+            field: None,
             wall_mass,
             nl: NeighborList::new(reach, skin),
             force_rebuild: true,
@@ -342,6 +357,11 @@ impl Cd {
         &self.walls
     }
 
+    /// The rotating drum, if the scene has one (its force and torque from the last step).
+    pub fn drum(&self) -> Option<&Drum> {
+        self.drum.as_ref()
+    }
+
     /// Mass of a stress-controlled wall, kg: that of one layer of grains across the box's
     /// largest length at the start (total mass × mean diameter / length). Light enough to follow
     /// the sample, heavy enough not to rattle on single grains; it sets how fast the wall answers
@@ -379,8 +399,16 @@ impl Cd {
             + self.status.capacity() * std::mem::size_of::<Status>()
             + self.order.capacity() * std::mem::size_of::<u32>()
             + self.previous.capacity() * std::mem::size_of::<Held>()
-            + (self.vel_start.capacity() + self.omega_start.capacity()) * std::mem::size_of::<Vec3>()
+            + (self.vel_start.capacity() + self.omega_start.capacity() + self.wall_omega.capacity()) * std::mem::size_of::<Vec3>()
             + self.window.heap_bytes()
+    }
+
+    /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
+    /// outermost grains.
+    fn close_walls(&mut self, axis: usize) {
+        if world::close_walls(&self.p, &mut self.walls, &mut self.domain, axis) {
+            self.force_rebuild = true;
+        }
     }
 
     fn refresh_neighbors(&mut self) {
@@ -537,54 +565,72 @@ impl Cd {
                 push(contact, g <= alert, bridge.is_some());
             }
         }
+        // A grain against boundary `k` (a plane wall, or the drum's slot after them): `n` from
+        // the surface towards the grain, `dist` from the grain's centre to the contact point,
+        // `v_b` the surface's velocity there, `drive` its part that is not the boundary's
+        // translation (the drum's rotation).
+        let wall_mobility = &self.wall_mobility;
+        let mut boundary = |i: usize, k: usize, n: Vec3, dist: Real, v_b: Vec3, drive: Vec3| {
+            let r = p.radius[i];
+            let g = dist - r;
+            let attraction = laws.wall_attraction(p.material[i]);
+            if g > ALERT * r && ahead == 0.0 && g > attraction.range() {
+                return;
+            }
+            let u_n = (p.vel[i] - v_b).dot(&n);
+            let alert = ALERT * r;
+            let closing = g + ahead * u_n <= alert;
+            if !closing && g > attraction.range() {
+                return;
+            }
+            let cohesion = h * attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0);
+            if !closing && cohesion == 0.0 {
+                return;
+            }
+            let frame = ContactFrame::new(dim, n);
+            let (e, mu) = laws.wall(p.material[i]);
+            let old = held((i as u32, WALL_KEY - k as u32));
+            let wd = RigidContact::delassus_boundary(p.inv_mass[i], p.inv_inertia[i], dist, wall_mobility[k].inv_mass);
+            let law = if closing {
+                overlap(g, r);
+                let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
+                restoring(law_for(u_n, e, mu, cohesion), g, r, h)
+            } else {
+                open_law(g, u_n, ahead, theta * h, mu, cohesion)
+            };
+            let rolling =
+                Rolling { bound: laws.wall_rolling(p.material[i]) * r, w: p.inv_inertia[i], m: old.map_or(Vec3::zeros(), |o| o.m) };
+            let contact = RigidContact {
+                i: i as u32,
+                j: Side::Boundary(k as u32),
+                frame,
+                a_i: dist,
+                a_j: 0.0,
+                drive,
+                w: wd,
+                law,
+                r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
+                rolling,
+                scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + v_b.norm())) / wd.n + cohesion,
+            };
+            push(contact, g <= alert, false);
+        };
         for (w, wall) in self.walls.iter().enumerate() {
             let n = wall.normal();
             let a = wall.face.axis;
             for i in 0..p.len() {
-                let r = p.radius[i];
-                let dist = (p.pos[i][a] - wall.position) * n[a];
-                let g = dist - r;
-                let attraction = laws.wall_attraction(p.material[i]);
-                if g > ALERT * r && ahead == 0.0 && g > attraction.range() {
-                    continue;
+                boundary(i, w, n, (p.pos[i][a] - wall.position) * n[a], wall.velocity, Vec3::zeros());
+            }
+        }
+        if let Some(drum) = &self.drum {
+            let k = self.walls.len();
+            for i in 0..p.len() {
+                let d = drum.radial(&p.pos[i]);
+                let rho = d.norm();
+                if rho > 0.0 {
+                    let v = drum.surface_velocity(&drum.surface_point(&p.pos[i]));
+                    boundary(i, k, -d / rho, drum.def.radius - rho, v, v);
                 }
-                let u_n = (p.vel[i] - wall.velocity).dot(&n);
-                let alert = ALERT * r;
-                let closing = g + ahead * u_n <= alert;
-                if !closing && g > attraction.range() {
-                    continue;
-                }
-                let cohesion = h * attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0);
-                if !closing && cohesion == 0.0 {
-                    continue;
-                }
-                let frame = ContactFrame::new(dim, n);
-                let (e, mu) = laws.wall(p.material[i]);
-                let old = held((i as u32, WALL_KEY - w as u32));
-                let wd = RigidContact::delassus_boundary(p.inv_mass[i], p.inv_inertia[i], dist, self.wall_mobility[w].inv_mass);
-                let law = if closing {
-                    overlap(g, r);
-                    let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
-                    restoring(law_for(u_n, e, mu, cohesion), g, r, h)
-                } else {
-                    open_law(g, u_n, ahead, theta * h, mu, cohesion)
-                };
-                let rolling =
-                    Rolling { bound: laws.wall_rolling(p.material[i]) * r, w: p.inv_inertia[i], m: old.map_or(Vec3::zeros(), |o| o.m) };
-                let contact = RigidContact {
-                    i: i as u32,
-                    j: Side::Boundary(w as u32),
-                    frame,
-                    a_i: dist,
-                    a_j: 0.0,
-                    drive: Vec3::zeros(),
-                    w: wd,
-                    law,
-                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
-                    rolling,
-                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + wall.velocity.norm())) / wd.n + cohesion,
-                };
-                push(contact, g <= alert, false);
             }
         }
         self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
@@ -601,7 +647,8 @@ impl Cd {
             return self.dt;
         }
         let fastest = |v: &[Vec3]| v.iter().map(|v| v.norm_squared()).fold(0.0, Real::max).sqrt();
-        let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel));
+        let rim = self.drum.as_ref().map_or(0.0, |d| (d.angular_velocity * d.def.radius).abs());
+        let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel)).max(rim);
         let reach = self.params.max_displacement * self.d_min;
         if closing * self.dt > reach {
             reach / closing
@@ -625,13 +672,22 @@ impl Cd {
                 self.unstable(InstabilityCause::Overlap { fraction: self.interpenetration.0, limit: self.params.max_interpenetration })
             );
         }
-        // Free motion under gravity (bodies of imposed motion keep theirs).
+        // Free motion under gravity and the centripetal field, if any (bodies of imposed motion
+        // keep theirs).
         self.vel_start.copy_from_slice(&self.p.vel);
         self.omega_start.copy_from_slice(&self.p.omega);
         let g = self.gravity;
-        for (v, im) in self.p.vel.iter_mut().zip(&self.p.inv_mass) {
+        let field = self.field;
+        for ((v, im), x) in self.p.vel.iter_mut().zip(&self.p.inv_mass).zip(&self.p.pos) {
             if *im > 0.0 {
                 *v += g * h;
+                if let Some((centre, a)) = field {
+                    let d = centre - x;
+                    let r = d.norm();
+                    if r > 0.0 {
+                        *v += d * (a * h / r);
+                    }
+                }
             }
         }
         let p = &mut self.p;
@@ -649,6 +705,7 @@ impl Cd {
             inv_inertia: &p.inv_inertia,
             boundary_vel: &mut self.wall_vel,
             boundary_mobility: &self.wall_mobility,
+            boundary_omega: &self.wall_omega,
         };
         self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter, colours.as_ref());
         if !self.report.converged {
@@ -672,14 +729,28 @@ impl Cd {
             let inertia = if p.inv_inertia[i] > 0.0 { 1.0 / p.inv_inertia[i] } else { 0.0 };
             p.torque[i] = (p.omega[i] - self.omega_start[i]) * (inertia / h);
         }
-        // Walls: the reaction of their contacts, then their motion.
+        // Walls and drum: the reaction of their contacts, then the walls' motion.
         for w in &mut self.walls {
             w.force = Vec3::zeros();
         }
+        if let Some(d) = &mut self.drum {
+            (d.force, d.torque) = (Vec3::zeros(), 0.0);
+        }
         for c in &self.contacts {
-            if let Side::Boundary(w) = c.j {
-                self.walls[w as usize].force -= c.force(h);
-                self.window.wall_impulse(w as usize, -c.frame.to_global(&c.r));
+            let Side::Boundary(w) = c.j else { continue };
+            let f = c.force(h);
+            match self.walls.get_mut(w as usize) {
+                Some(wall) => {
+                    wall.force -= f;
+                    self.window.wall_impulse(w as usize, -c.frame.to_global(&c.r));
+                }
+                None => {
+                    if let Some(d) = &mut self.drum {
+                        // The force at the contact point, and the rolling moment.
+                        d.force -= f;
+                        d.torque -= d.torque_of(&d.surface_point(&self.p.pos[c.i as usize]), &f) + c.rolling.m[d.def.axis] / h;
+                    }
+                }
             }
         }
         self.window.advance(h);
@@ -775,17 +846,11 @@ fn supported_controls(controls: &Controls) -> Result<(), &'static str> {
     if controls.glue.is_some() {
         return Err("gluing grains to walls (rough walls)");
     }
-    if controls.centripetal.is_some() || controls.close_walls.is_some() {
-        return Err("the granule's loading");
-    }
     if controls.deformation.is_some() {
         return Err("a deformation of the periodic cell");
     }
     if controls.shear_rate.is_some() {
         return Err("Lees-Edwards shear");
-    }
-    if controls.drum_angular_velocity.is_some() {
-        return Err("the drum");
     }
     if controls.walls.iter().any(|w| matches!(w.motion, WallMotion::Shearing { .. })) {
         return Err("a shearing wall");
@@ -808,9 +873,6 @@ fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
         if let Err(what) = supported_controls(&stage.controls) {
             return no("experiment".into(), what);
         }
-    }
-    if c.drum.is_some() {
-        return no("experiment".into(), "the rotating drum");
     }
     if c.deformation.is_some() {
         return no("container.deformation".into(), "an imposed deformation of the cell");
@@ -878,7 +940,7 @@ impl Simulation for Cd {
             shear: world::shear_geometry(&self.domain, &self.walls),
             elastic_energy: 0.0,
             rattler_threshold: rattler_threshold(self.dim, self.laws.frictional()),
-            drum: None,
+            drum: self.drum.as_ref().map(Drum::view),
         };
         let mut s = measure(&view);
         s.solver = Some(Box::new(SolverSample {
@@ -911,7 +973,11 @@ impl Simulation for Cd {
             force: p.force.clone(),
             contacts: self.contacts(),
             walls: world::wall_faces(&self.walls),
-            drum: None,
+            drum: self.drum.as_ref().map(|d| {
+                let drum = self.walls.len() as u32;
+                let loads = self.contacts.iter().filter(|c| c.j == Side::Boundary(drum)).map(|c| (p.pos[c.i as usize], c.force(self.h)));
+                d.shell(loads)
+            }),
         }
     }
 
@@ -926,10 +992,22 @@ impl Simulation for Cd {
                 reason: format!("{what} is not available with method \"cd\" yet"),
             });
         }
+        if let (Some(w), Some(drum)) = (controls.drum_angular_velocity, self.drum.as_mut()) {
+            drum.angular_velocity = w;
+            if let Some(spin) = self.wall_omega.last_mut() {
+                *spin = drum.axis_vector() * w;
+            }
+        }
         for def in &controls.walls {
             if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
                 w.set_motion(def.motion);
             }
+        }
+        if let Some(a) = controls.centripetal {
+            self.field = self.granule_center.filter(|_| a != 0.0).map(|c| (c, a));
+        }
+        if let Some(axis) = controls.close_walls {
+            self.close_walls(axis);
         }
         self.laws.set_friction(controls.friction);
         self.laws.set_inelastic(controls.local_damping.is_some_and(|a| a > 0.0));

@@ -17,8 +17,7 @@ use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Drum, Wall};
 use crate::math::{Real, Vec3};
-use crate::observe::snapshot::{DrumShell, DRUM_SEGMENTS};
-use crate::observe::{measure, rattler_threshold, ContactRecord, DrumView, Sample, ShearGeometry, Snapshot, SystemView};
+use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView};
 use crate::particles::Particles;
 use crate::run::Balance;
 use crate::run::Simulation;
@@ -463,19 +462,10 @@ impl Dem {
     /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
     /// outermost grains.
     fn close_walls(&mut self, axis: usize) {
-        let p = &self.p;
-        let lo = (0..p.len()).map(|i| p.pos[i][axis] - p.radius[i]).fold(Real::INFINITY, Real::min);
-        let hi = (0..p.len()).map(|i| p.pos[i][axis] + p.radius[i]).fold(Real::NEG_INFINITY, Real::max);
-        if !(lo.is_finite() && hi > lo) {
-            return;
+        if world::close_walls(&self.p, &mut self.walls, &mut self.domain, axis) {
+            self.refresh_neighbors();
+            self.compute_forces(false);
         }
-        for w in self.walls.iter_mut().filter(|w| w.face.axis == axis) {
-            w.position = if w.face.upper { hi } else { lo };
-        }
-        self.domain.lo[axis] = lo;
-        self.domain.hi[axis] = hi;
-        self.refresh_neighbors();
-        self.compute_forces(false);
     }
 
     /// Moves the glued grains with their walls: each takes its wall's new velocity, and its
@@ -503,19 +493,6 @@ impl Dem {
             let own = self.gravity * self.p.mass[i];
             self.walls[w as usize].force += self.p.force[i] - own;
         }
-    }
-
-    /// The drum as the measurements see it.
-    fn drum_view(&self) -> Option<DrumView> {
-        let d = self.drum.as_ref()?;
-        Some(DrumView {
-            axis: d.def.axis,
-            center: d.def.center,
-            radius: d.def.radius,
-            angular_velocity: d.angular_velocity,
-            down: d.def.down,
-            torque: d.torque,
-        })
     }
 
     /// Wall contact slots per particle: the plane walls, then the drum.
@@ -744,7 +721,7 @@ impl Simulation for Dem {
             shear: self.shear_geometry(),
             elastic_energy: self.elastic_energy(),
             rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
-            drum: self.drum_view(),
+            drum: self.drum.as_ref().map(Drum::view),
         };
         let s = measure(&view);
         if !s.is_finite() {
@@ -873,21 +850,8 @@ impl Simulation for Dem {
             contacts: self.contacts(),
             walls: world::wall_faces(&self.walls),
             drum: self.drum.as_ref().map(|d| {
-                let mut shell = DrumShell {
-                    axis: d.def.axis,
-                    center: d.def.center,
-                    radius: d.def.radius,
-                    segment_force: vec![Vec3::zeros(); DRUM_SEGMENTS],
-                };
                 let nw = self.wall_slots();
-                for (x, f) in p.pos.iter().zip(self.wall_f.chunks(nw)) {
-                    let f = f[nw - 1];
-                    if f != Vec3::zeros() {
-                        let k = shell.segment_of(&d.surface_point(x));
-                        shell.segment_force[k] -= f;
-                    }
-                }
-                shell
+                d.shell(p.pos.iter().zip(self.wall_f.chunks(nw)).map(|(x, f)| (*x, f[nw - 1])))
             }),
         }
     }
