@@ -186,6 +186,80 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
     assert!(sheared.iter().skip(1).all(|x| x.inertial_number.is_some_and(|i| i > 0.0)));
 }
 
+/// The same Lees-Edwards plane shear as `dry_plane_shear_follows_the_inertial_rheology_of_disks`
+/// with contact dynamics (method section aside; sampled by time, since CD's steps are longer):
+/// the periodic cell is a body of the contact problem held at σ_yy by the force across its
+/// boundary (engine/src/methods/cd/cell.rs). The preparation (frictionless, isotropic, by the
+/// cell's pressure) must reach the random close packing of frictionless disks, Φ ≈ 0.842 with an
+/// isostatic backbone Z = 4 (REFERENCES.md: O'Hern et al. 2003; ±0.01 on Φ for 400 polydisperse
+/// disks and the protocol, 0.15 on Z for the contacts held within the alert distance); the shear
+/// the DEM test's bounds on μ, Φ and I. σ_n is held within 3%: the cell holds the mean force
+/// across its boundary on target (within 1e-6 at rest, `physics_cd_cell.rs`), and the window's
+/// 76 samples of σ_yy scatter by 15 Pa (standard error of their mean 1.7 Pa). Measured: prepared
+/// Φ 0.8386, Z 4.05 (5,500 steps); μ 0.273 ± 0.056, Φ 0.810, I 0.01005, σ_n 101.5 Pa (DEM: μ
+/// 0.281, Φ 0.806, σ_n 99.4).
+#[test]
+fn contact_dynamics_shears_like_dem_in_the_periodic_cell() {
+    let (r, samples) = run(json!({
+        "dimension": 2,
+        "method": {"kind": "cd", "threads": 1},
+        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
+        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
+        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0},
+        "sampling": {"every_time": 0.01},
+        "seed": 4
+    }));
+    eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
+    let p = r.prepared.as_ref().expect("prepared");
+    assert!((p.p - 100.0).abs() < 1.0, "prepared p = {}", p.p);
+    assert!((p.phi - 0.842).abs() < 0.01, "prepared phi = {}", p.phi);
+    assert!((p.z_no_rattlers - 4.0).abs() < 0.15, "prepared Z = {}", p.z_no_rattlers);
+    let s = r.shear.as_ref().expect("shear results");
+    assert!(s.samples >= 20, "{} samples", s.samples);
+    assert!((0.21..0.35).contains(&s.mu), "mu = {}", s.mu);
+    assert!((0.787..0.827).contains(&s.phi), "phi = {}", s.phi);
+    assert!((s.inertial_number - 0.01).abs() < 0.001, "I = {}", s.inertial_number);
+    assert!((s.normal_stress - 100.0).abs() < 3.0, "sigma_n = {}", s.normal_stress);
+    assert!(samples.iter().all(|x| x.solver.is_some()), "CD samples carry the solver's diagnostics");
+    assert!(r.stiffness_number.is_none());
+}
+
+/// The plane shear between rough walls of `plane_shear_between_rough_walls_matches_the_periodic_cell`
+/// with contact dynamics: the glued grains are part of their wall (their contacts with the
+/// others are the wall's), the upper wall a body held at σ_n that slides at γ̇ × gap. Same bounds
+/// as the DEM test. The preparation is judged at a kinetic ratio of 1e-3 (the default 1e-4 took
+/// 233,500 steps, against 4,500 here: the rigid packing creeps at the edge of the bound); the
+/// shear forgets it. Measured: μ 0.276 ± 0.132, Φ 0.7945, σ_n 100.6 Pa, I 0.0100 (DEM: μ 0.272,
+/// Φ 0.803, σ_n 99.7).
+#[test]
+fn contact_dynamics_shears_between_rough_walls_like_dem() {
+    let (r, samples) = run(json!({
+        "dimension": 2,
+        "method": {"kind": "cd", "threads": 1},
+        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
+        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0.0, 0.0], "max": [0.02, 0.04], "periodic": ["x"], "wall_material": "disks"},
+        "experiment": {"kind": "plane_shear", "boundary": "rough_walls",
+                       "preparation": {"pressure": 100.0, "equilibrium": {"kinetic_ratio": 1e-3}},
+                       "inertial_number": 0.01, "strain": 2.0},
+        "sampling": {"every_time": 0.01},
+        "seed": 4
+    }));
+    eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
+    let s = r.shear.expect("shear results");
+    assert!((0.21..0.35).contains(&s.mu), "mu = {}", s.mu);
+    assert!((0.78..0.827).contains(&s.phi), "phi = {}", s.phi);
+    assert!((s.normal_stress - 100.0).abs() < 3.0, "sigma_n = {}", s.normal_stress);
+    assert!((s.inertial_number - 0.01).abs() < 0.001, "I = {}", s.inertial_number);
+    let window: Vec<_> = samples.iter().filter(|x| x.stage.as_deref() == Some("shear")).skip(10).collect();
+    let traction = |name: &str| window.iter().map(|x| x.walls.iter().find(|w| w.name == name).map_or(0.0, |w| w.force[0])).sum::<f64>();
+    let (top, bottom) = (traction("y_max"), traction("y_min"));
+    assert!(top.abs() > 0.0 && (top + bottom).abs() < 0.15 * top.abs(), "tractions {top} and {bottom}");
+}
+
 /// Deposition under gravity of 500 spheres (d 0.9-1.1 mm) onto a floor, periodic sideways so
 /// that only the floor and the free surface bound the deposit (about 7 diameters thick).
 /// Stiffness number 2e3 at the floor (deflections 5e-4 d, which change Φ by ~1e-3) and

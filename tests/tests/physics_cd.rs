@@ -210,28 +210,6 @@ fn rebound_heights_of_a_bouncing_grain_scale_by_e_squared() {
     }
 }
 
-#[test]
-fn what_contact_dynamics_does_not_do_yet_is_refused_with_the_field_named() {
-    let s = common::scene(json!({
-        "dimension": 2,
-        "method": "cd",
-        "materials": {"grain": {"density": RHO, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "grain", "count": 20, "size": {"kind": "monodisperse", "diameter": D}, "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"],
-                      "deformation": {"kind": "strain_rate", "rate": [-1.0, -1.0]}},
-        "stop": {"steps": 1}
-    }));
-    let sable_engine::scene::Method::Cd(p) = &s.method else { panic!("cd") };
-    match Cd::new(&s, p) {
-        Err(sable_engine::EngineError::Build { field, reason }) => {
-            assert_eq!(field, "container.deformation");
-            assert!(reason.contains("not available with method \"cd\""), "{reason}");
-        }
-        Err(e) => panic!("wrong error {e}"),
-        Ok(_) => panic!("a deformation of the cell with cd must be refused until it exists"),
-    }
-}
-
 /// A 2D scene with explicit walls, for the stress-controlled wall tests.
 fn walled(positions: serde_json::Value, container: serde_json::Value, gravity: serde_json::Value, tolerance: f64) -> Cd {
     let count = positions.as_array().map_or(0, Vec::len);

@@ -9,7 +9,7 @@ use crate::math::{Real, Vec3, AXES};
 use crate::observe::{ShearGeometry, WallFace, WallView};
 use crate::particles::{generate::place_particles, Particles};
 use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
-use crate::scene::{Material, Scene, StateFile, WallMotion};
+use crate::scene::{Deformation, Material, Scene, StateFile, WallMotion};
 
 /// The scene's box and its particles, placed, given the Lees-Edwards velocity profile and
 /// sorted by cell (neighbours close in memory).
@@ -81,16 +81,80 @@ pub(crate) fn imposed_speed(scene: &Scene, p: &Particles, stages: bool) -> Real 
             WallMotion::Velocity(u) => v = v.max(u.norm()),
             WallMotion::StrainRate(r) => v = v.max((r * (c.hi[axis] - c.lo[axis])).abs()),
             WallMotion::Stress { max_speed, .. } if stages && max_speed.is_finite() => v = v.max(max_speed),
+            WallMotion::Shearing { shear_rate, .. } if stages => v = v.max((shear_rate * (c.hi[axis] - c.lo[axis])).abs()),
             _ => {}
         }
     }
     if let Some((rate, _)) = c.lees_edwards {
         v = v.max(rate.abs() * (c.hi.y - c.lo.y));
     }
+    if stages {
+        // The stages' Lees-Edwards shear, and the cell's deformation (a length's rate).
+        let length = |a: usize| c.hi[a] - c.lo[a];
+        for s in &scene.stages {
+            if let Some(rate) = s.controls.shear_rate {
+                v = v.max(rate.abs() * length(1));
+            }
+        }
+        let staged = scene.stages.iter().filter_map(|s| s.controls.deformation.flatten());
+        for d in c.deformation.into_iter().chain(staged) {
+            let rate = match d {
+                Deformation::StrainRate(r) => r.abs().max(),
+                Deformation::Pressure { max_strain_rate, .. } | Deformation::NormalStress { max_strain_rate, .. } => max_strain_rate,
+            };
+            v = v.max(rate * span);
+        }
+    }
     if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
         v = v.max(angular_velocity.abs() * drum.radius);
     }
     v
+}
+
+/// Marks a particle glued to no wall in a `glued_to` list ([`glue_to_walls`]).
+pub(crate) const NOT_GLUED: u16 = u16::MAX;
+
+/// Glues to each wall the grains whose surface lies within `gap` mean diameters of it (rough
+/// walls): they keep their place against the wall, move with it and do not turn (infinite mass
+/// and inertia; each method moves them with their wall). `glued_to` holds each particle's wall
+/// (`NOT_GLUED` for none; filled on first use), `glued` the (particle, wall) pairs in particle
+/// order.
+pub(crate) fn glue_to_walls(p: &mut Particles, walls: &[Wall], glued_to: &mut Vec<u16>, glued: &mut Vec<(u32, u16)>, gap: Real) {
+    let mean_d = 2.0 * p.radius.iter().sum::<Real>() / p.len().max(1) as Real;
+    if glued_to.is_empty() {
+        *glued_to = vec![NOT_GLUED; p.len()];
+    }
+    for (i, glue) in glued_to.iter_mut().enumerate() {
+        if *glue != NOT_GLUED {
+            continue;
+        }
+        let near = walls.iter().position(|w| {
+            let n = w.normal();
+            (p.pos[i][w.face.axis] - w.position) * n[w.face.axis] - p.radius[i] <= gap * mean_d
+        });
+        if let Some(w) = near {
+            *glue = w as u16;
+            glued.push((i as u32, w as u16));
+            p.inv_mass[i] = 0.0;
+            p.inv_inertia[i] = 0.0;
+            p.vel[i] = walls[w].velocity;
+            p.omega[i] = Vec3::zeros();
+        }
+    }
+    glued.sort_unstable();
+}
+
+/// Sets the Lees-Edwards shear rate to `rate` (1/s), adding the change of the velocity profile
+/// to every grain (`v_x += Δγ̇ (y - y_mid)`); the grains must be in the box (wrapped), so that
+/// each gets the profile of its own position, and the pairs across the sheared boundary must be
+/// found again afterwards (their images' velocities changed).
+pub(crate) fn impose_shear_rate(domain: &mut Domain, p: &mut Particles, rate: Real) {
+    let change = rate - domain.shear_rate;
+    let ymid = 0.5 * (domain.lo.y + domain.hi.y);
+    for (x, v) in p.pos.iter().zip(p.vel.iter_mut()) {
+        v.x += change * (x.y - ymid);
+    }
+    domain.shear_rate = rate;
 }
 
 /// Area (length in 2D) of the faces normal to `axis`, m^(D-1).

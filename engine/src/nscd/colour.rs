@@ -7,8 +7,9 @@
 //! takes the first colour none of its bodies has yet) splits the contacts into such groups; a
 //! sweep in colour order is a Gauss-Seidel sweep in another order, which converges to a solution
 //! of the same problem (the velocities, and the impulses where they are unique). Contacts with a
-//! boundary free to move (a stress-controlled wall is one body for all its contacts) and those
-//! past [`MAX_COLOURS`] colours go to a last group swept serially.
+//! boundary free to move (a stress-controlled wall is one body for all its contacts, and so is a
+//! stress-controlled periodic cell for the contacts across its boundary) and those past
+//! [`MAX_COLOURS`] colours go to a last group swept serially.
 //!
 //! The order and the groups depend on the contacts only, and each task sums its part of the
 //! criterion over a fixed range of contacts: the answer does not depend on the number of
@@ -52,7 +53,8 @@ impl Colours {
                     }
                     k
                 }
-                Side::Body(j) => {
+                Side::Image { cell, .. } if mobility.get(cell as usize).is_some_and(|m| m.inv_mass > 0.0) => MAX_COLOURS,
+                Side::Body(j) | Side::Image { j, .. } => {
                     let j = j as usize;
                     let k = (!(used[i] | used[j])).trailing_zeros() as usize;
                     if k < MAX_COLOURS {

@@ -36,6 +36,37 @@ pub enum Side {
     /// A boundary (wall, drum), by its index in [`RigidBodies::boundary_vel`]: of imposed
     /// motion, or free to translate along one direction (a stress-controlled wall).
     Boundary(u32),
+    /// Another body seen through the boundary of a deforming periodic cell: body `j`'s image
+    /// `k` periods away along each axis, in a cell whose lengths change at the velocity of
+    /// boundary `cell` (component `a` of that velocity: dL_a/dt, m/s). The image moves at
+    /// `v_j + k ⊙ V_cell`; when the cell is free to deform (a stress-controlled cell), the
+    /// contact's impulse acts on it too — the cell is then a body of the contact problem, as a
+    /// stress-controlled wall is.
+    Image {
+        /// Particle index.
+        j: u32,
+        /// Boundary slot of the cell.
+        cell: u8,
+        /// Periods crossed along x, y, z.
+        k: [i8; 3],
+    },
+}
+
+impl Side {
+    /// The other body, if the contact is between two bodies (directly or through an image).
+    #[inline(always)]
+    pub fn body(&self) -> Option<u32> {
+        match *self {
+            Side::Body(j) | Side::Image { j, .. } => Some(j),
+            Side::Boundary(_) => None,
+        }
+    }
+}
+
+/// `k ⊙ v`: the velocity of an image `k` periods away in a cell whose lengths change at `v`.
+#[inline(always)]
+pub fn image_lever(k: [i8; 3], v: &Vec3) -> Vec3 {
+    Vec3::new(k[0] as Real * v.x, k[1] as Real * v.y, k[2] as Real * v.z)
 }
 
 /// One contact between a round body `i` and a body or boundary `j`, with its law for the step
@@ -299,6 +330,18 @@ impl RigidContact {
         Delassus { n: im + im_b, t: im + a * a * ii }
     }
 
+    /// `w` with a boundary that moves as `lever × s` for a degree of freedom `s` of inverse
+    /// mass `im_b` added, at a contact of normal `n`: `im_b (n·lever)²` on the normal and
+    /// `im_b (|lever|² - (n·lever)²)` on the tangents (the diagonal of the block; its
+    /// off-diagonal terms are left out, as everywhere in the local blocks: NLGS converges to
+    /// the same fixed point, since each visit recomputes the velocities from the bodies). For a
+    /// plane wall (`lever` along `n`) this is [`RigidContact::delassus_boundary`].
+    pub fn with_moving_boundary(w: Delassus, n: &Vec3, lever: &Vec3, im_b: Real) -> Delassus {
+        let along = n.dot(lever);
+        let across = (lever.norm_squared() - along * along).max(0.0);
+        Delassus { n: w.n + im_b * along * along, t: w.t + im_b * across }
+    }
+
     /// Relative velocity of the contact point of `i` against that of `j` (global), m/s.
     #[inline(always)]
     pub fn relative_velocity(&self, vel: &[Vec3], omega: &[Vec3], boundary_vel: &[Vec3]) -> Vec3 {
@@ -324,6 +367,11 @@ impl RigidContact {
                 spin += omega(j) * self.a_j;
             }
             Side::Boundary(k) => u -= boundary_vel(k as usize),
+            Side::Image { j, cell, k } => {
+                let j = j as usize;
+                u -= vel(j) + image_lever(k, &boundary_vel(cell as usize));
+                spin += omega(j) * self.a_j;
+            }
         }
         u - spin.cross(n)
     }
@@ -352,6 +400,18 @@ impl RigidContact {
                     }
                 }
             }
+            Side::Image { j, cell, k } => {
+                let j = j as usize;
+                bodies.add_vel(j, -p * bodies.inv_mass(j));
+                bodies.add_omega(j, -nxp * (self.a_j * bodies.inv_inertia(j)));
+                let m = bodies.mobility(cell as usize);
+                if m.inv_mass > 0.0 {
+                    // The image's velocity is v_j + k ⊙ V: the cell takes -p through the lever
+                    // k ⊙ direction.
+                    let lever = image_lever(k, &m.direction);
+                    bodies.add_boundary_vel(cell as usize, -m.direction * (p.dot(&lever) * m.inv_mass));
+                }
+            }
         }
     }
 
@@ -360,7 +420,7 @@ impl RigidContact {
     fn apply_moment(&self, m: &Vec3, bodies: &mut impl BodyStore) {
         let i = self.i as usize;
         bodies.add_omega(i, m * bodies.inv_inertia(i));
-        if let Side::Body(j) = self.j {
+        if let Some(j) = self.j.body() {
             let j = j as usize;
             bodies.add_omega(j, -m * bodies.inv_inertia(j));
         }
@@ -372,7 +432,7 @@ impl RigidContact {
     fn rolling_velocity(&self, bodies: &impl BodyStore) -> Vec3 {
         let mut w = bodies.omega(self.i as usize);
         match self.j {
-            Side::Body(j) => w -= bodies.omega(j as usize),
+            Side::Body(j) | Side::Image { j, .. } => w -= bodies.omega(j as usize),
             Side::Boundary(k) => w -= bodies.boundary_omega(k as usize),
         }
         let n = &self.frame.n;

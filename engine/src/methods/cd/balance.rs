@@ -27,6 +27,8 @@ pub(super) struct Window {
     vel: Vec<Vec3>,
     /// Impulse the contacts gave each wall, N·s.
     wall_impulse: Vec<Vec3>,
+    /// Generalised impulse the contacts gave a stress-controlled periodic cell, N·s.
+    cell_impulse: Real,
     /// Time since the window opened, s.
     time: Real,
 }
@@ -39,6 +41,10 @@ pub(super) struct Means {
     pub net_force: Real,
     /// The walls with their mean force over the window.
     pub walls: Vec<Wall>,
+    /// Generalised impulse the contacts gave a stress-controlled cell over the window, N·s.
+    pub cell_impulse: Real,
+    /// Length of the window, s.
+    pub time: Real,
 }
 
 impl Window {
@@ -50,6 +56,7 @@ impl Window {
         self.vel.extend_from_slice(vel);
         self.wall_impulse.clear();
         self.wall_impulse.resize(walls, Vec3::zeros());
+        self.cell_impulse = 0.0;
         self.time = 0.0;
     }
 
@@ -63,6 +70,12 @@ impl Window {
     #[inline]
     pub fn wall_impulse(&mut self, w: usize, impulse: Vec3) {
         self.wall_impulse[w] += impulse;
+    }
+
+    /// Adds a generalised impulse on the periodic cell, N·s.
+    #[inline]
+    pub fn cell_impulse(&mut self, impulse: Real) {
+        self.cell_impulse += impulse;
     }
 
     /// Adds a step of `h` seconds.
@@ -86,7 +99,7 @@ impl Window {
                     w
                 })
                 .collect();
-            Means { kinetic_energy, net_force, walls }
+            Means { kinetic_energy, net_force, walls, cell_impulse: self.cell_impulse, time: t }
         });
         self.open(vel, walls.len());
         means

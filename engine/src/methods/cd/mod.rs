@@ -30,16 +30,19 @@
 //!    when the next step detects its contacts.
 //!
 //! Lees-Edwards cells: a pair across the sheared boundary sees the image's velocity in its
-//! contact velocity (`drive`), and the image offset advances with the positions.
+//! contact velocity (`drive`), and the image offset advances with the positions. A deforming
+//! periodic cell is the boundary slot after the walls and the drum: the grains are not remapped,
+//! the cell's lengths move and the contacts across its boundary see them move; held at a stress,
+//! the cell is a body of the contact problem ([`cell`]).
 //!
-//! Experiments: the compaction, the deposition, the isotropic compression between walls and the
-//! biaxial/triaxial tests run (a stage with local damping makes impacts inelastic,
-//! [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over the check
-//! interval, [`balance`]; an experiment's loading stages take the looser
-//! `loading_violation_tolerance`, [`Cd::begin_stage`]). Not yet with this method (rejected at
-//! build with the field named): plane shear, shearing walls, cell deformation, rough (glued)
-//! walls. The rotating drum is the boundary after the walls (its contacts drive the grains with
-//! the rim's velocity and spin); the granule's centripetal field acts in the free motion.
+//! Experiments: every experiment of DEM runs (a stage with local damping makes impacts
+//! inelastic, [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over
+//! the check interval, [`balance`]; an experiment's loading stages take the looser
+//! `loading_violation_tolerance`, [`Cd::begin_stage`]). The rotating drum is the boundary after
+//! the walls (its contacts drive the grains with the rim's velocity and spin); the granule's
+//! centripetal field acts in the free motion. A grain glued to a wall (rough walls) is part of the
+//! wall: its contacts with the other grains are the wall's, seen from the free grain; a shearing
+//! wall is a stress-controlled wall sliding at its shear rate times the gap.
 //!
 //! Rolling resistance is a graph on the contact's moment impulse ([`crate::nscd::Rolling`]).
 //! Cohesion — the constant attraction F_0 within D_0 of RC 2.2.3, and the capillary bridges of
@@ -56,19 +59,21 @@
 //! ([`Cd::step_length`]).
 
 mod balance;
+mod cell;
 mod laws;
 
 use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::{Domain, NeighborList};
 use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};
-use crate::nscd::nlgs::{law_for, RigidBodies};
+use crate::nscd::nlgs::{image_lever, law_for, RigidBodies};
 use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
 use crate::scene::{CdParams, Controls, Material, Scene, Stage, StateFile, WallMotion};
 use balance::Window;
+use cell::Cell;
 use laws::PairLaws;
 
 use super::world;
@@ -138,6 +143,10 @@ struct Held {
 /// What a contact of the step is, beside its impulse.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct Status {
+    /// The pair ([`key_of`]).
+    key: (u32, u32),
+    /// Between two grains (one may be glued to a wall: its contact is then one of the wall's).
+    pair: bool,
     /// The grains touch (gap within [`ALERT`] at the start of the step).
     touching: bool,
     /// A capillary bridge joins them.
@@ -150,11 +159,13 @@ struct Status {
 /// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
 const WALL_KEY: u32 = u32::MAX;
 
-/// The pair a contact joins, for the warm start: `(i, j)` with `i < j`, or `(i, WALL_KEY - w)`.
-fn key_of(c: &RigidContact) -> (u32, u32) {
-    match c.j {
-        Side::Body(j) => (c.i, j),
-        Side::Boundary(w) => (c.i, WALL_KEY - w),
+/// The pair a contact joins, for the warm start: `(i, j)` with `i < j` as the neighbour list
+/// holds them (whichever of the two is glued to a wall), or `(i, WALL_KEY - w)` for grain `i`
+/// against boundary `w`.
+fn key_of(i: u32, other: Side) -> (u32, u32) {
+    match other {
+        Side::Body(j) | Side::Image { j, .. } => (i, j),
+        Side::Boundary(w) => (i, WALL_KEY - w),
     }
 }
 
@@ -184,6 +195,17 @@ pub struct Cd {
     wall_vel: Vec<Vec3>,
     wall_mobility: Vec<Mobility>,
     wall_omega: Vec<Vec3>,
+    /// The deforming periodic cell, if the cell deforms: the boundary slot `cell_slot`, after
+    /// the walls and the drum ([`cell`]).
+    cell: Option<Cell>,
+    cell_slot: usize,
+    /// Velocity of the cell's lengths at the end of the last step, m/s.
+    cell_vel: Vec3,
+    /// Grains glued to a wall (rough walls): (particle, wall), in particle order; and the wall
+    /// of each particle (`world::NOT_GLUED` for none; empty while none is). A glued grain is part
+    /// of its wall: its contacts with other grains are contacts of the wall.
+    glued: Vec<(u32, u16)>,
+    glued_to: Vec<u16>,
     /// Centre of the scene's granule ball, where the centripetal field pulls.
     granule_center: Option<Vec3>,
     /// Centripetal field: centre and acceleration, m/s² (while a granule forms).
@@ -224,7 +246,6 @@ impl Cd {
     /// Builds the simulation: places particles, chooses the time step and builds the
     /// neighbour list.
     pub fn new(scene: &Scene, params: &CdParams) -> Result<Self, EngineError> {
-        reject_unsupported(scene)?;
         let c = &scene.container;
         let (p, domain) = world::initial_particles(scene)?;
         let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
@@ -280,7 +301,9 @@ impl Cd {
         };
         let n = p.len();
         let drum = c.drum.map(Drum::new);
-        let slots = walls.len() + usize::from(drum.is_some());
+        // The walls, the drum, the periodic cell.
+        let cell_slot = walls.len() + usize::from(drum.is_some());
+        let slots = cell_slot + 1;
         let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
         let mean_diameter = 2.0 * p.radius.iter().sum::<Real>() / n as Real;
         // One layer of grains across the box's largest length.
@@ -303,6 +326,11 @@ impl Cd {
             wall_omega: if drum.is_some() { vec![Vec3::zeros(); slots] } else { Vec::new() },
             walls,
             drum,
+            cell: c.deformation.map(|d| Cell::new(d, wall_mass)),
+            cell_slot,
+            cell_vel: Vec3::zeros(),
+            glued: Vec::new(),
+            glued_to: Vec::new(),
             granule_center: c.granule.map(|b| b.center),
             field: None,
             wall_mass,
@@ -400,6 +428,8 @@ impl Cd {
             + self.order.capacity() * std::mem::size_of::<u32>()
             + self.previous.capacity() * std::mem::size_of::<Held>()
             + (self.vel_start.capacity() + self.omega_start.capacity() + self.wall_omega.capacity()) * std::mem::size_of::<Vec3>()
+            + self.glued.capacity() * std::mem::size_of::<(u32, u16)>()
+            + self.glued_to.capacity() * std::mem::size_of::<u16>()
             + self.window.heap_bytes()
     }
 
@@ -413,8 +443,31 @@ impl Cd {
 
     fn refresh_neighbors(&mut self) {
         let domain = &self.domain;
-        for (x, v) in self.p.pos.iter_mut().zip(self.p.vel.iter_mut()) {
+        // A grain brought back across the boundary of a deforming cell becomes its own image
+        // `m` periods away, which moves at `v + m dL/dt` ([`cell`]); the sheared axis x keeps
+        // the Lees-Edwards rule of `wrap`.
+        // That change of reference grain is no force: the momentum it adds is taken off every
+        // grain alike (a change of frame, which a periodic cell allows).
+        let cell_vel = self.cell_vel;
+        let deforming: Vec<usize> = (0..self.dim).filter(|&a| cell_vel[a] != 0.0 && !(a == 0 && domain.sheared())).collect();
+        let mut momentum = Vec3::zeros();
+        for ((x, v), m) in self.p.pos.iter_mut().zip(self.p.vel.iter_mut()).zip(&self.p.mass) {
+            let before = *x;
             domain.wrap(x, v);
+            for &a in &deforming {
+                let dv = ((x[a] - before[a]) / domain.length(a)).round() * cell_vel[a];
+                v[a] += dv;
+                momentum[a] += m * dv;
+            }
+        }
+        if momentum != Vec3::zeros() {
+            let free: Real = self.p.mass.iter().zip(&self.p.inv_mass).filter(|(_, im)| **im > 0.0).map(|(m, _)| m).sum();
+            let dv = momentum / free;
+            for (v, im) in self.p.vel.iter_mut().zip(&self.p.inv_mass) {
+                if *im > 0.0 {
+                    *v -= dv;
+                }
+            }
         }
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
         self.force_rebuild = false;
@@ -432,7 +485,7 @@ impl Cd {
     fn free_walls(&mut self) {
         let h = self.h;
         let stress = |w: &Wall| match w.motion {
-            WallMotion::Stress { stress, .. } => Some(stress),
+            WallMotion::Stress { stress, .. } | WallMotion::Shearing { stress, .. } => Some(stress),
             _ => None,
         };
         for w in 0..self.walls.len() {
@@ -463,8 +516,22 @@ impl Cd {
             // `max_speed` bounds the speed the wall ends the step with (`step_stages`), not the
             // push: a wall at rest on the grains must still push with its whole target.
             let n = wall.normal();
-            self.wall_vel[w] = n * (wall.velocity.dot(&n) + push);
+            // A shearing wall slides along its flow axis at its shear rate times the gap.
+            let mut slide = Vec3::zeros();
+            if let WallMotion::Shearing { shear_rate, flow, .. } = wall.motion {
+                slide[flow] = shear_rate * self.domain.length(a);
+            }
+            self.wall_vel[w] = n * (wall.velocity.dot(&n) + push) + slide;
             self.wall_mobility[w] = Mobility { direction: axis, inv_mass, partner: partner.map(|o| o as u32) };
+        }
+        let k = self.cell_slot;
+        (self.wall_vel[k], self.wall_mobility[k]) = match &self.cell {
+            Some(cell) => cell.velocity(&self.domain, h),
+            None => (Vec3::zeros(), Mobility::FIXED),
+        };
+        if self.wall_mobility[k].inv_mass == 0.0 {
+            // Imposed rates: the velocity of the whole step.
+            self.cell_vel = self.wall_vel[k];
         }
     }
 
@@ -491,15 +558,30 @@ impl Cd {
         // What the pair carried at the last step, if anything: the warm start, and whether it
         // was pressed (a lasting contact, whose impact is over: no restitution) or bridged.
         let held = |key: (u32, u32)| previous.binary_search_by(|e| e.key.cmp(&key)).ok().map(|k| previous[k]);
-        let mut push = |c: RigidContact, touching: bool, bridge: bool| {
+        let mut push = |c: RigidContact, key: (u32, u32), pair: bool, touching: bool, bridge: bool| {
             self.contacts.push(c);
-            self.status.push(Status { touching, bridge, pressed: false });
+            self.status.push(Status { key, pair, touching, bridge, pressed: false });
         };
+        // The wall a grain is glued to, if any.
+        let glued_to = &self.glued_to;
+        let glued = |i: usize| glued_to.get(i).copied().filter(|&w| w != world::NOT_GLUED).map(|w| w as usize);
+        let wall_mobility = &self.wall_mobility;
+        // The deforming cell: its slot, its velocity at the start of the step, and whether a
+        // contact across the boundary along each axis sees it move.
+        let cell = self.cell_slot;
+        let (cell_v0, cell_mobility) = (self.cell_vel, wall_mobility[cell]);
+        let moving: [bool; 3] = std::array::from_fn(|a| self.cell.is_some() && (cell_v0[a] != 0.0 || cell_mobility.direction[a] != 0.0));
         for i in 0..p.len() {
             let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
             for pr in &nl.pair[s..e] {
                 let j = pr.j as usize;
-                let d = p.pos[i] - p.pos[j] - domain.image_shift(pr.image);
+                let (glued_i, glued_j) = (glued(i), glued(j));
+                if glued_i.is_some() && glued_j.is_some() {
+                    continue;
+                }
+                let k = pr.image;
+                let across = (0..3).any(|a| k[a] != 0 && moving[a]);
+                let d = p.pos[i] - p.pos[j] - domain.image_shift(k);
                 let dist = d.norm();
                 let (ri, rj) = (p.radius[i], p.radius[j]);
                 let g = dist - ri - rj;
@@ -509,9 +591,9 @@ impl Cd {
                     continue;
                 }
                 let n = d / dist;
-                let drive = Vec3::new(domain.image_velocity(pr.image[1]), 0.0, 0.0);
+                let drive = Vec3::new(domain.image_velocity(k[1]), 0.0, 0.0);
                 // The spins do not move the contact point along the normal of round bodies.
-                let u_n = (p.vel[i] - p.vel[j] - drive).dot(&n);
+                let u_n = (p.vel[i] - p.vel[j] - drive - image_lever(k, &cell_v0)).dot(&n);
                 let alert = ALERT * r;
                 let closing = g + ahead * u_n <= alert;
                 if !closing && g > attraction.range() {
@@ -528,10 +610,8 @@ impl Cd {
                 if !closing && cohesion == 0.0 {
                     continue;
                 }
-                let frame = ContactFrame::new(dim, n);
                 let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
                 let (e, mu) = laws.pair(p.material[i], p.material[j]);
-                let w = RigidContact::delassus(p.inv_mass[i], p.inv_inertia[i], a_i, p.inv_mass[j], p.inv_inertia[j], a_j);
                 let mut law = if closing {
                     overlap(g, r);
                     let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
@@ -544,17 +624,38 @@ impl Cd {
                 if let (true, Some(lub)) = (bridge.is_some(), attraction.lubrication) {
                     law.viscosity = h * lub.force(g, 1.0, ri, rj);
                 }
+                // The contact from the free grain's side: a grain glued to a wall is part of it
+                // (the contact then is one of the wall's, seen from the other grain: normal,
+                // levers and drive turned round); across a deforming cell's boundary the image
+                // moves with the cell.
+                let (first, second, side, n, a_first, a_second, drive) = match (glued_i, glued_j) {
+                    (None, None) if across => (i, j, Side::Image { j: pr.j, cell: cell as u8, k }, n, a_i, a_j, drive),
+                    (None, None) => (i, j, Side::Body(pr.j), n, a_i, a_j, drive),
+                    (None, Some(w)) => (i, j, Side::Boundary(w as u32), n, a_i, a_j, drive),
+                    (Some(w), _) => (j, i, Side::Boundary(w as u32), -n, a_j, a_i, -drive),
+                };
+                let frame = ContactFrame::new(dim, n);
+                let (f, o) = (first, second);
+                let mut w = RigidContact::delassus(p.inv_mass[f], p.inv_inertia[f], a_first, p.inv_mass[o], p.inv_inertia[o], a_second);
+                let mobility = match side {
+                    Side::Boundary(b) => Some((wall_mobility[b as usize], wall_mobility[b as usize].direction)),
+                    Side::Image { k, .. } => Some((cell_mobility, image_lever(k, &cell_mobility.direction))),
+                    Side::Body(_) => None,
+                };
+                if let Some((m, lever)) = mobility.filter(|(m, _)| m.inv_mass > 0.0) {
+                    w = RigidContact::with_moving_boundary(w, &n, &lever, m.inv_mass);
+                }
                 let rolling = Rolling {
                     bound: laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj),
                     w: p.inv_inertia[i] + p.inv_inertia[j],
                     m: old.map_or(Vec3::zeros(), |o| o.m),
                 };
                 let contact = RigidContact {
-                    i: i as u32,
-                    j: Side::Body(pr.j),
+                    i: first as u32,
+                    j: side,
                     frame,
-                    a_i,
-                    a_j,
+                    a_i: a_first,
+                    a_j: a_second,
                     drive,
                     w,
                     law,
@@ -562,15 +663,17 @@ impl Cd {
                     rolling,
                     scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n + cohesion,
                 };
-                push(contact, g <= alert, bridge.is_some());
+                push(contact, (i as u32, pr.j), true, g <= alert, bridge.is_some());
             }
         }
         // A grain against boundary `k` (a plane wall, or the drum's slot after them): `n` from
         // the surface towards the grain, `dist` from the grain's centre to the contact point,
         // `v_b` the surface's velocity there, `drive` its part that is not the boundary's
         // translation (the drum's rotation).
-        let wall_mobility = &self.wall_mobility;
         let mut boundary = |i: usize, k: usize, n: Vec3, dist: Real, v_b: Vec3, drive: Vec3| {
+            if glued(i).is_some() {
+                return;
+            }
             let r = p.radius[i];
             let g = dist - r;
             let attraction = laws.wall_attraction(p.material[i]);
@@ -613,7 +716,7 @@ impl Cd {
                 rolling,
                 scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + v_b.norm())) / wd.n + cohesion,
             };
-            push(contact, g <= alert, false);
+            push(contact, key_of(i as u32, Side::Boundary(k as u32)), false, g <= alert, false);
         };
         for (w, wall) in self.walls.iter().enumerate() {
             let n = wall.normal();
@@ -664,6 +767,11 @@ impl Cd {
         let theta = self.params.theta;
         if self.force_rebuild || self.nl.needs_rebuild(&self.p.pos, &self.domain) {
             self.refresh_neighbors();
+        }
+        // Glued grains move with their walls.
+        for &(i, w) in &self.glued {
+            self.p.vel[i as usize] = self.walls[w as usize].velocity;
+            self.p.omega[i as usize] = Vec3::zeros();
         }
         self.free_walls();
         self.detect();
@@ -718,6 +826,18 @@ impl Cd {
                 violation_tolerance: self.solver.settings.violation_tolerance,
             }));
         }
+        // A stress-controlled wall ends the step at most at `max_speed` (crossing empty space it
+        // would otherwise gain the push of its target at every step); its glued grains end it
+        // with it.
+        for (wall, v1) in self.walls.iter().zip(self.wall_vel.iter_mut()) {
+            if let WallMotion::Stress { max_speed, .. } | WallMotion::Shearing { max_speed, .. } = wall.motion {
+                let a = wall.face.axis;
+                v1[a] = v1[a].clamp(-max_speed, max_speed);
+            }
+        }
+        for &(i, w) in &self.glued {
+            self.p.vel[i as usize] = self.wall_vel[w as usize];
+        }
         // Theta-scheme positions; mean forces and torques over the step.
         let p = &mut self.p;
         for i in 0..p.len() {
@@ -753,15 +873,22 @@ impl Cd {
                 }
             }
         }
+        // The deforming cell: the generalised impulse of the contacts across its boundary, then
+        // its lengths.
+        if let Some(cell) = &mut self.cell {
+            let mut impulse = 0.0;
+            for c in &self.contacts {
+                if let Side::Image { k, .. } = c.j {
+                    impulse += cell.impulse_of(&self.domain, &c.frame.to_global(&c.r), k);
+                }
+            }
+            self.window.cell_impulse(impulse);
+            self.cell_vel = cell.finish(&mut self.domain, self.cell_vel, self.wall_vel[self.cell_slot], h, theta);
+        }
         self.window.advance(h);
         self.domain.advance_shear(h);
-        for (wall, v1) in self.walls.iter_mut().zip(self.wall_vel.iter_mut()) {
+        for (wall, v1) in self.walls.iter_mut().zip(self.wall_vel.iter()) {
             let a = wall.face.axis;
-            // A stress-controlled wall ends the step at most at `max_speed` (crossing empty space
-            // it would otherwise gain the push of its target at every step).
-            if let WallMotion::Stress { max_speed, .. } = wall.motion {
-                v1[a] = v1[a].clamp(-max_speed, max_speed);
-            }
             wall.position += h * (theta * v1[a] + (1.0 - theta) * wall.velocity[a]);
             wall.velocity = *v1;
             if wall.face.upper {
@@ -782,7 +909,7 @@ impl Cd {
                 .iter()
                 .zip(&self.status)
                 .filter(|(c, s)| c.r != Vec3::zeros() || c.rolling.m != Vec3::zeros() || s.bridge || s.pressed)
-                .map(|(c, s)| Held { key: key_of(c), r: c.frame.to_global(&c.r), m: c.rolling.m, pressed: s.pressed, bridge: s.bridge }),
+                .map(|(c, s)| Held { key: s.key, r: c.frame.to_global(&c.r), m: c.rolling.m, pressed: s.pressed, bridge: s.bridge }),
         );
         self.previous.sort_unstable_by_key(|e| e.key);
         self.step += 1;
@@ -825,10 +952,9 @@ impl Cd {
             .iter()
             .zip(&self.status)
             .filter_map(|(c, s)| {
-                let (j, branch) = match c.j {
-                    Side::Body(j) => (Some(j), c.frame.n * (c.a_i + c.a_j)),
-                    Side::Boundary(_) => (None, c.frame.n * c.a_i),
-                };
+                // A contact with a glued grain is a pair, seen from the free grain.
+                let j = s.pair.then_some(if s.key.0 == c.i { s.key.1 } else { s.key.0 });
+                let branch = c.frame.n * (c.a_i + c.a_j);
                 // Touching: in contact at the start of the step, or pressed by its end. Bonded:
                 // a capillary bridge, or cohesion holding grains in contact (whose net force
                 // may be zero: the attraction balanced by the contact's reaction).
@@ -838,51 +964,6 @@ impl Cd {
             })
             .collect()
     }
-}
-
-/// What of a stage's controls this method does not do yet, if anything. Local damping makes
-/// the stage's impacts inelastic ([`PairLaws::set_inelastic`]).
-fn supported_controls(controls: &Controls) -> Result<(), &'static str> {
-    if controls.glue.is_some() {
-        return Err("gluing grains to walls (rough walls)");
-    }
-    if controls.deformation.is_some() {
-        return Err("a deformation of the periodic cell");
-    }
-    if controls.shear_rate.is_some() {
-        return Err("Lees-Edwards shear");
-    }
-    if controls.walls.iter().any(|w| matches!(w.motion, WallMotion::Shearing { .. })) {
-        return Err("a shearing wall");
-    }
-    Ok(())
-}
-
-/// Rejects what this method does not do yet, naming the field.
-fn reject_unsupported(scene: &Scene) -> Result<(), EngineError> {
-    let c = &scene.container;
-    let no = |field: String, what: &str| {
-        Err(EngineError::Build { field, reason: format!("{what} is not available with method \"cd\" yet; use method \"dem\"") })
-    };
-    // Plane shear needs the cell servo (periodic) or grains glued to the walls (rough walls).
-    use crate::scene::Experiment;
-    if let Some(e @ Experiment::PlaneShear { .. }) = &scene.experiment {
-        return no("experiment.kind".into(), &format!("the {} experiment", e.kind(scene.dim)));
-    }
-    for stage in &scene.stages {
-        if let Err(what) = supported_controls(&stage.controls) {
-            return no("experiment".into(), what);
-        }
-    }
-    if c.deformation.is_some() {
-        return no("container.deformation".into(), "an imposed deformation of the cell");
-    }
-    for w in &c.walls {
-        if matches!(w.motion, WallMotion::Shearing { .. }) {
-            return no(format!("container.walls.{}", w.face.name()), "a shearing wall");
-        }
-    }
-    Ok(())
 }
 
 impl Simulation for Cd {
@@ -986,12 +1067,6 @@ impl Simulation for Cd {
     }
 
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
-        if let Err(what) = supported_controls(controls) {
-            return Err(EngineError::Build {
-                field: "experiment".into(),
-                reason: format!("{what} is not available with method \"cd\" yet"),
-            });
-        }
         if let (Some(w), Some(drum)) = (controls.drum_angular_velocity, self.drum.as_mut()) {
             drum.angular_velocity = w;
             if let Some(spin) = self.wall_omega.last_mut() {
@@ -1008,6 +1083,22 @@ impl Simulation for Cd {
         }
         if let Some(axis) = controls.close_walls {
             self.close_walls(axis);
+        }
+        if let Some(gap) = controls.glue {
+            world::glue_to_walls(&mut self.p, &self.walls, &mut self.glued_to, &mut self.glued, gap);
+        }
+        if let Some(d) = controls.deformation {
+            // A new deformation starts from rest (imposed rates take their velocity at the next
+            // step).
+            self.cell = d.map(|d| Cell::new(d, self.wall_mass));
+            self.cell_vel = Vec3::zeros();
+        }
+        if let Some(rate) = controls.shear_rate {
+            // Into the box first (with the old images), so that every grain gets the profile of
+            // its own position; the pairs across the sheared boundary are found again.
+            self.refresh_neighbors();
+            world::impose_shear_rate(&mut self.domain, &mut self.p, rate);
+            self.force_rebuild = true;
         }
         self.laws.set_friction(controls.friction);
         self.laws.set_inelastic(controls.local_damping.is_some_and(|a| a > 0.0));
@@ -1041,17 +1132,19 @@ impl Simulation for Cd {
             .iter()
             .filter(|c| c.r.x != 0.0)
             .map(|c| {
-                let arm = match c.j {
-                    Side::Body(_) => c.a_i + c.a_j,
-                    Side::Boundary(_) => c.a_i,
-                };
-                c.r.x / h * arm
+                // a_j is 0 for walls and the drum.
+                c.r.x / h * (c.a_i + c.a_j)
             })
             .sum();
         let pressure = virial / (self.dim as Real * self.domain.volume());
         let p = &self.p;
         let (kinetic_energy, net, stress_error) = match self.window.close(&p.vel, &p.mass, &self.walls) {
-            Some(m) => (m.kinetic_energy, m.net_force, world::wall_stress_error(&m.walls, &self.domain)),
+            Some(m) => {
+                // The stress-controlled cell against its target, from the mean generalised force
+                // of the contacts across its boundary.
+                let cell = self.cell.as_ref().and_then(|c| c.stress_error(&self.domain, m.cell_impulse, m.time)).unwrap_or(0.0);
+                (m.kinetic_energy, m.net_force, world::wall_stress_error(&m.walls, &self.domain).max(cell))
+            }
             // No step since the last check: the state of the last step.
             None => (
                 0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>(),

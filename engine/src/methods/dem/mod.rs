@@ -79,9 +79,6 @@ const NEAR_GAP: Real = 0.15;
 const CHECK_EVERY: u64 = 20;
 const SERVO_EVERY: u64 = 10;
 
-/// Marks a particle glued to no wall in `Dem::glued_to`.
-const NOT_GLUED: u16 = u16::MAX;
-
 /// A soft-contact DEM simulation.
 pub struct Dem {
     dim: usize,
@@ -106,7 +103,7 @@ pub struct Dem {
     drum: Option<Drum>,
     /// Grains glued to a wall (rough walls): (particle, wall), in particle order.
     glued: Vec<(u32, u16)>,
-    /// The wall each particle is glued to (`NOT_GLUED` for none); empty while none is.
+    /// The wall each particle is glued to (`world::NOT_GLUED` for none); empty while none is.
     glued_to: Vec<u16>,
     /// Centre of the scene's granule ball, where the centripetal field pulls.
     granule_center: Option<Vec3>,
@@ -434,29 +431,7 @@ impl Dem {
     /// keep their place against the wall, move with it and do not turn (infinite mass and
     /// inertia for the integrator; `boundaries` sets their motion).
     fn glue_to_walls(&mut self, gap: Real) {
-        let p = &mut self.p;
-        let mean_d = 2.0 * p.radius.iter().sum::<Real>() / p.len().max(1) as Real;
-        if self.glued_to.is_empty() {
-            self.glued_to = vec![NOT_GLUED; p.len()];
-        }
-        for i in 0..p.len() {
-            if self.glued_to[i] != NOT_GLUED {
-                continue;
-            }
-            let near = self.walls.iter().position(|w| {
-                let n = w.normal();
-                (p.pos[i][w.face.axis] - w.position) * n[w.face.axis] - p.radius[i] <= gap * mean_d
-            });
-            if let Some(w) = near {
-                self.glued_to[i] = w as u16;
-                self.glued.push((i as u32, w as u16));
-                p.inv_mass[i] = 0.0;
-                p.inv_inertia[i] = 0.0;
-                p.vel[i] = self.walls[w].velocity;
-                p.omega[i] = Vec3::zeros();
-            }
-        }
-        self.glued.sort_unstable();
+        world::glue_to_walls(&mut self.p, &self.walls, &mut self.glued_to, &mut self.glued, gap);
     }
 
     /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
@@ -765,12 +740,7 @@ impl Simulation for Dem {
             // Into the box first (with the old images), so that every grain gets the profile of
             // its own position.
             self.refresh_neighbors();
-            let change = rate - self.domain.shear_rate;
-            let ymid = 0.5 * (self.domain.lo.y + self.domain.hi.y);
-            for (x, v) in self.p.pos.iter().zip(self.p.vel.iter_mut()) {
-                v.x += change * (x.y - ymid);
-            }
-            self.domain.shear_rate = rate;
+            world::impose_shear_rate(&mut self.domain, &mut self.p, rate);
             // The shear velocities of the images changed: pairs across the boundary must be found
             // again.
             self.refresh_neighbors();
