@@ -64,8 +64,8 @@ pub struct Balance {
     /// Translational kinetic energy, J (free spins of rattlers do not count).
     pub kinetic_energy: Real,
     /// The energy the kinetic energy is compared with, J: the elastic energy stored in the
-    /// contacts for soft contacts (DEM); for rigid grains (CD), which store none,
-    /// `p V_s / KAPPA_REF` ([`rigid_reference_energy`]).
+    /// contacts for soft contacts (DEM); for rigid grains (CD), which store none, what linear
+    /// contacts at KAPPA_REF would store under the same forces ([`rigid_reference_energy`]).
     pub reference_energy: Real,
     /// Mean norm of the net force on a particle / mean norm of a contact force (infinite
     /// without contacts).
@@ -95,13 +95,23 @@ impl Balance {
 /// contacts behave as rigid ones in quasi-static tests (Roux & Combe 2002; PHYSICS.md §9).
 pub const KAPPA_REF: Real = 1e4;
 
-/// The reference energy of rigid grains under the mean stress `p` (Pa) with solid volume `v_s`
-/// (m³; m² in 2D): `p V_s / KAPPA_REF`. A packing of soft contacts at stiffness number kappa
-/// stores about `p V_s / kappa` (per contact `f²/2k`; with `f ~ p d^(D-1)` and `N_c f d ~ D p V`,
-/// the sum is `pi p V_s / (kappa Phi² Z)` in 2D, 1.2 / kappa for Phi = 0.82 and Z = 4), so the
-/// same `kinetic_ratio` bound means the same quietness for both methods at KAPPA_REF.
-pub fn rigid_reference_energy(p: Real, v_s: Real) -> Real {
-    p.max(0.0) * v_s / KAPPA_REF
+/// The reference energy of rigid grains whose contacts carry the forces `forces` (N, the
+/// non-zero ones), for grains of mean diameter `d` (m): the elastic energy linear contacts at
+/// stiffness number KAPPA_REF would store under these forces, `sum f² / (2 k)` with
+/// `k = KAPPA_REF p d^(D-2)` and the contact pressure `p d^(D-1) = <f>` — so
+/// `k = KAPPA_REF <f> / d` in 2D and 3D alike. DEM's criterion compares the kinetic energy with
+/// its elastic energy, `sum f² / (2 k)` with its own k: the same `kinetic_ratio` bound then
+/// means the same quietness for both methods at KAPPA_REF. Per contact, the reference does not
+/// depend on the box: a granule in a large box is judged as a packing that fills it would be.
+pub fn rigid_reference_energy(forces: &[Real], d: Real) -> Real {
+    if forces.is_empty() {
+        return 0.0;
+    }
+    let mean = forces.iter().sum::<Real>() / forces.len() as Real;
+    if mean <= 0.0 {
+        return 0.0;
+    }
+    forces.iter().map(|f| f * f).sum::<Real>() * d / (2.0 * KAPPA_REF * mean)
 }
 
 /// Progress of a run, passed with every sample.

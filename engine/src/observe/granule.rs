@@ -33,14 +33,15 @@ pub struct GranuleResult {
     /// Strain of the largest σ_zz.
     pub peak_strain: f64,
     /// Plastic strength σ_p: the mean σ_zz over the plateau window, Pa (N 3.2.3: "résistance
-    /// verticale σ_zz").
-    pub plastic_strength: f64,
-    /// Standard deviation of the stress over the window, Pa.
-    pub plastic_strength_std: f64,
-    /// `σ_p / σ_c`.
-    pub normalized_strength: f64,
-    /// Prefactor of N eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)`.
-    pub eta: f64,
+    /// verticale σ_zz"); `None` if no sample fell in the window.
+    pub plastic_strength: Option<f64>,
+    /// Standard deviation of the stress over the window, Pa (`None` without a sample in it).
+    pub plastic_strength_std: Option<f64>,
+    /// `σ_p / σ_c` (`None` without σ_p or capillary stress).
+    pub normalized_strength: Option<f64>,
+    /// Prefactor of N eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)` (`None` without σ_p or capillary
+    /// stress).
+    pub eta: Option<f64>,
 }
 
 /// The stress-strain curve of a granule compression and what it gives.
@@ -86,9 +87,9 @@ pub(crate) fn granule_result(
         .collect();
     let (peak_strain, peak_stress) = curve.iter().fold((0.0, Real::NEG_INFINITY), |a, p| if p[1] > a.1 { (p[0], p[1]) } else { a });
     let window: Vec<Real> = curve.iter().filter(|p| p[0] >= plateau.0 && p[0] <= plateau.1).map(|p| p[1]).collect();
-    let n = window.len().max(1) as Real;
-    let plastic_strength = window.iter().sum::<Real>() / n;
-    let plastic_strength_std = (window.iter().map(|x| (x - plastic_strength).powi(2)).sum::<Real>() / n).sqrt();
+    let n = window.len() as Real;
+    let plastic_strength = (!window.is_empty()).then(|| window.iter().sum::<Real>() / n);
+    let plastic_strength_std = plastic_strength.map(|p| (window.iter().map(|x| (x - p).powi(2)).sum::<Real>() / n).sqrt());
     let z = relaxed.map_or(first.z, |x| x.z);
     let denominator = s * z * phi * sigma_c;
     Some(GranuleResult {
@@ -101,8 +102,8 @@ pub(crate) fn granule_result(
         peak_strain,
         plastic_strength,
         plastic_strength_std,
-        normalized_strength: if sigma_c > 0.0 { plastic_strength / sigma_c } else { 0.0 },
-        eta: if denominator > 0.0 { 2.0 * std::f64::consts::PI * plastic_strength / denominator } else { 0.0 },
+        normalized_strength: plastic_strength.filter(|_| sigma_c > 0.0).map(|p| p / sigma_c),
+        eta: plastic_strength.filter(|_| denominator > 0.0).map(|p| 2.0 * std::f64::consts::PI * p / denominator),
         curve,
     })
 }

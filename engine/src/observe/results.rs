@@ -457,8 +457,14 @@ impl Analysis {
                 let sigma_c = f_c / mean_diameter.powi(self.dim as i32 - 1);
                 r.granule = granule_result(&run, relaxed, *axis, *plateau, self.dim, solid, s, sigma_c);
                 if let Some(g) = &r.granule {
+                    if g.plastic_strength.is_none() {
+                        r.warnings.push(format!(
+                            "no sample in the plateau window (strain {} to {}): no plastic strength; sample more often (sampling.every_time)",
+                            plateau.0, plateau.1
+                        ));
+                    }
                     // At the plastic strength (the stress that holds the granule while it yields).
-                    let p = if g.plastic_strength > 0.0 { g.plastic_strength } else { sigma_c };
+                    let p = g.plastic_strength.filter(|&p| p > 0.0).unwrap_or(sigma_c);
                     r.stiffness_number = self.stiffness_number(p, mean_diameter);
                     r.inertial_number = inertial(*strain_rate, p);
                 }

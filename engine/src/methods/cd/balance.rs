@@ -84,10 +84,21 @@ impl Window {
     }
 
     /// The means since the window opened (`None` if no step was made), and a new window.
-    pub fn close(&mut self, vel: &[Vec3], mass: &[Real], walls: &[Wall]) -> Option<Means> {
+    ///
+    /// `free`: nothing holds the grains in place (no boundary touches them, as for a granule
+    /// between the plates before they close): their common translation over the window is then
+    /// no lack of balance — rigid grains keep whatever momentum they have, with nothing to
+    /// damp it — and is left out of the kinetic energy.
+    pub fn close(&mut self, vel: &[Vec3], mass: &[Real], walls: &[Wall], free: bool) -> Option<Means> {
         let t = self.time;
         let means = (t > 0.0 && self.travel.len() == vel.len()).then(|| {
-            let kinetic_energy = 0.5 * self.travel.iter().zip(mass).map(|(d, m)| m * (d / t).norm_squared()).sum::<Real>();
+            let drift = if free {
+                let total: Real = mass.iter().sum();
+                self.travel.iter().zip(mass).map(|(d, m)| d * *m).sum::<Vec3>() / total.max(Real::MIN_POSITIVE)
+            } else {
+                Vec3::zeros()
+            };
+            let kinetic_energy = 0.5 * self.travel.iter().zip(mass).map(|(d, m)| m * ((d - drift) / t).norm_squared()).sum::<Real>();
             let net_force = vel.iter().zip(&self.vel).zip(mass).map(|((v, v0), m)| ((v - v0) * (m / t)).norm()).sum::<Real>()
                 / vel.len().max(1) as Real;
             let walls = walls
@@ -132,10 +143,26 @@ mod tests {
             w.advance(h);
         }
         vel[1].x = 0.7;
-        let m = w.close(&vel, &mass, &[]).expect("a step was made");
+        let m = w.close(&vel, &mass, &[], false).expect("a step was made");
         assert!((m.kinetic_energy - 0.5 * 2.0 * 0.25).abs() < 1e-12, "{}", m.kinetic_energy);
         // Grain 1 gained 0.2 m/s over 1 s: 0.4 N; mean over the two grains 0.2 N.
         assert!((m.net_force - 0.2).abs() < 1e-12, "{}", m.net_force);
-        assert!(w.close(&vel, &mass, &[]).is_none(), "a new window has no step yet");
+        assert!(w.close(&vel, &mass, &[], false).is_none(), "a new window has no step yet");
+    }
+
+    /// Free grains: their common drift is left out, their motion relative to it is not.
+    #[test]
+    fn free_grains_lose_their_common_drift() {
+        let mass = [1.0, 3.0];
+        let vel = vec![Vec3::zeros(); 2];
+        let mut w = Window::default();
+        w.open(&vel, 0);
+        // Both drift at 0.2 m/s along y; grain 0 also moves at 0.3 m/s along x and grain 1 at
+        // -0.1 m/s (no momentum along x), over 1 s.
+        w.travel(0, Vec3::new(0.3, 0.2, 0.0));
+        w.travel(1, Vec3::new(-0.1, 0.2, 0.0));
+        w.advance(1.0);
+        let m = w.close(&vel, &mass, &[], true).expect("a step was made");
+        assert!((m.kinetic_energy - 0.5 * (0.09 + 3.0 * 0.01)).abs() < 1e-12, "{}", m.kinetic_energy);
     }
 }
