@@ -391,28 +391,41 @@ fn contact_dynamics_prepares_the_isotropic_packing_of_dem() {
     assert!(cd.stiffness_number.is_none() && dem.stiffness_number.is_some());
 }
 
-/// The biaxial test of the same 200 disks (prepared frictionless at 100 Pa, then μ = 0.5, the
-/// upper wall driven at 0.3/s to 15% of axial strain), by DEM and by contact dynamics with its
-/// default settings (the loading at `loading_violation_tolerance` 1e-4). Measured: peak ζ
-/// 0.423 (CD) and 0.404 (DEM), steady ζ 0.251 ± 0.062 and 0.308 ± 0.032 (mean ± standard
-/// deviation of the 26 samples of the last quarter of strain), steady Φ 0.785 and 0.792, Z
-/// without rattlers 2.98 and 3.05. Bounds: the peak within 10%, Φ within 2%, Z within 0.3; the
-/// steady ζ within 25%, because with 200 disks its samples scatter by 0.03-0.06 (the
-/// 400-disk comparison in the note agrees within 8%).
+/// The biaxial test of `scenes/biaxial_test_2d.json` (400 disks, d 0.8-1.2 mm, μ = 0.5 and e = 0.5,
+/// frictionless walls, prepared frictionless at 100 Pa, the upper wall driven at 0.3/s) to 10% of
+/// axial strain, by DEM (k_n = 1e5 N/m: stiffness number 1e3) and by contact dynamics with a slop
+/// of 2% (`method.slop`: at the default 1% the preparation is stirred by the restoration and
+/// creeps; docs/scene-format.md §3). Measured (CLI, same scene): peak ζ 0.408 (CD), 0.407 (DEM
+/// κ 1e3), 0.389 (DEM κ 1e4); steady ζ (mean of the samples past 7.5%) 0.313 ± 0.019, 0.310 ±
+/// 0.029, 0.308 ± 0.024; Φ 0.8005, 0.7992, 0.7993; Z without rattlers 3.01, 3.21, 2.93. Bounds:
+/// peak and steady ζ within 10% (the issue's), Φ within 1%, Z within 0.3.
 #[test]
 fn contact_dynamics_runs_the_biaxial_test_of_dem() {
-    let biaxial = json!({"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": 0.15});
-    let scene = |method: serde_json::Value| disks_2d(method, biaxial.clone());
-    let (cd, _) = run(scene(json!({"kind": "cd", "threads": 1})));
+    let scene = |method: serde_json::Value| {
+        json!({
+            "dimension": 2,
+            "method": method,
+            "materials": {
+                "disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5},
+                "platen": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.0}
+            },
+            "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.03, 0.03], "wall_material": "platen"},
+            "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": 0.10},
+            "sampling": {"every_time": 0.005},
+            "seed": 3
+        })
+    };
+    let (cd, _) = run(scene(json!({"kind": "cd", "threads": 1, "slop": 0.02})));
     let (dem, _) = run(scene(json!({"kind": "dem", "threads": 1})));
     eprintln!("cd {}\ndem {}", serde_json::to_string(&cd).unwrap_or_default(), serde_json::to_string(&dem).unwrap_or_default());
     let (cp, dp) = (cd.peak.as_ref().expect("peak"), dem.peak.as_ref().expect("peak"));
     let (cs, ds) = (cd.steady.as_ref().expect("steady"), dem.steady.as_ref().expect("steady"));
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
     assert!(rel(cp.zeta, dp.zeta) < 0.1, "peak zeta {} (cd) vs {} (dem)", cp.zeta, dp.zeta);
-    assert!(rel(cs.phi, ds.phi) < 0.02, "steady phi {} (cd) vs {} (dem)", cs.phi, ds.phi);
+    assert!(rel(cs.zeta, ds.zeta) < 0.1, "steady zeta {} (cd) vs {} (dem)", cs.zeta, ds.zeta);
+    assert!(rel(cs.phi, ds.phi) < 0.01, "steady phi {} (cd) vs {} (dem)", cs.phi, ds.phi);
     assert!((cs.z_no_rattlers - ds.z_no_rattlers).abs() < 0.3, "steady Z {} (cd) vs {} (dem)", cs.z_no_rattlers, ds.z_no_rattlers);
-    assert!(rel(cs.zeta, ds.zeta) < 0.25, "steady zeta {} (cd) vs {} (dem)", cs.zeta, ds.zeta);
 }
 
 /// A plane shear of 500 polydisperse spheres (d 0.9-1.1 mm, μ_p = 0.5) at 1 kPa, stiffness

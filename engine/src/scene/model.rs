@@ -130,6 +130,9 @@ pub struct CdParams {
     pub sweep: Sweep,
     /// Largest allowed interpenetration / smaller radius.
     pub max_interpenetration: Real,
+    /// Interpenetration the gap restoration leaves alone / smaller radius
+    /// ([`crate::methods::cd::SLOP`] by default).
+    pub slop: Real,
     /// Verlet skin as a fraction of the smallest diameter.
     pub skin: Real,
     /// Threads; 0 = rayon's global pool.
@@ -150,6 +153,7 @@ impl Default for CdParams {
             relaxation: 1.0,
             sweep: Sweep::Auto,
             max_interpenetration: 0.05,
+            slop: crate::methods::cd::SLOP,
             skin: 0.3,
             threads: 0,
         }

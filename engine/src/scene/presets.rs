@@ -77,3 +77,27 @@ pub fn cd_benchmark(particles: usize, steps: u64, threads: usize) -> serde_json:
         "seed": 42
     })
 }
+
+/// The quasi-static biaxial test of the CD-versus-DEM comparison (issue 5; the scene of
+/// `scenes/biaxial_test_2d.json`, to `axial_strain`): `particles` disks of 0.8-1.2 mm (μ = 0.5,
+/// e = 0.5) in a square box scaled to keep the 400-disk density (0.03 m for 400), frictionless
+/// walls, prepared frictionless at 100 Pa, then the upper wall driven at 0.3/s. `method` is the
+/// scene's method section; `k_n` (N/m) the linear stiffness, whose stiffness number is
+/// `k_n / 100 Pa` for DEM (CD ignores it).
+pub fn biaxial_benchmark(method: serde_json::Value, k_n: f64, particles: usize, axial_strain: f64) -> serde_json::Value {
+    let side = 0.03 * (particles as f64 / 400.0).sqrt();
+    json!({
+        "name": format!("biaxial-benchmark-{particles}"),
+        "dimension": 2,
+        "method": method,
+        "materials": {
+            "disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5, "friction": 0.5},
+            "platen": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5, "friction": 0.0}
+        },
+        "particles": [{"material": "disks", "count": particles, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3}, "placement": {"kind": "random"}}],
+        "container": {"min": [0.0, 0.0], "max": [side, side], "wall_material": "platen"},
+        "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": axial_strain},
+        "sampling": {"every_time": 0.005},
+        "seed": 3
+    })
+}

@@ -473,6 +473,10 @@ pub struct CdParamsSpec {
     /// Largest allowed interpenetration as a fraction of the smaller radius. Default 0.05.
     #[serde(default)]
     pub max_interpenetration: Option<f64>,
+    /// Interpenetration left alone by the gap restoration, as a fraction of the smaller radius.
+    /// Default 0.01.
+    #[serde(default)]
+    pub slop: Option<f64>,
     /// Verlet skin as a fraction of the smallest diameter. Default 0.3.
     #[serde(default)]
     pub skin: Option<f64>,

@@ -447,6 +447,15 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.max_interpenetration = o;
         }
     }
+    if let Some(slop) = s.slop {
+        if c.within("method.slop", slop, 0.0, 1.0) {
+            if slop < p.max_interpenetration {
+                p.slop = slop;
+            } else {
+                c.fail("method.slop", format!("must be below method.max_interpenetration ({}), got {slop}", p.max_interpenetration));
+            }
+        }
+    }
     if let Some(skin) = s.skin {
         if c.within("method.skin", skin, 1e-3, 2.0) {
             p.skin = skin;
@@ -951,6 +960,12 @@ mod tests {
                 "method.relaxation: must be in (0, 1], got 1.5",
             ]
         );
+        let slop = rules(&scene_with(serde_json::json!({"kind": "cd", "slop": 0.05}), 0.5));
+        assert_eq!(slop, vec!["method.slop: must be below method.max_interpenetration (0.05), got 0.05"]);
+        match parse_scene(&scene_with(serde_json::json!({"kind": "cd", "slop": 0.02}), 0.5)).map(|s| s.method) {
+            Ok(Method::Cd(p)) => assert_eq!(p.slop, 0.02),
+            other => panic!("{other:?}"),
+        }
         let unknown = rules(&scene_with(serde_json::json!({"kind": "cd", "skn": 0.1}), 0.5));
         assert_eq!(unknown.len(), 1);
         assert!(unknown[0].starts_with("method.skn: unknown field"), "{unknown:?}");

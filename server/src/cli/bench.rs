@@ -1,5 +1,7 @@
 //! `sable bench dem`: throughput of soft-contact DEM on the standard scene, in particle-steps
-//! per second, with memory per particle. Never a pass/fail test.
+//! per second, with memory per particle; `sable bench cd`: contact dynamics in contact-iterations
+//! per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
+//! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -9,7 +11,7 @@ use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::cd_benchmark, presets::dem_benchmark, Method, Sweep};
+use sable_engine::scene::{parse_scene, presets::biaxial_benchmark, presets::cd_benchmark, presets::dem_benchmark, Method, Sweep};
 use serde::Serialize;
 
 /// What `sable bench` measures.
@@ -19,6 +21,9 @@ pub enum BenchCommand {
     Dem(BenchArgs),
     /// Contact dynamics on a dense pile of rigid spheres (contact-iterations per second).
     Cd(CdBenchArgs),
+    /// One quasi-static biaxial test by CD and by DEM (stiffness numbers 1e3 and 1e4): wall time,
+    /// steps and the ζ each finds.
+    Biaxial(BiaxialBenchArgs),
     /// The service: submission latency and throughput, WatchJob fan-out.
     Service(super::bench_service::ServiceBenchArgs),
 }
@@ -28,6 +33,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Dem(a) => bench(a),
         BenchCommand::Cd(a) => bench_cd(a),
+        BenchCommand::Biaxial(a) => bench_biaxial(a),
         BenchCommand::Service(a) => super::bench_service::bench(a),
     }
 }
@@ -183,6 +189,126 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
             r.iterations_per_step,
             r.particle_steps_per_second,
             r.bytes_per_particle
+        );
+    }
+    Ok(())
+}
+
+/// Arguments of `sable bench biaxial`.
+#[derive(Debug, Args)]
+pub struct BiaxialBenchArgs {
+    /// Number of disks.
+    #[arg(long, default_value_t = 400)]
+    pub particles: usize,
+    /// Axial strain of the loading.
+    #[arg(long, default_value_t = 0.10)]
+    pub strain: f64,
+    /// Slop of contact dynamics (`method.slop`).
+    #[arg(long, default_value_t = 0.02)]
+    pub slop: f64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One run of `sable bench biaxial`.
+#[derive(Debug, Serialize)]
+struct BiaxialCase {
+    method: &'static str,
+    /// Stiffness number k_n / p (DEM only).
+    stiffness_number: Option<f64>,
+    wall_seconds: f64,
+    steps: u64,
+    /// Steps of the preparation (the rest is the loading).
+    preparation_steps: u64,
+    peak_zeta: f64,
+    steady_zeta: f64,
+    steady_zeta_std: f64,
+    steady_phi: f64,
+    steady_z_no_rattlers: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct BiaxialBenchResult {
+    particles: usize,
+    axial_strain: f64,
+    cases: Vec<BiaxialCase>,
+    /// Wall time of DEM at stiffness number 1e4 (the rigid limit: CD's accuracy) over CD's.
+    speedup_over_dem_1e4: f64,
+    /// Relative differences of CD's peak and steady ζ from DEM's at 1e4.
+    peak_zeta_difference: f64,
+    steady_zeta_difference: f64,
+}
+
+/// `sable bench biaxial`: the biaxial test of [`biaxial_benchmark`] by CD (at `slop`) and by DEM
+/// at stiffness numbers 1e3 and 1e4, each on one thread (in its own pool, as a job runs), one
+/// after the other.
+pub fn bench_biaxial(a: BiaxialBenchArgs) -> anyhow::Result<()> {
+    let cases: [(&'static str, serde_json::Value, f64, Option<f64>); 3] = [
+        ("cd", serde_json::json!({"kind": "cd", "threads": 1, "slop": a.slop}), 1e5, None),
+        ("dem", serde_json::json!({"kind": "dem", "threads": 1}), 1e5, Some(1e3)),
+        ("dem", serde_json::json!({"kind": "dem", "threads": 1}), 1e6, Some(1e4)),
+    ];
+    let mut out = Vec::new();
+    for (method, section, k_n, kappa) in cases {
+        // As a job runs: the whole run inside a pool of the scene's one thread.
+        let (scene, _, pool) = prepare(Some(1), |_| biaxial_benchmark(section, k_n, a.particles, a.strain))?;
+        let runner = sable_engine::run::Runner::for_scene(&scene);
+        let summary = pool.install(|| {
+            let mut sim = sable_engine::methods::build(&scene)?;
+            runner.run(sim.as_mut(), &mut |_, _| {})
+        })?;
+        let r = summary.result.ok_or_else(|| anyhow::anyhow!("{method}: the biaxial test gave no result"))?;
+        let (peak, steady, prepared) = match (r.peak, r.steady, r.prepared) {
+            (Some(p), Some(s), Some(q)) => (p, s, q),
+            _ => anyhow::bail!("{method}: the biaxial test gave no peak, steady state or prepared state"),
+        };
+        out.push(BiaxialCase {
+            method,
+            stiffness_number: kappa,
+            wall_seconds: summary.wall_seconds,
+            steps: summary.steps,
+            preparation_steps: prepared.step,
+            peak_zeta: peak.zeta,
+            steady_zeta: steady.zeta,
+            steady_zeta_std: steady.zeta_std,
+            steady_phi: steady.phi,
+            steady_z_no_rattlers: steady.z_no_rattlers,
+        });
+    }
+    let rel = |a: f64, b: f64| (a - b) / b;
+    let (cd, rigid) = (&out[0], &out[2]);
+    let r = BiaxialBenchResult {
+        particles: a.particles,
+        axial_strain: a.strain,
+        speedup_over_dem_1e4: rigid.wall_seconds / cd.wall_seconds,
+        peak_zeta_difference: rel(cd.peak_zeta, rigid.peak_zeta),
+        steady_zeta_difference: rel(cd.steady_zeta, rigid.steady_zeta),
+        cases: out,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        for c in &r.cases {
+            let kappa = c.stiffness_number.map_or(String::new(), |k| format!(" (kappa {k:.0e})"));
+            println!(
+                "{}{kappa}: {:.1} s, {} steps ({} preparing); peak zeta {:.3}, steady zeta {:.3} +- {:.3}, phi {:.4}, Z {:.2}",
+                c.method,
+                c.wall_seconds,
+                c.steps,
+                c.preparation_steps,
+                c.peak_zeta,
+                c.steady_zeta,
+                c.steady_zeta_std,
+                c.steady_phi,
+                c.steady_z_no_rattlers
+            );
+        }
+        println!(
+            "cd is {:.1}x faster than dem at kappa 1e4; peak zeta {:+.1}%, steady zeta {:+.1}%",
+            r.speedup_over_dem_1e4,
+            100.0 * r.peak_zeta_difference,
+            100.0 * r.steady_zeta_difference
         );
     }
     Ok(())
