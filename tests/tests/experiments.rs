@@ -173,6 +173,22 @@ fn contact_dynamics_prepares_the_frictional_packing_in_a_periodic_cell() {
     assert!((4.2..4.9).contains(&s.z_no_rattlers), "Z = {}", s.z_no_rattlers);
 }
 
+/// The Lees-Edwards plane shear of the two tests below: 400 disks (d 0.8-1.2 mm, μ_p = 0.5) in a
+/// periodic cell prepared at 100 Pa, sheared at I = 1e-2 to a strain of 3 under σ_yy = 100 Pa.
+fn lees_edwards_shear(method: serde_json::Value, sampling: serde_json::Value) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
+    run(json!({
+        "dimension": 2,
+        "method": method,
+        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
+        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                       "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
+        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0},
+        "sampling": sampling,
+        "seed": 4
+    }))
+}
+
 /// Dry plane shear of 400 disks (μ_p = 0.5) in a Lees-Edwards cell whose height holds
 /// σ_yy = 100 Pa, at I = 1e-2, to a shear strain of 3. Reference: da Cruz et al. (2005), 2D disks
 /// with μ_p = 0.4, μ ≈ 0.25 + I and Φ ≈ 0.81 - 0.3 I (REFERENCES.md §C.12): μ ≈ 0.26 and Φ ≈ 0.807
@@ -183,17 +199,7 @@ fn contact_dynamics_prepares_the_frictional_packing_in_a_periodic_cell() {
 /// Measured: μ = 0.281, Φ = 0.806, I = 0.0101, σ_n = 99.4 Pa.
 #[test]
 fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
-    let (r, samples) = run(json!({
-        "dimension": 2,
-        "method": {"kind": "dem", "threads": 1},
-        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
-        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                       "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
-        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0},
-        "sampling": {"every_steps": 5000},
-        "seed": 4
-    }));
+    let (r, samples) = lees_edwards_shear(json!({"kind": "dem", "threads": 1}), json!({"every_steps": 5000}));
     eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
     let s = r.shear.expect("shear results");
     assert!((s.from_strain - 1.5).abs() < 0.01, "window from {}", s.from_strain);
@@ -217,22 +223,12 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
 /// the DEM test's bounds on μ, Φ and I. σ_n within 5%: the cell holds the mean force across its
 /// boundary on target (within 1e-6 at rest, `physics_cd_cell.rs`), while σ_n is the mean of the
 /// window's 76 instantaneous samples of σ_yy, which scatter by 15 Pa (two standard errors of the
-/// mean, counting them independent: 3.5 Pa). Measured: prepared Φ 0.8386, Z 4.05 (5,500 steps);
-/// μ 0.273 ± 0.056, Φ 0.810, I 0.01005, σ_n 101.5 Pa; at a violation bound of 1e-5, σ_n 96.5 Pa
-/// (DEM: μ 0.281, Φ 0.806, σ_n 99.4).
+/// mean, counting them independent: 3.5 Pa). Measured: prepared Φ 0.8386, Z 4.01 (3,500 steps);
+/// μ 0.268 ± 0.058, Φ 0.807, I 0.0102, σ_n 97.4 Pa (other runs while the method changed: σ_n
+/// 101.5 and 96.5 Pa) (DEM: μ 0.281, Φ 0.806, σ_n 99.4).
 #[test]
 fn contact_dynamics_shears_like_dem_in_the_periodic_cell() {
-    let (r, samples) = run(json!({
-        "dimension": 2,
-        "method": {"kind": "cd", "threads": 1},
-        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
-        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                       "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
-        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0},
-        "sampling": {"every_time": 0.01},
-        "seed": 4
-    }));
+    let (r, samples) = lees_edwards_shear(json!({"kind": "cd", "threads": 1}), json!({"every_time": 0.01}));
     eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
     let p = r.prepared.as_ref().expect("prepared");
     assert!((p.p - 100.0).abs() < 1.0, "prepared p = {}", p.p);
@@ -252,34 +248,13 @@ fn contact_dynamics_shears_like_dem_in_the_periodic_cell() {
 /// with contact dynamics: the glued grains are part of their wall (their contacts with the
 /// others are the wall's), the upper wall a body held at σ_n that slides at γ̇ × gap. Same bounds
 /// as the DEM test. The preparation is judged at a kinetic ratio of 1e-3 (the default 1e-4 took
-/// 233,500 steps, against 4,500 here: the rigid packing creeps at the edge of the bound); the
-/// shear forgets it. Measured: μ 0.276 ± 0.132, Φ 0.7945, σ_n 100.6 Pa, I 0.0100 (DEM: μ 0.272,
+/// 233,500 steps, against 4,000 here: the rigid packing creeps at the edge of the bound); the
+/// shear forgets it. Measured: μ 0.272 ± 0.100, Φ 0.797, σ_n 99.9 Pa, I 0.0100 (DEM: μ 0.272,
 /// Φ 0.803, σ_n 99.7).
 #[test]
 fn contact_dynamics_shears_between_rough_walls_like_dem() {
-    let (r, samples) = run(json!({
-        "dimension": 2,
-        "method": {"kind": "cd", "threads": 1},
-        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
-        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                       "placement": {"kind": "random"}}],
-        "container": {"min": [0.0, 0.0], "max": [0.02, 0.04], "periodic": ["x"], "wall_material": "disks"},
-        "experiment": {"kind": "plane_shear", "boundary": "rough_walls",
-                       "preparation": {"pressure": 100.0, "equilibrium": {"kinetic_ratio": 1e-3}},
-                       "inertial_number": 0.01, "strain": 2.0},
-        "sampling": {"every_time": 0.01},
-        "seed": 4
-    }));
-    eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
-    let s = r.shear.expect("shear results");
-    assert!((0.21..0.35).contains(&s.mu), "mu = {}", s.mu);
-    assert!((0.78..0.827).contains(&s.phi), "phi = {}", s.phi);
-    assert!((s.normal_stress - 100.0).abs() < 3.0, "sigma_n = {}", s.normal_stress);
-    assert!((s.inertial_number - 0.01).abs() < 0.001, "I = {}", s.inertial_number);
-    let window: Vec<_> = samples.iter().filter(|x| x.stage.as_deref() == Some("shear")).skip(10).collect();
-    let traction = |name: &str| window.iter().map(|x| x.walls.iter().find(|w| w.name == name).map_or(0.0, |w| w.force[0])).sum::<f64>();
-    let (top, bottom) = (traction("y_max"), traction("y_min"));
-    assert!(top.abs() > 0.0 && (top + bottom).abs() < 0.15 * top.abs(), "tractions {top} and {bottom}");
+    let preparation = json!({"pressure": 100.0, "equilibrium": {"kinetic_ratio": 1e-3}});
+    check_rough_shear(rough_shear(json!({"kind": "cd", "threads": 1}), preparation, json!({"every_time": 0.01})));
 }
 
 /// Deposition under gravity of 500 spheres (d 0.9-1.1 mm) onto a floor, periodic sideways so
@@ -401,21 +376,8 @@ fn contact_dynamics_prepares_the_isotropic_packing_of_dem() {
 /// peak and steady ζ within 10% (the issue's), Φ within 1%, Z within 0.3.
 #[test]
 fn contact_dynamics_runs_the_biaxial_test_of_dem() {
-    let scene = |method: serde_json::Value| {
-        json!({
-            "dimension": 2,
-            "method": method,
-            "materials": {
-                "disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5},
-                "platen": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.0}
-            },
-            "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.03, 0.03], "wall_material": "platen"},
-            "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0, "friction": 0.0}, "strain_rate": 0.3, "axial_strain": 0.10},
-            "sampling": {"every_time": 0.005},
-            "seed": 3
-        })
-    };
+    // The scene of `sable bench biaxial`.
+    let scene = |method: serde_json::Value| sable_engine::scene::presets::biaxial_benchmark(method, 1.0e5, 400, 0.10);
     let (cd, _) = run(scene(json!({"kind": "cd", "threads": 1, "slop": 0.02})));
     let (dem, _) = run(scene(json!({"kind": "dem", "threads": 1})));
     eprintln!("cd {}\ndem {}", serde_json::to_string(&cd).unwrap_or_default(), serde_json::to_string(&dem).unwrap_or_default());
@@ -616,18 +578,32 @@ fn drum_surface_angle_lies_in_the_rolling_band_and_grows_with_froude() {
 /// grains follow the wall, so the upper wall's traction balances the lower one's.
 #[test]
 fn plane_shear_between_rough_walls_matches_the_periodic_cell() {
-    let (r, samples) = run(json!({
+    check_rough_shear(rough_shear(json!({"kind": "dem", "threads": 1}), json!({"pressure": 100.0}), json!({"every_steps": 1000})));
+}
+
+/// The plane shear between rough walls of the two tests above: 400 disks (μ = 0.5) glued to
+/// y_min and y_max within a gap of 0.04 m, x periodic, at I = 1e-2 under 100 Pa, to a strain of 2.
+fn rough_shear(
+    method: serde_json::Value,
+    preparation: serde_json::Value,
+    sampling: serde_json::Value,
+) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
+    run(json!({
         "dimension": 2,
-        "method": {"kind": "dem", "threads": 1},
+        "method": method,
         "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
         "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
                        "placement": {"kind": "random"}}],
         "container": {"min": [0, 0], "max": [0.02, 0.04], "periodic": ["x"], "wall_material": "disks"},
-        "experiment": {"kind": "plane_shear", "boundary": "rough_walls", "preparation": {"pressure": 100.0},
+        "experiment": {"kind": "plane_shear", "boundary": "rough_walls", "preparation": preparation,
                        "inertial_number": 0.01, "strain": 2.0},
-        "sampling": {"every_steps": 1000},
+        "sampling": sampling,
         "seed": 4
-    }));
+    }))
+}
+
+/// The bounds of the rough-wall shear tests.
+fn check_rough_shear((r, samples): (ExperimentResult, Vec<sable_engine::observe::Sample>)) {
     eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
     let s = r.shear.expect("shear results");
     assert!((0.21..0.35).contains(&s.mu), "mu = {}", s.mu);
