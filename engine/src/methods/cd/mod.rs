@@ -133,9 +133,10 @@ fn open_law(g: Real, u_n: Real, ahead: Real, theta_h: Real, mu: Real, cohesion: 
 struct Held {
     /// The pair ([`key_of`]).
     key: (u32, u32),
-    /// Impulse, global components, N·s (the warm start).
+    /// Impulse on the key's first grain, global components, N·s (the warm start; a contact
+    /// seen from the other grain, as one with a glued grain may be, takes its opposite).
     r: Vec3,
-    /// Rolling moment impulse, N·m·s (the warm start).
+    /// Rolling moment impulse on the key's first grain, N·m·s (the warm start).
     m: Vec3,
     /// The contact pressed (compressive normal impulse): the next step's contact is a lasting
     /// one, without restitution.
@@ -640,6 +641,8 @@ impl Cd {
                     (Some(w), _) => (j, i, Side::Boundary(w as u32), -n, a_j, a_i, -drive),
                 };
                 let frame = ContactFrame::new(dim, n);
+                // -1 when the contact is seen from the key's second grain.
+                let turned = if first == i { 1.0 } else { -1.0 };
                 let (f, o) = (first, second);
                 let mut w = RigidContact::delassus(p.inv_mass[f], p.inv_inertia[f], a_first, p.inv_mass[o], p.inv_inertia[o], a_second);
                 let mobility = match side {
@@ -653,7 +656,7 @@ impl Cd {
                 let rolling = Rolling {
                     bound: laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj),
                     w: p.inv_inertia[i] + p.inv_inertia[j],
-                    m: old.map_or(Vec3::zeros(), |o| o.m),
+                    m: old.map_or(Vec3::zeros(), |o| o.m * turned),
                 };
                 let contact = RigidContact {
                     i: first as u32,
@@ -664,7 +667,7 @@ impl Cd {
                     drive,
                     w,
                     law,
-                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
+                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&(o.r * turned))),
                     rolling,
                     scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n + cohesion,
                 };
@@ -920,7 +923,10 @@ impl Cd {
                 .iter()
                 .zip(&self.status)
                 .filter(|(c, s)| c.r != Vec3::zeros() || c.rolling.m != Vec3::zeros() || s.bridge || s.pressed)
-                .map(|(c, s)| Held { key: s.key, r: c.frame.to_global(&c.r), m: c.rolling.m, pressed: s.pressed, bridge: s.bridge }),
+                .map(|(c, s)| {
+                    let turned = if c.i == s.key.0 { 1.0 } else { -1.0 };
+                    Held { key: s.key, r: c.frame.to_global(&c.r) * turned, m: c.rolling.m * turned, pressed: s.pressed, bridge: s.bridge }
+                }),
         );
         self.previous.sort_unstable_by_key(|e| e.key);
         self.step += 1;
