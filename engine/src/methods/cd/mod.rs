@@ -949,10 +949,22 @@ impl Cd {
         let bound = self.solver.settings.violation_tolerance;
         let field = if bound == self.params.violation_tolerance { "violation_tolerance" } else { "loading_violation_tolerance" };
         let suggestion = match &cause {
-            InstabilityCause::SolverBudget { .. } => format!(
-                "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), or lower method.time_step (now {:.3e} s): fewer contacts change per step",
-                self.params.max_iterations, self.params.tolerance, self.dt
-            ),
+            InstabilityCause::SolverBudget { .. } => {
+                // Rigid grains cannot follow an imposed motion that squeezes or shears a jammed
+                // packing at constant volume: the contact problem then has no solution, and no
+                // budget helps. Say so when something imposes a motion.
+                let walls = self.walls.iter().any(|w| w.target_stress().is_none() && w.velocity != Vec3::zeros());
+                let cell = self.wall_mobility[self.cell_slot].inv_mass == 0.0 && self.cell_vel != Vec3::zeros();
+                let imposed = if walls || cell || self.domain.sheared() {
+                    "; if the packing is jammed, an imposed motion (a wall's velocity or strain rate, the cell's strain rate, a Lees-Edwards shear at constant volume) that squeezes it has no solution with rigid grains: stop it earlier, or hold a stress instead"
+                } else {
+                    ""
+                };
+                format!(
+                    "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), or lower method.time_step (now {:.3e} s): fewer contacts change per step{imposed}",
+                    self.params.max_iterations, self.params.tolerance, self.dt
+                )
+            }
             InstabilityCause::Overlap { .. } => format!(
                 "lower method.time_step (now {:.3e} s) so that grains move less per step, or tighten method.{field} (now {bound:.1e})",
                 self.dt
