@@ -32,6 +32,10 @@ pub struct Colours {
     /// Colour `c` holds the contacts `bounds[c]..bounds[c + 1]`; the last group
     /// (`bounds[MAX_COLOURS]..`) is swept serially.
     bounds: Vec<usize>,
+    /// The colours each body has (one bit per colour; scratch kept between steps).
+    used: Vec<u64>,
+    /// The colour of each contact (scratch).
+    colour: Vec<u8>,
 }
 
 impl Colours {
@@ -39,8 +43,18 @@ impl Colours {
     /// writes in `order` the permutation that stores them in colour order: position `k` takes
     /// contact `order[k]` (detection order kept within a colour).
     pub fn new(contacts: &[RigidContact], bodies: usize, mobility: &[Mobility], order: &mut Vec<u32>) -> Self {
-        let mut used = vec![0u64; bodies];
-        let mut colour = Vec::with_capacity(contacts.len());
+        let mut colours = Self::default();
+        colours.assign(contacts, bodies, mobility, order);
+        colours
+    }
+
+    /// [`Colours::new`] into `self`, reusing its buffers (no allocation once they are large
+    /// enough: the step loop colours its contacts at every step).
+    pub fn assign(&mut self, contacts: &[RigidContact], bodies: usize, mobility: &[Mobility], order: &mut Vec<u32>) {
+        let (used, colour) = (&mut self.used, &mut self.colour);
+        used.clear();
+        used.resize(bodies, 0);
+        colour.clear();
         let mut count = [0usize; MAX_COLOURS + 1];
         for c in contacts {
             let i = c.i as usize;
@@ -67,21 +81,27 @@ impl Colours {
             colour.push(k as u8);
             count[k] += 1;
         }
-        let mut bounds = Vec::with_capacity(MAX_COLOURS + 2);
+        let bounds = &mut self.bounds;
+        bounds.clear();
         let mut start = 0;
         for n in count {
             bounds.push(start);
             start += n;
         }
         bounds.push(start);
-        let mut next = bounds.clone();
+        let mut next = [0usize; MAX_COLOURS + 2];
+        next.copy_from_slice(bounds);
         order.clear();
         order.resize(contacts.len(), 0);
         for (k, &c) in colour.iter().enumerate() {
             order[next[c as usize]] = k as u32;
             next[c as usize] += 1;
         }
-        Self { bounds }
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.bounds.capacity() * std::mem::size_of::<usize>() + self.used.capacity() * 8 + self.colour.capacity()
     }
 
     /// Number of non-empty colours swept in parallel.

@@ -280,12 +280,39 @@ impl SharedVec3 {
     }
 }
 
-/// The bodies as a solve sees them: [`RigidBodies`] with its velocities copied into cells that
-/// the coloured sweep shares between threads, and copied back when the solve ends.
-pub(crate) struct SolveBodies<'a> {
+/// The cells the coloured sweep shares between threads: the velocities of a solve, kept by the
+/// solver between solves so that the step loop does not allocate them again.
+#[derive(Debug, Default)]
+pub(crate) struct Cells {
     vel: Vec<SharedVec3>,
     omega: Vec<SharedVec3>,
     boundary_vel: Vec<SharedVec3>,
+}
+
+impl Cells {
+    /// Copies the bodies' velocities in.
+    fn fill(&mut self, b: &RigidBodies<'_>) {
+        let copy = |to: &mut Vec<SharedVec3>, from: &[Vec3]| {
+            to.clear();
+            to.extend(from.iter().map(SharedVec3::new));
+        };
+        copy(&mut self.vel, b.vel);
+        copy(&mut self.omega, b.omega);
+        copy(&mut self.boundary_vel, b.boundary_vel);
+    }
+
+    /// Heap bytes held.
+    fn heap_bytes(&self) -> usize {
+        (self.vel.capacity() + self.omega.capacity() + self.boundary_vel.capacity()) * std::mem::size_of::<SharedVec3>()
+    }
+}
+
+/// The bodies as a solve sees them: [`RigidBodies`] with its velocities copied into cells that
+/// the coloured sweep shares between threads, and copied back when the solve ends.
+pub(crate) struct SolveBodies<'a> {
+    vel: &'a [SharedVec3],
+    omega: &'a [SharedVec3],
+    boundary_vel: &'a [SharedVec3],
     inv_mass: &'a [Real],
     inv_inertia: &'a [Real],
     boundary_mobility: &'a [Mobility],
@@ -293,12 +320,12 @@ pub(crate) struct SolveBodies<'a> {
 }
 
 impl<'a> SolveBodies<'a> {
-    fn new(b: &RigidBodies<'a>) -> Self {
-        let copy = |v: &[Vec3]| v.iter().map(SharedVec3::new).collect();
+    /// The bodies `b` with their velocities in `cells` (filled by [`Cells::fill`]).
+    fn new(b: &RigidBodies<'a>, cells: &'a Cells) -> Self {
         Self {
-            vel: copy(b.vel),
-            omega: copy(b.omega),
-            boundary_vel: copy(b.boundary_vel),
+            vel: &cells.vel,
+            omega: &cells.omega,
+            boundary_vel: &cells.boundary_vel,
             inv_mass: b.inv_mass,
             inv_inertia: b.inv_inertia,
             boundary_mobility: b.boundary_mobility,
@@ -308,9 +335,9 @@ impl<'a> SolveBodies<'a> {
 
     fn store(&self, b: &mut RigidBodies<'_>) {
         let back = |from: &[SharedVec3], to: &mut [Vec3]| to.iter_mut().zip(from).for_each(|(t, f)| *t = f.get());
-        back(&self.vel, b.vel);
-        back(&self.omega, b.omega);
-        back(&self.boundary_vel, b.boundary_vel);
+        back(self.vel, b.vel);
+        back(self.omega, b.omega);
+        back(self.boundary_vel, b.boundary_vel);
     }
 }
 
@@ -484,18 +511,25 @@ pub struct NlgsReport {
 }
 
 /// The non-linear Gauss-Seidel solver, with the residual history of its last solve.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct Nlgs {
     /// Settings.
     pub settings: Convergence,
     /// The criterion after each sweep of the last solve.
     pub history: Vec<Iterate>,
+    /// The velocity cells of the coloured sweep, kept between solves.
+    cells: Cells,
 }
 
 impl Nlgs {
     /// A solver with these settings.
     pub fn new(settings: Convergence) -> Self {
-        Self { settings, history: Vec::new() }
+        Self { settings, history: Vec::new(), cells: Cells::default() }
+    }
+
+    /// Heap bytes held (the history and the coloured sweep's cells).
+    pub fn heap_bytes(&self) -> usize {
+        self.history.capacity() * std::mem::size_of::<Iterate>() + self.cells.heap_bytes()
     }
 
     /// Solves the contacts (see the module documentation). `violation_scale` turns a velocity
@@ -519,10 +553,13 @@ impl Nlgs {
             }),
             Some(colours) => {
                 // The velocities in cells the threads of a colour share, for the solve.
-                let shared = SolveBodies::new(bodies);
+                let mut cells = std::mem::take(&mut self.cells);
+                cells.fill(bodies);
+                let shared = SolveBodies::new(bodies, &cells);
                 let report =
                     self.sweeps(contacts, &mut &shared, violation_scale, |contacts, bodies, omega| colours.sweep(contacts, bodies, omega));
                 shared.store(bodies);
+                self.cells = cells;
                 report
             }
         }

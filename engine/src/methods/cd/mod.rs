@@ -222,8 +222,12 @@ pub struct Cd {
     contacts: Vec<RigidContact>,
     /// What each contact of the last step is (parallel to `contacts`).
     status: Vec<Status>,
-    /// The colour order of the contacts of the step (scratch of the parallel sweep).
+    /// The colour order of the contacts of the step, the colours, and the contacts and their
+    /// status before reordering (scratch of the parallel sweep, kept between steps).
     order: Vec<u32>,
+    colours: Colours,
+    unordered: Vec<RigidContact>,
+    unordered_status: Vec<Status>,
     /// What each pair carried at the end of the last step, sorted by pair ([`key_of`]).
     previous: Vec<Held>,
     /// Velocities and spins at the start of the step (scratch).
@@ -344,6 +348,9 @@ impl Cd {
             contacts: Vec::new(),
             status: Vec::new(),
             order: Vec::new(),
+            colours: Colours::default(),
+            unordered: Vec::new(),
+            unordered_status: Vec::new(),
             previous: Vec::new(),
             vel_start: vec![Vec3::zeros(); n],
             omega_start: vec![Vec3::zeros(); n],
@@ -431,6 +438,10 @@ impl Cd {
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
             + self.status.capacity() * std::mem::size_of::<Status>()
             + self.order.capacity() * std::mem::size_of::<u32>()
+            + self.unordered.capacity() * std::mem::size_of::<RigidContact>()
+            + self.unordered_status.capacity() * std::mem::size_of::<Status>()
+            + self.colours.heap_bytes()
+            + self.solver.heap_bytes()
             + self.previous.capacity() * std::mem::size_of::<Held>()
             + (self.vel_start.capacity() + self.omega_start.capacity() + self.wall_omega.capacity()) * std::mem::size_of::<Vec3>()
             + self.glued.capacity() * std::mem::size_of::<(u32, u16)>()
@@ -814,12 +825,16 @@ impl Cd {
         }
         let p = &mut self.p;
         // The parallel sweep: the contacts (and their status) stored in colour order.
-        let colours = self.params.sweep.coloured(self.contacts.len()).then(|| {
-            let colours = Colours::new(&self.contacts, p.len(), &self.wall_mobility, &mut self.order);
-            self.contacts = self.order.iter().map(|&k| self.contacts[k as usize]).collect();
-            self.status = self.order.iter().map(|&k| self.status[k as usize]).collect();
-            colours
-        });
+        let coloured = self.params.sweep.coloured(self.contacts.len());
+        if coloured {
+            self.colours.assign(&self.contacts, p.len(), &self.wall_mobility, &mut self.order);
+            std::mem::swap(&mut self.contacts, &mut self.unordered);
+            std::mem::swap(&mut self.status, &mut self.unordered_status);
+            self.contacts.clear();
+            self.contacts.extend(self.order.iter().map(|&k| self.unordered[k as usize]));
+            self.status.clear();
+            self.status.extend(self.order.iter().map(|&k| self.unordered_status[k as usize]));
+        }
         let mut bodies = RigidBodies {
             vel: &mut p.vel,
             omega: &mut p.omega,
@@ -829,7 +844,7 @@ impl Cd {
             boundary_mobility: &self.wall_mobility,
             boundary_omega: &self.wall_omega,
         };
-        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter, colours.as_ref());
+        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h / self.mean_diameter, coloured.then_some(&self.colours));
         if !self.report.converged {
             let r = self.report;
             return Err(self.unstable(InstabilityCause::SolverBudget {
