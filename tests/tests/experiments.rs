@@ -173,20 +173,36 @@ fn contact_dynamics_prepares_the_frictional_packing_in_a_periodic_cell() {
     assert!((4.2..4.9).contains(&s.z_no_rattlers), "Z = {}", s.z_no_rattlers);
 }
 
-/// The Lees-Edwards plane shear of the two tests below: 400 disks (d 0.8-1.2 mm, μ_p = 0.5) in a
-/// periodic cell prepared at 100 Pa, sheared at I = 1e-2 to a strain of 3 under σ_yy = 100 Pa.
-fn lees_edwards_shear(method: serde_json::Value, sampling: serde_json::Value) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
+/// Runs a 2D shear test of 400 disks (d 0.8-1.2 mm, μ_p = 0.5, e = 0.5, k_n = 1e5 N/m, placed at
+/// random, seed 4) in `container`, with `method`, `experiment` and `sampling`.
+fn sheared_disks(
+    method: serde_json::Value,
+    container: serde_json::Value,
+    experiment: serde_json::Value,
+    sampling: serde_json::Value,
+) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
     run(json!({
         "dimension": 2,
         "method": method,
         "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
         "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
                        "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]},
-        "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0},
+        "container": container,
+        "experiment": experiment,
         "sampling": sampling,
         "seed": 4
     }))
+}
+
+/// The Lees-Edwards plane shear of the two tests below: 400 disks (d 0.8-1.2 mm, μ_p = 0.5) in a
+/// periodic cell prepared at 100 Pa, sheared at I = 1e-2 to a strain of 3 under σ_yy = 100 Pa.
+fn lees_edwards_shear(method: serde_json::Value, sampling: serde_json::Value) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
+    sheared_disks(
+        method,
+        json!({"min": [0, 0], "max": [0.0252, 0.0252], "periodic": ["x", "y"]}),
+        json!({"kind": "plane_shear", "preparation": {"pressure": 100.0}, "inertial_number": 0.01, "strain": 3.0}),
+        sampling,
+    )
 }
 
 /// Dry plane shear of 400 disks (μ_p = 0.5) in a Lees-Edwards cell whose height holds
@@ -249,7 +265,7 @@ fn contact_dynamics_shears_like_dem_in_the_periodic_cell() {
 /// others are the wall's), the upper wall a body held at σ_n that slides at γ̇ × gap. Same bounds
 /// as the DEM test. The preparation is judged at a kinetic ratio of 1e-3 (the default 1e-4 took
 /// 233,500 steps, against 4,000 here: the rigid packing creeps at the edge of the bound); the
-/// shear forgets it. Measured: μ 0.272 ± 0.100, Φ 0.797, σ_n 99.9 Pa, I 0.0100 (DEM: μ 0.272,
+/// shear forgets it. Measured: μ 0.277 ± 0.097, Φ 0.799, σ_n 100.6 Pa, I 0.0100 (DEM: μ 0.272,
 /// Φ 0.803, σ_n 99.7).
 #[test]
 fn contact_dynamics_shears_between_rough_walls_like_dem() {
@@ -588,18 +604,12 @@ fn rough_shear(
     preparation: serde_json::Value,
     sampling: serde_json::Value,
 ) -> (ExperimentResult, Vec<sable_engine::observe::Sample>) {
-    run(json!({
-        "dimension": 2,
-        "method": method,
-        "materials": {"disks": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1.0e5}, "restitution": 0.5, "friction": 0.5}},
-        "particles": [{"material": "disks", "count": 400, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                       "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.02, 0.04], "periodic": ["x"], "wall_material": "disks"},
-        "experiment": {"kind": "plane_shear", "boundary": "rough_walls", "preparation": preparation,
-                       "inertial_number": 0.01, "strain": 2.0},
-        "sampling": sampling,
-        "seed": 4
-    }))
+    sheared_disks(
+        method,
+        json!({"min": [0, 0], "max": [0.02, 0.04], "periodic": ["x"], "wall_material": "disks"}),
+        json!({"kind": "plane_shear", "boundary": "rough_walls", "preparation": preparation, "inertial_number": 0.01, "strain": 2.0}),
+        sampling,
+    )
 }
 
 /// The bounds of the rough-wall shear tests.

@@ -21,6 +21,7 @@
 //!   is set by its mass, not by a gain.
 
 use crate::geometry::Domain;
+use crate::loading::CellDeformation;
 use crate::math::{Real, Vec3};
 use crate::nscd::Mobility;
 use crate::scene::Deformation;
@@ -97,14 +98,9 @@ impl Cell {
     /// Returns the end velocity.
     pub fn finish(&mut self, domain: &mut Domain, start: Vec3, end: Vec3, h: Real, theta: Real) -> Vec3 {
         if let Deformation::StrainRate(r) = self.kind {
-            // Imposed rates: exactly exp(r h) per step, as DEM scales its box.
-            let mut v = Vec3::zeros();
-            for a in (0..domain.dim).filter(|&a| domain.periodic[a]) {
-                let (centre, half) = (0.5 * (domain.lo[a] + domain.hi[a]), 0.5 * domain.length(a) * (r[a] * h).exp());
-                (domain.lo[a], domain.hi[a]) = (centre - half, centre + half);
-                v[a] = r[a] * domain.length(a);
-            }
-            return v;
+            // Imposed rates: exactly exp(r h) per step about the centre, DEM's scaling of its box.
+            CellDeformation::new(self.kind).deform(domain, h);
+            return Vec3::from_fn(|a, _| if a < domain.dim { r[a] * domain.length(a) } else { 0.0 });
         }
         let end = match self.servo(domain) {
             None => end,
@@ -132,12 +128,6 @@ impl Cell {
         let (direction, target, _) = self.servo(domain)?;
         let measured = impulse / (time * Self::area(&direction, domain));
         Some((measured - target).abs() / target)
-    }
-
-    /// Generalised impulse that the global impulse `p` (on the grain inside, from an image
-    /// `k` periods away) gives the free degree of freedom, N·s.
-    pub fn impulse_of(&self, domain: &Domain, p: &Vec3, k: [i8; 3]) -> Real {
-        self.servo(domain).map_or(0.0, |(direction, _, _)| -p.dot(&crate::nscd::nlgs::image_lever(k, &direction)))
     }
 }
 

@@ -148,10 +148,9 @@ struct Held {
 /// What a contact of the step is, beside its impulse.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct Status {
-    /// The pair ([`key_of`]).
+    /// The pair ([`key_of`]): two grains (one may be glued to a wall: its contact is then one
+    /// of the wall's), or a grain and a boundary.
     key: (u32, u32),
-    /// Between two grains (one may be glued to a wall: its contact is then one of the wall's).
-    pair: bool,
     /// The grains touch (gap within [`ALERT`] at the start of the step).
     touching: bool,
     /// A capillary bridge joins them.
@@ -575,9 +574,9 @@ impl Cd {
         // What the pair carried at the last step, if anything: the warm start, and whether it
         // was pressed (a lasting contact, whose impact is over: no restitution) or bridged.
         let held = |key: (u32, u32)| previous.binary_search_by(|e| e.key.cmp(&key)).ok().map(|k| previous[k]);
-        let mut push = |c: RigidContact, key: (u32, u32), pair: bool, touching: bool, bridge: bool| {
+        let mut push = |c: RigidContact, key: (u32, u32), touching: bool, bridge: bool| {
             self.contacts.push(c);
-            self.status.push(Status { key, pair, touching, bridge, pressed: false });
+            self.status.push(Status { key, touching, bridge, pressed: false });
         };
         // The wall a grain is glued to, if any.
         let glued_to = &self.glued_to;
@@ -682,7 +681,7 @@ impl Cd {
                     rolling,
                     scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n + cohesion,
                 };
-                push(contact, (i as u32, pr.j), true, g <= alert, bridge.is_some());
+                push(contact, (i as u32, pr.j), g <= alert, bridge.is_some());
             }
         }
         // A grain against boundary `k` (a plane wall, or the drum's slot after them): `n` from
@@ -735,7 +734,7 @@ impl Cd {
                 rolling,
                 scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + v_b.norm())) / wd.n + cohesion,
             };
-            push(contact, key_of(i as u32, Side::Boundary(k as u32)), false, g <= alert, false);
+            push(contact, key_of(i as u32, Side::Boundary(k as u32)), g <= alert, false);
         };
         for (w, wall) in self.walls.iter().enumerate() {
             let n = wall.normal();
@@ -905,10 +904,13 @@ impl Cd {
         // The deforming cell: the generalised impulse of the contacts across its boundary, then
         // its lengths.
         if let Some(cell) = &mut self.cell {
+            // Each contact's impulse on the image's side, through its lever k ⊙ direction (zero
+            // direction for imposed rates).
+            let direction = self.wall_mobility[self.cell_slot].direction;
             let mut impulse = 0.0;
             for c in &self.contacts {
                 if let Side::Image { k, .. } = c.j {
-                    impulse += cell.impulse_of(&self.domain, &c.frame.to_global(&c.r), k);
+                    impulse -= c.frame.to_global(&c.r).dot(&image_lever(k, &direction));
                 }
             }
             self.window.cell_impulse(impulse);
@@ -997,7 +999,8 @@ impl Cd {
             .zip(&self.status)
             .filter_map(|(c, s)| {
                 // A contact with a glued grain is a pair, seen from the free grain.
-                let j = s.pair.then_some(if s.key.0 == c.i { s.key.1 } else { s.key.0 });
+                let pair = (s.key.1 as usize) < self.p.len();
+                let j = pair.then_some(if s.key.0 == c.i { s.key.1 } else { s.key.0 });
                 let branch = c.frame.n * (c.a_i + c.a_j);
                 // Touching: in contact at the start of the step, or pressed by its end. Bonded:
                 // a capillary bridge, or cohesion holding grains in contact (whose net force
