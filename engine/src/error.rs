@@ -30,6 +30,10 @@ pub enum InstabilityCause {
         tolerance: f64,
         /// The tolerance on the violation.
         violation_tolerance: f64,
+        /// Largest violation after the last sweep (fraction of the contact's radius per step).
+        worst: f64,
+        /// The tolerance on the largest violation.
+        worst_tolerance: f64,
     },
     /// Mechanical energy grew more than the work put in by walls and gravity allows.
     EnergyGrowth {
@@ -49,9 +53,9 @@ impl std::fmt::Display for InstabilityCause {
             Self::Overlap { fraction, limit } => {
                 write!(f, "overlap reached {:.1}% of the smaller radius (limit {:.1}%)", fraction * 100.0, limit * 100.0)
             }
-            Self::SolverBudget { iterations, change, violation, tolerance, violation_tolerance } => write!(
+            Self::SolverBudget { iterations, change, violation, tolerance, violation_tolerance, worst, worst_tolerance } => write!(
                 f,
-                "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e})"
+                "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
             ),
             Self::EnergyGrowth { excess, scale } => {
                 write!(f, "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)")

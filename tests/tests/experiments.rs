@@ -386,24 +386,69 @@ fn contact_dynamics_prepares_the_isotropic_packing_of_dem() {
 /// frictionless walls, prepared frictionless at 100 Pa, the upper wall driven at 0.3/s) to 10% of
 /// axial strain, by DEM (k_n = 1e5 N/m: stiffness number 1e3) and by contact dynamics with a slop
 /// of 2% (`method.slop`: at the default 1% the preparation is stirred by the restoration and
-/// creeps; docs/scene-format.md §3). Measured (CLI, same scene): peak ζ 0.408 (CD), 0.407 (DEM
-/// κ 1e3), 0.389 (DEM κ 1e4); steady ζ (mean of the samples past 7.5%) 0.313 ± 0.019, 0.310 ±
-/// 0.029, 0.308 ± 0.024; Φ 0.8005, 0.7992, 0.7993; Z without rattlers 3.01, 3.21, 2.93. Bounds:
-/// peak and steady ζ within 10% (the issue's), Φ within 1%, Z within 0.3.
+/// creeps; docs/scene-format.md §3), each from three packings (seeds 3, 4, 5). One packing of 400
+/// disks is not enough: from seed to seed the peak ζ moves by up to 0.07 and the steady ζ (mean of
+/// the samples past 7.5%) by up to 0.11, with either method, and any change to the solver moves a
+/// run's trajectory as much. Measured (`sable bench biaxial`, seeds 3/4/5): peak ζ 0.464 / 0.398 /
+/// 0.475 (CD), 0.407 / 0.437 / 0.434 (DEM); steady ζ 0.312 / 0.335 / 0.349 and 0.310 / 0.378 /
+/// 0.270: means +5% and +4%. Bounds on the means over the three: peak and steady ζ within 10% (the
+/// issue's), Φ within 1%, Z within 0.3.
 #[test]
 fn contact_dynamics_runs_the_biaxial_test_of_dem() {
-    // The scene of `sable bench biaxial`.
-    let scene = |method: serde_json::Value| sable_engine::scene::presets::biaxial_benchmark(method, 1.0e5, 400, 0.10);
-    let (cd, _) = run(scene(json!({"kind": "cd", "threads": 1, "slop": 0.02})));
-    let (dem, _) = run(scene(json!({"kind": "dem", "threads": 1})));
-    eprintln!("cd {}\ndem {}", serde_json::to_string(&cd).unwrap_or_default(), serde_json::to_string(&dem).unwrap_or_default());
-    let (cp, dp) = (cd.peak.as_ref().expect("peak"), dem.peak.as_ref().expect("peak"));
-    let (cs, ds) = (cd.steady.as_ref().expect("steady"), dem.steady.as_ref().expect("steady"));
+    // The scene of `sable bench biaxial`, from the packing of `seed`.
+    let scene = |method: serde_json::Value, seed: u64| {
+        let mut s = sable_engine::scene::presets::biaxial_benchmark(method, 1.0e5, 400, 0.10);
+        s["seed"] = json!(seed);
+        s
+    };
+    // Means over the seeds of peak ζ, steady ζ, steady Φ, steady Z without rattlers.
+    let means = |method: serde_json::Value| {
+        let mut sum = [0.0; 4];
+        let seeds = [3, 4, 5];
+        for seed in seeds {
+            let (r, _) = run(scene(method.clone(), seed));
+            eprintln!("{method} seed {seed}: {}", serde_json::to_string(&r).unwrap_or_default());
+            let (p, s) = (r.peak.as_ref().expect("peak"), r.steady.as_ref().expect("steady"));
+            for (k, v) in [p.zeta, s.zeta, s.phi, s.z_no_rattlers].into_iter().enumerate() {
+                sum[k] += v / seeds.len() as f64;
+            }
+        }
+        sum
+    };
+    let cd = means(json!({"kind": "cd", "threads": 1, "slop": 0.02}));
+    let dem = means(json!({"kind": "dem", "threads": 1}));
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
-    assert!(rel(cp.zeta, dp.zeta) < 0.1, "peak zeta {} (cd) vs {} (dem)", cp.zeta, dp.zeta);
-    assert!(rel(cs.zeta, ds.zeta) < 0.1, "steady zeta {} (cd) vs {} (dem)", cs.zeta, ds.zeta);
-    assert!(rel(cs.phi, ds.phi) < 0.01, "steady phi {} (cd) vs {} (dem)", cs.phi, ds.phi);
-    assert!((cs.z_no_rattlers - ds.z_no_rattlers).abs() < 0.3, "steady Z {} (cd) vs {} (dem)", cs.z_no_rattlers, ds.z_no_rattlers);
+    assert!(rel(cd[0], dem[0]) < 0.1, "mean peak zeta {} (cd) vs {} (dem)", cd[0], dem[0]);
+    assert!(rel(cd[1], dem[1]) < 0.1, "mean steady zeta {} (cd) vs {} (dem)", cd[1], dem[1]);
+    assert!(rel(cd[2], dem[2]) < 0.01, "mean steady phi {} (cd) vs {} (dem)", cd[2], dem[2]);
+    assert!((cd[3] - dem[3]).abs() < 0.3, "mean steady Z {} (cd) vs {} (dem)", cd[3], dem[3]);
+}
+
+/// `scenes/triaxial_3d.json` with `"method": "cd"` (sampled by time: CD takes about a hundredth
+/// of DEM's steps): 500 spheres (d 0.8-1.2 mm) prepared at 1 kPa with friction 0.1 between six
+/// frictionless stress-controlled walls, then compressed axially at 3/s to 15% with μ = 0.5 under
+/// the same lateral stress. At the default `violation_tolerance` of 3D (1e-5; at 1e-6
+/// Gauss-Seidel spends its budget on the preparation). Measured: prepared at p = 999.8 Pa,
+/// Φ = 0.569 (DEM κ 1e4: 0.555), Z without rattlers 4.76 (4.43); peak ζ 1.03 at 2.6% of axial
+/// strain (DEM 0.91 at 13.7%: its looser sample peaks late), steady ζ 0.67 ± 0.06 over the last
+/// quarter (DEM 0.81 ± 0.05), dilation 3% (1.1%). Bounds: the walls hold the target (1%); the
+/// peak of a dense sample of μ = 0.5 spheres lies at peak friction angles of 25-30°, ζ = 6 sin φ
+/// / (3 - sin φ) = 0.98-1.2, widened to 0.8-1.3 for 500 grains; past the peak it softens and
+/// dilates (final volumetric strain below -0.5%).
+#[test]
+fn contact_dynamics_runs_the_triaxial_test_of_dem() {
+    let mut scene: serde_json::Value = serde_json::from_str(include_str!("../../scenes/triaxial_3d.json")).expect("scene JSON");
+    scene["method"] = json!({"kind": "cd", "threads": 1});
+    scene["sampling"] = json!({"every_time": 0.0005});
+    let (r, _) = run(scene);
+    eprintln!("{}", serde_json::to_string(&r).unwrap_or_default());
+    let prepared = r.prepared.as_ref().expect("prepared");
+    assert!((prepared.p / 1000.0 - 1.0).abs() < 0.01, "prepared at {} Pa", prepared.p);
+    let (peak, steady) = (r.peak.as_ref().expect("peak"), r.steady.as_ref().expect("steady"));
+    assert!((0.8..1.3).contains(&peak.zeta), "peak zeta {}", peak.zeta);
+    assert!(steady.zeta < peak.zeta, "steady zeta {} above the peak {}", steady.zeta, peak.zeta);
+    let d = r.dilatancy.as_ref().expect("dilatancy");
+    assert!(d.final_volumetric_strain < -0.005, "final volumetric strain {}", d.final_volumetric_strain);
 }
 
 /// A plane shear of 500 polydisperse spheres (d 0.9-1.1 mm, μ_p = 0.5) at 1 kPa, stiffness

@@ -166,6 +166,7 @@ mod tests {
             r: Vec3::zeros(),
             rolling: Rolling::default(),
             scale: 0.0,
+            near: false,
         }
     }
 
@@ -183,7 +184,7 @@ mod tests {
             contact(3, Side::Boundary(1)),
             contact(5, Side::Boundary(0)),
         ];
-        let free = Mobility { direction: Vec3::y(), inv_mass: 1.0, partner: None };
+        let free = Mobility { direction: Vec3::y(), inv_mass: 1.0, partner: None, max_speed: Real::INFINITY };
         let mut order = Vec::new();
         let colours = Colours::new(&contacts, 7, &[Mobility::FIXED, free], &mut order);
         let mut sorted = order.clone();

@@ -10,7 +10,7 @@
 //! budget is spent. The order is the contacts' order, or colour by colour with each colour swept
 //! in parallel ([`super::colour`]).
 //!
-//! **Convergence criterion** (checked after every sweep), both below their tolerances:
+//! **Convergence criterion** (checked after every sweep), all below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
 //!   (LMGC90's "quadratic" norm), where each contact's impulse scale `s` (set by the method:
 //!   the impulse that stops its approach, one step of gravity, and the bodies' speeds at the
@@ -19,7 +19,11 @@
 //!   changing by their own size at every sweep);
 //! - the mean violation of the Signorini condition, `h <max(0, b - U_n)> / <d>`: how far, as a
 //!   fraction of the mean diameter, the contacts would interpenetrate over the step beyond
-//!   what the law allows, measured on each contact just before it is solved in the sweep.
+//!   what the law allows, measured on each contact just before it is solved in the sweep
+//!   (over the contacts; near pairs only while they act: [`RigidContact::near`]);
+//! - the largest violation, `h max(max(0, b - U_n) / a_i)`: how far the deepest-going contact
+//!   would interpenetrate over the step, as a fraction of its radius (a bound on the mean alone
+//!   lets one contact in a thousand go a thousand times deeper than the mean).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -77,6 +81,14 @@ pub struct RigidContact {
     pub i: u32,
     /// Second body or boundary.
     pub j: Side,
+    /// A pair that is apart and not closing, in the problem only so that nothing within the
+    /// step drives it in (a method's choice: CD's near pairs): it counts in the criterion as a
+    /// contact only in the sweeps where it acts (carries or changes an impulse); otherwise only
+    /// by what it violates. A dense packing has about as many near pairs as contacts: counted
+    /// while idle, they doubled the number the mean violation divides by and the impulse scale
+    /// of the relative change, and loosened both bounds as much; left out while acting, an
+    /// impulse that comes and goes at one of them was a relative change of 1 on its own.
+    pub near: bool,
     /// Local frame; `n` points from `j` towards `i`.
     pub frame: ContactFrame,
     /// Distance from the centre of `i` to the contact point (along `-n`), m.
@@ -114,11 +126,29 @@ pub struct Mobility {
     /// degree of freedom, the box length, so that the box cannot drift as a whole): an impulse
     /// on either changes both velocities, by opposite amounts.
     pub partner: Option<u32>,
+    /// Largest speed along `direction`, m/s (`INFINITY`: none). A bound of the contact problem,
+    /// not a clamp after it: the boundary moves at `clamp(u)`, where `u` is the velocity its
+    /// push and its contacts' impulses give it, so the bound's reaction is whatever keeps it
+    /// there (a stress-controlled wall crossing empty space does not reach its first grains at
+    /// the speed of many steps of push, yet still pushes with its whole target once at rest
+    /// on them).
+    pub max_speed: Real,
 }
 
 impl Mobility {
     /// A boundary of imposed motion.
-    pub const FIXED: Self = Self { direction: Vec3::new(0.0, 0.0, 0.0), inv_mass: 0.0, partner: None };
+    pub const FIXED: Self = Self { direction: Vec3::new(0.0, 0.0, 0.0), inv_mass: 0.0, partner: None, max_speed: Real::INFINITY };
+
+    /// The velocity a free boundary moves at when its unbounded velocity is `u`: `u` with its
+    /// component along `direction` brought within `max_speed`, m/s.
+    #[inline(always)]
+    pub fn bound(&self, u: Vec3) -> Vec3 {
+        if self.inv_mass == 0.0 || self.max_speed == Real::INFINITY {
+            return u;
+        }
+        let s = u.dot(&self.direction);
+        u + self.direction * (s.clamp(-self.max_speed, self.max_speed) - s)
+    }
 }
 
 /// The velocities and inverse inertias of the bodies the contacts act on.
@@ -149,13 +179,13 @@ pub(crate) trait BodyStore {
     fn vel(&self, i: usize) -> Vec3;
     /// Spin of body `i`, rad/s.
     fn omega(&self, i: usize) -> Vec3;
-    /// Velocity of boundary `k`, m/s.
+    /// Velocity boundary `k` moves at, m/s (within its [`Mobility::max_speed`]).
     fn boundary_vel(&self, k: usize) -> Vec3;
     /// Adds `dv` to the velocity of body `i`.
     fn add_vel(&mut self, i: usize, dv: Vec3);
     /// Adds `dw` to the spin of body `i`.
     fn add_omega(&mut self, i: usize, dw: Vec3);
-    /// Adds `dv` to the velocity of boundary `k`.
+    /// Adds `dv` to the unbounded velocity of boundary `k`.
     fn add_boundary_vel(&mut self, k: usize, dv: Vec3);
     /// 1/m of body `i`, 1/kg.
     fn inv_mass(&self, i: usize) -> Real;
@@ -178,7 +208,7 @@ impl BodyStore for RigidBodies<'_> {
     }
     #[inline(always)]
     fn boundary_vel(&self, k: usize) -> Vec3 {
-        self.boundary_vel[k]
+        self.boundary_mobility[k].bound(self.boundary_vel[k])
     }
     #[inline(always)]
     fn add_vel(&mut self, i: usize, dv: Vec3) {
@@ -221,7 +251,7 @@ impl BodyStore for &SolveBodies<'_> {
     }
     #[inline(always)]
     fn boundary_vel(&self, k: usize) -> Vec3 {
-        self.boundary_vel[k].get()
+        self.boundary_mobility[k].bound(self.boundary_vel[k].get())
     }
     #[inline(always)]
     fn add_vel(&mut self, i: usize, dv: Vec3) {
@@ -479,6 +509,9 @@ pub struct Convergence {
     pub tolerance: Real,
     /// Tolerance on the mean violation (fraction of the mean diameter per step).
     pub violation_tolerance: Real,
+    /// Tolerance on the largest violation (fraction of the contact's radius per step): a mean
+    /// bound alone lets one contact of a thousand go a thousand times deeper than the mean.
+    pub worst_tolerance: Real,
     /// Largest number of sweeps in one step.
     pub max_iterations: u32,
     /// Relaxation `omega` in (0, 1]: each contact moves its impulse `omega` of the way to its
@@ -495,6 +528,8 @@ pub struct Iterate {
     pub change: Real,
     /// Mean violation (fraction of the mean diameter per step).
     pub violation: Real,
+    /// Largest violation (fraction of the contact's radius per step).
+    pub worst: Real,
 }
 
 /// The outcome of one solve.
@@ -532,19 +567,21 @@ impl Nlgs {
         self.history.capacity() * std::mem::size_of::<Iterate>() + self.cells.heap_bytes()
     }
 
-    /// Solves the contacts (see the module documentation). `violation_scale` turns a velocity
-    /// violation into the criterion's units: `h / <d>`, s/m. With `colours`, the contacts are
-    /// in colour order ([`super::colour`]) and each colour is swept in parallel.
+    /// Solves the contacts (see the module documentation) for a step of `h` seconds, between
+    /// bodies of mean diameter `mean_diameter` (m; the mean violation's unit). With `colours`, the contacts are
+    /// in colour order ([`super::colour`]) and each colour is swept in parallel. Free
+    /// boundaries end the solve within their [`Mobility::max_speed`].
     pub fn solve(
         &mut self,
         contacts: &mut [RigidContact],
         bodies: &mut RigidBodies<'_>,
-        violation_scale: Real,
+        h: Real,
+        mean_diameter: Real,
         colours: Option<&Colours>,
     ) -> NlgsReport {
         self.history.clear();
-        match colours {
-            None => self.sweeps(contacts, bodies, violation_scale, |contacts, bodies, omega| {
+        let report = match colours {
+            None => self.sweeps(contacts, bodies, (h, mean_diameter), |contacts, bodies, omega| {
                 let mut sums = Sums::default();
                 for c in contacts.iter_mut() {
                     visit(c, bodies, omega, &mut sums);
@@ -556,13 +593,17 @@ impl Nlgs {
                 let mut cells = std::mem::take(&mut self.cells);
                 cells.fill(bodies);
                 let shared = SolveBodies::new(bodies, &cells);
-                let report =
-                    self.sweeps(contacts, &mut &shared, violation_scale, |contacts, bodies, omega| colours.sweep(contacts, bodies, omega));
+                let report = self
+                    .sweeps(contacts, &mut &shared, (h, mean_diameter), |contacts, bodies, omega| colours.sweep(contacts, bodies, omega));
                 shared.store(bodies);
                 self.cells = cells;
                 report
             }
+        };
+        for (v, m) in bodies.boundary_vel.iter_mut().zip(bodies.boundary_mobility) {
+            *v = m.bound(*v);
         }
+        report
     }
 
     /// The warm start and the sweeps of [`Nlgs::solve`], `sweep` doing one sweep.
@@ -570,7 +611,7 @@ impl Nlgs {
         &mut self,
         contacts: &mut [RigidContact],
         bodies: &mut B,
-        violation_scale: Real,
+        (h, mean_diameter): (Real, Real),
         sweep: impl Fn(&mut [RigidContact], &mut B, Real) -> Sums,
     ) -> NlgsReport {
         let mut report = NlgsReport { contacts: contacts.len(), ..NlgsReport::default() };
@@ -606,11 +647,12 @@ impl Nlgs {
             } else {
                 0.0
             };
-            let last = Iterate { change, violation: violation_scale * sums.violation / contacts.len() as Real };
+            let last =
+                Iterate { change, violation: h * sums.violation / (sums.count.max(1) as Real * mean_diameter), worst: h * sums.worst };
             self.history.push(last);
             report.iterations = it;
             report.last = last;
-            if last.change <= tol && last.violation <= vtol {
+            if last.change <= tol && last.violation <= vtol && last.worst <= self.settings.worst_tolerance {
                 report.converged = true;
                 break;
             }
@@ -619,13 +661,17 @@ impl Nlgs {
     }
 }
 
-/// What a sweep adds up for the criterion: the squared changes and sizes of the impulses, and
-/// the violations.
+/// What a sweep adds up for the criterion: the squared changes and sizes of the impulses, the
+/// violations, and the contacts counted (all but the near pairs, [`RigidContact::near`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Sums {
     pub(crate) change2: Real,
     pub(crate) size2: Real,
     pub(crate) violation: Real,
+    /// Contacts counted in the mean violation (near pairs only while they act).
+    pub(crate) count: usize,
+    /// The largest violation over the lever of the contact's first body, 1/s.
+    pub(crate) worst: Real,
 }
 
 impl std::ops::AddAssign for Sums {
@@ -633,6 +679,8 @@ impl std::ops::AddAssign for Sums {
         self.change2 += o.change2;
         self.size2 += o.size2;
         self.violation += o.violation;
+        self.count += o.count;
+        self.worst = self.worst.max(o.worst);
     }
 }
 
@@ -641,7 +689,9 @@ impl std::ops::AddAssign for Sums {
 #[inline(always)]
 pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Real, sums: &mut Sums) {
     let u_now = c.frame.to_local(&c.velocity_in(bodies));
-    sums.violation += (c.law.target - u_now.x).max(0.0);
+    let violation = (c.law.target - u_now.x).max(0.0);
+    sums.violation += violation;
+    sums.worst = sums.worst.max(violation / c.a_i);
     let u_free = u_now - c.w.apply(&c.r);
     let mut r = local::solve(&c.w, &u_free, &c.law);
     if omega != 1.0 {
@@ -652,7 +702,10 @@ pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Re
         c.apply(&c.frame.to_global(&dr), bodies);
         sums.change2 += dr.norm_squared();
     }
-    sums.size2 += r.norm_squared().max(c.scale * c.scale);
+    if !c.near || r != Vec3::zeros() || dr != Vec3::zeros() {
+        sums.size2 += r.norm_squared().max(c.scale * c.scale);
+        sums.count += 1;
+    }
     c.r = r;
     if c.rolling.bound > 0.0 && c.rolling.w > 0.0 {
         // The rolling block, with the normal impulse just found (its moments counted as
@@ -719,13 +772,20 @@ mod tests {
                 r: Vec3::zeros(),
                 rolling: Rolling::default(),
                 scale: 0.0,
+                near: false,
             })
             .collect();
         // Only contact 0 approaches at the start; the others are closed at rest.
         for c in contacts.iter_mut().skip(1) {
             c.law = law_for(0.0, 0.0, 0.0, 0.0);
         }
-        let mut solver = Nlgs::new(Convergence { tolerance: 1e-10, violation_tolerance: 1e-10, max_iterations: 10_000, relaxation: relax });
+        let mut solver = Nlgs::new(Convergence {
+            tolerance: 1e-10,
+            violation_tolerance: 1e-10,
+            worst_tolerance: 1e-10,
+            max_iterations: 10_000,
+            relaxation: relax,
+        });
         let mut bodies = RigidBodies {
             vel: &mut vel,
             omega: &mut omega,
@@ -735,7 +795,7 @@ mod tests {
             boundary_mobility: &[],
             boundary_omega: &[],
         };
-        let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
+        let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
         assert!(report.converged, "{report:?}");
         for v in &vel {
             assert!((v.x - 0.2).abs() < 1e-8, "{vel:?}");
@@ -769,8 +829,15 @@ mod tests {
             r: Vec3::zeros(),
             rolling: Rolling::default(),
             scale: 0.0,
+            near: false,
         }];
-        let mut solver = Nlgs::new(Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, max_iterations: 100, relaxation: 1.0 });
+        let mut solver = Nlgs::new(Convergence {
+            tolerance: 1e-12,
+            violation_tolerance: 1e-12,
+            worst_tolerance: 1e-12,
+            max_iterations: 100,
+            relaxation: 1.0,
+        });
         let mut wall = [Vec3::zeros()];
         let mut bodies = RigidBodies {
             vel: &mut vel,
@@ -781,7 +848,7 @@ mod tests {
             boundary_mobility: &[Mobility::FIXED],
             boundary_omega: &[],
         };
-        let report = solver.solve(&mut contacts, &mut bodies, 1.0, None);
+        let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
         assert!(report.converged);
         // Normal impulse m * 0.5 = 1 N·s; friction 0.2 N·s against the slip (t1 = -x for n = y).
         let p = contacts[0].frame.to_global(&contacts[0].r);
@@ -814,21 +881,122 @@ mod tests {
             r: Vec3::zeros(),
             rolling: Rolling::default(),
             scale: 0.0,
+            near: false,
         }];
         let mut plate = [Vec3::new(0.0, v, 0.0)];
-        let mut solver = Nlgs::new(Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, max_iterations: 100, relaxation: 1.0 });
+        let mut solver = Nlgs::new(Convergence {
+            tolerance: 1e-12,
+            violation_tolerance: 1e-12,
+            worst_tolerance: 1e-12,
+            max_iterations: 100,
+            relaxation: 1.0,
+        });
         let mut bodies = RigidBodies {
             vel: &mut vel,
             omega: &mut omega,
             inv_mass: &im,
             inv_inertia: &ii,
             boundary_vel: &mut plate,
-            boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None }],
+            boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None, max_speed: Real::INFINITY }],
             boundary_omega: &[],
         };
-        assert!(solver.solve(&mut contacts, &mut bodies, 1.0, None).converged);
+        assert!(solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None).converged);
         let common = big_m * v / (big_m + m);
         assert!((vel[0].y - common).abs() < 1e-12 && (plate[0].y - common).abs() < 1e-12, "{:?} {:?}", vel[0], plate[0]);
         assert!((m * vel[0].y + big_m * plate[0].y - big_m * v).abs() < 1e-12);
+    }
+
+    /// A contact between disk `0` and boundary `k`, along `n` (from the boundary to the disk).
+    fn disk_on(k: u32, n: Vec3, im_b: Real) -> RigidContact {
+        RigidContact {
+            i: 0,
+            j: Side::Boundary(k),
+            frame: ContactFrame::new(2, n),
+            a_i: 0.1,
+            a_j: 0.0,
+            drive: Vec3::zeros(),
+            w: RigidContact::delassus_boundary(1.0, 10.0, 0.1, im_b),
+            law: law_for(0.0, 0.0, 0.0, 0.0),
+            r: Vec3::zeros(),
+            rolling: Rolling::default(),
+            scale: 0.0,
+            near: false,
+        }
+    }
+
+    /// Ten disks resting on a fixed floor and one coming down on it at 1 m/s: the first sweep
+    /// sees a mean violation of 1/11 (h = 1 s, d = 1 m) and a largest one of 1/0.1 = 10 radii.
+    /// A mean bound alone accepts that sweep; the bound on the largest violation makes the
+    /// solver sweep again (the second sweep finds every contact satisfied).
+    #[test]
+    fn one_violated_contact_among_many_satisfied_ones_is_not_converged() {
+        let n = 11;
+        let sweeps = |worst_tolerance: Real| {
+            let mut vel = vec![Vec3::zeros(); n];
+            vel[n - 1].y = -1.0;
+            let mut omega = vec![Vec3::zeros(); n];
+            let (im, ii) = (vec![1.0; n], vec![10.0; n]);
+            let mut contacts: Vec<RigidContact> = (0..n as u32).map(|i| RigidContact { i, ..disk_on(0, Vec3::y(), 0.0) }).collect();
+            let mut walls = [Vec3::zeros()];
+            let mut bodies = RigidBodies {
+                vel: &mut vel,
+                omega: &mut omega,
+                inv_mass: &im,
+                inv_inertia: &ii,
+                boundary_vel: &mut walls,
+                boundary_mobility: &[Mobility::FIXED],
+                boundary_omega: &[],
+            };
+            let settings =
+                Convergence { tolerance: Real::INFINITY, violation_tolerance: 0.1, worst_tolerance, max_iterations: 10, relaxation: 1.0 };
+            let mut solver = Nlgs::new(settings);
+            let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
+            assert!(report.converged);
+            let first = solver.history[0];
+            assert!((first.violation - 1.0 / n as Real).abs() < 1e-12 && (first.worst - 10.0).abs() < 1e-12, "{first:?}");
+            assert!(vel[n - 1].norm() < 1e-12);
+            report.iterations
+        };
+        assert_eq!(sweeps(100.0), 1);
+        assert_eq!(sweeps(1.0), 2);
+    }
+
+    /// A free plate whose push has built up a velocity of 2 m/s, bounded at 0.5 m/s: a free
+    /// disk it meets is driven at the bound, not at 2 m/s; a disk resting on a fixed floor stops
+    /// it, and then takes the whole of its push (the bound holds the plate's speed, not its
+    /// force), passed on to the floor.
+    #[test]
+    fn a_bounded_boundary_drives_at_its_bound_and_pushes_with_its_whole_force() {
+        let big_m = 3.0;
+        let plate = Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None, max_speed: 0.5 };
+        let mobility = [plate, Mobility::FIXED];
+        let settings =
+            Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, worst_tolerance: 1e-12, max_iterations: 200, relaxation: 1.0 };
+        let (im, ii) = ([1.0], [10.0]);
+        let solve = |contacts: &mut Vec<RigidContact>| {
+            let (mut vel, mut omega) = (vec![Vec3::zeros()], vec![Vec3::zeros()]);
+            let mut walls = [Vec3::new(0.0, -2.0, 0.0), Vec3::zeros()];
+            let mut bodies = RigidBodies {
+                vel: &mut vel,
+                omega: &mut omega,
+                inv_mass: &im,
+                inv_inertia: &ii,
+                boundary_vel: &mut walls,
+                boundary_mobility: &mobility,
+                boundary_omega: &[],
+            };
+            assert!(Nlgs::new(settings).solve(contacts, &mut bodies, 1.0, 1.0, None).converged);
+            (vel[0], walls[0])
+        };
+        // Free disk: it ends with the plate at the bound; its impulse is m × 0.5.
+        let mut free = vec![disk_on(0, -Vec3::y(), 1.0 / big_m)];
+        let (v, w) = solve(&mut free);
+        assert!((v.y + 0.5).abs() < 1e-12 && (w.y + 0.5).abs() < 1e-12, "{v:?} {w:?}");
+        assert!((free[0].r.x - 0.5).abs() < 1e-12, "{:?}", free[0].r);
+        // On the floor: the plate stops, and the contacts carry M × 2 = 6 N·s.
+        let mut held = vec![disk_on(0, -Vec3::y(), 1.0 / big_m), disk_on(1, Vec3::y(), 0.0)];
+        let (v, w) = solve(&mut held);
+        assert!(v.norm() < 1e-12 && w.norm() < 1e-12, "{v:?} {w:?}");
+        assert!((held[0].r.x - 6.0).abs() < 1e-9 && (held[1].r.x - 6.0).abs() < 1e-9, "{:?} {:?}", held[0].r, held[1].r);
     }
 }

@@ -417,7 +417,7 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
     }
     if let Some(t) = s.violation_tolerance {
         if c.within("method.violation_tolerance", t, 1e-14, 0.1) {
-            p.violation_tolerance = t;
+            p.violation_tolerance = Some(t);
         }
     }
     if let Some(n) = s.max_iterations {

@@ -43,8 +43,9 @@ impl Cell {
         Self { kind, speed: 0.0, mass }
     }
 
-    /// Unit direction along which a stress-controlled cell's lengths move, and its target
-    /// stress and largest strain rate (`None` for imposed rates).
+    /// Unit direction along which a stress-controlled cell's lengths move, its target stress,
+    /// and the largest speed of its degree of freedom, `max_strain_rate × |L|` over the axes
+    /// it moves, m/s (`None` for imposed rates).
     fn servo(&self, domain: &Domain) -> Option<(Vec3, Real, Real)> {
         let mut direction = Vec3::zeros();
         let (target, max_rate) = match self.kind {
@@ -63,7 +64,8 @@ impl Cell {
             }
         };
         let norm = direction.norm();
-        (norm > 0.0).then(|| (direction / norm, target, max_rate))
+        let lengths = (0..domain.dim).filter(|&a| direction[a] != 0.0).map(|a| domain.length(a).powi(2)).sum::<Real>().sqrt();
+        (norm > 0.0).then(|| (direction / norm, target, max_rate * lengths))
     }
 
     /// `Σ_a A_a direction_a`, m^(D-1): the work the target stress does per unit of the free
@@ -85,15 +87,15 @@ impl Cell {
                 }
                 (v, Mobility::FIXED)
             }
-            Some((direction, target, _)) => {
+            Some((direction, target, max_speed)) => {
                 let push = -target * Self::area(&direction, domain) * h / self.mass;
-                (direction * (self.speed + push), Mobility { direction, inv_mass: 1.0 / self.mass, partner: None })
+                (direction * (self.speed + push), Mobility { direction, inv_mass: 1.0 / self.mass, partner: None, max_speed })
             }
         }
     }
 
     /// Ends a step of `h` seconds: the free speed takes the velocity `end` the contacts left
-    /// (within `max_strain_rate × |L|`), and the lengths move about the cell's centre by the
+    /// (within `max_strain_rate × |L|`, the bound of its [`Mobility`]), and the lengths move about the cell's centre by the
     /// theta-scheme between `start` and that end velocity (imposed rates: by `exp(r h)`).
     /// Returns the end velocity.
     pub fn finish(&mut self, domain: &mut Domain, start: Vec3, end: Vec3, h: Real, theta: Real) -> Vec3 {
@@ -104,9 +106,7 @@ impl Cell {
         }
         let end = match self.servo(domain) {
             None => end,
-            Some((direction, _, max_rate)) => {
-                let limit =
-                    max_rate * (0..domain.dim).filter(|&a| direction[a] != 0.0).map(|a| domain.length(a).powi(2)).sum::<Real>().sqrt();
+            Some((direction, _, limit)) => {
                 self.speed = end.dot(&direction).clamp(-limit, limit);
                 direction * self.speed
             }
