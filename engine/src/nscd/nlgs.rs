@@ -831,13 +831,7 @@ mod tests {
             scale: 0.0,
             near: false,
         }];
-        let mut solver = Nlgs::new(Convergence {
-            tolerance: 1e-12,
-            violation_tolerance: 1e-12,
-            worst_tolerance: 1e-12,
-            max_iterations: 100,
-            relaxation: 1.0,
-        });
+        let mut solver = Nlgs::new(tight(100));
         let mut wall = [Vec3::zeros()];
         let mut bodies = RigidBodies {
             vel: &mut vel,
@@ -884,13 +878,7 @@ mod tests {
             near: false,
         }];
         let mut plate = [Vec3::new(0.0, v, 0.0)];
-        let mut solver = Nlgs::new(Convergence {
-            tolerance: 1e-12,
-            violation_tolerance: 1e-12,
-            worst_tolerance: 1e-12,
-            max_iterations: 100,
-            relaxation: 1.0,
-        });
+        let mut solver = Nlgs::new(tight(100));
         let mut bodies = RigidBodies {
             vel: &mut vel,
             omega: &mut omega,
@@ -904,6 +892,11 @@ mod tests {
         let common = big_m * v / (big_m + m);
         assert!((vel[0].y - common).abs() < 1e-12 && (plate[0].y - common).abs() < 1e-12, "{:?} {:?}", vel[0], plate[0]);
         assert!((m * vel[0].y + big_m * plate[0].y - big_m * v).abs() < 1e-12);
+    }
+
+    /// Every tolerance at 1e-12, no relaxation, `max_iterations` sweeps.
+    fn tight(max_iterations: u32) -> Convergence {
+        Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, worst_tolerance: 1e-12, max_iterations, relaxation: 1.0 }
     }
 
     /// A contact between disk `0` and boundary `k`, along `n` (from the boundary to the disk).
@@ -970,8 +963,7 @@ mod tests {
         let big_m = 3.0;
         let plate = Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None, max_speed: 0.5 };
         let mobility = [plate, Mobility::FIXED];
-        let settings =
-            Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, worst_tolerance: 1e-12, max_iterations: 200, relaxation: 1.0 };
+        let settings = tight(200);
         let (im, ii) = ([1.0], [10.0]);
         let solve = |contacts: &mut Vec<RigidContact>| {
             let (mut vel, mut omega) = (vec![Vec3::zeros()], vec![Vec3::zeros()]);

@@ -15,11 +15,12 @@
 //!    approach velocity left by an unconverged solve, or by a wall pressing on, bounces back
 //!    at every step and keeps a confined packing agitated). A pair whose gap is within
 //!    `max_interpenetration` of the smaller radius, and whose start velocity would not close it
-//!    within the whole step, is a contact of the step too ([`near_law`]: nothing within the step
-//!    may drive it deeper than the slop): a grain squeezed out between converging neighbours leaves within the
-//!    step faster than any speed at its start, and would otherwise go into a neighbour that
-//!    the anticipation left out (in a 400-disk biaxial compression, grains at 0.05-0.07 m/s,
-//!    twenty times the platen's speed, reached the 5% limit of the radius in one step);
+//!    within the whole step, is a contact of the step too ([`near_law`]: nothing within the
+//!    step may drive it deeper than the slop): a grain squeezed out between converging
+//!    neighbours leaves within the step faster than any speed at its start, and would otherwise
+//!    go into a neighbour that the anticipation left out (in a 400-disk biaxial compression,
+//!    grains at 0.05-0.07 m/s, twenty times the platen's speed, reached the 5% limit of the
+//!    radius in one step);
 //! 3. `Free`: velocities advance under gravity alone; walls take their imposed velocity, and a
 //!    stress-controlled wall — a rigid plate of mass [`Cd::wall_mass`] free to move along its
 //!    axis — is pushed by its target stress times its area;
@@ -589,8 +590,9 @@ impl Cd {
         let ahead = (1.0 - theta) * h;
         let gh = self.gravity.norm() * h;
         let slop = self.params.slop;
-        // Pairs this close are contacts of the step whatever their velocities at its start
-        // (see the module documentation, `Detect`).
+        // Pairs this close (as a fraction of the smaller radius) that their start velocity does
+        // not close within the step are contacts of it too ([`near_law`]; the module
+        // documentation, `Detect`).
         let near_gap = self.params.max_interpenetration;
         let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
         self.contacts.clear();
