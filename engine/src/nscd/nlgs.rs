@@ -86,8 +86,7 @@ pub struct RigidContact {
     /// contact only in the sweeps where it acts (carries or changes an impulse); otherwise only
     /// by what it violates. A dense packing has about as many near pairs as contacts: counted
     /// while idle, they doubled the number the mean violation divides by and the impulse scale
-    /// of the relative change, and loosened both bounds as much; left out while acting, an
-    /// impulse that comes and goes at one of them was a relative change of 1 on its own.
+    /// of the relative change, and loosened both bounds as much.
     pub near: bool,
     /// Local frame; `n` points from `j` towards `i`.
     pub frame: ContactFrame,
@@ -568,9 +567,9 @@ impl Nlgs {
     }
 
     /// Solves the contacts (see the module documentation) for a step of `h` seconds, between
-    /// bodies of mean diameter `mean_diameter` (m; the mean violation's unit). With `colours`, the contacts are
-    /// in colour order ([`super::colour`]) and each colour is swept in parallel. Free
-    /// boundaries end the solve within their [`Mobility::max_speed`].
+    /// bodies of mean diameter `mean_diameter` (m; the mean violation's unit). With `colours`,
+    /// the contacts are in colour order ([`super::colour`]) and each colour is swept in
+    /// parallel. Free boundaries end the solve within their [`Mobility::max_speed`].
     pub fn solve(
         &mut self,
         contacts: &mut [RigidContact],
