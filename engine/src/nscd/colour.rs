@@ -149,25 +149,10 @@ impl Colours {
 mod tests {
     use super::*;
     use crate::math::Vec3;
-    use crate::nscd::local::Rolling;
-    use crate::nscd::nlgs::law_for;
-    use crate::nscd::ContactFrame;
+    use crate::nscd::nlgs::test_contact;
 
     fn contact(i: u32, j: Side) -> RigidContact {
-        RigidContact {
-            i,
-            j,
-            frame: ContactFrame::new(2, Vec3::x()),
-            a_i: 0.5,
-            a_j: 0.5,
-            drive: Vec3::zeros(),
-            w: RigidContact::delassus(1.0, 2.0, 0.5, 1.0, 2.0, 0.5),
-            law: law_for(0.0, 0.0, 0.0, 0.0),
-            r: Vec3::zeros(),
-            rolling: Rolling::default(),
-            scale: 0.0,
-            near: false,
-        }
+        test_contact(i, j, Vec3::x(), (0.5, 0.5), RigidContact::delassus(1.0, 2.0, 0.5, 1.0, 2.0, 0.5))
     }
 
     #[test]

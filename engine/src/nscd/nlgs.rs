@@ -67,6 +67,26 @@ impl Side {
     }
 }
 
+/// A contact for the solver's tests: between `i` and `j` along `n` at levers `a_i`, `a_j`, of
+/// Delassus block `w`, inelastic, frictionless, at rest, carrying nothing.
+#[cfg(test)]
+pub(crate) fn test_contact(i: u32, j: Side, n: Vec3, (a_i, a_j): (Real, Real), w: Delassus) -> RigidContact {
+    RigidContact {
+        i,
+        j,
+        near: false,
+        frame: ContactFrame::new(2, n),
+        a_i,
+        a_j,
+        drive: Vec3::zeros(),
+        w,
+        law: law_for(0.0, 0.0, 0.0, 0.0),
+        r: Vec3::zeros(),
+        rolling: Rolling::default(),
+        scale: 0.0,
+    }
+}
+
 /// `k ⊙ v`: the velocity of an image `k` periods away in a cell whose lengths change at `v`.
 #[inline(always)]
 pub fn image_lever(k: [i8; 3], v: &Vec3) -> Vec3 {
@@ -900,20 +920,7 @@ mod tests {
 
     /// A contact between disk `0` and boundary `k`, along `n` (from the boundary to the disk).
     fn disk_on(k: u32, n: Vec3, im_b: Real) -> RigidContact {
-        RigidContact {
-            i: 0,
-            j: Side::Boundary(k),
-            frame: ContactFrame::new(2, n),
-            a_i: 0.1,
-            a_j: 0.0,
-            drive: Vec3::zeros(),
-            w: RigidContact::delassus_boundary(1.0, 10.0, 0.1, im_b),
-            law: law_for(0.0, 0.0, 0.0, 0.0),
-            r: Vec3::zeros(),
-            rolling: Rolling::default(),
-            scale: 0.0,
-            near: false,
-        }
+        test_contact(0, Side::Boundary(k), n, (0.1, 0.0), RigidContact::delassus_boundary(1.0, 10.0, 0.1, im_b))
     }
 
     /// Ten disks resting on a fixed floor and one coming down on it at 1 m/s: the first sweep

@@ -119,8 +119,8 @@ pub struct CdParams {
     pub violation_tolerance: Option<Real>,
     /// Largest number of NLGS sweeps per step.
     pub max_iterations: u32,
-    /// Violation bound during an experiment's loading stages (those that do not run until
-    /// equilibrium), same units as `violation_tolerance`. Looser than the bound of a packing at
+    /// Violation bound during loading (an experiment's stages that do not run until equilibrium,
+    /// a plain scene that imposes a motion), same units as `violation_tolerance`. Looser than the bound of a packing at
     /// rest: from a 400-disk preparation a biaxial loading at 1e-6 stalled NLGS, at 1e-4 it ran
     /// in about 50 sweeps a step and matched DEM (docs/scene-format.md §3).
     pub loading_violation_tolerance: Real,

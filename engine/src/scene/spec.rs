@@ -454,14 +454,15 @@ pub struct CdParamsSpec {
     #[serde(default)]
     pub tolerance: Option<f64>,
     /// Tolerance of the NLGS criterion on the mean violation of the Signorini condition, as a
-    /// fraction of the mean diameter per step. Default 1e-6.
+    /// fraction of the mean diameter per step. Default 1e-6 in 2D, 1e-5 in 3D.
     #[serde(default)]
     pub violation_tolerance: Option<f64>,
     /// Largest number of NLGS sweeps per step. Default 5000.
     #[serde(default)]
     pub max_iterations: Option<u32>,
-    /// Violation bound during an experiment's loading stages (those that do not run until
-    /// equilibrium), same units as `violation_tolerance`. Default 1e-4.
+    /// Violation bound during loading (an experiment's stages that do not run until
+    /// equilibrium, a plain scene that imposes a motion), same units as `violation_tolerance`.
+    /// Default 1e-4.
     #[serde(default)]
     pub loading_violation_tolerance: Option<f64>,
     /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
