@@ -52,6 +52,13 @@ pub trait Simulation: Send {
     /// step-to-step velocities carry the solver's residual), so the runner calls it once per
     /// check.
     fn balance(&mut self) -> Balance;
+    /// Checks in a row that a stage's equilibrium needs when the scene does not set
+    /// `equilibrium.consecutive`: three for a balance that is a snapshot of the state (one
+    /// snapshot may catch a packing at a quiet instant), fewer for one that is a mean over the
+    /// interval since the previous check.
+    fn equilibrium_checks(&self) -> u32 {
+        3
+    }
     /// Number-mean diameter (m) and solid density (kg/m³) of the grains.
     fn grain_scales(&self) -> (Real, Real);
     /// The current particles and box, to start another run from ([`crate::scene::state`]).
@@ -360,7 +367,7 @@ impl Runner {
                         let b = sim.balance();
                         settled = if b.satisfies(eq) { settled + 1 } else { 0 };
                         balance = Some(b);
-                        if settled >= eq.consecutive {
+                        if settled >= eq.consecutive.unwrap_or_else(|| sim.equilibrium_checks()) {
                             break StopReason::Equilibrium;
                         }
                     }

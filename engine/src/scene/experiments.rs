@@ -58,7 +58,7 @@ fn check_equilibrium(c: &mut Checker, path: &str, s: Option<&EquilibriumSpec>) -
         if n == 0 {
             c.fail(format!("{path}.consecutive"), "must be >= 1");
         }
-        e.consecutive = n.max(1);
+        e.consecutive = Some(n.max(1));
     }
     e
 }

@@ -644,13 +644,14 @@ pub struct Equilibrium {
     pub stress_tolerance: Real,
     /// Steps between checks.
     pub check_every: u64,
-    /// Checks in a row that must pass.
-    pub consecutive: u32,
+    /// Checks in a row that must pass; `None`: the method's own number
+    /// ([`crate::run::Simulation::equilibrium_checks`]).
+    pub consecutive: Option<u32>,
 }
 
 impl Default for Equilibrium {
     fn default() -> Self {
-        Self { kinetic_ratio: 1e-4, unbalanced_force: 1e-2, stress_tolerance: 0.01, check_every: 500, consecutive: 3 }
+        Self { kinetic_ratio: 1e-4, unbalanced_force: 1e-2, stress_tolerance: 0.01, check_every: 500, consecutive: None }
     }
 }
 

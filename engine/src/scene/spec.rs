@@ -668,7 +668,7 @@ pub struct EquilibriumSpec {
     /// Steps between checks.
     #[serde(default)]
     pub check_every: Option<u64>,
-    /// Checks in a row.
+    /// Checks in a row (default: the method's, 3 for `dem` and 1 for `cd`).
     #[serde(default)]
     pub consecutive: Option<u32>,
 }

@@ -1254,6 +1254,16 @@ impl Simulation for Cd {
         }
     }
 
+    /// One: [`Cd::balance`] is a mean over the whole interval since the previous check (500
+    /// steps by default, about fifty inertial times `d sqrt(rho / p)` at the default step),
+    /// not a snapshot that may catch a packing at a quiet instant; a drift over the interval
+    /// fails it as a snapshot of that drift's velocity would. Three such windows in a row made
+    /// the 400-disk biaxial preparation of `sable bench biaxial` wait 1,000 more steps (a
+    /// fifth of its whole run) with its kinetic ratio already below 1e-4.
+    fn equilibrium_checks(&self) -> u32 {
+        1
+    }
+
     fn grain_scales(&self) -> (Real, Real) {
         let mass: Real = self.p.mass.iter().sum();
         (self.mean_diameter, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
