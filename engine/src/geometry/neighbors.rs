@@ -84,6 +84,20 @@ impl NeighborList {
             .zip(self.ref_pos.par_chunks(4 * CHUNK))
             .map(|(ps, rs)| ps.iter().zip(rs).map(|(p, r)| (p - r).norm_squared()).fold(0.0, f64::max))
             .reduce(|| 0.0, f64::max);
+        self.needs_rebuild_after(max2, domain)
+    }
+
+    /// Positions at the last build (empty before the first), for a caller that measures the
+    /// displacements in a pass of its own ([`NeighborList::needs_rebuild_after`]).
+    pub fn reference_positions(&self) -> &[Vec3] {
+        &self.ref_pos
+    }
+
+    /// [`NeighborList::needs_rebuild`] given `max2`, the largest squared displacement of a
+    /// particle from [`NeighborList::reference_positions`] (m²), measured over as many
+    /// particles as that holds (fewer or more particles than at the last build: call
+    /// `needs_rebuild`).
+    pub fn needs_rebuild_after(&self, max2: Real, domain: &Domain) -> bool {
         let mut drift = 2.0 * max2.sqrt();
         if domain.shifted_images() {
             // Not the distance modulo L_x: when the offset wraps around the box, every pair

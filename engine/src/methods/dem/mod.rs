@@ -122,6 +122,10 @@ pub struct Dem {
     /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
     xr_current: bool,
+    /// The largest squared displacement since the last neighbour build, m², measured by this
+    /// step's drift (`None` when positions moved after it, or the particles are not those of
+    /// the build): saves the neighbour check a pass over the positions.
+    drift2: Option<Real>,
     needs_extra: bool,
     /// Tangential springs, rolling springs and forces of the particle-wall contacts, `slots`
     /// per particle: one per plane wall, then the drum.
@@ -255,6 +259,7 @@ impl Dem {
             previous_contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
             xr_current: false,
+            drift2: None,
             needs_extra,
             wall_xi: vec![Vec3::zeros(); n * nw],
             wall_roll: if has_wall_rolling || nw > 0 { vec![Vec3::zeros(); n * nw] } else { Vec::new() },
@@ -532,6 +537,7 @@ impl Dem {
         }
         if !self.glued.is_empty() {
             self.move_glued();
+            self.drift2 = None;
         }
         self.domain.advance_shear(dt);
         if self.deformation.is_some() {
@@ -553,6 +559,7 @@ impl Dem {
                 let bound: Real = (0..self.dim).map(|a| ((0.5 * self.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
                 self.near.add_motion(bound.sqrt());
                 self.xr_current = false;
+                self.drift2 = None;
                 self.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
                     for x in xs {
                         for a in 0..3 {
@@ -567,15 +574,18 @@ impl Dem {
     /// Half kick of velocities and spins, then drift of the particles by `v dt` with the new
     /// velocity, in one pass (the first half of velocity Verlet), which saves a sweep over memory
     /// and a parallel region per step. The drift reports the largest displacement to the near
-    /// pairs. (The second half kick runs inside the gather of the force stage.)
+    /// pairs, and the largest displacement since the last neighbour build to the neighbour
+    /// stage ([`Dem::drift2`]). (The second half kick runs inside the gather of the force stage.)
     fn kick_and_drift(&mut self) {
         let h = 0.5 * self.dt;
         let dt = self.dt;
         let alpha = self.params.local_damping;
+        let reference = self.nl.reference_positions();
+        let measured = reference.len() == self.p.len();
         let p = &mut self.p;
         let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
         // No wrap after the drift: particles return into the box at the next neighbour build.
-        let largest2 = p
+        let (largest2, drift2) = p
             .vel
             .par_chunks_mut(LOOP_CHUNK)
             .zip(p.omega.par_chunks_mut(LOOP_CHUNK))
@@ -583,22 +593,27 @@ impl Dem {
             .zip(self.xr.par_chunks_mut(LOOP_CHUNK))
             .enumerate()
             .map(|(c, (((vs, ws), xs), xrs))| {
-                let mut largest2: Real = 0.0;
+                let (mut largest2, mut drift2): (Real, Real) = (0.0, 0.0);
                 let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
+                let refs = if measured { &reference[r.clone()] } else { &[] };
                 let parts =
                     force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
                 let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut());
-                for ((((v, w), x), xr), ((((f, t), im), ii), rad)) in state.zip(parts) {
+                for (k, ((((v, w), x), xr), ((((f, t), im), ii), rad))) in state.zip(parts).enumerate() {
                     half_kick(v, w, f, t, h * im, h * ii, alpha);
                     let step = *v * dt;
                     *x += step;
                     largest2 = largest2.max(step.norm_squared());
+                    if let Some(x0) = refs.get(k) {
+                        drift2 = drift2.max((*x - x0).norm_squared());
+                    }
                     *xr = [x.x, x.y, x.z, *rad];
                 }
-                largest2
+                (largest2, drift2)
             })
-            .reduce(|| 0.0, Real::max);
+            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         self.near.add_motion(largest2.sqrt());
+        self.drift2 = measured.then_some(drift2);
         self.xr_current = true;
     }
 
@@ -849,7 +864,11 @@ impl Dem {
         self.boundaries();
         lap(|t| &mut t.boundaries, &mut self.profile);
         // Stage::NeighborUpdate
-        if self.nl.needs_rebuild(&self.p.pos, &self.domain) {
+        let rebuild = match self.drift2.take() {
+            Some(max2) => self.nl.needs_rebuild_after(max2, &self.domain),
+            None => self.nl.needs_rebuild(&self.p.pos, &self.domain),
+        };
+        if rebuild {
             self.refresh_neighbors();
         }
         lap(|t| &mut t.neighbors, &mut self.profile);
