@@ -72,6 +72,43 @@ fn a_prepared_state_starts_another_run_at_equilibrium() {
     assert!(steps <= 1_000, "the prepared state needed {steps} steps to settle again");
 }
 
+/// Contact dynamics judges equilibrium on means over each check interval, so one passing
+/// window ends a stage by default (`Simulation::equilibrium_checks`); a scene that asks for three
+/// in a row gets three. A CD packing prepared at 100 Pa in a periodic cell, restarted under the
+/// same preparation: the check of step 0 has no window (no contact yet: it fails), the window
+/// of steps 0-500 passes.
+#[test]
+fn a_contact_dynamics_state_at_rest_settles_at_its_first_window_unless_asked_for_more() {
+    let scene = |start: Value, equilibrium: Value| {
+        let mut scene = json!({
+            "dimension": 2,
+            "method": {"kind": "cd", "threads": 1},
+            "materials": disks(),
+            "container": {"periodic": ["x", "y"]},
+            "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0, "equilibrium": equilibrium}},
+            "sampling": {"every_steps": 500},
+            "seed": 5
+        });
+        match start {
+            Value::Null => {
+                scene["container"] = json!({"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]});
+                scene["particles"] = json!([{"material": "disks", "count": 150, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                                            "placement": {"kind": "random"}}]);
+            }
+            state => scene["start_from"] = json!({"state": state}),
+        }
+        scene
+    };
+    let (_, reason, steps, state) = run(scene(Value::Null, json!({})));
+    assert_eq!(reason, StopReason::Equilibrium);
+    assert!(steps > 500, "the gas took only {steps} steps to compress");
+    let state = serde_json::to_value(&state).expect("state value");
+    let (_, reason, steps, _) = run(scene(state.clone(), json!({})));
+    assert_eq!((reason, steps), (StopReason::Equilibrium, 500));
+    let (_, reason, steps, _) = run(scene(state, json!({"consecutive": 3})));
+    assert_eq!((reason, steps), (StopReason::Equilibrium, 1500));
+}
+
 #[test]
 fn a_sheared_lees_edwards_state_keeps_its_image_offset() {
     let rate = 3.0;
