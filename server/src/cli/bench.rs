@@ -362,8 +362,8 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     };
     if let Some(t) = sim.stage_times() {
         eprintln!(
-            "stages (s): integrate {:.3}, boundaries {:.3}, neighbours {:.3}, forces {:.3}, check {:.3}",
-            t.integrate, t.boundaries, t.neighbors, t.forces, t.check
+            "stages (s): integrate {:.3}, boundaries {:.3}, neighbours {:.3}, pair forces {:.3}, walls and gather {:.3}, check {:.3}",
+            t.integrate, t.boundaries, t.neighbors, t.pairs, t.forces, t.check
         );
     }
     if a.json {

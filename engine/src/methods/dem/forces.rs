@@ -84,6 +84,12 @@ impl Dem {
     /// the particles the second half kick of the step with them.
     pub(crate) fn compute_forces(&mut self, kick: bool) {
         self.pair_forces();
+        self.wall_forces_and_gather(kick);
+    }
+
+    /// The part of [`Dem::compute_forces`] after the pair forces: wall forces, then the
+    /// gather (with `kick`, the second half kick).
+    pub(crate) fn wall_forces_and_gather(&mut self, kick: bool) {
         if self.wall_slots() > 0 {
             self.wall_forces();
         }
@@ -93,7 +99,9 @@ impl Dem {
         }
     }
 
-    fn pair_forces(&mut self) {
+    /// The pair forces: the near scan (or the filtering of the Verlet list into near pairs)
+    /// and the contact law of every touching pair, one task per block of particles.
+    pub(crate) fn pair_forces(&mut self) {
         let p = &self.p;
         let nl = &self.nl;
         let domain = &self.domain;

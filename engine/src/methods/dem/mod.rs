@@ -64,7 +64,9 @@ pub struct StageTimes {
     pub boundaries: f64,
     /// Rebuild test and rebuilds.
     pub neighbors: f64,
-    /// Pair and wall forces, gather.
+    /// Pair forces: near scan (or filtering) and contact laws.
+    pub pairs: f64,
+    /// Wall forces and the gather of every force on the particles (with the second half kick).
     pub forces: f64,
     /// Stability guard.
     pub check: f64,
@@ -873,7 +875,9 @@ impl Dem {
         }
         lap(|t| &mut t.neighbors, &mut self.profile);
         // Stage::Force, with Stage::FinalIntegrate fused into its gather.
-        self.compute_forces(true);
+        self.pair_forces();
+        lap(|t| &mut t.pairs, &mut self.profile);
+        self.wall_forces_and_gather(true);
         lap(|t| &mut t.forces, &mut self.profile);
         self.step += 1;
         self.time += self.dt;
