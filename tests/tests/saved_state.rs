@@ -36,28 +36,34 @@ fn assert_same_packing(before: &Sample, after: &Sample) {
     assert!((before.z - after.z).abs() < 1e-9, "Z {} then {}", before.z, after.z);
 }
 
+/// The isotropic preparation of 150 disks at 100 Pa by `method` in a 20 mm periodic cell
+/// (`start` null), or from the saved state `start` (the box is the state's), with the
+/// `equilibrium` criterion of the preparation.
+fn isotropic_scene(method: Value, start: Value, equilibrium: Value) -> Value {
+    let mut scene = json!({
+        "dimension": 2,
+        "method": method,
+        "materials": disks(),
+        "container": {"periodic": ["x", "y"]},
+        "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0, "equilibrium": equilibrium}},
+        "sampling": {"every_steps": 500},
+        "seed": 5
+    });
+    match start {
+        Value::Null => {
+            scene["container"] = json!({"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]});
+            scene["particles"] = json!([{"material": "disks", "count": 150, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
+                                        "placement": {"kind": "random"}}]);
+        }
+        state => scene["start_from"] = json!({"state": state}),
+    }
+    scene
+}
+
 #[test]
 fn a_prepared_state_starts_another_run_at_equilibrium() {
-    let prepare = |start: Value, container: Value| {
-        let mut scene = json!({
-            "dimension": 2,
-            "method": {"kind": "dem", "threads": 1},
-            "materials": disks(),
-            "container": container,
-            "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0}},
-            "sampling": {"every_steps": 2000},
-            "seed": 5
-        });
-        match start {
-            Value::Null => {
-                scene["particles"] = json!([{"material": "disks", "count": 150, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                                            "placement": {"kind": "random"}}]);
-            }
-            state => scene["start_from"] = json!({"state": state}),
-        }
-        run(scene)
-    };
-    let (first, reason, steps, state) = prepare(Value::Null, json!({"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]}));
+    let prepare = |start: Value| run(isotropic_scene(json!({"kind": "dem", "threads": 1}), start, json!({})));
+    let (first, reason, steps, state) = prepare(Value::Null);
     assert_eq!(reason, StopReason::Equilibrium);
     assert!(steps > 5_000, "the gas took only {steps} steps to compress");
     assert_eq!(state.particles.radius.len(), 150);
@@ -65,7 +71,7 @@ fn a_prepared_state_starts_another_run_at_equilibrium() {
     // The cell shrank: the state carries the compressed box.
     assert!(state.max[0] - state.min[0] < 0.02 * 0.8, "box {:?} .. {:?}", state.min, state.max);
 
-    let (second, reason, steps, _) = prepare(serde_json::to_value(&state).expect("state value"), json!({"periodic": ["x", "y"]}));
+    let (second, reason, steps, _) = prepare(serde_json::to_value(&state).expect("state value"));
     assert_same_packing(first.last().expect("samples"), &second[0]);
     // Equilibrium at the checks of steps 0, 500 and 1000 (defaults: every 500, 3 in a row).
     assert_eq!(reason, StopReason::Equilibrium);
@@ -79,26 +85,7 @@ fn a_prepared_state_starts_another_run_at_equilibrium() {
 /// of steps 0-500 passes.
 #[test]
 fn a_contact_dynamics_state_at_rest_settles_at_its_first_window_unless_asked_for_more() {
-    let scene = |start: Value, equilibrium: Value| {
-        let mut scene = json!({
-            "dimension": 2,
-            "method": {"kind": "cd", "threads": 1},
-            "materials": disks(),
-            "container": {"periodic": ["x", "y"]},
-            "experiment": {"kind": "isotropic", "preparation": {"pressure": 100.0, "equilibrium": equilibrium}},
-            "sampling": {"every_steps": 500},
-            "seed": 5
-        });
-        match start {
-            Value::Null => {
-                scene["container"] = json!({"min": [0, 0], "max": [0.02, 0.02], "periodic": ["x", "y"]});
-                scene["particles"] = json!([{"material": "disks", "count": 150, "size": {"kind": "uniform", "min": 8.0e-4, "max": 1.2e-3},
-                                            "placement": {"kind": "random"}}]);
-            }
-            state => scene["start_from"] = json!({"state": state}),
-        }
-        scene
-    };
+    let scene = |start: Value, equilibrium: Value| isotropic_scene(json!({"kind": "cd", "threads": 1}), start, equilibrium);
     let (_, reason, steps, state) = run(scene(Value::Null, json!({})));
     assert_eq!(reason, StopReason::Equilibrium);
     assert!(steps > 500, "the gas took only {steps} steps to compress");

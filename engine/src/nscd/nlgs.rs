@@ -805,15 +805,7 @@ mod tests {
             max_iterations: 10_000,
             relaxation: relax,
         });
-        let mut bodies = RigidBodies {
-            vel: &mut vel,
-            omega: &mut omega,
-            inv_mass: &im,
-            inv_inertia: &ii,
-            boundary_vel: &mut [],
-            boundary_mobility: &[],
-            boundary_omega: &[],
-        };
+        let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut [], &[]);
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
         assert!(report.converged, "{report:?}");
         for v in &vel {
@@ -852,15 +844,7 @@ mod tests {
         }];
         let mut solver = Nlgs::new(tight(100));
         let mut wall = [Vec3::zeros()];
-        let mut bodies = RigidBodies {
-            vel: &mut vel,
-            omega: &mut omega,
-            inv_mass: &im,
-            inv_inertia: &ii,
-            boundary_vel: &mut wall,
-            boundary_mobility: &[Mobility::FIXED],
-            boundary_omega: &[],
-        };
+        let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut wall, &[Mobility::FIXED]);
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
         assert!(report.converged);
         // Normal impulse m * 0.5 = 1 N·s; friction 0.2 N·s against the slip (t1 = -x for n = y).
@@ -898,19 +882,23 @@ mod tests {
         }];
         let mut plate = [Vec3::new(0.0, v, 0.0)];
         let mut solver = Nlgs::new(tight(100));
-        let mut bodies = RigidBodies {
-            vel: &mut vel,
-            omega: &mut omega,
-            inv_mass: &im,
-            inv_inertia: &ii,
-            boundary_vel: &mut plate,
-            boundary_mobility: &[Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None, max_speed: Real::INFINITY }],
-            boundary_omega: &[],
-        };
+        let mobility = [Mobility { direction: Vec3::y(), inv_mass: 1.0 / big_m, partner: None, max_speed: Real::INFINITY }];
+        let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut plate, &mobility);
         assert!(solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None).converged);
         let common = big_m * v / (big_m + m);
         assert!((vel[0].y - common).abs() < 1e-12 && (plate[0].y - common).abs() < 1e-12, "{:?} {:?}", vel[0], plate[0]);
         assert!((m * vel[0].y + big_m * plate[0].y - big_m * v).abs() < 1e-12);
+    }
+
+    /// The bodies of a test: grains with their velocities, spins and inverse masses and
+    /// inertias, boundaries with their velocities and mobilities, none turning.
+    fn bodies<'a>(
+        (vel, omega): (&'a mut [Vec3], &'a mut [Vec3]),
+        (inv_mass, inv_inertia): (&'a [Real], &'a [Real]),
+        boundary_vel: &'a mut [Vec3],
+        boundary_mobility: &'a [Mobility],
+    ) -> RigidBodies<'a> {
+        RigidBodies { vel, omega, inv_mass, inv_inertia, boundary_vel, boundary_mobility, boundary_omega: &[] }
     }
 
     /// Every tolerance at 1e-12, no relaxation, `max_iterations` sweeps.
@@ -937,15 +925,7 @@ mod tests {
             let (im, ii) = (vec![1.0; n], vec![10.0; n]);
             let mut contacts: Vec<RigidContact> = (0..n as u32).map(|i| RigidContact { i, ..disk_on(0, Vec3::y(), 0.0) }).collect();
             let mut walls = [Vec3::zeros()];
-            let mut bodies = RigidBodies {
-                vel: &mut vel,
-                omega: &mut omega,
-                inv_mass: &im,
-                inv_inertia: &ii,
-                boundary_vel: &mut walls,
-                boundary_mobility: &[Mobility::FIXED],
-                boundary_omega: &[],
-            };
+            let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut walls, &[Mobility::FIXED]);
             let settings =
                 Convergence { tolerance: Real::INFINITY, violation_tolerance: 0.1, worst_tolerance, max_iterations: 10, relaxation: 1.0 };
             let mut solver = Nlgs::new(settings);
@@ -974,15 +954,7 @@ mod tests {
         let solve = |contacts: &mut Vec<RigidContact>| {
             let (mut vel, mut omega) = (vec![Vec3::zeros()], vec![Vec3::zeros()]);
             let mut walls = [Vec3::new(0.0, -2.0, 0.0), Vec3::zeros()];
-            let mut bodies = RigidBodies {
-                vel: &mut vel,
-                omega: &mut omega,
-                inv_mass: &im,
-                inv_inertia: &ii,
-                boundary_vel: &mut walls,
-                boundary_mobility: &mobility,
-                boundary_omega: &[],
-            };
+            let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut walls, &mobility);
             assert!(Nlgs::new(settings).solve(contacts, &mut bodies, 1.0, 1.0, None).converged);
             (vel[0], walls[0])
         };
