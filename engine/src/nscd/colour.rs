@@ -17,8 +17,8 @@
 
 use rayon::prelude::*;
 
-use super::nlgs::{visit, Mobility, RigidContact, Side, SolveBodies, Sums};
-use crate::math::Real;
+use super::nlgs::{Mobility, Pass, RigidContact, Side, SolveBodies, Sums};
+use crate::math::Vec3;
 
 /// Contacts per parallel task; a colour of fewer contacts is swept by one.
 pub const CHUNK: usize = 256;
@@ -114,25 +114,28 @@ impl Colours {
         self.bounds[MAX_COLOURS + 1] - self.bounds[MAX_COLOURS]
     }
 
-    /// One sweep over `contacts` (in colour order) with relaxation `omega`; returns what it
-    /// adds up for the criterion.
-    pub(crate) fn sweep(&self, contacts: &mut [RigidContact], bodies: &mut &SolveBodies<'_>, omega: Real) -> Sums {
+    /// One pass over `contacts` (in colour order), `pass` applied to each contact with its slot
+    /// of `last` (the same length: the impulses after the previous sweep); returns what it adds
+    /// up for the criterion.
+    pub(crate) fn sweep(&self, contacts: &mut [RigidContact], last: &mut [Vec3], bodies: &mut &SolveBodies<'_>, pass: Pass) -> Sums {
         let mut sums = Sums::default();
         for c in 0..=MAX_COLOURS {
-            let group = &mut contacts[self.bounds[c]..self.bounds[c + 1]];
+            let range = self.bounds[c]..self.bounds[c + 1];
+            let (group, slots) = (&mut contacts[range.clone()], &mut last[range]);
             if c == MAX_COLOURS || group.len() <= CHUNK {
-                for contact in group.iter_mut() {
-                    visit(contact, bodies, omega, &mut sums);
+                for (contact, slot) in group.iter_mut().zip(slots.iter_mut()) {
+                    pass.apply(contact, slot, bodies, &mut sums);
                 }
                 continue;
             }
             let parts: Vec<Sums> = group
                 .par_chunks_mut(CHUNK)
-                .map(|chunk| {
+                .zip(slots.par_chunks_mut(CHUNK))
+                .map(|(chunk, slots)| {
                     let mut bodies = *bodies;
                     let mut part = Sums::default();
-                    for contact in chunk {
-                        visit(contact, &mut bodies, omega, &mut part);
+                    for (contact, slot) in chunk.iter_mut().zip(slots.iter_mut()) {
+                        pass.apply(contact, slot, &mut bodies, &mut part);
                     }
                     part
                 })
@@ -148,7 +151,7 @@ impl Colours {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
+    use crate::math::Real;
     use crate::nscd::nlgs::test_contact;
 
     fn contact(i: u32, j: Side) -> RigidContact {

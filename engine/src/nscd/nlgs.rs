@@ -10,6 +10,21 @@
 //! budget is spent. The order is the contacts' order, or colour by colour with each colour swept
 //! in parallel ([`super::colour`]).
 //!
+//! **Acceleration** (momentum with adaptive restart): after a sweep that did not converge, each
+//! contact's impulse is carried on along its change over the sweep, `r + beta (r - r_prev)`,
+//! projected back on its admissible set (`r_n >= -c`, `|r_t| <= mu (r_n + c)`), and the change
+//! applied to its bodies. `beta` grows as Nesterov's `(k - 1) / (k + 2)` with the sweeps `k` since
+//! the last restart, up to `Convergence::acceleration`, and the count restarts whenever the sum of
+//! the violations grows over a sweep (O'Donoghue & Candès 2015's restart; Mazhar et al. 2015 use
+//! the same momentum on the projected gradient of the contact problem, Chrono's APGD). Plain
+//! Gauss-Seidel crawls on the slow collective modes of a packing moved by free walls — its error
+//! there decays by a few percent per thousand sweeps — and the momentum carries those modes along:
+//! three 150-disk isotropic preparations between walls that stalled at 5,000 sweeps (mean violation
+//! 1.3-1.6 times its bound) come to rest, and the three 400-disk biaxial tests of `sable bench
+//! biaxial` run 3 times faster (measured in the commit that brought it). Contacts with a liquid's
+//! viscosity and the rolling blocks keep their plain update (their admissible set depends on the
+//! velocity).
+//!
 //! **Convergence criterion** (checked after every sweep), all below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
 //!   (LMGC90's "quadratic" norm), where each contact's impulse scale `s` (set by the method:
@@ -538,6 +553,9 @@ pub struct Convergence {
     /// hyperstatic packings under imposed boundary motions (LMGC90's NLGS exposes the same
     /// factor, `relax`).
     pub relaxation: Real,
+    /// Largest momentum factor `beta` of the accelerated sweep, in [0, 1) (0: plain
+    /// Gauss-Seidel; see the module documentation).
+    pub acceleration: Real,
 }
 
 /// The state of the iteration after one sweep.
@@ -573,17 +591,21 @@ pub struct Nlgs {
     pub history: Vec<Iterate>,
     /// The velocity cells of the coloured sweep, kept between solves.
     cells: Cells,
+    /// Each contact's impulse after the previous sweep (the accelerated sweep's momentum).
+    last: Vec<Vec3>,
 }
 
 impl Nlgs {
     /// A solver with these settings.
     pub fn new(settings: Convergence) -> Self {
-        Self { settings, history: Vec::new(), cells: Cells::default() }
+        Self { settings, history: Vec::new(), cells: Cells::default(), last: Vec::new() }
     }
 
     /// Heap bytes held (the history and the coloured sweep's cells).
     pub fn heap_bytes(&self) -> usize {
-        self.history.capacity() * std::mem::size_of::<Iterate>() + self.cells.heap_bytes()
+        self.history.capacity() * std::mem::size_of::<Iterate>()
+            + self.cells.heap_bytes()
+            + self.last.capacity() * std::mem::size_of::<Vec3>()
     }
 
     /// Solves the contacts (see the module documentation) for a step of `h` seconds, between
@@ -600,10 +622,10 @@ impl Nlgs {
     ) -> NlgsReport {
         self.history.clear();
         let report = match colours {
-            None => self.sweeps(contacts, bodies, (h, mean_diameter), |contacts, bodies, omega| {
+            None => self.sweeps(contacts, bodies, (h, mean_diameter), |contacts, last, bodies, pass| {
                 let mut sums = Sums::default();
-                for c in contacts.iter_mut() {
-                    visit(c, bodies, omega, &mut sums);
+                for (c, slot) in contacts.iter_mut().zip(last.iter_mut()) {
+                    pass.apply(c, slot, bodies, &mut sums);
                 }
                 sums
             }),
@@ -612,8 +634,9 @@ impl Nlgs {
                 let mut cells = std::mem::take(&mut self.cells);
                 cells.fill(bodies);
                 let shared = SolveBodies::new(bodies, &cells);
-                let report = self
-                    .sweeps(contacts, &mut &shared, (h, mean_diameter), |contacts, bodies, omega| colours.sweep(contacts, bodies, omega));
+                let report = self.sweeps(contacts, &mut &shared, (h, mean_diameter), |contacts, last, bodies, pass| {
+                    colours.sweep(contacts, last, bodies, pass)
+                });
                 shared.store(bodies);
                 self.cells = cells;
                 report
@@ -625,13 +648,14 @@ impl Nlgs {
         report
     }
 
-    /// The warm start and the sweeps of [`Nlgs::solve`], `sweep` doing one sweep.
+    /// The warm start and the sweeps of [`Nlgs::solve`], `sweep` doing one pass over the
+    /// contacts with their slots of the previous impulses.
     fn sweeps<B: BodyStore>(
         &mut self,
         contacts: &mut [RigidContact],
         bodies: &mut B,
         (h, mean_diameter): (Real, Real),
-        sweep: impl Fn(&mut [RigidContact], &mut B, Real) -> Sums,
+        sweep: impl Fn(&mut [RigidContact], &mut [Vec3], &mut B, Pass) -> Sums,
     ) -> NlgsReport {
         let mut report = NlgsReport { contacts: contacts.len(), ..NlgsReport::default() };
         for c in contacts.iter_mut() {
@@ -655,10 +679,20 @@ impl Nlgs {
         }
         let (tol, vtol) = (self.settings.tolerance, self.settings.violation_tolerance);
         let omega = self.settings.relaxation;
+        let mut previous = std::mem::take(&mut self.last);
+        let accelerate = self.settings.acceleration > 0.0;
+        if accelerate {
+            previous.clear();
+            previous.extend(contacts.iter().map(|c| c.r));
+        } else {
+            previous.resize(contacts.len(), Vec3::zeros());
+        }
+        // The sweep the momentum restarted at, and the violations of the last sweep.
+        let (mut restart, mut violations) = (0, Real::INFINITY);
         for it in 1..=self.settings.max_iterations {
             // Always forward: sweeping backward every other time (symmetric Gauss-Seidel)
             // took 40% more sweeps on the quickstart deposition.
-            let sums = sweep(contacts, bodies, omega);
+            let sums = sweep(contacts, &mut previous, bodies, Pass::Solve { omega });
             let change = if sums.size2 > 0.0 {
                 (sums.change2 / sums.size2).sqrt()
             } else if sums.change2 > 0.0 {
@@ -675,8 +709,72 @@ impl Nlgs {
                 report.converged = true;
                 break;
             }
+            if accelerate {
+                if sums.violation > violations {
+                    restart = it;
+                }
+                violations = sums.violation;
+                let k = Real::from(it - restart);
+                let beta = ((k - 1.0) / (k + 2.0)).clamp(0.0, self.settings.acceleration);
+                sweep(contacts, &mut previous, bodies, Pass::Carry { beta });
+            }
         }
+        self.last = previous;
         report
+    }
+}
+
+/// One pass of the solver over the contacts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Pass {
+    /// A Gauss-Seidel sweep at relaxation `omega` ([`visit`]).
+    Solve {
+        /// Relaxation.
+        omega: Real,
+    },
+    /// The accelerated sweep's momentum at factor `beta` ([`carry`]).
+    Carry {
+        /// Momentum factor.
+        beta: Real,
+    },
+}
+
+impl Pass {
+    /// The pass on contact `c`, whose impulse after the previous sweep is in `last`.
+    #[inline(always)]
+    pub(crate) fn apply(self, c: &mut RigidContact, last: &mut Vec3, bodies: &mut impl BodyStore, sums: &mut Sums) {
+        match self {
+            Pass::Solve { omega } => visit(c, bodies, omega, sums),
+            Pass::Carry { beta } => carry(c, last, bodies, beta),
+        }
+    }
+}
+
+/// The momentum of the accelerated sweep on one contact (module documentation): its impulse
+/// carried on by `beta` times its change since `last` (the impulse after the previous sweep),
+/// projected on the admissible set, the change applied to its bodies; `last` takes the impulse
+/// the sweep left. A contact with a liquid's viscosity keeps its impulse.
+#[inline(always)]
+pub(crate) fn carry(c: &mut RigidContact, last: &mut Vec3, bodies: &mut impl BodyStore, beta: Real) {
+    let x = c.r;
+    let d = x - *last;
+    *last = x;
+    if beta == 0.0 || d == Vec3::zeros() || c.law.viscosity > 0.0 {
+        return;
+    }
+    let mut y = x + d * beta;
+    y.x = y.x.max(-c.law.cohesion);
+    let limit = c.law.friction * (y.x + c.law.cohesion);
+    let t = (y.y * y.y + y.z * y.z).sqrt();
+    if t > limit {
+        let s = if t > 0.0 { limit / t } else { 0.0 };
+        y.y *= s;
+        y.z *= s;
+    }
+    let dy = y - x;
+    if dy != Vec3::zeros() {
+        c.apply(&c.frame.to_global(&dy), bodies);
+        c.r = y;
     }
 }
 
@@ -804,6 +902,7 @@ mod tests {
             worst_tolerance: 1e-10,
             max_iterations: 10_000,
             relaxation: relax,
+            acceleration: 0.0,
         });
         let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut [], &[]);
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
@@ -816,6 +915,67 @@ mod tests {
         let h = &solver.history;
         assert_eq!(h.len() as u32, report.iterations);
         assert!(h.last().is_some_and(|l| l.change <= 1e-10));
+        report.iterations
+    }
+
+    /// A column of 40 equal disks (mass 1 kg) on a fixed floor, each given one step of gravity
+    /// as its free velocity, solved from nothing: contact k (below disk k) carries the weight of
+    /// the 40 - k disks above it over the step, `(40 - k) g h`, and every disk ends at rest —
+    /// with plain and with accelerated sweeps, the momentum taking a small part of the sweeps
+    /// (Gauss-Seidel moves the load down a chain by about one contact per sweep, its error
+    /// decays by a factor 1 - O(1/n²) per sweep).
+    #[test]
+    fn momentum_carries_the_weight_of_a_column_down_in_fewer_sweeps() {
+        let plain = column_of_disks(0.0);
+        let accelerated = column_of_disks(0.9);
+        assert!(3 * accelerated < plain, "accelerated {accelerated} sweeps, plain {plain}");
+    }
+
+    /// Solves the column with momentum factor `acceleration` and checks the answer; returns the
+    /// sweeps.
+    fn column_of_disks(acceleration: Real) -> u32 {
+        let (n, gh) = (40, 9.81e-3);
+        let mut vel = vec![Vec3::new(0.0, -gh, 0.0); n];
+        let mut omega = vec![Vec3::zeros(); n];
+        let (im, ii) = (vec![1.0; n], vec![2.0; n]);
+        // Contact 0: disk 0 on the floor; contact k: disk k on disk k - 1 (n points up).
+        let mut contacts: Vec<RigidContact> = (0..n)
+            .map(|k| RigidContact {
+                i: k as u32,
+                j: if k == 0 { Side::Boundary(0) } else { Side::Body(k as u32 - 1) },
+                frame: ContactFrame::new(2, Vec3::y()),
+                a_i: 0.5,
+                a_j: if k == 0 { 0.0 } else { 0.5 },
+                drive: Vec3::zeros(),
+                w: if k == 0 {
+                    RigidContact::delassus_boundary(1.0, 2.0, 0.5, 0.0)
+                } else {
+                    RigidContact::delassus(1.0, 2.0, 0.5, 1.0, 2.0, 0.5)
+                },
+                law: law_for(0.0, 0.0, 0.5, 0.0),
+                r: Vec3::zeros(),
+                rolling: Rolling::default(),
+                scale: gh,
+                near: false,
+            })
+            .collect();
+        let mut solver = Nlgs::new(Convergence {
+            tolerance: 1e-9,
+            violation_tolerance: 1e-12,
+            worst_tolerance: 1e-9,
+            max_iterations: 100_000,
+            relaxation: 1.0,
+            acceleration,
+        });
+        let mut floor = [Vec3::zeros()];
+        let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut floor, &[Mobility::FIXED]);
+        let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
+        assert!(report.converged, "{report:?}");
+        for (k, c) in contacts.iter().enumerate() {
+            let exact = (n - k) as Real * gh;
+            assert!((c.r.x - exact).abs() < 1e-6 * exact && c.r.y == 0.0, "contact {k}: {:?}, exact {exact}", c.r);
+        }
+        assert!(vel.iter().all(|v| v.norm() < 1e-8 * gh), "{vel:?}");
         report.iterations
     }
 
@@ -903,7 +1063,14 @@ mod tests {
 
     /// Every tolerance at 1e-12, no relaxation, `max_iterations` sweeps.
     fn tight(max_iterations: u32) -> Convergence {
-        Convergence { tolerance: 1e-12, violation_tolerance: 1e-12, worst_tolerance: 1e-12, max_iterations, relaxation: 1.0 }
+        Convergence {
+            tolerance: 1e-12,
+            violation_tolerance: 1e-12,
+            worst_tolerance: 1e-12,
+            max_iterations,
+            relaxation: 1.0,
+            acceleration: 0.0,
+        }
     }
 
     /// A contact between disk `0` and boundary `k`, along `n` (from the boundary to the disk).
@@ -926,8 +1093,14 @@ mod tests {
             let mut contacts: Vec<RigidContact> = (0..n as u32).map(|i| RigidContact { i, ..disk_on(0, Vec3::y(), 0.0) }).collect();
             let mut walls = [Vec3::zeros()];
             let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut walls, &[Mobility::FIXED]);
-            let settings =
-                Convergence { tolerance: Real::INFINITY, violation_tolerance: 0.1, worst_tolerance, max_iterations: 10, relaxation: 1.0 };
+            let settings = Convergence {
+                tolerance: Real::INFINITY,
+                violation_tolerance: 0.1,
+                worst_tolerance,
+                max_iterations: 10,
+                relaxation: 1.0,
+                acceleration: 0.0,
+            };
             let mut solver = Nlgs::new(settings);
             let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
             assert!(report.converged);

@@ -126,6 +126,9 @@ pub struct CdParams {
     pub loading_violation_tolerance: Real,
     /// Relaxation of the NLGS updates, in (0, 1] ([`crate::nscd::Convergence::relaxation`]).
     pub relaxation: Real,
+    /// Largest momentum factor of the accelerated NLGS sweep, in [0, 1) (0: plain Gauss-Seidel;
+    /// [`crate::nscd::Convergence::acceleration`]).
+    pub acceleration: Real,
     /// Order of the NLGS sweep.
     pub sweep: Sweep,
     /// Largest allowed interpenetration / smaller radius.
@@ -164,6 +167,7 @@ impl Default for CdParams {
             max_iterations: 5000,
             loading_violation_tolerance: 1e-4,
             relaxation: 1.0,
+            acceleration: 0.9,
             sweep: Sweep::Auto,
             max_interpenetration: 0.05,
             slop: crate::methods::cd::SLOP,

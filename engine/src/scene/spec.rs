@@ -468,6 +468,10 @@ pub struct CdParamsSpec {
     /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
     #[serde(default)]
     pub relaxation: Option<f64>,
+    /// Largest momentum factor of the accelerated NLGS sweep, in [0, 1) (0: plain
+    /// Gauss-Seidel). Default 0.9.
+    #[serde(default)]
+    pub acceleration: Option<f64>,
     /// Order of the NLGS sweep: `serial`, `coloured` (parallel) or `auto`. Default `auto`.
     #[serde(default)]
     pub sweep: Option<super::model::Sweep>,

@@ -442,6 +442,13 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.relaxation = w;
         }
     }
+    if let Some(a) = s.acceleration {
+        if !(0.0..1.0).contains(&a) {
+            c.fail("method.acceleration", format!("must be in [0, 1), got {a}"));
+        } else {
+            p.acceleration = a;
+        }
+    }
     if let Some(o) = s.max_interpenetration {
         if c.within("method.max_interpenetration", o, 1e-6, 1.0) {
             p.max_interpenetration = o;
@@ -947,7 +954,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         let bad = rules(&scene_with(
-            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "loading_violation_tolerance": 0.5, "relaxation": 1.5, "time_step": 1e-4, "max_displacement": 0.1}),
+            serde_json::json!({"kind": "cd", "theta": 0.3, "max_iterations": 0, "loading_violation_tolerance": 0.5, "relaxation": 1.5, "acceleration": 1.0, "time_step": 1e-4, "max_displacement": 0.1}),
             0.5,
         ));
         assert_eq!(
@@ -958,6 +965,7 @@ mod tests {
                 "method.max_iterations: must be between 1 and 1000000, got 0",
                 "method.loading_violation_tolerance: must be between 0.00000000000001 and 0.1, got 0.5",
                 "method.relaxation: must be in (0, 1], got 1.5",
+                "method.acceleration: must be in [0, 1), got 1",
             ]
         );
         let slop = rules(&scene_with(serde_json::json!({"kind": "cd", "slop": 0.05}), 0.5));

@@ -98,6 +98,10 @@ pub struct CdBenchArgs {
     /// Order of the NLGS sweep: `auto`, `serial` or `coloured` (the scene's `method.sweep`).
     #[arg(long, default_value = "auto")]
     pub sweep: String,
+    /// Largest momentum factor of the accelerated sweep (the scene's `method.acceleration`; 0:
+    /// plain Gauss-Seidel). Default: the method's.
+    #[arg(long)]
+    pub acceleration: Option<f64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -107,6 +111,7 @@ pub struct CdBenchArgs {
 struct CdBenchResult {
     method: &'static str,
     sweep: Sweep,
+    acceleration: f64,
     particles: usize,
     steps: u64,
     threads: usize,
@@ -143,6 +148,11 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
     let (mut scene, threads, pool) = prepare(a.threads, |t| cd_benchmark(a.particles, a.steps, t))?;
     let Method::Cd(mut params) = scene.method.clone() else { anyhow::bail!("the CD benchmark scene must use method cd") };
     params.sweep = sweep;
+    if let Some(beta) = a.acceleration {
+        anyhow::ensure!((0.0..1.0).contains(&beta), "--acceleration: must be in [0, 1), got {beta}");
+        params.acceleration = beta;
+    }
+    let acceleration = params.acceleration;
     scene.method = Method::Cd(params);
     let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
     let mut sim = pool.install(|| Cd::new(&scene, params))?;
@@ -164,6 +174,7 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
     let r = CdBenchResult {
         method: "cd",
         sweep,
+        acceleration,
         particles: sim.particle_count(),
         steps: a.steps,
         threads,
@@ -178,8 +189,9 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "cd: {} spheres x {} steps on {} thread(s): {:.3} s, {:.3e} contact-iterations/s ({:.0} contacts and {:.1} sweeps per step), \
+            "cd (acceleration {}): {} spheres x {} steps on {} thread(s): {:.3} s, {:.3e} contact-iterations/s ({:.0} contacts and {:.1} sweeps per step), \
              {:.3e} particle-steps/s, {:.0} bytes/particle",
+            r.acceleration,
             r.particles,
             r.steps,
             r.threads,

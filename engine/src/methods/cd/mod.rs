@@ -385,6 +385,7 @@ impl Cd {
                 worst_tolerance: WORST_VIOLATION * params.slop,
                 max_iterations: params.max_iterations,
                 relaxation: params.relaxation,
+                acceleration: params.acceleration,
             }),
             report: NlgsReport::default(),
             interpenetration: (0.0, 0.0),
