@@ -21,9 +21,9 @@
 //! there decays by a few percent per thousand sweeps — and the momentum carries those modes along:
 //! three 150-disk isotropic preparations between walls that stalled at 5,000 sweeps (mean violation
 //! 1.3-1.6 times its bound) come to rest, and the three 400-disk biaxial tests of `sable bench
-//! biaxial` run 3 times faster (measured in the commit that brought it). Contacts with a liquid's
-//! viscosity and the rolling blocks keep their plain update (their admissible set depends on the
-//! velocity).
+//! biaxial` run 3 times faster (measured in the commit that brought it). With a liquid's
+//! viscosity `k` the normal bound is `r_n >= -c - k U_n` at the contact's current normal velocity
+//! (the admissible set moves with the velocity); the rolling blocks keep their plain update.
 //!
 //! **Convergence criterion** (checked after every sweep), all below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
@@ -752,19 +752,21 @@ impl Pass {
 
 /// The momentum of the accelerated sweep on one contact (module documentation): its impulse
 /// carried on by `beta` times its change since `last` (the impulse after the previous sweep),
-/// projected on the admissible set, the change applied to its bodies; `last` takes the impulse
-/// the sweep left. A contact with a liquid's viscosity keeps its impulse.
+/// projected on the admissible set (with a liquid's viscosity, at the contact's current normal
+/// velocity), the change applied to its bodies; `last` takes the impulse the sweep left.
 #[inline(always)]
 pub(crate) fn carry(c: &mut RigidContact, last: &mut Vec3, bodies: &mut impl BodyStore, beta: Real) {
     let x = c.r;
     let d = x - *last;
     *last = x;
-    if beta == 0.0 || d == Vec3::zeros() || c.law.viscosity > 0.0 {
+    if beta == 0.0 || d == Vec3::zeros() {
         return;
     }
+    // The liquid's part of the normal impulse at the current normal velocity.
+    let viscous = if c.law.viscosity > 0.0 { c.law.viscosity * c.frame.n.dot(&c.velocity_in(bodies)) } else { 0.0 };
     let mut y = x + d * beta;
-    y.x = y.x.max(-c.law.cohesion);
-    let limit = c.law.friction * (y.x + c.law.cohesion);
+    y.x = y.x.max(-c.law.cohesion - viscous);
+    let limit = c.law.friction * (y.x + c.law.cohesion + viscous);
     let t = (y.y * y.y + y.z * y.z).sqrt();
     if t > limit {
         let s = if t > 0.0 { limit / t } else { 0.0 };
