@@ -601,7 +601,7 @@ impl Nlgs {
         Self { settings, history: Vec::new(), cells: Cells::default(), last: Vec::new() }
     }
 
-    /// Heap bytes held (the history and the coloured sweep's cells).
+    /// Heap bytes held (the history, the coloured sweep's cells and the momentum's impulses).
     pub fn heap_bytes(&self) -> usize {
         self.history.capacity() * std::mem::size_of::<Iterate>()
             + self.cells.heap_bytes()
