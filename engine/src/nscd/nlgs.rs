@@ -21,7 +21,7 @@
 //! there decays by a few percent per thousand sweeps — and the momentum carries those modes along:
 //! three 150-disk isotropic preparations between walls that stalled at 5,000 sweeps (mean violation
 //! 1.3-1.6 times its bound) come to rest, and the three 400-disk biaxial tests of `sable bench
-//! biaxial` run 3 times faster (measured in the commit that brought it). With a liquid's
+//! biaxial` run 4 times faster (measured in the commit that brought it). With a liquid's
 //! viscosity `k` the normal bound is `r_n >= -c - k U_n` at the contact's current normal velocity
 //! (the admissible set moves with the velocity); the rolling blocks keep their plain update.
 //!
