@@ -87,15 +87,21 @@ pub fn solve(w: &Delassus, u: &Vec3, law: &LocalLaw) -> Vec3 {
         (r_n, law.contact_part(r_n, law.target))
     };
     // Tangential: the sticking impulse, projected on the disk |r_t| <= mu rho.
-    let (mut r1, mut r2) = (-u.y / w.t, -u.z / w.t);
-    let stick = (r1 * r1 + r2 * r2).sqrt();
-    let limit = law.friction * rho;
-    if stick > limit {
-        let s = if stick > 0.0 { limit / stick } else { 0.0 };
-        r1 *= s;
-        r2 *= s;
-    }
+    let (r1, r2) = within_disk(-u.y / w.t, -u.z / w.t, law.friction * rho);
     Vec3::new(r_n, r1, r2)
+}
+
+/// A tangential impulse `(t1, t2)` (N·s) brought within Coulomb's disk of radius `limit`:
+/// unchanged inside, scaled onto the edge outside (along itself).
+#[inline(always)]
+pub fn within_disk(t1: Real, t2: Real, limit: Real) -> (Real, Real) {
+    let size = (t1 * t1 + t2 * t2).sqrt();
+    if size > limit {
+        let s = if size > 0.0 { limit / size } else { 0.0 };
+        (t1 * s, t2 * s)
+    } else {
+        (t1, t2)
+    }
 }
 
 /// Rolling resistance of a contact as a graph (the rigid-plastic limit of RC 2.1.6's moment

@@ -764,15 +764,10 @@ pub(crate) fn carry(c: &mut RigidContact, last: &mut Vec3, bodies: &mut impl Bod
     }
     // The liquid's part of the normal impulse at the current normal velocity.
     let viscous = if c.law.viscosity > 0.0 { c.law.viscosity * c.frame.n.dot(&c.velocity_in(bodies)) } else { 0.0 };
-    let mut y = x + d * beta;
-    y.x = y.x.max(-c.law.cohesion - viscous);
-    let limit = c.law.friction * (y.x + c.law.cohesion + viscous);
-    let t = (y.y * y.y + y.z * y.z).sqrt();
-    if t > limit {
-        let s = if t > 0.0 { limit / t } else { 0.0 };
-        y.y *= s;
-        y.z *= s;
-    }
+    let ahead = x + d * beta;
+    let r_n = ahead.x.max(-c.law.cohesion - viscous);
+    let (t1, t2) = local::within_disk(ahead.y, ahead.z, c.law.friction * (r_n + c.law.cohesion + viscous));
+    let y = Vec3::new(r_n, t1, t2);
     let dy = y - x;
     if dy != Vec3::zeros() {
         c.apply(&c.frame.to_global(&dy), bodies);
@@ -925,7 +920,9 @@ mod tests {
     /// the 40 - k disks above it over the step, `(40 - k) g h`, and every disk ends at rest —
     /// with plain and with accelerated sweeps, the momentum taking a small part of the sweeps
     /// (Gauss-Seidel moves the load down a chain by about one contact per sweep, its error
-    /// decays by a factor 1 - O(1/n²) per sweep).
+    /// decays by a factor 1 - O(1/n²) per sweep). Measured: 13,124 sweeps plain, 1,126 with
+    /// momentum (11.7x). The bound asks 3x: a momentum that does nothing (or that restarts at
+    /// every sweep) fails it, and it leaves room to change the restart rule.
     #[test]
     fn momentum_carries_the_weight_of_a_column_down_in_fewer_sweeps() {
         let plain = column_of_disks(0.0);

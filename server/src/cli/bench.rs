@@ -145,13 +145,16 @@ fn prepare(
 pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
     let sweep: Sweep = serde_json::from_value(serde_json::Value::String(a.sweep.clone()))
         .map_err(|_| anyhow::anyhow!("--sweep: must be auto, serial or coloured, got {:?}", a.sweep))?;
-    let (mut scene, threads, pool) = prepare(a.threads, |t| cd_benchmark(a.particles, a.steps, t))?;
+    // `--acceleration` goes into the scene, whose validation states its rule.
+    let (mut scene, threads, pool) = prepare(a.threads, |t| {
+        let mut scene = cd_benchmark(a.particles, a.steps, t);
+        if let Some(beta) = a.acceleration {
+            scene["method"]["acceleration"] = serde_json::json!(beta);
+        }
+        scene
+    })?;
     let Method::Cd(mut params) = scene.method.clone() else { anyhow::bail!("the CD benchmark scene must use method cd") };
     params.sweep = sweep;
-    if let Some(beta) = a.acceleration {
-        anyhow::ensure!((0.0..1.0).contains(&beta), "--acceleration: must be in [0, 1), got {beta}");
-        params.acceleration = beta;
-    }
     let acceleration = params.acceleration;
     scene.method = Method::Cd(params);
     let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
