@@ -197,24 +197,33 @@ impl NeighborList {
                         let (pi, ri) = (pos[i], radius[i]);
                         let before = js.len();
                         let range = |a: usize| if a < dims { -1i64..=1 } else { 0i64..=0 };
+                        let mut scan = |first: usize, last: usize, image: [i8; 3]| {
+                            let base = pi - domain.image_shift(image);
+                            for &j in &cell_items[cell_start[first] as usize..cell_start[last + 1] as usize] {
+                                if (j as usize) <= i {
+                                    continue;
+                                }
+                                let d = base - pos[j as usize];
+                                let cut = ri + radius[j as usize] + reach;
+                                if d.norm_squared() < cut * cut {
+                                    js.push(PairRef { j, image });
+                                }
+                            }
+                        };
                         for dz in range(2) {
                             let (Some(z), wz) = wrap_index(ci[2] as i64 + dz, ncell[2], domain.periodic[2]) else { continue };
                             for dy in range(1) {
                                 let (Some(y), wy) = wrap_index(ci[1] as i64 + dy, ncell[1], domain.periodic[1]) else { continue };
-                                for dx in range(0) {
-                                    let (Some(x), wx) = wrap_index(ci[0] as i64 + dx, ncell[0], domain.periodic[0]) else { continue };
-                                    let image = [wx as i8, wy as i8, wz as i8];
-                                    let base = pi - domain.image_shift(image);
-                                    let c = flat([x, y, z]);
-                                    for &j in &cell_items[cell_start[c] as usize..cell_start[c + 1] as usize] {
-                                        if (j as usize) <= i {
-                                            continue;
-                                        }
-                                        let d = base - pos[j as usize];
-                                        let cut = ri + radius[j as usize] + reach;
-                                        if d.norm_squared() < cut * cut {
-                                            js.push(PairRef { j, image });
-                                        }
+                                let row = flat([0, y, z]);
+                                let cx = ci[0];
+                                if cx >= 1 && cx + 1 < ncell[0] {
+                                    // The three cells along x, none wrapped, are one run of
+                                    // `cell_items`.
+                                    scan(row + cx - 1, row + cx + 1, [0, wy as i8, wz as i8]);
+                                } else {
+                                    for dx in -1i64..=1 {
+                                        let (Some(x), wx) = wrap_index(cx as i64 + dx, ncell[0], domain.periodic[0]) else { continue };
+                                        scan(row + x, row + x, [wx as i8, wy as i8, wz as i8]);
                                     }
                                 }
                             }

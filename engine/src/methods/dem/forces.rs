@@ -16,14 +16,19 @@ use crate::particles::Particles;
 
 const CHUNK: usize = 256;
 
-/// What a force task owns: its block's records (current and previous evaluation) and near pairs.
-type BlockState<'a> = ((&'a mut Vec<PairContact>, &'a mut Vec<PairContact>), &'a mut Vec<NearPair>);
+/// What a force task owns: its block's records (current and previous evaluation), near pairs
+/// and reach (see `Dem::reach`).
+type BlockState<'a> = (((&'a mut Vec<PairContact>, &'a mut Vec<PairContact>), &'a mut Vec<NearPair>), &'a mut (u32, u32));
 
 /// Particles per task in the simple per-particle loops (plain slice loops inside each task).
 pub(crate) const LOOP_CHUNK: usize = 2048;
 
 /// Particles per force task: their pairs form one contiguous block of the neighbour list.
 pub(crate) const PARTICLE_BLOCK: usize = 256;
+
+/// Gather tasks per thread when there are several threads (each walks only the blocks that
+/// reach its particles, so more tasks cost little).
+const GATHER_TASKS_PER_THREAD: usize = 4;
 
 /// Force and torques of one interacting pair (i, j'), where j' is the image `img` of j and
 /// `d = r_i - r_j'`; advances the springs held in `c` and writes `c.out`.
@@ -172,7 +177,7 @@ impl Dem {
         // only its near pairs.
         let refilter = self.near.is_stale(domain);
         let gap = self.near.gap;
-        let kernel = |(b, ((current, previous), near)): (usize, BlockState<'_>)| {
+        let kernel = |(b, (((current, previous), near), reach)): (usize, BlockState<'_>)| {
             std::mem::swap(current, previous);
             current.clear();
             let mut cursor = 0;
@@ -205,11 +210,15 @@ impl Dem {
             for old in &previous[cursor..] {
                 untouched(old, current);
             }
+            *reach = current.iter().fold((u32::MAX, 0), |(lo, hi), c| (lo.min(c.j), hi.max(c.j)));
         };
+        // One block per task (no sequential runs of blocks that an idle thread could not take).
         self.contacts
             .par_iter_mut()
             .zip(self.previous_contacts.par_iter_mut())
             .zip(self.near.blocks.par_iter_mut())
+            .zip(self.reach.par_iter_mut())
+            .with_max_len(1)
             .enumerate()
             .for_each(kernel);
         if refilter {
@@ -218,10 +227,13 @@ impl Dem {
     }
 
     /// Sums the forces on each particle: gravity, walls, then every interacting pair in block
-    /// order. One task per thread owns a range of particles and walks all the records, adding
-    /// only to its own particles: each particle receives its terms in the same order whatever the
-    /// number of threads, so the result does not depend on it, and no step is serial. With
-    /// `kick`, the task then gives its particles the second half kick.
+    /// order. Each task owns a range of particles and walks the records of the blocks that can
+    /// reach it (its own blocks, and those whose second particles fall in the range, see
+    /// `Dem::reach`), adding only to its own particles: each particle receives its terms in the
+    /// same order whatever the number of threads and tasks, so the result does not depend on
+    /// them, and no step is serial. With several threads the particles go in several tasks per
+    /// thread, so that a thread that joins late takes fewer. With `kick`, the task then gives
+    /// its particles the second half kick.
     fn gather(&mut self, kick: bool) {
         let g = self.gravity;
         let field = self.field;
@@ -229,16 +241,23 @@ impl Dem {
         let pos = &p.pos;
         let (mass, inv_mass, inv_inertia) = (&p.mass, &p.inv_mass, &p.inv_inertia);
         let (wall_f, wall_t) = (&self.wall_total_f, &self.wall_total_t);
-        let contacts = &self.contacts;
+        let (contacts, reach) = (&self.contacts, &self.reach);
+        debug_assert!(
+            contacts.iter().zip(reach).all(|(list, &(lo, hi))| list.iter().all(|c| (lo..=hi).contains(&c.j))),
+            "a block's reach must cover its records (written by pair_forces)"
+        );
         let (h, alpha) = (0.5 * self.dt, self.params.local_damping);
         let n = mass.len();
-        let span = n.div_ceil(rayon::current_num_threads().max(1)).max(LOOP_CHUNK);
+        let threads = rayon::current_num_threads().max(1);
+        let tasks = if threads == 1 { 1 } else { GATHER_TASKS_PER_THREAD * threads };
+        let span = n.div_ceil(tasks).next_multiple_of(PARTICLE_BLOCK).max(PARTICLE_BLOCK);
         let ranges = p
             .force
             .par_chunks_mut(span)
             .zip(p.torque.par_chunks_mut(span))
             .zip(p.vel.par_chunks_mut(span))
-            .zip(p.omega.par_chunks_mut(span));
+            .zip(p.omega.par_chunks_mut(span))
+            .with_max_len(1);
         ranges.enumerate().for_each(|(c, (((fs, ts), vs), ws))| {
             let base = c * span;
             let owned = base..base + fs.len();
@@ -267,15 +286,24 @@ impl Dem {
                     *t += wt;
                 }
             }
-            for c in contacts.iter().flatten() {
-                let (i, j) = (c.i as usize, c.j as usize);
-                if owned.contains(&i) {
-                    fs[i - base] += c.out.force;
-                    ts[i - base] += c.out.torque_i;
-                }
-                if owned.contains(&j) {
-                    fs[j - base] -= c.out.force;
-                    ts[j - base] += c.out.torque_j;
+            // A block holds the pairs of its own particles i, whose partners j lie in its reach.
+            let (lo, hi) = (owned.start as u32, owned.end as u32);
+            let reaches = |b: usize| {
+                let own = (b * PARTICLE_BLOCK) as u32..((b + 1) * PARTICLE_BLOCK) as u32;
+                let (jlo, jhi) = reach[b];
+                (own.start < hi && own.end > lo) || (jlo < hi && jhi >= lo)
+            };
+            for list in contacts.iter().enumerate().filter(|&(b, _)| reaches(b)).map(|(_, list)| list) {
+                for c in list {
+                    let (i, j) = (c.i as usize, c.j as usize);
+                    if owned.contains(&i) {
+                        fs[i - base] += c.out.force;
+                        ts[i - base] += c.out.torque_i;
+                    }
+                    if owned.contains(&j) {
+                        fs[j - base] -= c.out.force;
+                        ts[j - base] += c.out.torque_j;
+                    }
                 }
             }
             if kick {

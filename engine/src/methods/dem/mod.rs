@@ -120,6 +120,10 @@ pub struct Dem {
     contacts: Vec<Vec<PairContact>>,
     /// The records of the evaluation before (scratch of the force stage).
     previous_contacts: Vec<Vec<PairContact>>,
+    /// The particles each block's records touch: the smallest and largest second particle j
+    /// (`(u32::MAX, 0)` for a block without records), written with the records, so that a
+    /// gather task skips the blocks that cannot reach its particles.
+    reach: Vec<(u32, u32)>,
     /// Position and radius of each particle, packed for the pair loop: written by the drift,
     /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
@@ -259,6 +263,7 @@ impl Dem {
             near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
             contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
             previous_contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            reach: vec![(u32::MAX, 0); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
             xr_current: false,
             drift2: None,

@@ -121,9 +121,7 @@ impl Dem {
     /// Runs the guard now.
     pub(crate) fn check_stability(&mut self) -> Result<(), EngineError> {
         let p = &self.p;
-        let bad = (0..p.len()).into_par_iter().with_min_len(1024).find_first(|&i| {
-            !(p.pos[i].iter().all(|x| x.is_finite()) && p.vel[i].iter().all(|x| x.is_finite()) && p.force[i].iter().all(|x| x.is_finite()))
-        });
+        let bad = first_non_finite(p);
         if let Some(i) = bad {
             return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
         }
@@ -179,10 +177,58 @@ impl Dem {
     }
 }
 
+/// The first particle whose position, velocity or force holds a non-finite value. By blocks:
+/// `x * 0` is 0 for a finite x and NaN otherwise, so a block's sum of them is 0 exactly when
+/// all its values are finite (a plain loop the compiler vectorises; no overflow to fear).
+fn first_non_finite(p: &crate::particles::Particles) -> Option<usize> {
+    const BLOCK: usize = 4096;
+    let finite = |i: usize| [p.pos[i], p.vel[i], p.force[i]].iter().all(|v| v.iter().all(|x| x.is_finite()));
+    (0..p.len().div_ceil(BLOCK)).into_par_iter().find_map_first(|b| {
+        let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
+        let zero = |v: &[Vec3]| v.iter().map(|x| (x * 0.0).sum()).sum::<Real>();
+        let sum = zero(&p.pos[r.clone()]) + zero(&p.vel[r.clone()]) + zero(&p.force[r.clone()]);
+        if sum == 0.0 {
+            None
+        } else {
+            r.into_iter().find(|&i| !finite(i))
+        }
+    })
+}
+
 /// Sum of `f(i)` over `0..n`, by fixed blocks added in order: the same value for any number of
 /// threads.
 fn block_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
     const BLOCK: usize = 4096;
     let partial: Vec<Real> = (0..n.div_ceil(BLOCK)).into_par_iter().map(|b| (b * BLOCK..((b + 1) * BLOCK).min(n)).map(&f).sum()).collect();
     partial.iter().sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::Particles;
+
+    fn particles(n: usize) -> Particles {
+        let mut p = Particles::default();
+        for i in 0..n {
+            p.push(3, Vec3::new(i as Real, 0.0, 0.0), Vec3::zeros(), 0.5, 1000.0, 0, false);
+        }
+        p
+    }
+
+    #[test]
+    fn first_non_finite_names_the_first_bad_particle_in_any_block() {
+        let mut p = particles(10_000);
+        assert_eq!(first_non_finite(&p), None);
+        // Huge but finite values are not flagged (their sum would overflow, not their x * 0).
+        p.vel[3] = Vec3::repeat(Real::MAX);
+        p.pos[4] = Vec3::repeat(-Real::MAX);
+        assert_eq!(first_non_finite(&p), None);
+        p.force[9_000].y = Real::NAN;
+        assert_eq!(first_non_finite(&p), Some(9_000));
+        p.vel[5_000].z = Real::NEG_INFINITY;
+        assert_eq!(first_non_finite(&p), Some(5_000));
+        p.pos[4_097].x = Real::INFINITY;
+        assert_eq!(first_non_finite(&p), Some(4_097));
+    }
 }
