@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::pair_state::{PairContact, PairExtra};
 use super::{half_kick, Dem};
-use crate::contact::{ContactInput, ContactTable};
+use crate::contact::{ContactInput, ContactOutput, ContactTable};
 use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
@@ -31,7 +31,7 @@ pub(crate) const PARTICLE_BLOCK: usize = 256;
 const GATHER_TASKS_PER_THREAD: usize = 4;
 
 /// Force and torques of one interacting pair (i, j'), where j' is the image `img` of j and
-/// `d = r_i - r_j'`; advances the springs held in `c` and writes `c.out`.
+/// `d = r_i - r_j'`; advances the springs `xi` and `extra` carried by the pair's record.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn pair_contact(
@@ -40,11 +40,12 @@ fn pair_contact(
     table: &ContactTable,
     dt: f64,
     with_extra: bool,
-    c: &mut PairContact,
+    (i, j): (usize, usize),
+    xi: &mut Vec3,
+    extra: &mut PairExtra,
     img: [i8; 3],
     d: Vec3,
-) {
-    let (i, j) = (c.i as usize, c.j as usize);
+) -> ContactOutput {
     let h = 0.5 * dt;
     let (ri, rj) = (p.radius[i], p.radius[j]);
     let dist = d.norm();
@@ -75,13 +76,13 @@ fn pair_contact(
         spin_n: 0.5 * (wi + wj).dot(&n),
     };
     let law = table.get(p.material[i] as usize, p.material[j] as usize);
-    c.out = if with_extra {
+    if with_extra {
         let both_wet = p.wet[i] && p.wet[j];
-        let PairExtra { roll, bridge } = &mut c.extra;
-        law.compute(&input, &mut c.xi, Some(roll), both_wet.then_some(bridge), dt)
+        let PairExtra { roll, bridge } = extra;
+        law.compute(&input, xi, Some(roll), both_wet.then_some(bridge), dt)
     } else {
-        law.compute(&input, &mut c.xi, None, None, dt)
-    };
+        law.compute(&input, xi, None, None, dt)
+    }
 }
 
 impl Dem {
@@ -132,11 +133,11 @@ impl Dem {
         // otherwise it is dropped, which forgets its springs.
         let untouched = |c: &PairContact, current: &mut Vec<PairContact>| {
             if c.extra.bridge {
-                let mut c = *c;
                 let (d, _) = nl.separation(c.q as usize, pos, domain);
                 let image = nl.pair[c.q as usize].image;
-                pair_contact(p, domain, table, dt, with_extra, &mut c, image, d);
-                current.push(c);
+                let (mut xi, mut extra) = (c.xi, c.extra);
+                let out = pair_contact(p, domain, table, dt, with_extra, (c.i as usize, c.j as usize), &mut xi, &mut extra, image, d);
+                current.push(PairContact { xi, extra, out, ..*c });
             }
         };
         // A touching pair picks up its record from the last evaluation by a merge walk (both are
@@ -148,15 +149,16 @@ impl Dem {
                 untouched(old, current);
                 *cursor += 1;
             }
-            let mut c = match previous.get(*cursor) {
+            // Only the springs are carried over: the record is written once, whole.
+            let (mut xi, mut extra) = match previous.get(*cursor) {
                 Some(old) if old.q == q => {
                     *cursor += 1;
-                    *old
+                    (old.xi, old.extra)
                 }
-                _ => PairContact::fresh(q, i, j),
+                _ => (Vec3::zeros(), PairExtra::default()),
             };
-            pair_contact(p, domain, table, dt, with_extra, &mut c, image, d);
-            current.push(c);
+            let out = pair_contact(p, domain, table, dt, with_extra, (i as usize, j as usize), &mut xi, &mut extra, image, d);
+            current.push(PairContact { q, i, j, xi, extra, out });
         };
         // Separation of i and the image of j, squared distance, and contact distance.
         let separation = |i: usize, j: usize, image: [i8; 3]| {

@@ -38,14 +38,6 @@ pub(crate) struct PairContact {
     pub out: ContactOutput,
 }
 
-impl PairContact {
-    /// A pair that starts to interact: no spring, no bridge yet.
-    #[inline(always)]
-    pub fn fresh(q: u32, i: u32, j: u32) -> Self {
-        Self { q, i, j, ..Default::default() }
-    }
-}
-
 /// Renumbers the records after the neighbour list was rebuilt. Particle indices do not change
 /// at a rebuild, so each record keeps its block; a pair that is no longer listed (it cannot
 /// interact any more) is dropped. Order within a block is kept, since pair indices follow (i, j).
