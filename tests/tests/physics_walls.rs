@@ -58,3 +58,45 @@ fn servo_walls_hold_the_imposed_stress_at_equilibrium() {
     }
     assert_eq!(sample.walls.len(), 4);
 }
+
+/// The stability guard watches wall contacts too: one grain (no pair at all) squeezed between a
+/// fixed floor and a lid driven down at an imposed speed overlaps them more and more, and the
+/// run must stop with a typed overlap error once the overlap passes `max_overlap` (0.1 of the
+/// radius here), not run on. The lid starts 0.1 mm above the 1 mm grain resting on the floor and
+/// closes at 2 mm/s: it touches after 50 ms, and the grain, pressed evenly from both sides,
+/// overlaps each wall by half the closure, 10% of its radius (0.05 mm) after 50 ms more. The
+/// guard runs every 20 steps (20 x 6.4e-5 s ~ 1.3 ms) and the grain, centred between two damped
+/// springs, follows the closing walls with a lag of the order of a collision time (a few ms at
+/// most), so it must stop between 0.1 and 0.105 s with an overlap just past 0.1 (measured:
+/// 0.1004 s, 0.1009).
+#[test]
+fn the_guard_stops_a_grain_crushed_by_a_wall_with_an_overlap_error() {
+    let d = 1e-3;
+    let s = common::scene(json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "threads": 1, "max_overlap": 0.1},
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e3}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "m", "placement": {"kind": "list", "positions": [[0.002, 0.0005]], "diameters": [d]}}],
+        "container": {"min": [0, 0], "max": [0.004, 0.0011], "wall_material": "m",
+                      "walls": {"y_max": {"kind": "velocity", "velocity": [0.0, -2e-3]}}},
+        "stop": {"steps": 1},
+        "seed": 1
+    }));
+    let mut sim = common::dem(&s);
+    let dt = sim.time_step();
+    let error = loop {
+        match sim.step() {
+            Ok(()) => assert!(sim.time() < 0.2, "the guard never fired; the lid is at {:?}", sim.walls().last().map(|w| w.position)),
+            Err(e) => break e,
+        }
+    };
+    match &error {
+        sable_engine::EngineError::Unstable { cause: sable_engine::error::InstabilityCause::Overlap { fraction, limit }, time, .. } => {
+            assert_eq!(*limit, 0.1);
+            assert!(*fraction > 0.1 && *fraction < 0.11, "stopped at an overlap of {fraction} of the radius");
+            assert!(*time > 0.1 && *time < 0.105, "stopped at t = {time} s");
+            println!("stopped at t = {time:.4} s (dt {dt:.2e} s) with an overlap of {fraction:.4} of the radius");
+        }
+        other => panic!("expected an overlap error, got {other}"),
+    }
+}

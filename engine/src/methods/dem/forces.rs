@@ -41,13 +41,13 @@ fn pair_contact(
     dt: f64,
     with_extra: bool,
     (i, j): (usize, usize),
+    (ri, rj): (Real, Real),
     xi: &mut Vec3,
     extra: &mut PairExtra,
     img: [i8; 3],
     d: Vec3,
 ) -> ContactOutput {
     let h = 0.5 * dt;
-    let (ri, rj) = (p.radius[i], p.radius[j]);
     let dist = d.norm();
     let n = d / dist;
     let delta = ri + rj - dist;
@@ -136,7 +136,8 @@ impl Dem {
                 let (d, _) = nl.separation(c.q as usize, pos, domain);
                 let image = nl.pair[c.q as usize].image;
                 let (mut xi, mut extra) = (c.xi, c.extra);
-                let out = pair_contact(p, domain, table, dt, with_extra, (c.i as usize, c.j as usize), &mut xi, &mut extra, image, d);
+                let (i, j) = (c.i as usize, c.j as usize);
+                let out = pair_contact(p, domain, table, dt, with_extra, (i, j), (p.radius[i], p.radius[j]), &mut xi, &mut extra, image, d);
                 current.push(PairContact { xi, extra, out, ..*c });
             }
         };
@@ -144,23 +145,24 @@ impl Dem {
         // in pair order) and goes to `pair_contact`, out of line; records before it that are not
         // touching any more go through `untouched`. The new records come out in pair order.
         #[allow(clippy::too_many_arguments)]
-        let touch = |previous: &[PairContact], cursor: &mut usize, current: &mut Vec<PairContact>, q: u32, i: u32, j: u32, image, d| {
-            while let Some(old) = previous.get(*cursor).filter(|o| o.q < q) {
-                untouched(old, current);
-                *cursor += 1;
-            }
-            // Only the springs are carried over: the record is written once, whole.
-            let (mut xi, mut extra) = match previous.get(*cursor) {
-                Some(old) if old.q == q => {
+        let touch =
+            |previous: &[PairContact], cursor: &mut usize, current: &mut Vec<PairContact>, q: u32, i: u32, j: u32, image, d, radii| {
+                while let Some(old) = previous.get(*cursor).filter(|o| o.q < q) {
+                    untouched(old, current);
                     *cursor += 1;
-                    (old.xi, old.extra)
                 }
-                _ => (Vec3::zeros(), PairExtra::default()),
+                // Only the springs are carried over: the record is written once, whole.
+                let (mut xi, mut extra) = match previous.get(*cursor) {
+                    Some(old) if old.q == q => {
+                        *cursor += 1;
+                        (old.xi, old.extra)
+                    }
+                    _ => (Vec3::zeros(), PairExtra::default()),
+                };
+                let out = pair_contact(p, domain, table, dt, with_extra, (i as usize, j as usize), radii, &mut xi, &mut extra, image, d);
+                current.push(PairContact { q, i, j, xi, extra, out });
             };
-            let out = pair_contact(p, domain, table, dt, with_extra, (i as usize, j as usize), &mut xi, &mut extra, image, d);
-            current.push(PairContact { q, i, j, xi, extra, out });
-        };
-        // Separation of i and the image of j, squared distance, and contact distance.
+        // Separation of i and the image of j, squared distance, and the two radii.
         let separation = |i: usize, j: usize, image: [i8; 3]| {
             let ([xi, yi, zi, ri], [xj, yj, zj, rj]) = (xr[i], xr[j]);
             let (mut dx, mut dy, mut dz) = (xi - xj, yi - yj, zi - zj);
@@ -170,7 +172,7 @@ impl Dem {
                 dy -= sh.y;
                 dz -= sh.z;
             }
-            (Vec3::new(dx, dy, dz), dx * dx + dy * dy + dz * dz, ri + rj)
+            (Vec3::new(dx, dy, dz), dx * dx + dy * dy + dz * dz, (ri, rj))
         };
         // One task per block of particles: its pairs form one contiguous range of the list. The
         // scans find the touching pairs and do little else, so that they stay in registers (most
@@ -190,22 +192,24 @@ impl Dem {
                 for i in i0..i1 {
                     let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
                     for (off, pr) in nl.pair[s..e].iter().enumerate() {
-                        let (d, d2, reach) = separation(i, pr.j as usize, pr.image);
+                        let (d, d2, radii) = separation(i, pr.j as usize, pr.image);
+                        let reach = radii.0 + radii.1;
                         let far = reach + gap;
                         if d2 < far * far {
                             let q = (s + off) as u32;
                             near.push(NearPair { q, i: i as u32, j: pr.j, image: pr.image });
                             if d2 < reach * reach {
-                                touch(previous, &mut cursor, current, q, i as u32, pr.j, pr.image, d);
+                                touch(previous, &mut cursor, current, q, i as u32, pr.j, pr.image, d, radii);
                             }
                         }
                     }
                 }
             } else {
                 for np in near.iter() {
-                    let (d, d2, reach) = separation(np.i as usize, np.j as usize, np.image);
+                    let (d, d2, radii) = separation(np.i as usize, np.j as usize, np.image);
+                    let reach = radii.0 + radii.1;
                     if d2 < reach * reach {
-                        touch(previous, &mut cursor, current, np.q, np.i, np.j, np.image, d);
+                        touch(previous, &mut cursor, current, np.q, np.i, np.j, np.image, d, radii);
                     }
                 }
             }

@@ -895,40 +895,4 @@ impl Dem {
         lap(|t| &mut t.check, &mut self.profile);
         Ok(())
     }
-
-    /// Elastic energy stored in every contact (normal, tangential and rolling springs), J.
-    pub fn elastic_energy(&self) -> Real {
-        let mut e = 0.0;
-        for c in self.contacts.iter().flatten() {
-            let (i, j) = (c.i as usize, c.j as usize);
-            let (d, _) = self.nl.separation(c.q as usize, &self.p.pos, &self.domain);
-            let (ri, rj) = (self.p.radius[i], self.p.radius[j]);
-            let delta = ri + rj - d.norm();
-            if delta <= 0.0 {
-                continue;
-            }
-            let law = self.table.get(self.p.material[i] as usize, self.p.material[j] as usize);
-            let r_eff = ri * rj / (ri + rj);
-            e += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
-            if let Some(rr) = law.rolling {
-                e += 0.5 * rr.stiffness * c.extra.roll.norm_squared();
-            }
-        }
-        let nw = self.walls.len();
-        for i in 0..self.p.len() {
-            let law = self.wall_table.get(self.p.material[i] as usize, self.wall_material);
-            for (w, wall) in self.walls.iter().enumerate() {
-                let n = wall.normal();
-                let delta = self.p.radius[i] - (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
-                if delta > 0.0 {
-                    let r = self.p.radius[i];
-                    e += law.normal.energy(delta, r) + law.tangential.energy(self.wall_xi[i * nw + w].norm_squared(), delta, r);
-                    if let Some(rr) = law.rolling {
-                        e += 0.5 * rr.stiffness * self.wall_roll[i * nw + w].norm_squared();
-                    }
-                }
-            }
-        }
-        e
-    }
 }

@@ -10,6 +10,7 @@
 use rayon::prelude::*;
 
 use super::Dem;
+use crate::contact::NormalForce;
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
 
@@ -58,26 +59,111 @@ impl EnergyBudget {
 impl Dem {
     /// Kinetic, elastic, capillary and gravitational energy.
     pub(crate) fn mechanical_energy(&self) -> Energies {
+        self.scan().energies
+    }
+
+    /// The guard's measurements in two parallel passes, one over blocks of particles and one
+    /// over the blocks of pair records, each block's terms summed in block order (the same
+    /// value for any number of threads).
+    fn scan(&self) -> Scan {
         let p = &self.p;
-        let kinetic = block_sum(p.len(), |i| p.kinetic_energy_at(i, &p.vel[i]));
-        let elastic = self.elastic_energy();
         let g = self.gravity;
-        // Grains whose motion is imposed belong to the wall that carries them.
-        let mut gravity =
-            if g == Vec3::zeros() { 0.0 } else { -block_sum(p.len(), |i| if p.is_free(i) { p.mass[i] * g.dot(&p.pos[i]) } else { 0.0 }) };
-        // The centripetal field's potential, m a |x - c|.
-        if let Some((c, a)) = self.field {
-            gravity += block_sum(p.len(), |i| p.mass[i] * a * (p.pos[i] - c).norm());
+        let nw = self.walls.len();
+        // Per block of particles: the first non-finite particle, the kinetic energy, the
+        // potential of gravity and of the centripetal field, and the walls' overlaps and springs.
+        let particles: Vec<(Option<usize>, [Real; 4], Real)> = (0..p.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
+                let bad = first_non_finite_in(p, r.clone());
+                let mut kinetic = 0.0;
+                let mut potential = 0.0;
+                for i in r.clone() {
+                    kinetic += p.kinetic_energy_at(i, &p.vel[i]);
+                }
+                // Grains whose motion is imposed belong to the wall that carries them.
+                if g != Vec3::zeros() {
+                    for i in r.clone().filter(|&i| p.is_free(i)) {
+                        potential -= p.mass[i] * g.dot(&p.pos[i]);
+                    }
+                }
+                // The centripetal field's potential, m a |x - c|.
+                if let Some((c, a)) = self.field {
+                    for i in r.clone() {
+                        potential += p.mass[i] * a * (p.pos[i] - c).norm();
+                    }
+                }
+                let (mut elastic, mut overlap) = (0.0, 0.0);
+                if nw > 0 {
+                    for i in r.clone() {
+                        let law = self.wall_table.get(p.material[i] as usize, self.wall_material);
+                        let rad = p.radius[i];
+                        for (w, wall) in self.walls.iter().enumerate() {
+                            let n = wall.normal();
+                            let delta = rad - (p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
+                            if delta > 0.0 {
+                                overlap = Real::max(overlap, delta / rad);
+                                elastic += law.normal.energy(delta, rad)
+                                    + law.tangential.energy(self.wall_xi[i * nw + w].norm_squared(), delta, rad);
+                                if let Some(rr) = law.rolling {
+                                    elastic += 0.5 * rr.stiffness * self.wall_roll[i * nw + w].norm_squared();
+                                }
+                            }
+                        }
+                    }
+                }
+                if let Some(d) = self.drum.as_ref() {
+                    for i in r {
+                        if let Some((_, delta)) = d.touch(&p.pos[i], p.radius[i]) {
+                            overlap = Real::max(overlap, delta / p.radius[i]);
+                        }
+                    }
+                }
+                (bad, [kinetic, potential, elastic, 0.0], overlap)
+            })
+            .collect();
+        // Per block of pair records: the largest overlap, the springs' and the bridges' energy.
+        let pairs: Vec<(Real, Real, Real)> = self
+            .contacts
+            .par_iter()
+            .map(|list| {
+                let (mut overlap, mut elastic, mut capillary) = (0.0, 0.0, 0.0);
+                for c in list {
+                    let (i, j) = (c.i as usize, c.j as usize);
+                    let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
+                    let (ri, rj) = (p.radius[i], p.radius[j]);
+                    let dist = d.norm();
+                    let delta = ri + rj - dist;
+                    let law = self.table.get(p.material[i] as usize, p.material[j] as usize);
+                    if delta > 0.0 {
+                        overlap = Real::max(overlap, delta / ri.min(rj));
+                        let r_eff = ri * rj / (ri + rj);
+                        elastic += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
+                        if let Some(rr) = law.rolling {
+                            elastic += 0.5 * rr.stiffness * c.extra.roll.norm_squared();
+                        }
+                    }
+                    if let (true, Some(cap)) = (c.extra.bridge, law.capillary) {
+                        capillary += cap.energy(dist - ri - rj, ri, rj);
+                    }
+                }
+                (overlap, elastic, capillary)
+            })
+            .collect();
+        let mut scan = Scan { bad: particles.iter().find_map(|b| b.0), ..Default::default() };
+        for (_, [kinetic, potential, elastic, _], overlap) in &particles {
+            scan.energies.kinetic += kinetic;
+            scan.energies.gravity += potential;
+            scan.wall_elastic += elastic;
+            scan.overlap = scan.overlap.max(*overlap);
         }
-        let mut capillary = 0.0;
-        for c in self.contacts.iter().flatten().filter(|c| c.extra.bridge) {
-            let (i, j) = (c.i as usize, c.j as usize);
-            if let Some(cap) = self.table.get(p.material[i] as usize, p.material[j] as usize).capillary {
-                let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
-                capillary += cap.energy(d.norm() - p.radius[i] - p.radius[j], p.radius[i], p.radius[j]);
-            }
+        for (overlap, elastic, capillary) in &pairs {
+            scan.energies.elastic += elastic;
+            scan.energies.capillary += capillary;
+            scan.overlap = scan.overlap.max(*overlap);
         }
-        Energies { kinetic, elastic, gravity, capillary }
+        scan.energies.elastic += scan.wall_elastic;
+        scan
     }
 
     /// Adds the work done by moving walls during the last step.
@@ -120,17 +206,15 @@ impl Dem {
 
     /// Runs the guard now.
     pub(crate) fn check_stability(&mut self) -> Result<(), EngineError> {
-        let p = &self.p;
-        let bad = first_non_finite(p);
-        if let Some(i) = bad {
+        let scan = self.scan();
+        if let Some(i) = scan.bad {
             return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
         }
-        let worst = self.max_overlap_fraction();
-        if worst > self.params.max_overlap {
-            return Err(self.unstable(InstabilityCause::Overlap { fraction: worst, limit: self.params.max_overlap }));
+        if scan.overlap > self.params.max_overlap {
+            return Err(self.unstable(InstabilityCause::Overlap { fraction: scan.overlap, limit: self.params.max_overlap }));
         }
         if self.energy_check_applies() {
-            let e = self.mechanical_energy();
+            let e = scan.energies;
             let b = &mut self.budget;
             b.scale = b.scale.max(e.scale() + b.work_in.abs() + (e.gravity - b.gravity0).abs());
             let excess = e.total() - b.start - b.work_in;
@@ -142,65 +226,38 @@ impl Dem {
         Ok(())
     }
 
-    /// Largest overlap divided by the smaller radius, over pairs and walls.
-    pub(crate) fn max_overlap_fraction(&self) -> Real {
-        let p = &self.p;
-        // Only interacting pairs can overlap: the others were found apart at the last force stage.
-        let pairs = self
-            .contacts
-            .par_iter()
-            .map(|list| {
-                list.iter()
-                    .map(|c| {
-                        let (i, j) = (c.i as usize, c.j as usize);
-                        let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
-                        let (ri, rj) = (p.radius[i], p.radius[j]);
-                        ((ri + rj - d.norm()) / ri.min(rj)).max(0.0)
-                    })
-                    .fold(0.0, Real::max)
-            })
-            .reduce(|| 0.0, Real::max);
-        let walls = self
-            .walls
-            .iter()
-            .map(|w| {
-                let n: Vec3 = w.normal();
-                (0..p.len())
-                    .map(|i| ((p.radius[i] - (p.pos[i][w.face.axis] - w.position) * n[w.face.axis]) / p.radius[i]).max(0.0))
-                    .fold(0.0, Real::max)
-            })
-            .fold(0.0, Real::max);
-        let drum = self.drum.as_ref().map_or(0.0, |d| {
-            (0..p.len()).filter_map(|i| d.touch(&p.pos[i], p.radius[i]).map(|(_, delta)| delta / p.radius[i])).fold(0.0, Real::max)
-        });
-        pairs.max(walls).max(drum)
+    /// Elastic energy stored in every contact (normal, tangential and rolling springs, pairs
+    /// and walls), J.
+    pub fn elastic_energy(&self) -> Real {
+        self.scan().energies.elastic
     }
 }
 
-/// The first particle whose position, velocity or force holds a non-finite value. By blocks:
-/// `x * 0` is 0 for a finite x and NaN otherwise, so a block's sum of them is 0 exactly when
-/// all its values are finite (a plain loop the compiler vectorises; no overflow to fear).
-fn first_non_finite(p: &crate::particles::Particles) -> Option<usize> {
-    const BLOCK: usize = 4096;
-    let finite = |i: usize| [p.pos[i], p.vel[i], p.force[i]].iter().all(|v| v.iter().all(|x| x.is_finite()));
-    (0..p.len().div_ceil(BLOCK)).into_par_iter().find_map_first(|b| {
-        let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
-        let zero = |v: &[Vec3]| v.iter().map(|x| (x * 0.0).sum()).sum::<Real>();
-        let sum = zero(&p.pos[r.clone()]) + zero(&p.vel[r.clone()]) + zero(&p.force[r.clone()]);
-        if sum == 0.0 {
-            None
-        } else {
-            r.into_iter().find(|&i| !finite(i))
-        }
-    })
+/// Particles per block of the guard's particle pass.
+const BLOCK: usize = 4096;
+
+/// What the guard measures ([`Dem::scan`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Scan {
+    /// The first particle holding a non-finite value.
+    bad: Option<usize>,
+    /// Largest overlap of a pair or a wall contact over the smaller radius.
+    overlap: Real,
+    /// Mechanical energy (its elastic part includes the walls' springs).
+    energies: Energies,
+    /// Elastic energy of the wall contacts, J.
+    wall_elastic: Real,
 }
 
-/// Sum of `f(i)` over `0..n`, by fixed blocks added in order: the same value for any number of
-/// threads.
-fn block_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
-    const BLOCK: usize = 4096;
-    let partial: Vec<Real> = (0..n.div_ceil(BLOCK)).into_par_iter().map(|b| (b * BLOCK..((b + 1) * BLOCK).min(n)).map(&f).sum()).collect();
-    partial.iter().sum()
+/// The first particle of `r` whose position, velocity or force holds a non-finite value:
+/// `x * 0` is 0 for a finite x and NaN otherwise, so the sum of them is 0 exactly when all the
+/// values are finite (a plain loop the compiler vectorises; no overflow to fear).
+fn first_non_finite_in(p: &crate::particles::Particles, r: std::ops::Range<usize>) -> Option<usize> {
+    let zero = |v: &[Vec3]| v.iter().map(|x| (x * 0.0).sum()).sum::<Real>();
+    if zero(&p.pos[r.clone()]) + zero(&p.vel[r.clone()]) + zero(&p.force[r.clone()]) == 0.0 {
+        return None;
+    }
+    r.into_iter().find(|&i| ![p.pos[i], p.vel[i], p.force[i]].iter().all(|v| v.iter().all(|x| x.is_finite())))
 }
 
 #[cfg(test)]
@@ -217,18 +274,21 @@ mod tests {
     }
 
     #[test]
-    fn first_non_finite_names_the_first_bad_particle_in_any_block() {
+    fn first_non_finite_names_the_first_bad_particle_of_a_range() {
         let mut p = particles(10_000);
-        assert_eq!(first_non_finite(&p), None);
+        assert_eq!(first_non_finite_in(&p, 0..p.len()), None);
         // Huge but finite values are not flagged (their sum would overflow, not their x * 0).
         p.vel[3] = Vec3::repeat(Real::MAX);
         p.pos[4] = Vec3::repeat(-Real::MAX);
-        assert_eq!(first_non_finite(&p), None);
+        assert_eq!(first_non_finite_in(&p, 0..p.len()), None);
         p.force[9_000].y = Real::NAN;
-        assert_eq!(first_non_finite(&p), Some(9_000));
+        assert_eq!(first_non_finite_in(&p, 0..p.len()), Some(9_000));
         p.vel[5_000].z = Real::NEG_INFINITY;
-        assert_eq!(first_non_finite(&p), Some(5_000));
+        assert_eq!(first_non_finite_in(&p, 0..p.len()), Some(5_000));
         p.pos[4_097].x = Real::INFINITY;
-        assert_eq!(first_non_finite(&p), Some(4_097));
+        assert_eq!(first_non_finite_in(&p, 0..p.len()), Some(4_097));
+        // Within a block: only its own particles count.
+        assert_eq!(first_non_finite_in(&p, 4_098..8_192), Some(5_000));
+        assert_eq!(first_non_finite_in(&p, 5_001..8_192), None);
     }
 }
