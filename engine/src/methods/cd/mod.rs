@@ -101,22 +101,15 @@ const SPEED_FLOOR: Real = 1e-6;
 /// of the pair ([`restoring`]).
 pub const SLOP: Real = 0.01;
 
-/// The largest violation a converged solve leaves, as a fraction of the slop (per step, of the
-/// contact's radius). With [`RESTORE`] it bounds how deep a contact can creep: a contact left
-/// approaching by this much at every step stops sinking where the restoration beyond the slop
-/// pulls it back as fast, `WORST_VIOLATION x slop / RESTORE` = 2% of the radius past the slop
-/// (3% at the default slop), inside the 5% limit of `max_interpenetration`. A bound of half the
-/// slop with a restoration of 1/50 allowed 25%: the 5,000 wet grains of
-/// `scenes/granule_full_3d.json`, held by their bridges under the centripetal field, crept to
-/// the limit during the relaxation. A bound on the mean alone let one contact of a 400-disk
-/// biaxial compression stay approaching at 0.05 m/s, 17% of its radius per step. (Before the
-/// accelerated sweep, a tenth of the slop stalled Gauss-Seidel on one of nine seeds of that
-/// compression; with it, all nine run.)
-const WORST_VIOLATION: Real = 0.1;
+/// The largest violation a converged solve leaves, as a fraction of the slop: no contact gets
+/// deeper over a step than half of what the restoration leaves alone. A bound on the mean alone
+/// let one contact of a 400-disk biaxial compression stay approaching at 0.05 m/s, 17% of its
+/// radius per step, and reach the 5% limit; at a tenth of the slop, one of nine seeds of that
+/// compression stalled Gauss-Seidel (largest violation 1.3e-3), at a half all nine ran.
+const WORST_VIOLATION: Real = 0.5;
 
-/// Fraction of the interpenetration beyond the slop that a contact removes per step (see
-/// [`WORST_VIOLATION`] for how the two are tied).
-pub const RESTORE: Real = 0.05;
+/// Fraction of the interpenetration beyond the slop that a contact removes per step.
+pub const RESTORE: Real = 0.02;
 
 /// `law` with its Signorini bound raised, for a contact interpenetrated beyond `slop` of
 /// `radius` (gap `g` < 0, m), to the normal velocity that removes [`RESTORE`] of the excess over
@@ -124,7 +117,7 @@ pub const RESTORE: Real = 0.05;
 /// stops approaches, not gaps: what a solve converged to `violation_tolerance` leaves as
 /// approach, a packing held at rest by stress-controlled walls accumulates step after step (at
 /// a bound of 1e-5, a 400-disk preparation crept to the 5% limit of the radius by step
-/// 16,600). At 1/20 of the excess per step the restoration speed stays of the order of the
+/// 16,600). At 1/50 of the excess per step the restoration speed stays of the order of the
 /// violation that feeds it; the slop leaves alone the overlaps Moreau's anticipation makes
 /// anyway. The slop should lie above the interpenetration the solve leaves in the packing:
 /// contacts held at the slop's edge are pushed apart at every step, and the packing, stirred,
@@ -815,15 +808,9 @@ impl Cd {
     /// Length of the next step: `dt` if the scene gave `method.time_step`; otherwise `dt`
     /// shortened, if need be, so that no pair closes by more than `max_displacement` of the
     /// smallest diameter (two grains at the largest current speed, or a grain and a wall, head
-    /// on, and accelerated towards each other by gravity and the centripetal field over the
-    /// step). The default `dt` covers the imposed motions, but rigid grains squeezed between
+    /// on). The default `dt` covers the imposed motions, but rigid grains squeezed between
     /// converging neighbours or struck by a wall can leave faster, and a pair that Moreau's
-    /// anticipation has not caught interpenetrates by up to its closing over a step. The
-    /// acceleration term matters for the granule's field (310 m/s² in
-    /// `scenes/granule_full_3d.json`: 1.8e-4 s instead of the 4.4e-4 s of its imposed motions;
-    /// at 4.4e-4 s a step's field impulse was so large against what the violation bound allows
-    /// that Gauss-Seidel stalled on the gathered ball); under gravity alone the free fall across
-    /// the box already sets a shorter `dt`.
+    /// anticipation has not caught interpenetrates by up to its closing over a step.
     fn step_length(&self) -> Real {
         if self.params.time_step.is_some() {
             return self.dt;
@@ -831,13 +818,12 @@ impl Cd {
         let fastest = |v: &[Vec3]| v.iter().map(|v| v.norm_squared()).fold(0.0, Real::max).sqrt();
         let rim = self.drum.as_ref().map_or(0.0, |d| (d.angular_velocity * d.def.radius).abs());
         let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel)).max(rim);
-        // Body forces close pairs too: two grains driven head on by accelerations up to
-        // `accel` close by `accel h²` more over the step. The largest h with
-        // `closing h + accel h² <= reach`, in the form that stays exact as accel goes to 0.
-        let accel = self.gravity.norm() + self.field.map_or(0.0, |(_, a)| a.abs());
         let reach = self.params.max_displacement * self.d_min;
-        let longest = 2.0 * reach / (closing + (closing * closing + 4.0 * accel * reach).sqrt());
-        self.dt.min(longest)
+        if closing * self.dt > reach {
+            reach / closing
+        } else {
+            self.dt
+        }
     }
 
     /// The stages of one step, in the order of the module documentation.
@@ -1046,7 +1032,7 @@ impl Cd {
                     ""
                 };
                 format!(
-                    "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), raise method.slop (now {:.1e}; no contact may go deeper over a step than a tenth of it), or lower method.time_step (now {:.3e} s): fewer contacts change per step{imposed}",
+                    "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), raise method.slop (now {:.1e}; no contact may go deeper over a step than half of it), or lower method.time_step (now {:.3e} s): fewer contacts change per step{imposed}",
                     self.params.max_iterations, self.params.tolerance, self.params.slop, self.dt
                 )
             }
