@@ -71,7 +71,7 @@ impl Dem {
         let nw = self.walls.len();
         // Per block of particles: the first non-finite particle, the kinetic energy, the
         // potential of gravity and of the centripetal field, and the walls' overlaps and springs.
-        let particles: Vec<(Option<usize>, [Real; 4], Real)> = (0..p.len().div_ceil(BLOCK))
+        let particles: Vec<ParticleTerms> = (0..p.len().div_ceil(BLOCK))
             .into_par_iter()
             .map(|b| {
                 let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
@@ -119,7 +119,7 @@ impl Dem {
                         }
                     }
                 }
-                (bad, [kinetic, potential, elastic, 0.0], overlap)
+                ParticleTerms { bad, kinetic, potential, wall_elastic: elastic, wall_overlap: overlap }
             })
             .collect();
         // Per block of pair records: the largest overlap, the springs' and the bridges' energy.
@@ -150,12 +150,12 @@ impl Dem {
                 (overlap, elastic, capillary)
             })
             .collect();
-        let mut scan = Scan { bad: particles.iter().find_map(|b| b.0), ..Default::default() };
-        for (_, [kinetic, potential, elastic, _], overlap) in &particles {
-            scan.energies.kinetic += kinetic;
-            scan.energies.gravity += potential;
-            scan.wall_elastic += elastic;
-            scan.overlap = scan.overlap.max(*overlap);
+        let mut scan = Scan { bad: particles.iter().find_map(|b| b.bad), ..Default::default() };
+        for b in &particles {
+            scan.energies.kinetic += b.kinetic;
+            scan.energies.gravity += b.potential;
+            scan.wall_elastic += b.wall_elastic;
+            scan.overlap = scan.overlap.max(b.wall_overlap);
         }
         for (overlap, elastic, capillary) in &pairs {
             scan.energies.elastic += elastic;
@@ -235,6 +235,20 @@ impl Dem {
 
 /// Particles per block of the guard's particle pass.
 const BLOCK: usize = 4096;
+
+/// What the guard's particle pass measures on one block ([`Dem::scan`]).
+struct ParticleTerms {
+    /// The block's first particle holding a non-finite value.
+    bad: Option<usize>,
+    /// Kinetic energy, J.
+    kinetic: Real,
+    /// Potential energy of gravity and of the centripetal field, J.
+    potential: Real,
+    /// Elastic energy of the wall contacts, J.
+    wall_elastic: Real,
+    /// Largest overlap of a wall or drum contact over the radius.
+    wall_overlap: Real,
+}
 
 /// What the guard measures ([`Dem::scan`]).
 #[derive(Debug, Clone, Copy, Default)]
