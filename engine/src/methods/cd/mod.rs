@@ -79,7 +79,7 @@ use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
 use crate::scene::{CdParams, Controls, Deformation, Material, Scene, Stage, StateFile, WallMotion};
-use balance::Window;
+use balance::{Freedom, Window};
 use cell::Cell;
 use laws::PairLaws;
 
@@ -101,14 +101,22 @@ const SPEED_FLOOR: Real = 1e-6;
 /// of the pair ([`restoring`]).
 pub const SLOP: Real = 0.01;
 
-/// The largest violation a converged solve leaves, as a fraction of the slop: no contact gets
-/// deeper over a step than half of what the restoration leaves alone. A bound on the mean alone
-/// let one contact of a 400-disk biaxial compression stay approaching at 0.05 m/s, 17% of its
-/// radius per step, and reach the 5% limit; at a tenth of the slop, one of nine seeds of that
-/// compression stalled Gauss-Seidel (largest violation 1.3e-3), at a half all nine ran.
-const WORST_VIOLATION: Real = 0.5;
+/// The largest violation a converged solve leaves, as a fraction of the slop (per step, of the
+/// contact's radius). It bounds how fast a contact can creep: a contact left approaching by this
+/// much at every step stops sinking where the restoration beyond the slop ([`RESTORE`]) pulls it
+/// back as fast, `WORST_VIOLATION x slop / RESTORE` past the slop — 25% of the radius at half the
+/// slop, which the 5,000 wet grains of `scenes/granule_full_3d.json` (pressed together by their
+/// bridges) reached: their relaxation crept to the 5% limit. At a tenth it is 5% at most, and
+/// the contacts that stay at the bound are few: that granule ends its squeeze with its largest
+/// interpenetration at 1.6%. (A faster restoration, 1/20, made Gauss-Seidel cycle in the drum of
+/// `scenes/drum_2d.json`.) A bound on the mean alone let one contact of a 400-disk biaxial
+/// compression stay approaching at 0.05 m/s, 17% of its radius per step; before the accelerated
+/// sweep, a tenth of the slop stalled Gauss-Seidel on one of nine seeds of that compression,
+/// with it all nine run (2.5-3.1 s each).
+const WORST_VIOLATION: Real = 0.1;
 
-/// Fraction of the interpenetration beyond the slop that a contact removes per step.
+/// Fraction of the interpenetration beyond the slop that a contact removes per step (see
+/// [`WORST_VIOLATION`] for how the two bound the creep).
 pub const RESTORE: Real = 0.02;
 
 /// `law` with its Signorini bound raised, for a contact interpenetrated beyond `slop` of
@@ -808,9 +816,15 @@ impl Cd {
     /// Length of the next step: `dt` if the scene gave `method.time_step`; otherwise `dt`
     /// shortened, if need be, so that no pair closes by more than `max_displacement` of the
     /// smallest diameter (two grains at the largest current speed, or a grain and a wall, head
-    /// on). The default `dt` covers the imposed motions, but rigid grains squeezed between
+    /// on, and accelerated towards each other by gravity and the centripetal field over the
+    /// step). The default `dt` covers the imposed motions, but rigid grains squeezed between
     /// converging neighbours or struck by a wall can leave faster, and a pair that Moreau's
-    /// anticipation has not caught interpenetrates by up to its closing over a step.
+    /// anticipation has not caught interpenetrates by up to its closing over a step. The
+    /// acceleration term matters for the granule's field (310 m/s² in
+    /// `scenes/granule_full_3d.json`: 1.8e-4 s instead of the 4.4e-4 s of its imposed motions;
+    /// at 4.4e-4 s a step's field impulse was so large against what the violation bound allows
+    /// that Gauss-Seidel stalled on the gathered ball); under gravity alone the free fall across
+    /// the box already sets a shorter `dt`.
     fn step_length(&self) -> Real {
         if self.params.time_step.is_some() {
             return self.dt;
@@ -818,12 +832,13 @@ impl Cd {
         let fastest = |v: &[Vec3]| v.iter().map(|v| v.norm_squared()).fold(0.0, Real::max).sqrt();
         let rim = self.drum.as_ref().map_or(0.0, |d| (d.angular_velocity * d.def.radius).abs());
         let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel)).max(rim);
+        // Body forces close pairs too: two grains driven head on by accelerations up to
+        // `accel` close by `accel h²` more over the step. The largest h with
+        // `closing h + accel h² <= reach`, in the form that stays exact as accel goes to 0.
+        let accel = self.gravity.norm() + self.field.map_or(0.0, |(_, a)| a.abs());
         let reach = self.params.max_displacement * self.d_min;
-        if closing * self.dt > reach {
-            reach / closing
-        } else {
-            self.dt
-        }
+        let longest = 2.0 * reach / (closing + (closing * closing + 4.0 * accel * reach).sqrt());
+        self.dt.min(longest)
     }
 
     /// The stages of one step, in the order of the module documentation.
@@ -1032,7 +1047,7 @@ impl Cd {
                     ""
                 };
                 format!(
-                    "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), raise method.slop (now {:.1e}; no contact may go deeper over a step than half of it), or lower method.time_step (now {:.3e} s): fewer contacts change per step{imposed}",
+                    "raise method.max_iterations (now {}), loosen method.tolerance (now {:.1e}) or method.{field} (now {bound:.1e}), raise method.slop (now {:.1e}; no contact may go deeper over a step than a tenth of it), or lower method.time_step (now {:.3e} s): fewer contacts change per step{imposed}",
                     self.params.max_iterations, self.params.tolerance, self.params.slop, self.dt
                 )
             }
@@ -1209,7 +1224,7 @@ impl Simulation for Cd {
     /// Applies the stage's controls, and the violation bound of its kind: a loading stage — an
     /// experiment's stage that does not run until equilibrium, or a stage of a plain scene that
     /// imposes a motion — takes `loading_violation_tolerance`, every other stage
-    /// `violation_tolerance` (the largest violation is bounded in every stage, by half of
+    /// `violation_tolerance` (the largest violation is bounded in every stage, by a tenth of
     /// the slop). The stage's first equilibrium check measures from its start.
     fn begin_stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
         self.apply_controls(&stage.controls)?;
@@ -1232,8 +1247,16 @@ impl Simulation for Cd {
         let p = &self.p;
         // Nothing holds the grains in place and nothing pulls them: no boundary touches them
         // (contacts across a periodic cell's boundary are between grains), no gravity, no field.
+        // Such grains keep their common drift, and their common spin too where no axis is
+        // periodic (a periodic packing cannot turn as a body, and its wrapped positions would
+        // not say how it turned).
         let free = self.gravity == Vec3::zeros() && self.field.is_none() && self.contacts.iter().all(|c| c.j.body().is_some());
-        let (kinetic_energy, net, stress_error) = match self.window.close(&p.vel, &p.mass, &self.walls, free) {
+        let freedom = match (free, self.domain.periodic.iter().any(|&a| a)) {
+            (false, _) => Freedom::Held,
+            (true, true) => Freedom::Drift,
+            (true, false) => Freedom::RigidBody,
+        };
+        let (kinetic_energy, net, stress_error) = match self.window.close(&p.pos, &p.vel, &p.mass, &self.walls, freedom) {
             Some(m) => {
                 // The stress-controlled cell against its target, from the mean generalised force
                 // of the contacts across its boundary.
