@@ -724,21 +724,9 @@ fn granule(gamma: f64) -> ExperimentResult {
 
 /// [`granule`] with `method`, sampled by `sampling`.
 fn granule_with(method: serde_json::Value, gamma: f64, sampling: serde_json::Value) -> ExperimentResult {
-    let (r, samples) = run(json!({
-        "dimension": 3,
-        "method": method,
-        "materials": {
-            "wet_glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3,
-                          "liquid": {"surface_tension": gamma, "contact_angle": 0.0, "bridge_volume": 1.0e-12, "viscosity": 1.0e-3, "roughness": 1.0e-5}},
-            "plate": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3}
-        },
-        "particles": [{"material": "wet_glass", "count": 300, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
-                       "placement": {"kind": "random"}, "wet_fraction": 1.0}],
-        "container": {"min": [0, 0, 0], "max": [0.024, 0.024, 0.024], "wall_material": "plate"},
-        "experiment": {"kind": "granule_compression", "strain_rate": 3.0},
-        "sampling": sampling,
-        "seed": 3
-    }));
+    let mut scene = common::granule_scene(method, gamma);
+    scene["sampling"] = sampling;
+    let (r, samples) = run(scene);
     let stages: Vec<&str> = samples.iter().filter_map(|s| s.stage.as_deref()).collect();
     assert!(["forming", "relaxation", "compression"].iter().all(|n| stages.contains(n)), "{stages:?}");
     r

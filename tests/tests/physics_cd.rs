@@ -518,26 +518,14 @@ fn a_driven_biaxial_compression_holds_its_lateral_wall_at_its_target_below_its_s
 /// stalled on the gathered ball.) Exact to rounding: the grains start at rest.
 #[test]
 fn the_step_shortens_under_the_granules_centripetal_field() {
-    let s = common::scene(json!({
-        "dimension": 3,
-        "method": {"kind": "cd", "threads": 1},
-        "materials": {
-            "wet_glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3,
-                          "liquid": {"surface_tension": 0.0728, "contact_angle": 0.0, "bridge_volume": 1.0e-12, "viscosity": 1.0e-3, "roughness": 1.0e-5}},
-            "plate": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3}
-        },
-        "particles": [{"material": "wet_glass", "count": 300, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
-                       "placement": {"kind": "random"}, "wet_fraction": 1.0}],
-        "container": {"min": [0, 0, 0], "max": [0.024, 0.024, 0.024], "wall_material": "plate"},
-        "experiment": {"kind": "granule_compression", "strain_rate": 3.0},
-        "seed": 3
-    }));
+    let s = common::scene(common::granule_scene(json!({"kind": "cd", "threads": 1}), 0.0728));
     let mut sim = common::cd(&s);
     let forming = &s.stages[0];
     let a = forming.controls.centripetal.expect("the forming stage pulls");
     sim.begin_stage(forming).expect("stage");
     let d_min = 2.0 * sim.particles().radius.iter().copied().fold(f64::INFINITY, f64::min);
-    let expected = (0.02 * d_min / a).sqrt();
+    let max_displacement = sable_engine::scene::CdParams::default().max_displacement;
+    let expected = (max_displacement * d_min / a).sqrt();
     assert!(expected < 0.9 * sim.dt(), "the field must bind: {expected:.3e} s against dt {:.3e} s", sim.dt());
     let t0 = sim.time();
     sim.step().expect("step");

@@ -64,3 +64,23 @@ pub fn cd_box(
         "stop": {"steps": 1}
     })))
 }
+
+/// The granule of the `granule_compression` tests: 300 wet glass spheres (d 0.9-1.1 mm,
+/// γ = `gamma` N/m, bridges of 1e-12 m³, μ = 0.3) in a 24 mm box, squeezed at 3 1/s, with
+/// `method`. The caller adds `sampling` if it wants one.
+pub fn granule_scene(method: serde_json::Value, gamma: f64) -> serde_json::Value {
+    serde_json::json!({
+        "dimension": 3,
+        "method": method,
+        "materials": {
+            "wet_glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3,
+                          "liquid": {"surface_tension": gamma, "contact_angle": 0.0, "bridge_volume": 1.0e-12, "viscosity": 1.0e-3, "roughness": 1.0e-5}},
+            "plate": {"density": 2500.0, "contact": {"law": "linear", "k_n": 500.0}, "restitution": 0.3, "friction": 0.3}
+        },
+        "particles": [{"material": "wet_glass", "count": 300, "size": {"kind": "uniform", "min": 0.9e-3, "max": 1.1e-3},
+                       "placement": {"kind": "random"}, "wet_fraction": 1.0}],
+        "container": {"min": [0, 0, 0], "max": [0.024, 0.024, 0.024], "wall_material": "plate"},
+        "experiment": {"kind": "granule_compression", "strain_rate": 3.0},
+        "seed": 3
+    })
+}

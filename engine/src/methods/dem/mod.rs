@@ -704,7 +704,7 @@ impl Simulation for Dem {
     }
 
     fn sample(&mut self) -> Result<Sample, EngineError> {
-        self.check_stability()?;
+        let energies = self.check_stability()?;
         let contacts = self.contacts();
         let walls = world::wall_views(&self.walls, &self.domain);
         let view = SystemView {
@@ -716,7 +716,7 @@ impl Simulation for Dem {
             contacts: &contacts,
             walls: &walls,
             shear: self.shear_geometry(),
-            elastic_energy: self.elastic_energy(),
+            elastic_energy: energies.elastic,
             rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
             drum: self.drum.as_ref().map(Drum::view),
         };

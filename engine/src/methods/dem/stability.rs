@@ -151,10 +151,11 @@ impl Dem {
             })
             .collect();
         let mut scan = Scan { bad: particles.iter().find_map(|b| b.bad), ..Default::default() };
+        let mut wall_elastic = 0.0;
         for b in &particles {
             scan.energies.kinetic += b.kinetic;
             scan.energies.gravity += b.potential;
-            scan.wall_elastic += b.wall_elastic;
+            wall_elastic += b.wall_elastic;
             scan.overlap = scan.overlap.max(b.wall_overlap);
         }
         for (overlap, elastic, capillary) in &pairs {
@@ -162,7 +163,7 @@ impl Dem {
             scan.energies.capillary += capillary;
             scan.overlap = scan.overlap.max(*overlap);
         }
-        scan.energies.elastic += scan.wall_elastic;
+        scan.energies.elastic += wall_elastic;
         scan
     }
 
@@ -204,8 +205,9 @@ impl Dem {
         EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
     }
 
-    /// Runs the guard now.
-    pub(crate) fn check_stability(&mut self) -> Result<(), EngineError> {
+    /// Runs the guard now; returns the mechanical energy it measured on the way (a sample
+    /// reports its elastic part without scanning again).
+    pub(crate) fn check_stability(&mut self) -> Result<Energies, EngineError> {
         let scan = self.scan();
         if let Some(i) = scan.bad {
             return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
@@ -223,7 +225,7 @@ impl Dem {
                 return Err(self.unstable(InstabilityCause::EnergyGrowth { excess, scale }));
             }
         }
-        Ok(())
+        Ok(scan.energies)
     }
 
     /// Elastic energy stored in every contact (normal, tangential and rolling springs, pairs
@@ -259,8 +261,6 @@ struct Scan {
     overlap: Real,
     /// Mechanical energy (its elastic part includes the walls' springs).
     energies: Energies,
-    /// Elastic energy of the wall contacts, J.
-    wall_elastic: Real,
 }
 
 /// The first particle of `r` whose position, velocity or force holds a non-finite value:
