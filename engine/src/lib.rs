@@ -3,7 +3,8 @@
 //! The numerical core of Sable: the scene format and its validation ([`scene`]), particle
 //! storage and placement ([`particles`]), the box and neighbour search ([`geometry`]), contact
 //! laws ([`contact`]), loading ([`loading`]), simulation methods ([`methods`]), the metrics
-//! shared by all methods ([`observe`]) and the run loop ([`run`]).
+//! shared by all methods ([`observe`]), the run loop ([`run`]) and the method advisor
+//! ([`advise`]).
 //!
 //! Data flows one way: scene JSON → [`scene::Scene`] → a method's [`run::Simulation`] →
 //! [`observe::Sample`]s. The engine does no I/O and has no async runtime.
@@ -27,6 +28,7 @@
 //! assert_eq!(summary.steps, 200);
 //! ```
 
+pub mod advise;
 pub mod contact;
 pub mod error;
 pub mod geometry;

@@ -282,75 +282,7 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
         }
     }
     let text = serde_json::to_string(&s.scene).map_err(|e| ApiError::Internal(e.to_string()))?;
-    if text.len() > limits.max_body_bytes {
-        return Err(ApiError::TooLarge(limits.max_body_bytes));
-    }
-    // A scene that starts from a job's final state is checked with that state in place; the
-    // job keeps the scene as submitted (the state goes in again when a worker leases it).
-    let from = start_from::referenced_job(&s.scene);
-    let resolved = match from {
-        None => None,
-        Some(job) => match store.final_state(job).await {
-            Ok(gz) => Some(
-                start_from::with_state(&s.scene, &gz)
-                    .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?
-                    .to_string(),
-            ),
-            Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
-                violations.push(Violation {
-                    field: format!("{}start_from.job", s.scene_path),
-                    rule: format!("job {job} has no final state: name a job of this server that succeeded"),
-                });
-                None
-            }
-            Err(e) => return Err(e.into()),
-        },
-    };
-    // (Nothing to parse when the referenced state is missing: reported above.)
-    let checked = if from.is_some() { resolved.as_deref() } else { Some(text.as_str()) };
-    let scene = match checked.map(parse_scene) {
-        None => None,
-        Some(Ok(scene)) => {
-            let n = scene.particle_count();
-            if n > limits.max_particles {
-                violations.push(Violation {
-                    field: format!("{}particles", s.scene_path),
-                    rule: format!("at most {} particles in all on this server, got {n}", limits.max_particles),
-                });
-            }
-            let mut step_limits: Vec<(&str, u64)> = scene.stop.steps.map(|k| ("stop.steps", k)).into_iter().collect();
-            step_limits.extend(scene.experiment.iter().flat_map(|e| e.step_limits()));
-            for (field, steps) in step_limits.into_iter().filter(|&(_, k)| k > limits.max_steps) {
-                violations.push(Violation {
-                    field: format!("{}{field}", s.scene_path),
-                    rule: format!("must be at most {} on this server, got {steps}", limits.max_steps),
-                });
-            }
-            Some(scene)
-        }
-        Some(Err(v)) => {
-            violations.extend(v.into_iter().map(|v| {
-                // A rule the referenced state breaks is reported on the reference the user wrote.
-                let (field, rule) = match from.and_then(|job| start_from::on_reference(&v.field, "start_from.job").map(|f| (job, f))) {
-                    Some((job, field)) => (field, format!("the final state of job {job}: {}", v.rule)),
-                    None => (v.field, v.rule),
-                };
-                Violation {
-                    field: if field.is_empty() {
-                        s.scene_path.trim_end_matches('.').to_string()
-                    } else {
-                        format!("{}{field}", s.scene_path)
-                    },
-                    rule,
-                }
-            }));
-            None
-        }
-    };
-    let scene: sable_engine::scene::Scene = match (scene, violations.is_empty()) {
-        (Some(scene), true) => scene,
-        _ => return Err(ApiError::InvalidArgument(violations)),
-    };
+    let scene = check_scene(store, limits, &s.scene, &text, s.scene_path, violations).await?;
     let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
     let new = NewJob {
         name: s.name.unwrap_or_else(|| scene.name.clone()),
@@ -365,6 +297,96 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     };
     let (row, created) = store.submit(new).await?;
     Ok((row.into(), created))
+}
+
+/// Validates a scene as submitted (`text` its JSON; `scene_path` the prefix of its fields in
+/// the request), with the server's limits and `start_from.job` resolved; every broken rule,
+/// with the `violations` found before, comes back in one error.
+async fn check_scene(
+    store: &JobStore,
+    limits: &Limits,
+    scene_value: &serde_json::Value,
+    text: &str,
+    scene_path: &str,
+    mut violations: Vec<Violation>,
+) -> Result<sable_engine::scene::Scene, ApiError> {
+    if text.len() > limits.max_body_bytes {
+        return Err(ApiError::TooLarge(limits.max_body_bytes));
+    }
+    // A scene that starts from a job's final state is checked with that state in place; the
+    // job keeps the scene as submitted (the state goes in again when a worker leases it).
+    let from = start_from::referenced_job(scene_value);
+    let resolved = match from {
+        None => None,
+        Some(job) => match store.final_state(job).await {
+            Ok(gz) => Some(
+                start_from::with_state(scene_value, &gz)
+                    .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?
+                    .to_string(),
+            ),
+            Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
+                violations.push(Violation {
+                    field: format!("{}start_from.job", scene_path),
+                    rule: format!("job {job} has no final state: name a job of this server that succeeded"),
+                });
+                None
+            }
+            Err(e) => return Err(e.into()),
+        },
+    };
+    // (Nothing to parse when the referenced state is missing: reported above.)
+    let checked = if from.is_some() { resolved.as_deref() } else { Some(text) };
+    let scene = match checked.map(parse_scene) {
+        None => None,
+        Some(Ok(scene)) => {
+            let n = scene.particle_count();
+            if n > limits.max_particles {
+                violations.push(Violation {
+                    field: format!("{}particles", scene_path),
+                    rule: format!("at most {} particles in all on this server, got {n}", limits.max_particles),
+                });
+            }
+            let mut step_limits: Vec<(&str, u64)> = scene.stop.steps.map(|k| ("stop.steps", k)).into_iter().collect();
+            step_limits.extend(scene.experiment.iter().flat_map(|e| e.step_limits()));
+            for (field, steps) in step_limits.into_iter().filter(|&(_, k)| k > limits.max_steps) {
+                violations.push(Violation {
+                    field: format!("{}{field}", scene_path),
+                    rule: format!("must be at most {} on this server, got {steps}", limits.max_steps),
+                });
+            }
+            Some(scene)
+        }
+        Some(Err(v)) => {
+            violations.extend(v.into_iter().map(|v| {
+                // A rule the referenced state breaks is reported on the reference the user wrote.
+                let (field, rule) = match from.and_then(|job| start_from::on_reference(&v.field, "start_from.job").map(|f| (job, f))) {
+                    Some((job, field)) => (field, format!("the final state of job {job}: {}", v.rule)),
+                    None => (v.field, v.rule),
+                };
+                Violation {
+                    field: if field.is_empty() { scene_path.trim_end_matches('.').to_string() } else { format!("{}{field}", scene_path) },
+                    rule,
+                }
+            }));
+            None
+        }
+    };
+    match (scene, violations.is_empty()) {
+        (Some(scene), true) => Ok(scene),
+        _ => Err(ApiError::InvalidArgument(violations)),
+    }
+}
+
+/// The method advisor's answer for a scene, checked as a submission is (nothing is written).
+pub async fn advise(
+    store: &JobStore,
+    limits: &Limits,
+    scene: &serde_json::Value,
+    scene_path: &str,
+) -> Result<sable_engine::advise::Advice, ApiError> {
+    let text = serde_json::to_string(scene).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let scene = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
+    Ok(sable_engine::advise::advice_for(&scene))
 }
 
 /// Query of a job list, as both APIs receive it.

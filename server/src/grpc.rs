@@ -149,6 +149,40 @@ impl pb::simulations_server::Simulations for SimulationsService {
         Ok(Response::new(pb_job(job)))
     }
 
+    async fn advise(&self, req: Request<pb::AdviseRequest>) -> Result<Response<pb::Advice>, Status> {
+        let r = req.into_inner();
+        let scene: serde_json::Value = serde_json::from_str(&r.scene_json)
+            .map_err(|e| Status::from(ApiError::invalid("scene_json", format!("must be a JSON object: {e}"))))?;
+        if !scene.is_object() {
+            return Err(ApiError::invalid("scene_json", "must be a JSON object (a scene)").into());
+        }
+        let a = api::advise(&self.store, &self.limits, &scene, "scene_json.").await?;
+        let n = a.numbers;
+        Ok(Response::new(pb::Advice {
+            method: a.method,
+            requested: a.requested,
+            regime: a.regime.name().to_string(),
+            numbers: Some(pb::AdviceNumbers {
+                mean_diameter: n.mean_diameter,
+                density: n.density,
+                pressure: n.pressure,
+                pressure_source: n.pressure_source.unwrap_or_default(),
+                strain_rate: n.strain_rate,
+                strain_rate_source: n.strain_rate_source.unwrap_or_default(),
+                initial_solid_fraction: n.initial_solid_fraction,
+                inertial_number: n.inertial_number,
+                stiffness_number: n.stiffness_number,
+                deflection: n.deflection,
+                cohesion_index: n.cohesion_index,
+                stokes_number: n.stokes_number,
+            }),
+            reasons: a.reasons,
+            dropped: a.dropped,
+            needs: a.needs.unwrap_or_default(),
+            suggestions: a.suggestions,
+        }))
+    }
+
     async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::Job>, Status> {
         let row = self.store.get(req.into_inner().id).await.map_err(ApiError::from)?;
         Ok(Response::new(pb_job(row.into())))

@@ -1,4 +1,4 @@
-//! `sable`: the one entry point for users: run a scene locally (`run`, `validate`, `bench`),
+//! `sable`: the one entry point for users: run a scene locally (`run`, `validate`, `advise`, `bench`),
 //! run the service (`serve`, `worker`), and talk to it (`submit`, `show`, `jobs`, `cancel`,
 //! `samples`, `state`).
 
@@ -20,6 +20,8 @@ enum Command {
     Run(cli::run::RunArgs),
     /// Check a scene file and print every violation.
     Validate(cli::run::ValidateArgs),
+    /// The method advisor's choice for a scene file, its reasons and the scene's numbers.
+    Advise(cli::advise::AdviseArgs),
     /// Measure a method's throughput on its standard scene.
     #[command(subcommand)]
     Bench(cli::bench::BenchCommand),
@@ -48,6 +50,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Run(a) => cli::run::run(a),
         Command::Validate(a) => cli::run::validate(a),
+        Command::Advise(a) => cli::advise::advise(a),
         Command::Bench(c) => cli::bench::run(c),
         Command::Serve(a) => cli::service::serve(a),
         Command::Worker(a) => cli::service::worker(a),

@@ -41,11 +41,12 @@ pub struct SubmitBody {
         rest::snapshots,
         rest::snapshot_file,
         rest::final_state,
+        rest::advice,
         rest::openapi,
         rest::healthz,
         rest::metrics
     ),
-    components(schemas(JobView, ErrorView, ErrorBody, SubmitBody, sable_engine::observe::Sample)),
+    components(schemas(JobView, ErrorView, ErrorBody, SubmitBody, sable_engine::observe::Sample, sable_engine::advise::Advice)),
     tags((name = "jobs", description = "Simulation jobs"), (name = "service", description = "Health, metrics, this document"))
 )]
 pub struct ApiDoc;

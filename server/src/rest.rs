@@ -76,6 +76,7 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/jobs/{id}/snapshots", get(snapshots))
         .route("/v1/jobs/{id}/snapshots/{index}/{part}", get(snapshot_file))
         .route("/v1/jobs/{id}/state", get(final_state))
+        .route("/v1/advice", post(advice))
         .route("/v1/openapi.json", get(openapi))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
@@ -167,6 +168,40 @@ pub(crate) async fn submit(
     let (job, created) = api::submit(&st.store, &st.limits, sub).await?;
     let status = if created { StatusCode::CREATED } else { StatusCode::OK };
     Ok((status, [(header::LOCATION, format!("/v1/jobs/{}", job.id))], Json(job)).into_response())
+}
+
+/// `POST /v1/advice`.
+#[utoipa::path(
+    post,
+    path = "/v1/advice",
+    tag = "jobs",
+    summary = "The method advisor's choice for a scene, without running it",
+    request_body(content = crate::openapi::SubmitBody, description = "A scene (docs/scene-format.md) whose method may be auto or a name, or {\"scene\": ...}"),
+    responses(
+        (status = 200, description = "The choice, its reasons, the scene's dimensionless numbers, what it does not need", body = sable_engine::advise::Advice),
+        (status = 400, description = "The body is not a JSON object", body = api::ErrorBody),
+        (status = 413, description = "The body is larger than the server's limit", body = api::ErrorBody),
+        (status = 422, description = "The scene breaks a rule; every violation is in details", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn advice(State(st): State<AppState>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let body = body.map_err(|e| match e.status() {
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
+        _ => ApiError::malformed("", e.body_text()),
+    })?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    let (scene, path) = match value {
+        serde_json::Value::Object(mut m) if m.contains_key("scene") => {
+            if let Some(k) = m.keys().find(|k| *k != "scene") {
+                return Err(ApiError::invalid(k.clone(), "unknown field: expected scene"));
+            }
+            (m.remove("scene").unwrap_or_default(), "scene.")
+        }
+        v @ serde_json::Value::Object(_) => (v, ""),
+        _ => return Err(ApiError::malformed("", "the body must be a JSON object: a scene, or {\"scene\": ...}")),
+    };
+    Ok(Json(api::advise(&st.store, &st.limits, &scene, path).await?).into_response())
 }
 
 /// Query of `GET /v1/jobs`.

@@ -732,3 +732,47 @@ async fn a_job_starts_from_the_final_state_of_another() {
     }
     assert_eq!(h.jobs_in_db().await, jobs);
 }
+
+/// A rigid, slowly loaded biaxial test: the advisor takes contact dynamics for it.
+fn rigid_biaxial(method: &str) -> Value {
+    json!({
+        "name": "rigid biaxial",
+        "dimension": 2,
+        "method": method,
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e8}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "glass", "count": 30, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+        "experiment": {"kind": "biaxial", "preparation": {"pressure": 1000.0}, "strain_rate": 0.01, "axial_strain": 0.01}
+    })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_advisor_answers_without_running_and_auto_jobs_record_its_choice() {
+    let h = Harness::start(0).await;
+    // REST: the advice for a scene that names its method, and for a bad one.
+    let (status, a) = h.post("/v1/advice", &json!({"scene": rigid_biaxial("dem")}), None).await;
+    assert_eq!(status, 200, "{a}");
+    assert_eq!((a["method"].as_str(), a["requested"].as_str(), a["regime"].as_str()), (Some("cd"), Some("dem"), Some("quasi_static")));
+    assert!(a["reasons"].to_string().contains("rigid grains: κ = 1.0e5"), "{a}");
+    assert!((a["numbers"]["stiffness_number"].as_f64().unwrap_or(0.0) - 1e5).abs() < 1e-6, "{a}");
+    let mut bad = rigid_biaxial("auto");
+    bad["materials"]["glass"]["density"] = json!(-1.0);
+    let (status, err) = h.post("/v1/advice", &bad, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert_eq!(err["details"][0]["field"], "materials.glass.density", "{err}");
+    // gRPC: the same answer.
+    let mut client = h.grpc().await;
+    let g =
+        client.advise(pb::AdviseRequest { scene_json: rigid_biaxial("auto").to_string() }).await.expect("advice over gRPC").into_inner();
+    assert_eq!((g.method.as_str(), g.requested.as_str(), g.regime.as_str()), ("cd", "auto", "quasi_static"));
+    assert_eq!(g.numbers.and_then(|n| n.stiffness_number), Some(1e5));
+    // Nothing was stored by asking.
+    assert_eq!(h.jobs_in_db().await, 0);
+    // A job submitted with auto records the choice and its reasons.
+    let (status, job) = h.post("/v1/jobs", &rigid_biaxial("auto"), None).await;
+    assert_eq!(status, 201, "{job}");
+    assert_eq!(job["method"], "cd");
+    let reason = job["method_reason"].as_str().unwrap_or_default();
+    assert!(reason.starts_with("auto chose cd: quasi-static loading: I = 1.6e-5"), "{reason}");
+    assert!(reason.contains("rigid grains") && reason.contains("left out: capillary bridges"), "{reason}");
+}

@@ -229,11 +229,17 @@ impl PairLaw {
             if self.limit_damping && f_contact < 0.0 {
                 f_contact = 0.0;
             }
-            let v_t = c.v_c - n * c.v_c.dot(&n);
-            let v_t_damp = c.v_damp - n * vn;
-            let (k_t, gamma_t) = self.tangential.coefficients(c.delta, c.r_eff, c.m_eff, gamma_n);
-            carry_spring(xi, &n, c.spin_n, dt);
-            f_t = tangential_force(xi, &v_t, &v_t_damp, dt, k_t, gamma_t, self.friction, f_contact.max(0.0));
+            // Without friction the Coulomb cap is zero: no tangential force and no spring to
+            // keep (the method advisor reports this as a term the scene does not need).
+            if self.friction > 0.0 {
+                let v_t = c.v_c - n * c.v_c.dot(&n);
+                let v_t_damp = c.v_damp - n * vn;
+                let (k_t, gamma_t) = self.tangential.coefficients(c.delta, c.r_eff, c.m_eff, gamma_n);
+                carry_spring(xi, &n, c.spin_n, dt);
+                f_t = tangential_force(xi, &v_t, &v_t_damp, dt, k_t, gamma_t, self.friction, f_contact.max(0.0));
+            } else {
+                *xi = Vec3::zeros();
+            }
             if let (Some(rr), Some(theta)) = (self.rolling, roll) {
                 moment = rr.moment(theta, &n, &c.w_rel, dt, c.r_eff, f_contact.max(0.0));
             }

@@ -14,6 +14,8 @@ pub struct Scene {
     pub method: Method,
     /// Why this method was chosen (the user's choice, or the advisor's reason for `auto`).
     pub method_reason: String,
+    /// The advisor's answer when the scene asked for `"method": "auto"`.
+    pub advice: Option<crate::advise::Advice>,
     /// Materials; particle sets and walls refer to them by index.
     pub materials: Vec<Material>,
     /// Particle sets in placement order (empty when the scene starts from a state).

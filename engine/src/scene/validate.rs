@@ -37,7 +37,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             3
         }
     };
-    let (method, method_reason) = check_method(&mut c, &spec.method);
+    let (method, method_reason, auto) = check_method(&mut c, &spec.method);
 
     // Materials.
     let names: Vec<String> = spec.materials.keys().cloned().collect();
@@ -199,11 +199,12 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     if !c.violations.is_empty() {
         return Err(c.violations);
     }
-    Ok(Scene {
+    let mut scene = Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".to_string()),
         dim,
         method,
         method_reason,
+        advice: None,
         materials,
         sets,
         initial,
@@ -215,7 +216,15 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         sampling,
         snapshots,
         seed: spec.seed.unwrap_or(0),
-    })
+    };
+    if auto {
+        let mut advice = crate::advise::advise(&scene);
+        advice.requested = "auto".into();
+        scene.method = advice.method();
+        scene.method_reason = advice.summary();
+        scene.advice = Some(advice);
+    }
+    Ok(scene)
 }
 
 /// Packing fraction of a drum's bed used to turn `experiment.fill` into a grain count: that of
@@ -284,8 +293,10 @@ fn check_start_from<'a>(c: &mut Checker, s: Option<&'a StartFromSpec>, no_sets: 
     s.state.as_deref()
 }
 
-fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
-    let fallback = (Method::Dem(DemParams::default()), String::new());
+/// The method and why, and whether the scene asked the advisor (`auto`, which takes no
+/// parameters: the advisor sets them).
+fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool) {
+    let fallback = (Method::Dem(DemParams::default()), String::new(), false);
     // A plain name is reported at `method`, an object's name at `method.kind`.
     let (kind, kind_path, object) = match v {
         serde_json::Value::String(s) => (s.clone(), "method", None),
@@ -320,20 +331,22 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String) {
             }
         }
     }
-    if kind == "cd" {
-        let Some(s) = params::<CdParamsSpec>(c, object) else { return fallback };
-        return (Method::Cd(check_cd_params(c, &s)), "chosen by the scene".to_string());
+    match kind.as_str() {
+        "cd" => {
+            let Some(s) = params::<CdParamsSpec>(c, object) else { return fallback };
+            (Method::Cd(check_cd_params(c, &s)), "chosen by the scene".to_string(), false)
+        }
+        "auto" => {
+            for key in object.and_then(|o| o.as_object()).into_iter().flat_map(|m| m.keys()).filter(|k| *k != "kind") {
+                c.fail(format!("method.{key}"), "auto chooses the method and its parameters; name the method (dem or cd) to set them");
+            }
+            (Method::Dem(DemParams::default()), String::new(), true)
+        }
+        _ => {
+            let Some(s) = params::<DemParamsSpec>(c, object) else { return fallback };
+            (Method::Dem(check_dem_params(c, &s)), "chosen by the scene".to_string(), false)
+        }
     }
-    // `auto` picks the soft-contact DEM for now, so it takes DEM's parameters (and rejects
-    // unknown ones like any other object).
-    let Some(s) = params::<DemParamsSpec>(c, object) else { return fallback };
-    let p = check_dem_params(c, &s);
-    let reason = if kind == "auto" {
-        "auto: soft-contact DEM until the method advisor lands (contact dynamics must be asked for by name)".to_string()
-    } else {
-        "chosen by the scene".to_string()
-    };
-    (Method::Dem(p), reason)
 }
 
 fn check_dem_params(c: &mut Checker, s: &DemParamsSpec) -> DemParams {

@@ -1,5 +1,6 @@
 //! Subcommands of the `sable` binary.
 
+pub mod advise;
 pub mod bench;
 pub mod bench_service;
 pub mod run;
