@@ -3,8 +3,8 @@
 //! The numerical core of Sable: the scene format and its validation ([`scene`]), particle
 //! storage and placement ([`particles`]), the box and neighbour search ([`geometry`]), contact
 //! laws ([`contact`]), loading ([`loading`]), simulation methods ([`methods`]), the metrics
-//! shared by all methods ([`observe`]), the run loop ([`run`]) and the method advisor
-//! ([`advise`]).
+//! shared by all methods ([`observe`]), the run loop ([`run`]), the method advisor
+//! ([`advise`]) and speed-against-accuracy studies ([`study`]).
 //!
 //! Data flows one way: scene JSON → [`scene::Scene`] → a method's [`run::Simulation`] →
 //! [`observe::Sample`]s. The engine does no I/O and has no async runtime.
@@ -40,6 +40,7 @@ pub mod observe;
 pub mod particles;
 pub mod run;
 pub mod scene;
+pub mod study;
 
 pub use error::{EngineError, InstabilityCause};
 

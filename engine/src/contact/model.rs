@@ -105,6 +105,11 @@ pub struct PairLaw {
     pub tangential: TangentialLaw,
     /// Coulomb coefficient.
     pub friction: f64,
+    /// Carry the tangential spring even while the friction is zero: set when the materials
+    /// have friction (a stage that removes it keeps the springs as the history law updates
+    /// them, so that the next frictional stage starts from the same state); without friction
+    /// for the whole run the contact computes no tangential force or spring at all.
+    pub tangential_history: bool,
     /// Floor the contact normal force at zero.
     pub limit_damping: bool,
     /// Rolling resistance.
@@ -204,7 +209,8 @@ impl PairLaw {
             }
             _ => (None, None),
         };
-        Self { normal, tangential, friction: gm(a.friction, b.friction), limit_damping, rolling, capillary, lubrication }
+        let friction = gm(a.friction, b.friction);
+        Self { normal, tangential, friction, tangential_history: friction > 0.0, limit_damping, rolling, capillary, lubrication }
     }
 
     /// Interaction range beyond contact, m (the capillary rupture distance, or 0).
@@ -229,9 +235,10 @@ impl PairLaw {
             if self.limit_damping && f_contact < 0.0 {
                 f_contact = 0.0;
             }
-            // Without friction the Coulomb cap is zero: no tangential force and no spring to
-            // keep (the method advisor reports this as a term the scene does not need).
-            if self.friction > 0.0 {
+            // Without friction for the whole run the Coulomb cap is zero: no tangential force and
+            // no spring to keep (the method advisor reports this as a term the scene does not
+            // need).
+            if self.friction > 0.0 || self.tangential_history {
                 let v_t = c.v_c - n * c.v_c.dot(&n);
                 let v_t_damp = c.v_damp - n * vn;
                 let (k_t, gamma_t) = self.tangential.coefficients(c.delta, c.r_eff, c.m_eff, gamma_n);
@@ -308,5 +315,14 @@ impl ContactTable {
     /// All laws.
     pub fn laws(&self) -> &[PairLaw] {
         &self.laws
+    }
+
+    /// This table with the tangential springs carried wherever `base` carries them (a stage
+    /// that changes the friction keeps the materials' history law).
+    pub fn with_history_of(mut self, base: &ContactTable) -> Self {
+        for (law, b) in self.laws.iter_mut().zip(&base.laws) {
+            law.tangential_history |= b.tangential_history;
+        }
+        self
     }
 }

@@ -754,7 +754,8 @@ impl Simulation for Dem {
         }
         // Friction between particles; the walls keep their material's.
         self.table = match controls.friction {
-            Some(mu) => ContactTable::new(&self.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>()),
+            Some(mu) => ContactTable::new(&self.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>())
+                .with_history_of(&self.wall_table),
             None => self.wall_table.clone(),
         };
         self.params.local_damping = controls.local_damping.unwrap_or(self.base_local_damping);
