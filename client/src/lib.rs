@@ -1,8 +1,9 @@
 //! # sable-client
 //!
-//! Typed async client of the Sable gRPC service (`sable.v1.Simulations`): submit a scene, get,
-//! list and cancel jobs, follow a job's events as a [`Stream`](tokio_stream::Stream) that resumes
-//! by itself after a dropped connection, and read its samples.
+//! Typed async client of the Sable gRPC service (`sable.v1.Simulations`, `sable.v1.Studies`):
+//! submit a scene, get, list and cancel jobs, follow a job's events as a
+//! [`Stream`](tokio_stream::Stream) that resumes by itself after a dropped connection, read its
+//! samples, and create studies and read their reports and charts.
 //!
 //! ```no_run
 //! # async fn demo() -> Result<(), sable_client::ClientError> {
@@ -24,7 +25,8 @@ use std::time::Duration;
 pub use sable_engine::observe::Sample;
 use sable_proto::v1 as pb;
 use sable_proto::v1::simulations_client::SimulationsClient;
-pub use sable_proto::v1::{Job, JobEvent, JobState};
+use sable_proto::v1::studies_client::StudiesClient;
+pub use sable_proto::v1::{Job, JobEvent, JobState, Study};
 use tokio_stream::Stream;
 use tonic::transport::{Channel, Endpoint};
 
@@ -103,6 +105,7 @@ const MAX_STATE_MESSAGE: usize = 1 << 30;
 #[derive(Debug, Clone)]
 pub struct Client {
     inner: SimulationsClient<Channel>,
+    studies: StudiesClient<Channel>,
 }
 
 impl Client {
@@ -115,7 +118,10 @@ impl Client {
             .keep_alive_while_idle(true);
         let channel = endpoint.connect().await.map_err(|e| ClientError::Connect { url: url.into(), reason: e.to_string() })?;
         // Final states are large (about 1 MB per 10,000 particles, compressed).
-        Ok(Self { inner: SimulationsClient::new(channel).max_decoding_message_size(MAX_STATE_MESSAGE) })
+        Ok(Self {
+            inner: SimulationsClient::new(channel.clone()).max_decoding_message_size(MAX_STATE_MESSAGE),
+            studies: StudiesClient::new(channel),
+        })
     }
 
     /// Validates and queues a scene given as JSON text.
@@ -128,6 +134,21 @@ impl Client {
             max_attempts: opts.max_attempts.unwrap_or(0),
         };
         Ok(self.inner.submit_job(req).await?.into_inner())
+    }
+
+    /// Checks a study file (JSON text, docs/studies.md) and queues its runs.
+    pub async fn create_study(&mut self, study_json: &str) -> Result<Study, ClientError> {
+        Ok(self.studies.create_study(pb::CreateStudyRequest { study_json: study_json.to_string() }).await?.into_inner())
+    }
+
+    /// One study with its report so far (`report_json`).
+    pub async fn study(&mut self, id: i64) -> Result<Study, ClientError> {
+        Ok(self.studies.get_study(pb::GetStudyRequest { id }).await?.into_inner())
+    }
+
+    /// A study's chart as SVG.
+    pub async fn study_chart(&mut self, id: i64) -> Result<Vec<u8>, ClientError> {
+        Ok(self.studies.get_study_chart(pb::GetStudyRequest { id }).await?.into_inner().data)
     }
 
     /// One job.

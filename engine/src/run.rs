@@ -38,6 +38,10 @@ pub trait Simulation: Send {
     fn snapshot(&self) -> Snapshot;
     /// Heap memory held, bytes.
     fn memory_bytes(&self) -> usize;
+    /// Contact-solver sweeps done since the start (an implicit method's cost; 0 for DEM).
+    fn solver_iterations(&self) -> u64 {
+        0
+    }
     /// Applies the controls of a new stage of the loading program (wall motions, cell
     /// deformation, friction, damping).
     fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError>;
@@ -158,6 +162,8 @@ pub struct RunSummary {
     pub time: Real,
     /// Wall-clock seconds.
     pub wall_seconds: Real,
+    /// Contact-solver sweeps ([`Simulation::solver_iterations`]).
+    pub solver_iterations: u64,
     /// The last sample.
     pub last: Sample,
     /// Derived results of the scene's experiment.
@@ -426,7 +432,15 @@ impl Runner {
         }
         let (d, rho) = sim.grain_scales();
         let result = analysis.finish(d, rho);
-        Ok(RunSummary { reason, steps: sim.steps_done(), time: sim.time(), wall_seconds: started.elapsed().as_secs_f64(), last, result })
+        Ok(RunSummary {
+            reason,
+            steps: sim.steps_done(),
+            time: sim.time(),
+            wall_seconds: started.elapsed().as_secs_f64(),
+            solver_iterations: sim.solver_iterations(),
+            last,
+            result,
+        })
     }
 }
 

@@ -192,6 +192,10 @@ pub struct JobView {
     pub steps: i64,
     /// Wall-clock seconds of the run.
     pub wall_seconds: f64,
+    /// CPU seconds of the job's threads (the cost studies chart).
+    pub cpu_seconds: f64,
+    /// Contact-solver sweeps (contact dynamics; 0 for DEM).
+    pub solver_iterations: i64,
     /// Samples stored.
     pub sample_count: i64,
     /// A cancellation was asked and has not reached the worker yet.
@@ -248,6 +252,8 @@ impl From<JobRow> for JobView {
             seed: r.seed as u64,
             steps: r.steps,
             wall_seconds: r.wall_seconds,
+            cpu_seconds: r.cpu_seconds,
+            solver_iterations: r.solver_iterations,
             sample_count: r.sample_count,
             cancel_requested: r.cancel_requested != 0,
             result: r.result.as_deref().and_then(|t| serde_json::from_str(t).ok()),
@@ -283,20 +289,44 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     }
     let text = serde_json::to_string(&s.scene).map_err(|e| ApiError::Internal(e.to_string()))?;
     let scene = check_scene(store, limits, &s.scene, &text, s.scene_path, violations).await?;
-    let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
     let new = NewJob {
-        name: s.name.unwrap_or_else(|| scene.name.clone()),
+        priority: s.priority.unwrap_or(0),
+        max_attempts: s.max_attempts.unwrap_or(DEFAULT_ATTEMPTS),
+        idempotency_key: s.idempotency_key,
+        ..job_for(&scene, text, s.name)
+    };
+    let (row, created) = store.submit(new).await?;
+    Ok((row.into(), created))
+}
+
+/// The job of a checked scene (`text` its JSON), named `name` or after the scene, with the
+/// default priority and attempts.
+fn job_for(scene: &sable_engine::scene::Scene, text: String, name: Option<String>) -> NewJob {
+    let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
+    NewJob {
+        name: name.unwrap_or_else(|| scene.name.clone()),
         scene: text,
         scene_hash: hash,
         method: scene.method.name().to_string(),
         method_reason: scene.method_reason.clone(),
         seed: scene.seed,
-        priority: s.priority.unwrap_or(0),
-        max_attempts: s.max_attempts.unwrap_or(DEFAULT_ATTEMPTS),
-        idempotency_key: s.idempotency_key,
-    };
-    let (row, created) = store.submit(new).await?;
-    Ok((row.into(), created))
+        priority: 0,
+        max_attempts: DEFAULT_ATTEMPTS,
+        idempotency_key: None,
+    }
+}
+
+/// A job for a scene, checked as a submission is (`scene_path` prefixes its fields in errors).
+pub(crate) async fn new_job(
+    store: &JobStore,
+    limits: &Limits,
+    scene: &serde_json::Value,
+    scene_path: &str,
+    name: String,
+) -> Result<NewJob, ApiError> {
+    let text = serde_json::to_string(scene).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let checked = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
+    Ok(job_for(&checked, text, Some(name)))
 }
 
 /// Validates a scene as submitted (`text` its JSON; `scene_path` the prefix of its fields in

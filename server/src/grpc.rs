@@ -354,13 +354,21 @@ impl pb::workers_server::Workers for WorkersService {
                 } else {
                     return Err(Status::invalid_argument("final_state_gz: not a gzip stream"));
                 };
-                Outcome::Succeeded { steps: r.steps, wall_seconds: r.wall_seconds, result, state }
+                Outcome::Succeeded {
+                    steps: r.steps,
+                    wall_seconds: r.wall_seconds,
+                    cpu_seconds: r.cpu_seconds,
+                    solver_iterations: r.solver_iterations,
+                    result,
+                    state,
+                }
             }
             PbOutcome::Failed => Outcome::Failed {
                 code: r.error_code.clone(),
                 message: r.error_message.clone(),
                 steps: r.steps,
                 wall_seconds: r.wall_seconds,
+                cpu_seconds: r.cpu_seconds,
             },
             PbOutcome::Cancelled => Outcome::Cancelled,
             PbOutcome::Released => Outcome::Released,
@@ -368,5 +376,61 @@ impl pb::workers_server::Workers for WorkersService {
         };
         self.store.finish(&lease_of(r.job_id, r.lease_id), &outcome).await.map_err(worker_status)?;
         Ok(Response::new(pb::FinishJobResponse {}))
+    }
+}
+
+/// `sable.v1.Studies`: the same operations as `/v1/studies` (crate::studies).
+#[derive(Debug, Clone)]
+pub struct StudiesService {
+    /// The job store.
+    pub store: JobStore,
+    /// Request limits (a study's runs are checked as submitted scenes).
+    pub limits: api::Limits,
+}
+
+fn pb_study(v: crate::studies::StudyView) -> pb::Study {
+    pb::Study {
+        id: v.id,
+        name: v.name,
+        kind: v.kind,
+        state: v.state,
+        runs_done: v.runs_done as u32,
+        runs: v.runs as u32,
+        created_at: v.created_at,
+        finished_at: v.finished_at,
+        error: v.error.unwrap_or_default(),
+        report_json: v.report.map(|r| r.to_string()).unwrap_or_default(),
+    }
+}
+
+#[tonic::async_trait]
+impl pb::studies_server::Studies for StudiesService {
+    async fn create_study(&self, req: Request<pb::CreateStudyRequest>) -> Result<Response<pb::Study>, Status> {
+        let r = req.into_inner();
+        let body: serde_json::Value = serde_json::from_str(&r.study_json)
+            .map_err(|e| Status::from(ApiError::invalid("study_json", format!("must be a JSON object: {e}"))))?;
+        if !body.is_object() {
+            return Err(ApiError::invalid("study_json", "must be a JSON object (a study)").into());
+        }
+        Ok(Response::new(pb_study(crate::studies::create(&self.store, &self.limits, &body).await?)))
+    }
+
+    async fn get_study(&self, req: Request<pb::GetStudyRequest>) -> Result<Response<pb::Study>, Status> {
+        Ok(Response::new(pb_study(crate::studies::get(&self.store, req.into_inner().id).await?)))
+    }
+
+    async fn list_studies(&self, req: Request<pb::ListStudiesRequest>) -> Result<Response<pb::ListStudiesResponse>, Status> {
+        let n = match req.into_inner().page_size {
+            0 => 100,
+            n => n.min(100),
+        };
+        let studies = crate::studies::list(&self.store, i64::from(n)).await?.into_iter().map(pb_study).collect();
+        Ok(Response::new(pb::ListStudiesResponse { studies }))
+    }
+
+    async fn get_study_chart(&self, req: Request<pb::GetStudyRequest>) -> Result<Response<pb::Chart>, Status> {
+        let view = crate::studies::get(&self.store, req.into_inner().id).await?;
+        let svg = crate::studies::chart(&view)?;
+        Ok(Response::new(pb::Chart { content_type: "image/svg+xml".into(), data: svg.into_bytes() }))
     }
 }

@@ -2,17 +2,20 @@
 //!
 //! The Sable service: the SQLite job store ([`store`]), the operations shared by both APIs
 //! ([`api`]), the REST API ([`rest`]), the gRPC API ([`grpc`]), event streams ([`watch`]),
-//! Prometheus metrics ([`metrics`]) and the server that runs them with a local worker pool
-//! ([`serve`]). The `sable` binary is built from this crate.
+//! Prometheus metrics ([`metrics`]), studies and their driver ([`studies`]) and the server that
+//! runs them with a local worker pool ([`serve`]). The `sable` binary is built from this crate.
 
 pub mod api;
+pub mod charts;
 pub mod grpc;
 pub mod metrics;
 pub mod openapi;
 pub mod rest;
+mod rest_studies;
 pub mod serve;
 pub mod start_from;
 pub mod store;
+pub mod studies;
 pub mod watch;
 
 pub use serve::{ServeConfig, Server};

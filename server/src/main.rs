@@ -1,6 +1,6 @@
 //! `sable`: the one entry point for users: run a scene locally (`run`, `validate`, `advise`, `bench`),
 //! run the service (`serve`, `worker`), and talk to it (`submit`, `show`, `jobs`, `cancel`,
-//! `samples`, `state`).
+//! `samples`, `state`, `study`).
 
 mod cli;
 
@@ -43,6 +43,8 @@ enum Command {
     Samples(cli::service::SamplesArgs),
     /// Download the final state of a succeeded job (to start another scene from).
     State(cli::service::StateArgs),
+    /// Submit a study (speed against accuracy, or a stability search), follow it, get its chart.
+    Study(cli::study::StudyArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -60,6 +62,7 @@ fn main() -> std::process::ExitCode {
         Command::Cancel(a) => cli::service::cancel(a),
         Command::Samples(a) => cli::service::samples(a),
         Command::State(a) => cli::service::state(a),
+        Command::Study(a) => cli::study::study(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -42,12 +42,17 @@ pub struct SubmitBody {
         rest::snapshot_file,
         rest::final_state,
         rest::advice,
+        crate::rest_studies::create,
+        crate::rest_studies::list,
+        crate::rest_studies::get,
+        crate::rest_studies::chart,
+        crate::rest_studies::job_chart,
         rest::openapi,
         rest::healthz,
         rest::metrics
     ),
-    components(schemas(JobView, ErrorView, ErrorBody, SubmitBody, sable_engine::observe::Sample, sable_engine::advise::Advice)),
-    tags((name = "jobs", description = "Simulation jobs"), (name = "service", description = "Health, metrics, this document"))
+    components(schemas(JobView, ErrorView, ErrorBody, SubmitBody, sable_engine::observe::Sample, sable_engine::advise::Advice, crate::studies::StudyView)),
+    tags((name = "jobs", description = "Simulation jobs"), (name = "studies", description = "Speed against accuracy: studies, stability searches, charts"), (name = "service", description = "Health, metrics, this document"))
 )]
 pub struct ApiDoc;
 

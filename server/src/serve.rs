@@ -117,6 +117,9 @@ impl Server {
             }
         });
 
+        // The study driver: measures the runs of studies as they end and adds a search's probes.
+        tasks.spawn(crate::studies::drive(store.clone(), cfg.limits, Duration::from_millis(200), stop.clone()));
+
         let pool = (cfg.workers > 0).then(|| {
             let mut pc = PoolConfig::new(format!("local:{:08x}", rand::random::<u32>()), cfg.workers);
             if cfg.threads_per_job > 0 {
@@ -151,11 +154,13 @@ impl Server {
         let (health, health_service) = tonic_health::server::health_reporter();
         health.set_serving::<SimulationsServer<SimulationsService>>().await;
         health.set_serving::<WorkersServer<WorkersService>>().await;
+        health.set_serving::<sable_proto::v1::studies_server::StudiesServer<crate::grpc::StudiesService>>().await;
         let reflection = tonic_reflection::server::Builder::configure()
             .register_encoded_file_descriptor_set(sable_proto::FILE_DESCRIPTOR_SET)
             .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
             .build_v1()?;
         let sims = SimulationsService { store: store.clone(), heartbeat: cfg.heartbeat, limits: cfg.limits, watchers };
+        let studies = crate::grpc::StudiesService { store: store.clone(), limits: cfg.limits };
         let workers = WorkersService { store: store.clone(), lease_seconds: cfg.lease_ttl.as_secs_f64() };
         let grpc_stop = stop.clone();
         // Room for the largest scene accepted plus the rest of the request.
@@ -167,6 +172,7 @@ impl Server {
                 .add_service(health_service)
                 .add_service(reflection)
                 .add_service(SimulationsServer::new(sims).max_decoding_message_size(max_message))
+                .add_service(sable_proto::v1::studies_server::StudiesServer::new(studies).max_decoding_message_size(max_message))
                 .add_service(WorkersServer::new(workers).max_decoding_message_size(sable_worker::remote::MAX_REPORT_BYTES))
                 .serve_with_incoming_shutdown(incoming, async move { grpc_stop.cancelled().await })
                 .await;

@@ -4,7 +4,9 @@
 use sable_engine::run::Runner;
 use sable_engine::study::search::{FailureMode, Next, Probe, Scale, SearchSpec, Side};
 use sable_engine::study::{probe_scene, theory};
-use serde_json::{json, Value};
+use serde_json::Value;
+
+mod common;
 
 /// Runs a scene in-process as a job would; `None` if it ran through, else how it failed.
 fn outcome(scene: &Value) -> Option<FailureMode> {
@@ -16,47 +18,9 @@ fn outcome(scene: &Value) -> Option<FailureMode> {
     }
 }
 
-/// Two disks (d = 1 mm, ρ = 2500 kg/m³) held in contact by a capillary bridge: the attraction
-/// κR balances the linear spring k_n at δ_eq = κR/k_n = 0.06 R. Released at rest from 1.1 δ_eq,
-/// without damping (e = 1) or friction, the pair oscillates about δ_eq at ω0 = sqrt(k_n/m*),
-/// m* = m/2, for ever when velocity Verlet is stable; past dt = 2/ω0 the oscillation grows
-/// until the overlap passes the guard's limit (0.1 R).
-fn bound_pair() -> Value {
-    let r = 5e-4;
-    let k_n = 1e3;
-    let delta_eq = 0.06 * r;
-    let kappa = k_n * delta_eq / r; // κ = 2π γ cos θ
-    let gamma = kappa / (2.0 * std::f64::consts::PI);
-    let gap = 2.0 * r - 1.1 * delta_eq;
-    // Overlapping grains cannot be placed by a particle set: the pair starts from a state.
-    let state = json!({
-        "format": "sable-state", "version": 1, "dimension": 2,
-        "min": [0.0, 0.0], "max": [0.01, 0.01],
-        "materials": ["wet"],
-        "particles": {
-            "material": [0, 0], "radius": [r, r],
-            "position": [[0.005 - 0.5 * gap, 0.005], [0.005 + 0.5 * gap, 0.005]],
-            "velocity": [[0.0, 0.0], [0.0, 0.0]], "angular_velocity": [[0.0], [0.0]],
-            "wet": [true, true]
-        }
-    });
-    json!({
-        "dimension": 2,
-        "method": {"kind": "dem", "time_step": 1e-3, "threads": 1},
-        "materials": {"wet": {
-            "density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 1.0, "friction": 0.0,
-            "liquid": {"surface_tension": gamma, "contact_angle": 0.0, "bridge_volume": 1e-12, "viscosity": 0.0}
-        }},
-        "start_from": {"state": state},
-        "container": {"wall_material": "wet"},
-        "stop": {"steps": 4000},
-        "sampling": {"every_steps": 4000}
-    })
-}
-
 #[test]
 fn the_dem_stability_search_finds_two_over_omega_zero_for_a_bound_pair() {
-    let scene = bound_pair();
+    let scene = common::bound_pair();
     let m = 2500.0 * std::f64::consts::PI * 5e-4f64.powi(2);
     let limit = 2.0 / (1e3 / (0.5 * m)).sqrt(); // 1.98e-3 s
     let search = SearchSpec {

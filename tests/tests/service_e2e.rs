@@ -11,6 +11,8 @@ use sable_server::{ServeConfig, Server};
 use serde_json::{json, Value};
 use tonic::transport::Channel;
 
+mod common;
+
 /// A small 2D scene: `steps` steps of a few disks settling, a sample every 100 steps.
 fn scene(steps: u64, seed: u64) -> Value {
     json!({
@@ -775,4 +777,151 @@ async fn the_advisor_answers_without_running_and_auto_jobs_record_its_choice() {
     let reason = job["method_reason"].as_str().unwrap_or_default();
     assert!(reason.starts_with("auto chose cd: quasi-static loading: I = 1.6e-5"), "{reason}");
     assert!(reason.contains("rigid grains") && reason.contains("left out: capillary bridges"), "{reason}");
+}
+
+/// Two disks meeting head-on at 0.2 m/s (no gravity, no friction): a binary collision with
+/// restitution 0.7, run with the DEM step at `fraction` of the collision time.
+fn collision(fraction: f64) -> Value {
+    json!({
+        "name": "collision",
+        "dimension": 2,
+        "method": {"kind": "dem", "time_step_fraction": fraction, "threads": 1},
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.7, "friction": 0.0}},
+        "particles": [{"material": "glass", "count": 2, "size": {"kind": "monodisperse", "diameter": 1e-3},
+                       "placement": {"kind": "list", "positions": [[0.004, 0.005], [0.006, 0.005]], "velocities": [[0.1, 0.0], [-0.1, 0.0]]}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+        "stop": {"time": 0.008},
+        "sampling": {"every_time": 0.002}
+    })
+}
+
+async fn wait_study(h: &Harness, id: i64) -> Value {
+    let start = Instant::now();
+    loop {
+        let (status, s) = h.get(&format!("/v1/studies/{id}")).await;
+        assert_eq!(status, 200, "{s}");
+        if s["state"] != "running" {
+            return s;
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "study {id} still running: {s}");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
+    let h = Harness::start(1).await;
+    let fractions = [0.005, 0.05, 0.3];
+    let study = json!({
+        "name": "restitution against the step",
+        "scene": collision(0.02),
+        "series": [{"label": "DEM", "sweep": [{"parameter": "method.time_step_fraction", "values": fractions}]}],
+        "measure": {"derived": "restitution"},
+        "reference": {"analytic": "restitution"}
+    });
+    let (status, created) = h.post("/v1/studies", &study, None).await;
+    assert_eq!(status, 201, "{created}");
+    assert_eq!((created["kind"].as_str(), created["runs"].as_u64()), (Some("sweep"), Some(3)));
+    let done = wait_study(&h, created["id"].as_i64().expect("id")).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let report = &done["report"];
+    assert_eq!(report["reference"], 0.7);
+    let points = report["points"].as_array().expect("points");
+    assert_eq!(points.len(), 3);
+    // The same scenes submitted by hand give the same measures, errors and costs.
+    let mut scored = Vec::new();
+    for ((p, f), label) in points.iter().zip(fractions).zip(["5e-3", "0.05", "0.3"]) {
+        assert_eq!((p["series"].as_str(), p["label"].as_str(), p["state"].as_str()), (Some("DEM"), Some(label), Some("succeeded")));
+        let job = h.get(&format!("/v1/jobs/{}", p["job_id"])).await.1;
+        assert_eq!(job["scene"], collision_with(f), "the study's job runs the expanded scene");
+        assert_eq!(p["cost"]["steps"], job["steps"]);
+        assert_eq!(p["cost"]["wall_seconds"], job["wall_seconds"]);
+        let cpu = job["cpu_seconds"].as_f64().expect("cpu seconds");
+        assert!(cpu > 0.0 && p["cost"]["cpu_seconds"].as_f64() == Some(cpu), "{job}");
+        let (_, mine) = h.post("/v1/jobs", &collision_with(f), None).await;
+        let mine = h.wait_state(mine["id"].as_i64().expect("id"), &["succeeded"], Duration::from_secs(60)).await;
+        let samples = h.get(&format!("/v1/jobs/{}/samples", mine["id"])).await.1;
+        let s = samples["samples"].as_array().expect("samples");
+        let ke = |k: usize| s[k]["kinetic_energy"].as_f64().expect("energy");
+        let e = (ke(s.len() - 1) / ke(0)).sqrt();
+        assert_eq!(p["measured"].as_f64(), Some(e), "run {f}");
+        assert!((p["error"].as_f64().unwrap_or(-1.0) - (e - 0.7).abs()).abs() < 1e-15);
+        assert!((p["relative_error"].as_f64().unwrap_or(-1.0) - (e - 0.7).abs() / 0.7).abs() < 1e-15);
+        scored.push((cpu, (e - 0.7).abs(), p["pareto"].as_bool().expect("pareto flag")));
+    }
+    // The finest step is within 1% of the analytic restitution, the coarsest is not as close.
+    assert!(scored[0].1 < 0.01 * 0.7 && scored[2].1 > scored[0].1, "{scored:?}");
+    for (i, &(c, e, front)) in scored.iter().enumerate() {
+        let beaten = scored.iter().enumerate().any(|(j, &(c2, e2, _))| j != i && c2 <= c && e2 <= e && (c2 < c || e2 < e));
+        assert_eq!(front, !beaten, "Pareto flag of run {i}: {scored:?}");
+    }
+    let chart = h.http.get(format!("{}/v1/studies/{}/chart.svg", h.base, done["id"])).send().await.expect("chart");
+    assert_eq!(chart.headers()["content-type"], "image/svg+xml");
+    let svg = chart.text().await.expect("svg");
+    for needle in ["<svg", "error against cost", "CPU time", "Pareto front", "DEM", "5e-3", "restitution"] {
+        assert!(svg.contains(needle), "the chart lacks '{needle}'");
+    }
+    // A job's samples against time.
+    let c =
+        h.http.get(format!("{}/v1/jobs/{}/chart.svg?y=kinetic_energy&x=time", h.base, points[0]["job_id"])).send().await.expect("chart");
+    assert_eq!(c.status(), 200);
+    assert!(c.text().await.expect("svg").contains("kinetic_energy against time"));
+    // A bad study writes nothing.
+    let before = h.jobs_in_db().await;
+    let mut bad = study.clone();
+    bad["series"][0]["sweep"][0]["values"] = json!([0.01, 0.9]);
+    let (status, err) = h.post("/v1/studies", &bad, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert_eq!(err["details"][0]["field"], "scene.method.time_step_fraction");
+    assert!(
+        err["details"][0]["rule"].as_str().unwrap_or_default().starts_with("in series 'DEM' with method.time_step_fraction = 0.9"),
+        "{err}"
+    );
+    assert_eq!(h.jobs_in_db().await, before);
+}
+
+fn collision_with(fraction: f64) -> Value {
+    let mut s = collision(0.02);
+    s["method"]["time_step_fraction"] = json!(fraction);
+    s
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_zero() {
+    let h = Harness::start(1).await;
+    let scene = common::bound_pair();
+    let limit = 2.0 / (1e3 / (0.5 * 2500.0 * std::f64::consts::PI * 25e-8)).sqrt();
+    let study = json!({
+        "name": "bound pair",
+        "scene": scene,
+        "search": {"parameter": "method.time_step", "low": 0.8 * limit, "high": 1.25 * limit, "iterations": 4}
+    });
+    let mut client = sable_client::Client::connect(&format!("http://{}", h.server().grpc_addr)).await.expect("client");
+    let s = client.create_study(&study.to_string()).await.expect("study accepted");
+    assert_eq!((s.kind.as_str(), s.runs), ("search", 2));
+    let start = Instant::now();
+    let s = loop {
+        let s = client.study(s.id).await.expect("study");
+        if s.state != "running" {
+            break s;
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "search still running: {s:?}");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    assert_eq!((s.state.as_str(), s.runs_done, s.runs), ("succeeded", 6, 6), "{s:?}");
+    let r: Value = serde_json::from_str(&s.report_json).expect("report");
+    let (stable, unstable) = (r["limit"]["stable"].as_f64().expect("stable"), r["limit"]["unstable"].as_f64().expect("unstable"));
+    // Four halvings of a factor 1.5625 in log: the bracket is 1.5625^(1/16) = 2.8% wide.
+    assert!(stable <= limit * (1.0 + 1e-9) && unstable > limit && unstable / stable < 1.03, "{r}");
+    let ratio = r["theory"]["ratio"].as_f64().expect("ratio");
+    assert!((0.95..=1.0 + 1e-9).contains(&ratio), "{r}");
+    assert!(r["limit"]["mode"].is_string() && r["theory"]["what"].as_str().unwrap_or_default().starts_with("2/ω0"), "{r}");
+    let svg = String::from_utf8(client.study_chart(s.id).await.expect("chart")).expect("utf-8");
+    assert!(svg.contains("theory") && svg.contains("ran through (stable)") && svg.contains("failed: "), "chart");
+    // A study with an unknown reference series is refused over gRPC too.
+    let bad =
+        json!({"scene": common::bound_pair(), "series": [{"label": "A"}], "measure": {"sample": "phi"}, "reference": {"finest": "B"}});
+    let e = client.create_study(&bad.to_string()).await.expect_err("rejected");
+    assert_eq!(e.code(), Some(tonic::Code::InvalidArgument));
+    assert!(e.to_string().contains("reference.finest: no series is labelled 'B'"), "{e}");
 }

@@ -44,6 +44,16 @@ pub fn apply_thread_budget(scene: &mut Scene, budget: usize) -> usize {
     n
 }
 
+/// CPU seconds used so far by the threads of the rayon pool this runs in (each thread's
+/// `CLOCK_THREAD_CPUTIME_ID`, summed by a broadcast); 0 where the clock cannot be read.
+fn pool_cpu_seconds() -> f64 {
+    rayon::broadcast(|_| {
+        nix::time::clock_gettime(nix::time::ClockId::CLOCK_THREAD_CPUTIME_ID).map_or(0.0, |t| t.tv_sec() as f64 + 1e-9 * t.tv_nsec() as f64)
+    })
+    .into_iter()
+    .sum()
+}
+
 /// A pool of `threads` threads for one job.
 pub fn job_pool(threads: usize) -> Result<rayon::ThreadPool, String> {
     rayon::ThreadPoolBuilder::new()
@@ -93,6 +103,7 @@ pub async fn execute<S: JobSource>(
                 message: format!("the stored scene is no longer valid: {}", format_violations(&v)),
                 steps: 0,
                 wall_seconds: 0.0,
+                cpu_seconds: 0.0,
             };
             return finish(source, lease, outcome).await;
         }
@@ -101,7 +112,12 @@ pub async fn execute<S: JobSource>(
     let pool = match job_pool(threads) {
         Ok(p) => p,
         Err(message) => {
-            return finish(source, lease, Outcome::Failed { code: "internal".into(), message, steps: 0, wall_seconds: 0.0 }).await
+            return finish(
+                source,
+                lease,
+                Outcome::Failed { code: "internal".into(), message, steps: 0, wall_seconds: 0.0, cpu_seconds: 0.0 },
+            )
+            .await
         }
     };
     let runner = Runner::for_scene(&scene);
@@ -115,7 +131,9 @@ pub async fn execute<S: JobSource>(
             let snapshots_tx = tx.clone();
             let mut index = 0u32;
             pool.install(|| {
-                run_scene_with_snapshots(
+                // The CPU time of every thread of the job's pool, before and after the run.
+                let cpu_start = pool_cpu_seconds();
+                let run = run_scene_with_snapshots(
                     &scene,
                     &runner,
                     &mut |s, p| {
@@ -128,7 +146,8 @@ pub async fn execute<S: JobSource>(
                     },
                 )
                 // Compressed here, off the async threads.
-                .map(|(summary, state)| (summary, serde_json::to_string(&state).ok().map(|text| gzip(&text))))
+                .map(|(summary, state)| (summary, serde_json::to_string(&state).ok().map(|text| gzip(&text))));
+                (run, pool_cpu_seconds() - cpu_start)
             })
         }))
     });
@@ -173,26 +192,39 @@ pub async fn execute<S: JobSource>(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     let outcome = match result {
-        Ok(Ok(Ok((summary, state)))) => {
+        Ok(Ok((Ok((summary, state)), cpu_seconds))) => {
             pending.fraction = 1.0;
             pending.remaining_seconds = Some(0.0);
             let result = summary.result.as_ref().and_then(|r| serde_json::to_string(r).ok());
-            Outcome::Succeeded { steps: summary.steps, wall_seconds, result, state }
+            Outcome::Succeeded {
+                steps: summary.steps,
+                wall_seconds,
+                cpu_seconds,
+                solver_iterations: summary.solver_iterations,
+                result,
+                state,
+            }
         }
-        Ok(Ok(Err(EngineError::Cancelled { .. }))) if released => Outcome::Released,
-        Ok(Ok(Err(EngineError::Cancelled { .. }))) => Outcome::Cancelled,
-        Ok(Ok(Err(e))) => {
+        Ok(Ok((Err(EngineError::Cancelled { .. }), _))) if released => Outcome::Released,
+        Ok(Ok((Err(EngineError::Cancelled { .. }), _))) => Outcome::Cancelled,
+        Ok(Ok((Err(e), cpu_seconds))) => {
             // The step the engine stopped at, or the last one sampled.
             let steps = match &e {
                 EngineError::Unstable { step, .. } => *step,
                 _ => last_step,
             };
-            Outcome::Failed { code: e.code().into(), message: e.to_string(), steps, wall_seconds }
+            Outcome::Failed { code: e.code().into(), message: e.to_string(), steps, wall_seconds, cpu_seconds }
         }
-        Ok(Err(panic)) => Outcome::Failed { code: "internal".into(), message: panic_message(&panic), steps: 0, wall_seconds },
-        Err(join) => {
-            Outcome::Failed { code: "internal".into(), message: format!("the engine thread failed: {join}"), steps: 0, wall_seconds }
+        Ok(Err(panic)) => {
+            Outcome::Failed { code: "internal".into(), message: panic_message(&panic), steps: 0, wall_seconds, cpu_seconds: 0.0 }
         }
+        Err(join) => Outcome::Failed {
+            code: "internal".into(),
+            message: format!("the engine thread failed: {join}"),
+            steps: 0,
+            wall_seconds,
+            cpu_seconds: 0.0,
+        },
     };
     if outcome != Outcome::Released {
         // The last samples go in before the outcome; retried while the store is unreachable.

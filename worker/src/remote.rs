@@ -78,19 +78,22 @@ impl JobSource for RemoteSource {
     async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {
         let mut req = FinishJobRequest { job_id: lease.job_id, lease_id: lease.lease_id.clone(), ..Default::default() };
         match outcome {
-            Outcome::Succeeded { steps, wall_seconds, result, state } => {
+            Outcome::Succeeded { steps, wall_seconds, cpu_seconds, solver_iterations, result, state } => {
                 req.set_outcome(ProtoOutcome::Succeeded);
                 req.steps = steps;
                 req.wall_seconds = wall_seconds;
+                req.cpu_seconds = cpu_seconds;
+                req.solver_iterations = solver_iterations;
                 req.result_json = result.unwrap_or_default();
                 req.final_state_gz = state.unwrap_or_default();
             }
-            Outcome::Failed { code, message, steps, wall_seconds } => {
+            Outcome::Failed { code, message, steps, wall_seconds, cpu_seconds } => {
                 req.set_outcome(ProtoOutcome::Failed);
                 req.error_code = code;
                 req.error_message = message;
                 req.steps = steps;
                 req.wall_seconds = wall_seconds;
+                req.cpu_seconds = cpu_seconds;
             }
             Outcome::Cancelled => req.set_outcome(ProtoOutcome::Cancelled),
             Outcome::Released => req.set_outcome(ProtoOutcome::Released),

@@ -94,6 +94,10 @@ pub enum Outcome {
         steps: u64,
         /// Wall-clock seconds of the run.
         wall_seconds: f64,
+        /// CPU seconds of the job's threads.
+        cpu_seconds: f64,
+        /// Contact-solver sweeps (contact dynamics).
+        solver_iterations: u64,
         /// Derived results of the scene's experiment, JSON (`ExperimentResult`).
         result: Option<String>,
         /// The final state (`StateFile`), gzip-compressed JSON.
@@ -109,6 +113,8 @@ pub enum Outcome {
         steps: u64,
         /// Wall-clock seconds of the run.
         wall_seconds: f64,
+        /// CPU seconds of the job's threads.
+        cpu_seconds: f64,
     },
     /// Stopped because the user cancelled it.
     Cancelled,

@@ -5,3 +5,4 @@ pub mod bench;
 pub mod bench_service;
 pub mod run;
 pub mod service;
+pub mod study;

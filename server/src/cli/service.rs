@@ -15,7 +15,7 @@ use sable_proto::v1::job_event::Kind;
 use sable_server::{ServeConfig, Server};
 use tokio_stream::StreamExt;
 
-fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread().enable_all().build().context("cannot start the async runtime")
 }
 

@@ -6,6 +6,7 @@
 //! own. Every committed change that adds events notifies [`JobStore::subscribe`]rs with the job id.
 
 mod rows;
+mod studies;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -18,6 +19,7 @@ use sqlx::{Row, Sqlite, Transaction};
 use tokio::sync::{broadcast, Notify};
 
 pub use rows::{EventRow, JobRow, JobState, SnapshotPart, SnapshotRow};
+pub use studies::{NewRun, RunRow, StudyRow};
 
 /// The migrations of migrations/, embedded at build time.
 pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../migrations");
@@ -199,6 +201,29 @@ impl JobStore {
         let _ = self.events.send(Arc::new(Notice { job_id: job, events }));
     }
 
+    /// Inserts a queued job and its first state event, in the caller's transaction.
+    async fn insert_job(tx: &mut Transaction<'static, Sqlite>, new: &NewJob) -> Result<(i64, EventRow), StoreError> {
+        let id: i64 = sqlx::query_scalar(
+            "INSERT INTO jobs (name, state, priority, method, method_reason, scene, scene_hash, engine_version, seed, \
+             idempotency_key, max_attempts, created_at) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        )
+        .bind(&new.name)
+        .bind(new.priority)
+        .bind(&new.method)
+        .bind(&new.method_reason)
+        .bind(&new.scene)
+        .bind(&new.scene_hash)
+        .bind(sable_engine::VERSION)
+        .bind(new.seed as i64)
+        .bind(&new.idempotency_key)
+        .bind(new.max_attempts as i64)
+        .bind(now_ms())
+        .fetch_one(&mut **tx)
+        .await?;
+        let event = Self::state_event(tx, id).await?;
+        Ok((id, event))
+    }
+
     /// Inserts a job, or returns the job that an earlier request with the same idempotency key
     /// created (`false` as second value). The same key with another scene is a conflict.
     pub async fn submit(&self, new: NewJob) -> Result<(JobRow, bool), StoreError> {
@@ -216,24 +241,7 @@ impl JobStore {
                 return Ok((self.get(id).await?, false));
             }
         }
-        let id: i64 = sqlx::query_scalar(
-            "INSERT INTO jobs (name, state, priority, method, method_reason, scene, scene_hash, engine_version, seed, \
-             idempotency_key, max_attempts, created_at) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-        )
-        .bind(&new.name)
-        .bind(new.priority)
-        .bind(&new.method)
-        .bind(&new.method_reason)
-        .bind(&new.scene)
-        .bind(&new.scene_hash)
-        .bind(sable_engine::VERSION)
-        .bind(new.seed as i64)
-        .bind(&new.idempotency_key)
-        .bind(new.max_attempts as i64)
-        .bind(now_ms())
-        .fetch_one(&mut *tx)
-        .await?;
-        let event = Self::state_event(&mut tx, id).await?;
+        let (id, event) = Self::insert_job(&mut tx, &new).await?;
         // The job as created (a worker may lease it the moment the transaction commits).
         let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = ?", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
@@ -558,23 +566,29 @@ impl JobStore {
             message: Option<&'a str>,
             steps: Option<u64>,
             wall_seconds: Option<f64>,
+            cpu_seconds: Option<f64>,
+            solver_iterations: Option<u64>,
             result: Option<&'a str>,
         }
         let end = match outcome {
-            Outcome::Succeeded { steps, wall_seconds, result, .. } => Some(End {
+            Outcome::Succeeded { steps, wall_seconds, cpu_seconds, solver_iterations, result, .. } => Some(End {
                 state: "succeeded",
                 code: None,
                 message: None,
                 steps: Some(*steps),
                 wall_seconds: Some(*wall_seconds),
+                cpu_seconds: Some(*cpu_seconds),
+                solver_iterations: Some(*solver_iterations),
                 result: result.as_deref(),
             }),
-            Outcome::Failed { code, message, steps, wall_seconds } => Some(End {
+            Outcome::Failed { code, message, steps, wall_seconds, cpu_seconds } => Some(End {
                 state: "failed",
                 code: Some(code),
                 message: Some(message),
                 steps: Some(*steps),
                 wall_seconds: Some(*wall_seconds),
+                cpu_seconds: Some(*cpu_seconds),
+                solver_iterations: None,
                 result: None,
             }),
             Outcome::Cancelled => Some(End {
@@ -583,17 +597,20 @@ impl JobStore {
                 message: Some("cancelled by the user"),
                 steps: None,
                 wall_seconds: None,
+                cpu_seconds: None,
+                solver_iterations: None,
                 result: None,
             }),
             Outcome::Released => None,
         };
         let clear = "lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL";
         match end {
-            Some(End { state, code, message, steps, wall_seconds, result }) => {
+            Some(End { state, code, message, steps, wall_seconds, cpu_seconds, solver_iterations, result }) => {
                 sqlx::query(&format!(
                     "UPDATE jobs SET state = ?1, progress = CASE WHEN ?1 = 'succeeded' THEN 1 ELSE progress END, error_code = ?2, \
                      error_message = ?3, steps = COALESCE(?4, steps), wall_seconds = COALESCE(?5, wall_seconds), finished_at = ?6, \
-                     result = ?8, {clear} WHERE id = ?7"
+                     result = ?8, cpu_seconds = COALESCE(?9, cpu_seconds), solver_iterations = COALESCE(?10, solver_iterations), \
+                     {clear} WHERE id = ?7"
                 ))
                 .bind(state)
                 .bind(code)
@@ -603,6 +620,8 @@ impl JobStore {
                 .bind(now_ms())
                 .bind(lease.job_id)
                 .bind(result)
+                .bind(cpu_seconds)
+                .bind(solver_iterations.map(|n| n as i64))
                 .execute(&mut *tx)
                 .await?;
                 if let Outcome::Succeeded { state: Some(gz), .. } = outcome {

@@ -44,7 +44,7 @@ impl JobState {
 /// The columns of a job the APIs show.
 pub(crate) const JOB_SELECT: &str = "SELECT j.id, j.name, j.state, j.priority, j.method, j.method_reason, j.scene, j.scene_hash, \
      j.engine_version, j.seed, j.attempts, j.max_attempts, j.progress, j.created_at, j.started_at, j.finished_at, j.error_code, \
-     j.error_message, j.steps, j.wall_seconds, j.cancel_requested, j.result, \
+     j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.cancel_requested, j.result, \
      (SELECT COUNT(*) FROM samples s WHERE s.job_id = j.id) AS sample_count FROM jobs j";
 
 /// One job.
@@ -90,6 +90,10 @@ pub struct JobRow {
     pub steps: i64,
     /// Wall-clock seconds of the run.
     pub wall_seconds: f64,
+    /// CPU seconds of the job's threads.
+    pub cpu_seconds: f64,
+    /// Contact-solver sweeps.
+    pub solver_iterations: i64,
     /// Cancellation asked.
     pub cancel_requested: i64,
     /// Derived results of the experiment, JSON.

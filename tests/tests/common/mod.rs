@@ -84,3 +84,41 @@ pub fn granule_scene(method: serde_json::Value, gamma: f64) -> serde_json::Value
         "seed": 3
     })
 }
+
+/// Two disks (d = 1 mm, ρ = 2500 kg/m³) held in contact by a capillary bridge: the attraction
+/// κR balances the linear spring k_n at δ_eq = κR/k_n = 0.06 R. Released at rest from 1.1 δ_eq,
+/// without damping (e = 1) or friction, the pair oscillates about δ_eq at ω0 = sqrt(k_n/m*),
+/// m* = m/2, for ever when velocity Verlet is stable; past dt = 2/ω0 the oscillation grows
+/// until the overlap passes the guard's limit (0.1 R).
+pub fn bound_pair() -> serde_json::Value {
+    let r = 5e-4;
+    let k_n = 1e3;
+    let delta_eq = 0.06 * r;
+    let kappa = k_n * delta_eq / r; // κ = 2π γ cos θ
+    let gamma = kappa / (2.0 * std::f64::consts::PI);
+    let gap = 2.0 * r - 1.1 * delta_eq;
+    // Overlapping grains cannot be placed by a particle set: the pair starts from a state.
+    let state = serde_json::json!({
+        "format": "sable-state", "version": 1, "dimension": 2,
+        "min": [0.0, 0.0], "max": [0.01, 0.01],
+        "materials": ["wet"],
+        "particles": {
+            "material": [0, 0], "radius": [r, r],
+            "position": [[0.005 - 0.5 * gap, 0.005], [0.005 + 0.5 * gap, 0.005]],
+            "velocity": [[0.0, 0.0], [0.0, 0.0]], "angular_velocity": [[0.0], [0.0]],
+            "wet": [true, true]
+        }
+    });
+    serde_json::json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "time_step": 1e-3, "threads": 1},
+        "materials": {"wet": {
+            "density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 1.0, "friction": 0.0,
+            "liquid": {"surface_tension": gamma, "contact_angle": 0.0, "bridge_volume": 1e-12, "viscosity": 0.0}
+        }},
+        "start_from": {"state": state},
+        "container": {"wall_material": "wet"},
+        "stop": {"steps": 4000},
+        "sampling": {"every_steps": 4000}
+    })
+}

@@ -268,6 +268,8 @@ pub struct Cd {
     omega_start: Vec<Vec3>,
     solver: Nlgs,
     report: NlgsReport,
+    /// NLGS sweeps since the start.
+    sweeps: u64,
     /// Largest and mean interpenetration of the contacts at the last detection, as fractions
     /// of the smaller radius.
     interpenetration: (Real, Real),
@@ -396,6 +398,7 @@ impl Cd {
                 acceleration: params.acceleration,
             }),
             report: NlgsReport::default(),
+            sweeps: 0,
             interpenetration: (0.0, 0.0),
             window: Window::default(),
             experiment: scene.experiment.is_some(),
@@ -907,6 +910,7 @@ impl Cd {
             boundary_omega: &self.wall_omega,
         };
         self.report = self.solver.solve(&mut self.contacts, &mut bodies, h, self.mean_diameter, coloured.then_some(&self.colours));
+        self.sweeps += u64::from(self.report.iterations);
         if !self.report.converged {
             let r = self.report;
             return Err(self.unstable(InstabilityCause::SolverBudget {
@@ -1093,6 +1097,10 @@ impl Simulation for Cd {
 
     fn steps_done(&self) -> u64 {
         self.step
+    }
+
+    fn solver_iterations(&self) -> u64 {
+        self.sweeps
     }
 
     fn time(&self) -> Real {

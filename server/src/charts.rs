@@ -1,0 +1,294 @@
+//! Charts as SVG (plotters): a study's error against cost on log-log axes (one series per
+//! label, the Pareto front, each point labelled with its swept value, failed runs marked), a
+//! stability search's probes against the theory, and sample fields of jobs against time or
+//! strain.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use sable_engine::study::report::StudyReport;
+use sable_engine::study::search::FailureMode;
+
+/// Chart size, px.
+const SIZE: (u32, u32) = (960, 640);
+/// Series colours (a colour-blind-safe palette; red is kept for failures).
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(120, 94, 240),
+];
+const FAILED: RGBColor = RGBColor(213, 94, 0);
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+fn err<E: std::fmt::Display>(e: E) -> String {
+    format!("cannot draw the chart: {e}")
+}
+
+/// A log axis range around positive values.
+fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.filter(|v| v.is_finite() && *v > 0.0).fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    if !lo.is_finite() {
+        return (0.1, 10.0);
+    }
+    let (lo, hi) = if hi / lo < 10.0 { (lo / 3.0, hi * 3.0) } else { (lo / 1.6, hi * 1.6) };
+    (lo, hi)
+}
+
+/// The chart of a study: error against cost for a sweep, the probes for a search.
+pub fn study_svg(name: &str, report: &StudyReport) -> Result<String, String> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        if report.limit.is_some() || report.points.iter().any(|p| p.value.is_some()) {
+            search_chart(&root, name, report)?;
+        } else {
+            sweep_chart(&root, name, report)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(out)
+}
+
+/// A title and a line under it, centred at the top of the chart.
+fn titles(root: &Area<'_>, title: &str, subtitle: &str) -> Result<(), String> {
+    let centre = |size: f64| TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Center, VPos::Top));
+    let x = SIZE.0 as i32 / 2;
+    root.draw(&Text::new(title.to_string(), (x, 12), centre(22.0))).map_err(err)?;
+    root.draw(&Text::new(subtitle.to_string(), (x, 40), centre(14.0))).map_err(err)?;
+    Ok(())
+}
+
+fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), String> {
+    // Cost: CPU seconds when measured, else wall seconds.
+    let cpu = report.points.iter().any(|p| p.cost.cpu_seconds > 0.0);
+    let cost = |p: &sable_engine::study::report::PointReport| if cpu { p.cost.cpu_seconds } else { p.cost.wall_seconds };
+    let relative = report.reference.is_some_and(|r| r != 0.0);
+    let error = |p: &sable_engine::study::report::PointReport| if relative { p.relative_error } else { p.error };
+    let (x0, x1) = log_range(report.points.iter().map(cost));
+    let (y0, y1) = log_range(report.points.iter().filter_map(error));
+    // A run that matches the reference exactly (the reference run itself) sits on the floor.
+    let floor = y0 * 1.2;
+    let reference = match report.reference {
+        Some(r) => format!("reference {r:.4} ({})", report.reference_source),
+        None => format!("reference not known yet ({})", report.reference_source),
+    };
+    let caption = format!("{name}: error against cost");
+    let mut chart = ChartBuilder::on(root)
+        .margin(18)
+        .margin_top(64)
+        .x_label_area_size(56)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(err)?;
+    titles(root, &caption, &reference)?;
+    chart
+        .configure_mesh()
+        .x_desc(if cpu { "cost: CPU time of the run, s" } else { "cost: wall-clock time of the run, s" })
+        .y_desc(format!("{} error of {}", if relative { "relative" } else { "absolute" }, report.measure))
+        .axis_desc_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    let mut labels: Vec<String> = Vec::new();
+    for p in &report.points {
+        if !labels.contains(&p.series) {
+            labels.push(p.series.clone());
+        }
+    }
+    for (k, series) in labels.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let mut pts: Vec<(f64, f64, String)> = report
+            .points
+            .iter()
+            .filter(|p| &p.series == series && p.state == "succeeded")
+            .filter_map(|p| error(p).map(|e| (cost(p).max(x0), if e > 0.0 { e } else { floor }, p.label.clone())))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(1))).map_err(err)?;
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 5, colour.filled())))
+            .map_err(err)?
+            .label(series.as_str())
+            .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
+        chart
+            .draw_series(
+                pts.iter().map(|p| EmptyElement::at((p.0, p.1)) + Text::new(p.2.clone(), (7, -14), ("sans-serif", 12).into_font())),
+            )
+            .map_err(err)?;
+    }
+    // The Pareto front.
+    let mut front: Vec<(f64, f64)> = report
+        .points
+        .iter()
+        .filter(|p| p.pareto)
+        .filter_map(|p| error(p).map(|e| (cost(p).max(x0), if e > 0.0 { e } else { floor })))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if !front.is_empty() {
+        chart.draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2))).map_err(err)?;
+        chart
+            .draw_series(front.iter().map(|&p| Circle::new(p, 9, BLACK.stroke_width(2))))
+            .map_err(err)?
+            .label("Pareto front")
+            .legend(|(x, y)| Circle::new((x, y), 7, BLACK.stroke_width(2)));
+    }
+    // Failed runs, along the top edge at their cost.
+    let failed: Vec<(f64, String)> = report
+        .points
+        .iter()
+        .filter(|p| p.state != "succeeded" && p.state != "queued" && p.state != "running")
+        .map(|p| {
+            let mode = p.failure.map_or("failed", |f| f.name());
+            (cost(p).clamp(x0, x1), format!("{} {}: {mode}", p.series, p.label))
+        })
+        .collect();
+    if !failed.is_empty() {
+        let top = y1 / 1.3;
+        chart
+            .draw_series(failed.iter().map(|(x, _)| Cross::new((*x, top), 7, FAILED.stroke_width(3))))
+            .map_err(err)?
+            .label("failed run (unstable)")
+            .legend(|(x, y)| Cross::new((x, y), 6, FAILED.stroke_width(3)));
+        chart
+            .draw_series(failed.iter().enumerate().map(|(k, (x, l))| {
+                EmptyElement::at((*x, top))
+                    + Text::new(l.clone(), (8, 6 + 14 * (k as i32 % 3)), ("sans-serif", 12).into_font().color(&FAILED))
+            }))
+            .map_err(err)?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerLeft)
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
+fn search_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), String> {
+    let values: Vec<f64> = report.points.iter().filter_map(|p| p.value).chain(report.theory.as_ref().map(|t| t.value)).collect();
+    let (x0, x1) = log_range(values.into_iter());
+    let mut subtitle = report.measure.clone();
+    if let Some(l) = &report.limit {
+        let v = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{v:.4e}"));
+        subtitle.push_str(&format!(
+            ": stable at {}, fails at {} ({})",
+            v(l.stable),
+            v(l.unstable),
+            l.mode.map_or("no failure", |m| m.name())
+        ));
+    }
+    if let Some(r) = report.theory.as_ref().and_then(|t| t.ratio) {
+        subtitle.push_str(&format!("; measured/theory {r:.3}"));
+    }
+    titles(root, name, &subtitle)?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(18)
+        .margin_top(64)
+        .x_label_area_size(56)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0..x1).log_scale(), -0.5f64..1.5f64)
+        .map_err(err)?;
+    let knob = report.measure.trim_start_matches("stability of ").to_string();
+    chart
+        .configure_mesh()
+        .x_labels(8)
+        .x_label_formatter(&|v| format!("{v:.2e}"))
+        .x_desc(format!("{knob} (log scale)"))
+        .y_desc("outcome: 1 = ran through, 0 = failed")
+        .y_labels(3)
+        .axis_desc_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    let ended = |p: &&sable_engine::study::report::PointReport| matches!(p.state.as_str(), "succeeded" | "failed" | "cancelled");
+    let stable: Vec<f64> = report.points.iter().filter(ended).filter(|p| p.failure.is_none()).filter_map(|p| p.value).collect();
+    chart
+        .draw_series(stable.iter().map(|v| Circle::new((*v, 1.0), 6, PALETTE[2].filled())))
+        .map_err(err)?
+        .label("ran through (stable)")
+        .legend(|(x, y)| Circle::new((x, y), 6, PALETTE[2].filled()));
+    // Failed probes, one colour per failure mode.
+    let modes = [FailureMode::BlowUp, FailureMode::ExcessiveOverlap, FailureMode::NonConvergence, FailureMode::Other];
+    let colours = [FAILED, PALETTE[3], PALETTE[5], RGBColor(90, 90, 90)];
+    for (mode, colour) in modes.into_iter().zip(colours) {
+        let xs: Vec<f64> = report.points.iter().filter(ended).filter(|p| p.failure == Some(mode)).filter_map(|p| p.value).collect();
+        if xs.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(xs.iter().map(|v| Cross::new((*v, 0.0), 7, colour.stroke_width(3))))
+            .map_err(err)?
+            .label(format!("failed: {}", mode.name()))
+            .legend(move |(x, y)| Cross::new((x, y), 6, colour.stroke_width(3)));
+    }
+    if let Some(l) = &report.limit {
+        if let (Some(a), Some(b)) = (l.stable, l.unstable) {
+            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+            chart
+                .draw_series(std::iter::once(Rectangle::new([(lo, -0.5), (hi, 1.5)], PALETTE[0].mix(0.25).filled())))
+                .map_err(err)?
+                .label(format!("limit: between {a:.4e} and {b:.4e}"))
+                .legend(|(x, y)| Rectangle::new([(x - 6, y - 5), (x + 6, y + 5)], PALETTE[0].mix(0.4).filled()));
+        }
+    }
+    if let Some(t) = &report.theory {
+        let ratio = t.ratio.map(|r| format!(", measured/theory = {r:.3}")).unwrap_or_default();
+        chart
+            .draw_series(LineSeries::new([(t.value, -0.5), (t.value, 1.5)], PALETTE[1].stroke_width(2)))
+            .map_err(err)?
+            .label(format!("theory {:.4e}: {}{ratio}", t.value, t.what))
+            .legend(|(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], PALETTE[1].stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
+/// A chart of sample fields: one line per series of (x, y) points.
+pub fn lines_svg(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)]) -> Result<String, String> {
+    let all = || series.iter().flat_map(|(_, p)| p.iter());
+    let (mut x0, mut x1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut y0, mut y1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if !x0.is_finite() {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    if x1 <= x0 {
+        x1 = x0 + 1.0;
+    }
+    let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 0.5 * y0.abs().max(1e-12) };
+    (y0, y1) = (y0 - pad, y1 + pad);
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(18)
+            .x_label_area_size(56)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).axis_desc_style(("sans-serif", 15)).draw().map_err(err)?;
+        for (k, (label, pts)) in series.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+                .map_err(err)?
+                .label(label.as_str())
+                .legend(move |(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], colour.stroke_width(2)));
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(out)
+}

@@ -1,0 +1,173 @@
+//! The REST routes of studies and charts: `POST /v1/studies`, `GET /v1/studies[/{id}]`,
+//! `GET /v1/studies/{id}/chart.svg`, `GET /v1/jobs/{id}/chart.svg`.
+
+use axum::body::Bytes;
+use axum::extract::rejection::{BytesRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::Deserialize;
+
+use crate::api::{self, ApiError};
+use crate::rest::AppState;
+use crate::studies::{self, StudyView};
+
+fn study_id(s: &str) -> Result<i64, ApiError> {
+    s.parse::<i64>()
+        .ok()
+        .filter(|&i| i > 0)
+        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer study id, got '{s}'")))
+}
+
+fn svg(text: String) -> Response {
+    ([(header::CONTENT_TYPE, "image/svg+xml"), (header::CACHE_CONTROL, "no-cache")], text).into_response()
+}
+
+/// `POST /v1/studies`.
+#[utoipa::path(
+    post,
+    path = "/v1/studies",
+    tag = "studies",
+    summary = "Check a study (docs/studies.md) and queue its runs",
+    request_body(content = Object, description = "A study file: {scene, series | search, measure, reference}"),
+    responses(
+        (status = 201, description = "Accepted; its runs are queued", body = StudyView),
+        (status = 400, description = "The body is not JSON", body = api::ErrorBody),
+        (status = 413, description = "The body is larger than the server's limit", body = api::ErrorBody),
+        (status = 422, description = "The study or one of its runs breaks a rule; every violation is in details", body = api::ErrorBody),
+    )
+)]
+pub(crate) async fn create(State(st): State<AppState>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let body = body.map_err(|e| match e.status() {
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
+        _ => ApiError::malformed("", e.body_text()),
+    })?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    if !value.is_object() {
+        return Err(ApiError::malformed("", "the body must be a study (a JSON object)"));
+    }
+    let view = studies::create(&st.store, &st.limits, &value).await?;
+    Ok((StatusCode::CREATED, [(header::LOCATION, format!("/v1/studies/{}", view.id))], Json(view)).into_response())
+}
+
+/// `GET /v1/studies`.
+#[utoipa::path(get, path = "/v1/studies", tag = "studies", summary = "The newest studies (at most 100)",
+    responses((status = 200, description = "Newest first", body = [StudyView])))]
+pub(crate) async fn list(State(st): State<AppState>) -> Result<Json<Vec<StudyView>>, ApiError> {
+    Ok(Json(studies::list(&st.store, 100).await?))
+}
+
+/// `GET /v1/studies/{id}`.
+#[utoipa::path(get, path = "/v1/studies/{id}", tag = "studies", summary = "A study: its state and report",
+    params(("id" = i64, Path, description = "Study id")),
+    responses(
+        (status = 200, description = "The study", body = StudyView),
+        (status = 400, description = "The id cannot be read", body = api::ErrorBody),
+        (status = 404, description = "No such study", body = api::ErrorBody),
+    ))]
+pub(crate) async fn get(State(st): State<AppState>, Path(id): Path<String>) -> Result<Json<StudyView>, ApiError> {
+    Ok(Json(studies::get(&st.store, study_id(&id)?).await?))
+}
+
+/// `GET /v1/studies/{id}/chart.svg`.
+#[utoipa::path(get, path = "/v1/studies/{id}/chart.svg", tag = "studies",
+    summary = "Error against cost (log-log, one series per label, Pareto front, failed runs), or a search's probes against its theory",
+    params(("id" = i64, Path, description = "Study id")),
+    responses(
+        (status = 200, description = "SVG", content_type = "image/svg+xml"),
+        (status = 404, description = "No such study", body = api::ErrorBody),
+        (status = 409, description = "No report yet", body = api::ErrorBody),
+    ))]
+pub(crate) async fn chart(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let view = studies::get(&st.store, study_id(&id)?).await?;
+    Ok(svg(studies::chart(&view)?))
+}
+
+/// Query of `GET /v1/jobs/{id}/chart.svg`.
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub(crate) struct ChartParams {
+    /// Sample field on the vertical axis, by path (`mu`, `p`, `phi`, `stress.xy`). Default `mu`.
+    y: Option<String>,
+    /// `time` (default), `step`, `strain` (the deviatoric strain of the stage) or a sample path.
+    x: Option<String>,
+    /// Other jobs drawn on the same axes, comma-separated ids.
+    with: Option<String>,
+}
+
+/// `GET /v1/jobs/{id}/chart.svg`.
+#[utoipa::path(get, path = "/v1/jobs/{id}/chart.svg", tag = "jobs", summary = "A sample field against time or strain, for one or several jobs",
+    params(("id" = i64, Path, description = "Job id"), ChartParams),
+    responses(
+        (status = 200, description = "SVG", content_type = "image/svg+xml"),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+        (status = 422, description = "A field is not in the samples", body = api::ErrorBody),
+    ))]
+pub(crate) async fn job_chart(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    q: Result<Query<ChartParams>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    let first = id
+        .parse::<i64>()
+        .ok()
+        .filter(|&i| i > 0)
+        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer job id, got '{id}'")))?;
+    let p = q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))?;
+    let y = p.y.unwrap_or_else(|| "mu".into());
+    let x = p.x.unwrap_or_else(|| "time".into());
+    let mut ids = vec![first];
+    for part in p.with.iter().flat_map(|w| w.split(',')).filter(|s| !s.trim().is_empty()) {
+        let id = part
+            .trim()
+            .parse::<i64>()
+            .ok()
+            .filter(|&i| i > 0)
+            .ok_or_else(|| ApiError::invalid("with", format!("must list job ids, got '{part}'")))?;
+        ids.push(id);
+    }
+    if ids.len() > 12 {
+        return Err(ApiError::invalid("with", "at most 11 other jobs"));
+    }
+    let x_path = if x == "strain" { "strain.deviatoric".to_string() } else { x.clone() };
+    let mut series = Vec::new();
+    for id in ids {
+        let job = st.store.get(id).await?;
+        let (_, samples) = api::samples(&st.store, id, 0, None, Some(2000)).await?;
+        let mut pts = Vec::with_capacity(samples.len());
+        for s in &samples {
+            let doc = serde_json::to_value(s).map_err(|e| ApiError::Internal(e.to_string()))?;
+            let get = |path: &str| sable_engine::study::paths::get(&doc, path).and_then(|v| v.as_f64());
+            if let (Some(a), Some(b)) = (get(&x_path), get(&y)) {
+                pts.push((a, b));
+            }
+        }
+        if pts.is_empty() && !samples.is_empty() {
+            return Err(ApiError::invalid(
+                if samples
+                    .iter()
+                    .all(|s| serde_json::to_value(s).ok().and_then(|d| sable_engine::study::paths::get(&d, &y).cloned()).is_none())
+                {
+                    "y"
+                } else {
+                    "x"
+                },
+                format!("job {id}'s samples have no number at '{y}' against '{x}'"),
+            ));
+        }
+        series.push((format!("job {id}: {}", job.name), pts));
+    }
+    let title = format!("{y} against {x}");
+    let unit = |f: &str| match f {
+        "time" => "time, s".to_string(),
+        "strain" => "deviatoric strain of the stage".to_string(),
+        "p" | "q" => format!("{f}, Pa"),
+        f if f.starts_with("stress.") => format!("{f}, Pa"),
+        "kinetic_energy" | "elastic_energy" => format!("{f}, J"),
+        other => other.to_string(),
+    };
+    Ok(svg(crate::charts::lines_svg(&title, &unit(&x), &unit(&y), &series).map_err(ApiError::Internal)?))
+}

@@ -1,0 +1,323 @@
+//! Studies as a service (issue 6; the engine's side is `sable_engine::study`): a study file is
+//! checked and expanded into jobs that run through the normal queue; the study driver measures
+//! each job when it ends, adds a search's next probe, and keeps the report (cost and error of
+//! every run, the Pareto front, a search's limit against its theory) in the store.
+//!
+//! Everything the driver knows is in the database: after a crash or a restart it picks up
+//! every running study where it was (a probe's position in the study is unique, so a repeated
+//! step adds nothing twice), and the jobs themselves are recovered by the queue.
+
+use std::time::Duration;
+
+use sable_engine::study::report::{Cost, PointReport, StudyReport, Theory};
+use sable_engine::study::search::{FailureMode, Next, Probe};
+use sable_engine::study::{parse_study, probe_scene, theory, ReferenceSpec, Study, StudySpec};
+use serde::Serialize;
+
+use crate::api::{self, rfc3339, ApiError, Limits};
+use crate::store::{JobStore, NewRun, RunRow, StudyRow};
+
+/// A study as both APIs show it.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct StudyView {
+    /// Id.
+    pub id: i64,
+    /// Name.
+    pub name: String,
+    /// `sweep` or `search`.
+    pub kind: String,
+    /// `running`, `succeeded` (every run ended; some may have failed, which is data) or `failed`.
+    pub state: String,
+    /// Runs ended so far, and runs in all (a search adds its probes one at a time).
+    pub runs_done: usize,
+    /// Runs so far.
+    pub runs: usize,
+    /// RFC 3339.
+    pub created_at: String,
+    /// RFC 3339, empty while running.
+    pub finished_at: String,
+    /// Why the study failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// The report (each run's cost and error, the Pareto front; a search's limit and theory).
+    #[schema(value_type = Object)]
+    pub report: Option<serde_json::Value>,
+}
+
+impl StudyView {
+    fn of(row: StudyRow, runs: &[RunRow]) -> Self {
+        Self {
+            id: row.id,
+            name: row.name,
+            kind: row.kind,
+            state: row.state,
+            runs_done: runs.iter().filter(|r| ended(&r.state)).count(),
+            runs: runs.len(),
+            created_at: rfc3339(row.created_at),
+            finished_at: row.finished_at.map(rfc3339).unwrap_or_default(),
+            error: row.error,
+            report: row.report.and_then(|r| serde_json::from_str(&r).ok()),
+        }
+    }
+}
+
+fn ended(state: &str) -> bool {
+    matches!(state, "succeeded" | "failed" | "cancelled")
+}
+
+/// Checks a study file and queues its first jobs (every run of a sweep; the two ends of a
+/// search). Nothing is written when a rule is broken.
+pub async fn create(store: &JobStore, limits: &Limits, body: &serde_json::Value) -> Result<StudyView, ApiError> {
+    let text = serde_json::to_string(body).map_err(|e| ApiError::Internal(e.to_string()))?;
+    if text.len() > limits.max_body_bytes {
+        return Err(ApiError::TooLarge(limits.max_body_bytes));
+    }
+    let (spec, study) = parse_study(&text).map_err(ApiError::InvalidArgument)?;
+    let name = spec.name.clone().unwrap_or_else(|| {
+        let scene = spec.scene.get("name").and_then(|n| n.as_str()).unwrap_or("scene");
+        format!("study of {scene}")
+    });
+    if let Some(job) = spec.reference.as_ref().and_then(|r| r.job) {
+        let ok = store.get(job).await.map(|j| j.state == "succeeded").unwrap_or(false);
+        if !ok {
+            return Err(ApiError::invalid("reference.job", format!("job {job} has not succeeded: name a succeeded job of this server")));
+        }
+    }
+    let (kind, runs) = match &study {
+        Study::Sweep { points, .. } => {
+            let mut runs = Vec::with_capacity(points.len());
+            for p in points {
+                let job_name = format!("{name} · {} {}", p.series, p.label()).trim().to_string();
+                let job = api::new_job(store, limits, &p.scene, "scene.", job_name).await?;
+                runs.push(NewRun { idx: p.index as i64, series: p.series.clone(), label: p.label(), value: None, job });
+            }
+            ("sweep", runs)
+        }
+        Study::Search { search, scene } => {
+            let mut runs = Vec::new();
+            for (k, value) in [search.low, search.high].into_iter().enumerate() {
+                runs.push(probe_run(store, limits, &name, scene, search, k as i64, value).await?);
+            }
+            ("search", runs)
+        }
+    };
+    let row = store.create_study(&name, kind, &text, &runs).await?;
+    let id = row.id;
+    let runs = store.study_runs(id).await?;
+    Ok(StudyView::of(row, &runs))
+}
+
+/// The run of a search's probe at `value`.
+async fn probe_run(
+    store: &JobStore,
+    limits: &Limits,
+    name: &str,
+    scene: &serde_json::Value,
+    search: &sable_engine::study::SearchSpec,
+    idx: i64,
+    value: f64,
+) -> Result<NewRun, ApiError> {
+    let s = probe_scene(scene, search, value).map_err(|e| ApiError::invalid("search.parameter", e))?;
+    let label = format!("{value:.4e}");
+    let job = api::new_job(store, limits, &s, "scene.", format!("{name} · {} = {label}", search.parameter)).await?;
+    Ok(NewRun { idx, series: "probe".into(), label, value: Some(value), job })
+}
+
+/// The chart of a study's report (SVG).
+pub fn chart(view: &StudyView) -> Result<String, ApiError> {
+    let report = view
+        .report
+        .clone()
+        .and_then(|r| serde_json::from_value::<StudyReport>(r).ok())
+        .ok_or_else(|| ApiError::Conflict(format!("study {} has no report yet: ask again in a moment", view.id)))?;
+    crate::charts::study_svg(&view.name, &report).map_err(ApiError::Internal)
+}
+
+/// One study as the APIs show it.
+pub async fn get(store: &JobStore, id: i64) -> Result<StudyView, ApiError> {
+    let row = store.study(id).await?;
+    let runs = store.study_runs(id).await?;
+    Ok(StudyView::of(row, &runs))
+}
+
+/// The newest studies.
+pub async fn list(store: &JobStore, limit: i64) -> Result<Vec<StudyView>, ApiError> {
+    let mut out = Vec::new();
+    for row in store.studies(None, limit).await? {
+        let runs = store.study_runs(row.id).await?;
+        out.push(StudyView::of(row, &runs));
+    }
+    Ok(out)
+}
+
+/// Runs the study driver until `stop` is cancelled: every `every`, advances each running
+/// study (errors are logged and retried at the next round).
+pub async fn drive(store: JobStore, limits: Limits, every: Duration, stop: tokio_util::sync::CancellationToken) {
+    let mut tick = tokio::time::interval(every);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tokio::select! {
+            _ = stop.cancelled() => return,
+            _ = tick.tick() => {}
+        }
+        let running = match store.studies(Some("running"), 1000).await {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("sable serve: study driver: {e}");
+                continue;
+            }
+        };
+        for row in running {
+            if let Err(e) = advance(&store, &limits, &row).await {
+                eprintln!("sable serve: study {}: {e}", row.id);
+            }
+        }
+    }
+}
+
+/// One round of the driver for one study: measure the runs that ended, add a search's next
+/// probe, recompute and store the report, and end the study when its runs are all done.
+pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Result<(), ApiError> {
+    let (spec, study) = match parse_study(&row.spec) {
+        Ok(x) => x,
+        Err(v) => {
+            let why = sable_engine::scene::format_violations(&v);
+            store.set_study_report(row.id, "null", "failed", Some(&format!("the stored study no longer validates: {why}"))).await?;
+            return Ok(());
+        }
+    };
+    let mut runs = store.study_runs(row.id).await?;
+    // Measure what ended.
+    if let Study::Sweep { measure, .. } = &study {
+        for r in runs.iter_mut().filter(|r| ended(&r.state) && r.measured_done == 0) {
+            let (value, note) = if r.state == "succeeded" {
+                let samples = store.samples(r.job_id, 0, None).await?;
+                let result = r.result.as_deref().and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok());
+                match measure.evaluate(&samples, result.as_ref()) {
+                    Ok(v) if v.is_finite() => (Some(v), None),
+                    Ok(v) => (None, Some(format!("the measure is not finite ({v})"))),
+                    Err(e) => (None, Some(e)),
+                }
+            } else {
+                (None, Some(r.error_message.clone().unwrap_or_else(|| format!("the job was {}", r.state))))
+            };
+            store.set_run_measure(row.id, r.idx, value, note.as_deref()).await?;
+            r.measured = value;
+            r.measure_note = note;
+            r.measured_done = 1;
+        }
+    }
+    let mut done = runs.iter().all(|r| ended(&r.state));
+    let mut report = StudyReport {
+        measure: String::new(),
+        reference: None,
+        reference_source: String::new(),
+        points: runs.iter().map(point_of).collect(),
+        limit: None,
+        theory: None,
+    };
+    match &study {
+        Study::Sweep { measure, reference, .. } => {
+            report.measure = measure.describe();
+            let (value, source) = reference_value(store, &spec, reference, measure, &report).await?;
+            report.reference_source = source;
+            report.score(value);
+        }
+        Study::Search { search, scene } => {
+            report.measure = format!("stability of {}", search.parameter);
+            report.reference_source = "bisection".into();
+            let probes: Vec<Probe> = runs
+                .iter()
+                .filter(|r| ended(&r.state))
+                .filter_map(|r| r.value.map(|value| Probe { value, failure: failure_of(r) }))
+                .collect();
+            let pending = runs.iter().filter(|r| !ended(&r.state)).count();
+            match search.next(&probes, pending) {
+                Next::Probe(values) => {
+                    let mut fresh = Vec::new();
+                    for (k, value) in values.into_iter().enumerate() {
+                        let idx = runs.len() as i64 + k as i64;
+                        fresh.push(probe_run(store, limits, &row.name, scene, search, idx, value).await?);
+                    }
+                    store.add_study_runs(row.id, &fresh).await?;
+                    done = false;
+                }
+                Next::Wait => done = false,
+                Next::Done(limit) => {
+                    report.theory = theory::dem_limit(scene, search).map(|t| Theory { ratio: limit.stable.map(|s| s / t.value), ..t });
+                    report.limit = Some(limit);
+                }
+            }
+        }
+    }
+    let json = serde_json::to_string(&report).map_err(|e| ApiError::Internal(e.to_string()))?;
+    store.set_study_report(row.id, &json, if done { "succeeded" } else { "running" }, None).await?;
+    Ok(())
+}
+
+/// A failed run's failure mode (a cancelled run counts as another failure).
+fn failure_of(r: &RunRow) -> Option<FailureMode> {
+    match r.state.as_str() {
+        "succeeded" => None,
+        "failed" => Some(FailureMode::of(r.error_code.as_deref().unwrap_or_default(), r.error_message.as_deref().unwrap_or_default())),
+        _ => Some(FailureMode::Other),
+    }
+}
+
+fn point_of(r: &RunRow) -> PointReport {
+    PointReport {
+        index: r.idx as usize,
+        series: r.series.clone(),
+        label: r.label.clone(),
+        value: r.value,
+        job_id: r.job_id,
+        state: r.state.clone(),
+        cost: Cost {
+            wall_seconds: r.wall_seconds,
+            cpu_seconds: r.cpu_seconds,
+            steps: r.steps.max(0) as u64,
+            solver_iterations: r.solver_iterations.max(0) as u64,
+        },
+        measured: r.measured,
+        error: None,
+        relative_error: None,
+        failure: failure_of(r),
+        note: r.measure_note.clone(),
+        pareto: false,
+    }
+}
+
+/// The reference value (once it can be known) and where it comes from.
+async fn reference_value(
+    store: &JobStore,
+    spec: &StudySpec,
+    reference: &ReferenceSpec,
+    measure: &sable_engine::study::MeasureSpec,
+    report: &StudyReport,
+) -> Result<(Option<f64>, String), ApiError> {
+    if let Some(v) = reference.value {
+        return Ok((Some(v), "value".into()));
+    }
+    if reference.analytic.is_some() {
+        // The restitution coefficient of the scene's first material.
+        let e = spec
+            .scene
+            .get("materials")
+            .and_then(|m| m.as_object())
+            .and_then(|m| m.values().next())
+            .and_then(|m| m.get("restitution"))
+            .and_then(|e| e.as_f64());
+        return Ok((e, "analytic: the restitution coefficient of the scene's material".into()));
+    }
+    if let Some(job) = reference.job {
+        let row = store.get(job).await?;
+        let samples = store.samples(job, 0, None).await?;
+        let result = row.result.as_deref().and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok());
+        return Ok((measure.evaluate(&samples, result.as_ref()).ok(), format!("job {job}")));
+    }
+    let label = reference.finest.clone().unwrap_or_default();
+    Ok(match report.finest(&label) {
+        Some(p) => (p.measured, format!("the finest run of series '{label}' ({}, job {})", p.label, p.job_id)),
+        None => (None, format!("the finest run of series '{label}' (none has succeeded yet)")),
+    })
+}
