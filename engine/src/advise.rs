@@ -120,6 +120,30 @@ pub struct Advice {
     pub needs: Option<String>,
     /// Changes to the scene that would model it more cheaply, which the advisor cannot make.
     pub suggestions: Vec<String>,
+    /// What runs of this scene cost in the studies stored by the service (filled by the
+    /// service; empty when none studied it): the runs on each study's Pareto front.
+    #[serde(default)]
+    pub expected_cost: Vec<ExpectedCost>,
+}
+
+/// The cost and error of one stored run of the same scene (a study's Pareto front).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ExpectedCost {
+    /// The study.
+    pub study_id: i64,
+    /// Its series and the run's swept values.
+    pub series: String,
+    /// The swept values.
+    pub label: String,
+    /// The method the run used.
+    pub method: String,
+    /// CPU seconds of the run.
+    pub cpu_seconds: f64,
+    /// Wall-clock seconds of the run.
+    pub wall_seconds: f64,
+    /// Its relative error against the study's reference (absolute when the reference is 0).
+    pub error: Option<f64>,
 }
 
 impl Advice {
@@ -368,6 +392,7 @@ pub fn advise(scene: &Scene) -> Advice {
         dropped: dropped(scene),
         needs,
         suggestions: suggestions(scene),
+        expected_cost: Vec::new(),
     }
 }
 

@@ -415,8 +415,10 @@ pub async fn advise(
     scene_path: &str,
 ) -> Result<sable_engine::advise::Advice, ApiError> {
     let text = serde_json::to_string(scene).map_err(|e| ApiError::Internal(e.to_string()))?;
-    let scene = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
-    Ok(sable_engine::advise::advice_for(&scene))
+    let checked = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
+    let mut advice = sable_engine::advise::advice_for(&checked);
+    advice.expected_cost = crate::studies::expected_cost(store, scene).await?;
+    Ok(advice)
 }
 
 /// Query of a job list, as both APIs receive it.

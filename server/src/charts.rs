@@ -85,7 +85,10 @@ fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), 
         .y_label_area_size(80)
         .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(err)?;
-    titles(root, &caption, &reference)?;
+    let swept: Vec<String> =
+        report.swept.iter().filter(|(_, p)| !p.is_empty()).map(|(label, p)| format!("{label}: {}", p.join(", "))).collect();
+    let subtitle = if swept.is_empty() { reference } else { format!("{reference}; points labelled by {}", swept.join("; ")) };
+    titles(root, &caption, &subtitle)?;
     chart
         .configure_mesh()
         .x_desc(if cpu { "cost: CPU time of the run, s" } else { "cost: wall-clock time of the run, s" })

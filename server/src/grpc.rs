@@ -180,6 +180,19 @@ impl pb::simulations_server::Simulations for SimulationsService {
             dropped: a.dropped,
             needs: a.needs.unwrap_or_default(),
             suggestions: a.suggestions,
+            expected_cost: a
+                .expected_cost
+                .into_iter()
+                .map(|c| pb::ExpectedCost {
+                    study_id: c.study_id,
+                    series: c.series,
+                    label: c.label,
+                    method: c.method,
+                    cpu_seconds: c.cpu_seconds,
+                    wall_seconds: c.wall_seconds,
+                    error: c.error,
+                })
+                .collect(),
         }))
     }
 

@@ -9,6 +9,7 @@
 
 use std::time::Duration;
 
+use sable_engine::advise::ExpectedCost;
 use sable_engine::study::report::{Cost, PointReport, StudyReport, Theory};
 use sable_engine::study::search::{FailureMode, Next, Probe};
 use sable_engine::study::{parse_study, probe_scene, theory, ReferenceSpec, Study, StudySpec};
@@ -150,6 +151,41 @@ pub async fn list(store: &JobStore, limit: i64) -> Result<Vec<StudyView>, ApiErr
     Ok(out)
 }
 
+/// The runs on the Pareto front of the stored studies of this scene (the same scene whatever
+/// its method): what the advice quotes as the expected cost.
+pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Result<Vec<ExpectedCost>, ApiError> {
+    let strip = |s: &serde_json::Value| {
+        let mut s = s.clone();
+        if let Some(m) = s.as_object_mut() {
+            m.remove("method");
+            m.remove("name");
+        }
+        s
+    };
+    let wanted = strip(scene);
+    let mut out = Vec::new();
+    for row in store.studies(None, 1000).await? {
+        let Ok(spec) = serde_json::from_str::<StudySpec>(&row.spec) else { continue };
+        if strip(&spec.scene) != wanted {
+            continue;
+        }
+        let Some(report) = row.report.as_deref().and_then(|r| serde_json::from_str::<StudyReport>(r).ok()) else { continue };
+        for p in report.points.iter().filter(|p| p.pareto) {
+            let method = store.get(p.job_id).await.map(|j| j.method).unwrap_or_default();
+            out.push(ExpectedCost {
+                study_id: row.id,
+                series: p.series.clone(),
+                label: p.label.clone(),
+                method,
+                cpu_seconds: p.cost.cpu_seconds,
+                wall_seconds: p.cost.wall_seconds,
+                error: p.relative_error.or(p.error),
+            });
+        }
+    }
+    Ok(out)
+}
+
 /// Runs the study driver until `stop` is cancelled: every `every`, advances each running
 /// study (errors are logged and retried at the next round).
 pub async fn drive(store: JobStore, limits: Limits, every: Duration, stop: tokio_util::sync::CancellationToken) {
@@ -212,6 +248,7 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
         measure: String::new(),
         reference: None,
         reference_source: String::new(),
+        swept: spec.series.iter().map(|s| (s.label.clone(), s.sweep.iter().map(|w| w.parameter.clone()).collect())).collect(),
         points: runs.iter().map(point_of).collect(),
         limit: None,
         theory: None,

@@ -866,6 +866,15 @@ async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
         h.http.get(format!("{}/v1/jobs/{}/chart.svg?y=kinetic_energy&x=time", h.base, points[0]["job_id"])).send().await.expect("chart");
     assert_eq!(c.status(), 200);
     assert!(c.text().await.expect("svg").contains("kinetic_energy against time"));
+    // The advice for the same scene quotes what the study measured: its Pareto front.
+    let (_, advice) = h.post("/v1/advice", &collision(0.02), None).await;
+    let quoted = advice["expected_cost"].as_array().expect("expected cost");
+    let front: Vec<&Value> = points.iter().filter(|p| p["pareto"] == true).collect();
+    assert_eq!(quoted.len(), front.len(), "{advice}");
+    for (q, p) in quoted.iter().zip(&front) {
+        assert_eq!((&q["study_id"], &q["label"], q["method"].as_str()), (&done["id"], &p["label"], Some("dem")));
+        assert_eq!((&q["cpu_seconds"], &q["error"]), (&p["cost"]["cpu_seconds"], &p["relative_error"]));
+    }
     // A bad study writes nothing.
     let before = h.jobs_in_db().await;
     let mut bad = study.clone();

@@ -78,6 +78,9 @@ pub struct StudyReport {
     pub reference: Option<f64>,
     /// Where the reference comes from.
     pub reference_source: String,
+    /// Each series' label and the parameters it sweeps (the order of a point's label).
+    #[serde(default)]
+    pub swept: Vec<(String, Vec<String>)>,
     /// The runs, in the order of the study.
     pub points: Vec<PointReport>,
     /// A search's result.
@@ -152,6 +155,7 @@ mod tests {
             measure: "restitution".into(),
             reference: None,
             reference_source: "value".into(),
+            swept: Vec::new(),
             points: vec![
                 point(0, "A", 1.0, Some(0.60), "succeeded"), // error 0.10: cheapest, front
                 point(1, "A", 2.0, Some(0.68), "succeeded"), // error 0.02: front

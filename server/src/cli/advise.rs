@@ -47,6 +47,13 @@ pub fn render(a: &Advice) -> String {
     for x in &a.suggestions {
         s.push_str(&format!("  suggestion: {x}\n"));
     }
+    for c in &a.expected_cost {
+        let e = c.error.map_or("—".to_string(), |e| format!("{e:.2e}"));
+        s.push_str(&format!(
+            "  study {} measured {} ({} {}): {:.3} CPU s, error {e}\n",
+            c.study_id, c.method, c.series, c.label, c.cpu_seconds
+        ));
+    }
     let n = &a.numbers;
     let opt = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{v:.3e}"));
     s.push_str(&format!(

@@ -109,7 +109,7 @@ pub fn render(r: &StudyReport) -> String {
             _ => p.state.clone(),
         };
         out.push_str(&format!(
-            "{:>4}  {:<10}  {:<18}  {:<9}  {:>7}  {:>10}  {:>10.3}  {:>12}  {:>11}  {:>10}  {}\n",
+            "{:>4}  {:<10}  {:<18}  {:<9}  {:>7}  {:>10}  {:>10.3e}  {:>12}  {:>11}  {:>10}  {}\n",
             p.index,
             p.series,
             p.label,
