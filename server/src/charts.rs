@@ -91,6 +91,11 @@ fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), 
     titles(root, &caption, &subtitle)?;
     chart
         .configure_mesh()
+        .light_line_style(WHITE)
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&|v| format!("{v:.2e}"))
+        .y_label_formatter(&|v| format!("{v:.1e}"))
         .x_desc(if cpu { "cost: CPU time of the run, s" } else { "cost: wall-clock time of the run, s" })
         .y_desc(format!("{} error of {}", if relative { "relative" } else { "absolute" }, report.measure))
         .axis_desc_style(("sans-serif", 15))
@@ -200,7 +205,8 @@ fn search_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(),
     let knob = report.measure.trim_start_matches("stability of ").to_string();
     chart
         .configure_mesh()
-        .x_labels(8)
+        .light_line_style(WHITE)
+        .x_labels(6)
         .x_label_formatter(&|v| format!("{v:.2e}"))
         .x_desc(format!("{knob} (log scale)"))
         .y_desc("outcome: 1 = ran through, 0 = failed")

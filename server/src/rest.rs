@@ -93,7 +93,16 @@ async fn not_found() -> ApiError {
     ApiError::NotFound("no such route; see GET /v1/openapi.json".into())
 }
 
-fn parse_id(s: &str) -> Result<i64, ApiError> {
+/// A request body read as JSON (413 over the server's limit, 400 when it is not JSON).
+pub(crate) fn json_body(st: &AppState, body: Result<Bytes, BytesRejection>) -> Result<serde_json::Value, ApiError> {
+    let body = body.map_err(|e| match e.status() {
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
+        _ => ApiError::malformed("", e.body_text()),
+    })?;
+    serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))
+}
+
+pub(crate) fn parse_id(s: &str) -> Result<i64, ApiError> {
     s.parse::<i64>()
         .ok()
         .filter(|&i| i > 0)
@@ -126,12 +135,7 @@ pub(crate) async fn submit(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, ApiError> {
-    let body = body.map_err(|e| match e.status() {
-        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
-        _ => ApiError::malformed("", e.body_text()),
-    })?;
-    let value: serde_json::Value =
-        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    let value = json_body(&st, body)?;
     let mut sub = Submission::default();
     match value {
         serde_json::Value::Object(mut m) if m.contains_key("scene") => {
@@ -189,12 +193,7 @@ pub(crate) async fn submit(
     )
 )]
 pub(crate) async fn advice(State(st): State<AppState>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
-    let body = body.map_err(|e| match e.status() {
-        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
-        _ => ApiError::malformed("", e.body_text()),
-    })?;
-    let value: serde_json::Value =
-        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    let value = json_body(&st, body)?;
     let (scene, path) = match value {
         serde_json::Value::Object(mut m) if m.contains_key("scene") => {
             if let Some(k) = m.keys().find(|k| *k != "scene") {

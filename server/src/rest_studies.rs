@@ -10,7 +10,7 @@ use axum::Json;
 use serde::Deserialize;
 
 use crate::api::{self, ApiError};
-use crate::rest::AppState;
+use crate::rest::{json_body, parse_id, AppState};
 use crate::studies::{self, StudyView};
 
 fn study_id(s: &str) -> Result<i64, ApiError> {
@@ -39,12 +39,7 @@ fn svg(text: String) -> Response {
     )
 )]
 pub(crate) async fn create(State(st): State<AppState>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
-    let body = body.map_err(|e| match e.status() {
-        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge(st.limits.max_body_bytes),
-        _ => ApiError::malformed("", e.body_text()),
-    })?;
-    let value: serde_json::Value =
-        serde_json::from_slice(&body).map_err(|e| ApiError::malformed("", format!("the body must be a JSON object: {e}")))?;
+    let value = json_body(&st, body)?;
     if !value.is_object() {
         return Err(ApiError::malformed("", "the body must be a study (a JSON object)"));
     }
@@ -111,11 +106,7 @@ pub(crate) async fn job_chart(
     Path(id): Path<String>,
     q: Result<Query<ChartParams>, QueryRejection>,
 ) -> Result<Response, ApiError> {
-    let first = id
-        .parse::<i64>()
-        .ok()
-        .filter(|&i| i > 0)
-        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer job id, got '{id}'")))?;
+    let first = parse_id(&id)?;
     let p = q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))?;
     let y = p.y.unwrap_or_else(|| "mu".into());
     let x = p.x.unwrap_or_else(|| "time".into());

@@ -354,6 +354,7 @@ async fn reference_value(
     }
     let label = reference.finest.clone().unwrap_or_default();
     Ok(match report.finest(&label) {
+        Some(p) if p.label.is_empty() => (p.measured, format!("the finest run of series '{label}' (job {})", p.job_id)),
         Some(p) => (p.measured, format!("the finest run of series '{label}' ({}, job {})", p.label, p.job_id)),
         None => (None, format!("the finest run of series '{label}' (none has succeeded yet)")),
     })
