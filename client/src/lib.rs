@@ -146,9 +146,9 @@ impl Client {
         Ok(self.studies.get_study(pb::GetStudyRequest { id }).await?.into_inner())
     }
 
-    /// A study's chart as SVG.
-    pub async fn study_chart(&mut self, id: i64) -> Result<Vec<u8>, ClientError> {
-        Ok(self.studies.get_study_chart(pb::GetStudyRequest { id }).await?.into_inner().data)
+    /// A study's chart, `format` `svg` or `png`.
+    pub async fn study_chart(&mut self, id: i64, format: &str) -> Result<Vec<u8>, ClientError> {
+        Ok(self.studies.get_study_chart(pb::GetStudyChartRequest { id, format: format.to_string() }).await?.into_inner().data)
     }
 
     /// One job.

@@ -22,7 +22,72 @@ const PALETTE: [RGBColor; 6] = [
 ];
 const FAILED: RGBColor = RGBColor(213, 94, 0);
 
-type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+/// The font every chart is set in (DejaVu Sans, embedded: no system fonts needed; licence in
+/// server/assets/DejaVuSans-LICENSE.txt).
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+
+/// Registers the embedded font under the family name the charts use, once.
+fn fonts() -> Result<(), String> {
+    static DONE: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
+    DONE.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| "the embedded font cannot be read".to_string())
+    })
+    .clone()
+}
+
+/// How a chart is encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// SVG text (`image/svg+xml`).
+    Svg,
+    /// PNG image (`image/png`).
+    Png,
+}
+
+impl Format {
+    /// The MIME type.
+    pub fn content_type(self) -> &'static str {
+        match self {
+            Self::Svg => "image/svg+xml",
+            Self::Png => "image/png",
+        }
+    }
+}
+
+/// A chart that can be drawn on any plotters backend.
+trait Chart {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String>;
+}
+
+/// Draws `chart` on a white canvas and encodes it.
+fn render(chart: &impl Chart, format: Format) -> Result<Vec<u8>, String> {
+    fonts()?;
+    match format {
+        Format::Svg => {
+            let mut out = String::new();
+            {
+                let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+                root.fill(&WHITE).map_err(err)?;
+                chart.draw(&root)?;
+                root.present().map_err(err)?;
+            }
+            Ok(out.into_bytes())
+        }
+        Format::Png => {
+            let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+            {
+                let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
+                root.fill(&WHITE).map_err(err)?;
+                chart.draw(&root)?;
+                root.present().map_err(err)?;
+            }
+            let img = image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb).ok_or("the chart's pixels do not fill the image")?;
+            let mut png = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut png, image::ImageOutputFormat::Png).map_err(err)?;
+            Ok(png.into_inner())
+        }
+    }
+}
 
 fn err<E: std::fmt::Display>(e: E) -> String {
     format!("cannot draw the chart: {e}")
@@ -39,35 +104,38 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 }
 
 /// The chart of a study: error against cost for a sweep, the probes for a search.
-pub fn study_svg(name: &str, report: &StudyReport) -> Result<String, String> {
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        if report.limit.is_some() || report.points.iter().any(|p| p.value.is_some()) {
-            search_chart(&root, name, report)?;
-        } else {
-            sweep_chart(&root, name, report)?;
+pub fn study(name: &str, report: &StudyReport, format: Format) -> Result<Vec<u8>, String> {
+    struct Study<'a>(&'a str, &'a StudyReport);
+    impl Chart for Study<'_> {
+        fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+            if self.1.limit.is_some() || self.1.points.iter().any(|p| p.value.is_some()) {
+                search_chart(root, self.0, self.1)
+            } else {
+                sweep_chart(root, self.0, self.1)
+            }
         }
-        root.present().map_err(err)?;
     }
-    Ok(out)
+    render(&Study(name, report), format)
 }
 
-/// A title and a line under it, centred at the top of the chart.
-fn titles(root: &Area<'_>, title: &str, subtitle: &str) -> Result<(), String> {
+/// A title and up to two lines under it, centred at the top of the chart.
+fn titles<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &[String]) -> Result<(), String> {
     let centre = |size: f64| TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Center, VPos::Top));
     let x = SIZE.0 as i32 / 2;
-    root.draw(&Text::new(title.to_string(), (x, 12), centre(22.0))).map_err(err)?;
-    root.draw(&Text::new(subtitle.to_string(), (x, 40), centre(14.0))).map_err(err)?;
+    root.draw(&Text::new(title.to_string(), (x, 10), centre(22.0))).map_err(err)?;
+    for (k, line) in lines.iter().take(2).enumerate() {
+        root.draw(&Text::new(line.clone(), (x, 38 + 18 * k as i32), centre(13.0))).map_err(err)?;
+    }
     Ok(())
 }
 
-fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), String> {
+fn sweep_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, report: &StudyReport) -> Result<(), String> {
     // Cost: CPU seconds when measured, else wall seconds.
     let cpu = report.points.iter().any(|p| p.cost.cpu_seconds > 0.0);
     let cost = |p: &sable_engine::study::report::PointReport| if cpu { p.cost.cpu_seconds } else { p.cost.wall_seconds };
-    let relative = report.reference.is_some_and(|r| r != 0.0);
+    // Relative errors when every run's reference is known and not zero.
+    let refs: Vec<f64> = report.points.iter().filter_map(|p| p.reference).collect();
+    let relative = !refs.is_empty() && refs.iter().all(|r| *r != 0.0);
     let error = |p: &sable_engine::study::report::PointReport| if relative { p.relative_error } else { p.error };
     let (x0, x1) = log_range(report.points.iter().map(cost));
     let (y0, y1) = log_range(report.points.iter().filter_map(error));
@@ -75,20 +143,24 @@ fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), 
     let floor = y0 * 1.2;
     let reference = match report.reference {
         Some(r) => format!("reference {r:.4} ({})", report.reference_source),
+        None if !refs.is_empty() => format!("reference: {}", report.reference_source),
         None => format!("reference not known yet ({})", report.reference_source),
     };
     let caption = format!("{name}: error against cost");
     let mut chart = ChartBuilder::on(root)
         .margin(18)
-        .margin_top(64)
+        .margin_top(80)
         .x_label_area_size(56)
         .y_label_area_size(80)
         .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(err)?;
     let swept: Vec<String> =
         report.swept.iter().filter(|(_, p)| !p.is_empty()).map(|(label, p)| format!("{label}: {}", p.join(", "))).collect();
-    let subtitle = if swept.is_empty() { reference } else { format!("{reference}; points labelled by {}", swept.join("; ")) };
-    titles(root, &caption, &subtitle)?;
+    let mut lines = vec![reference];
+    if !swept.is_empty() {
+        lines.push(format!("points labelled by {}", swept.join("; ")));
+    }
+    titles(root, &caption, &lines)?;
     chart
         .configure_mesh()
         .light_line_style(WHITE)
@@ -178,7 +250,7 @@ fn sweep_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), 
     Ok(())
 }
 
-fn search_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(), String> {
+fn search_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, report: &StudyReport) -> Result<(), String> {
     let values: Vec<f64> = report.points.iter().filter_map(|p| p.value).chain(report.theory.as_ref().map(|t| t.value)).collect();
     let (x0, x1) = log_range(values.into_iter());
     let mut subtitle = report.measure.clone();
@@ -194,10 +266,10 @@ fn search_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(),
     if let Some(r) = report.theory.as_ref().and_then(|t| t.ratio) {
         subtitle.push_str(&format!("; measured/theory {r:.3}"));
     }
-    titles(root, name, &subtitle)?;
+    titles(root, name, &[subtitle])?;
     let mut chart = ChartBuilder::on(root)
         .margin(18)
-        .margin_top(64)
+        .margin_top(80)
         .x_label_area_size(56)
         .y_label_area_size(80)
         .build_cartesian_2d((x0..x1).log_scale(), -0.5f64..1.5f64)
@@ -264,7 +336,23 @@ fn search_chart(root: &Area<'_>, name: &str, report: &StudyReport) -> Result<(),
 }
 
 /// A chart of sample fields: one line per series of (x, y) points.
-pub fn lines_svg(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)]) -> Result<String, String> {
+pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)], format: Format) -> Result<Vec<u8>, String> {
+    struct Lines<'a>(&'a str, &'a str, &'a str, &'a [(String, Vec<(f64, f64)>)]);
+    impl Chart for Lines<'_> {
+        fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+            lines_chart(root, self.0, self.1, self.2, self.3)
+        }
+    }
+    render(&Lines(title, x_desc, y_desc, series), format)
+}
+
+fn lines_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+) -> Result<(), String> {
     let all = || series.iter().flat_map(|(_, p)| p.iter());
     let (mut x0, mut x1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let (mut y0, mut y1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
@@ -276,28 +364,22 @@ pub fn lines_svg(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec
     }
     let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 0.5 * y0.abs().max(1e-12) };
     (y0, y1) = (y0 - pad, y1 + pad);
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(18)
-            .x_label_area_size(56)
-            .y_label_area_size(90)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(err)?;
-        chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).axis_desc_style(("sans-serif", 15)).draw().map_err(err)?;
-        for (k, (label, pts)) in series.iter().enumerate() {
-            let colour = PALETTE[k % PALETTE.len()];
-            chart
-                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
-                .map_err(err)?
-                .label(label.as_str())
-                .legend(move |(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], colour.stroke_width(2)));
-        }
-        chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(err)?;
-        root.present().map_err(err)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 22))
+        .margin(18)
+        .x_label_area_size(56)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)?;
+    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).axis_desc_style(("sans-serif", 15)).draw().map_err(err)?;
+    for (k, (label, pts)) in series.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+            .map_err(err)?
+            .label(label.as_str())
+            .legend(move |(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], colour.stroke_width(2)));
     }
-    Ok(out)
+    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(err)?;
+    Ok(())
 }

@@ -441,9 +441,15 @@ impl pb::studies_server::Studies for StudiesService {
         Ok(Response::new(pb::ListStudiesResponse { studies }))
     }
 
-    async fn get_study_chart(&self, req: Request<pb::GetStudyRequest>) -> Result<Response<pb::Chart>, Status> {
-        let view = crate::studies::get(&self.store, req.into_inner().id).await?;
-        let svg = crate::studies::chart(&view)?;
-        Ok(Response::new(pb::Chart { content_type: "image/svg+xml".into(), data: svg.into_bytes() }))
+    async fn get_study_chart(&self, req: Request<pb::GetStudyChartRequest>) -> Result<Response<pb::Chart>, Status> {
+        let r = req.into_inner();
+        let format = match r.format.as_str() {
+            "" | "svg" => crate::charts::Format::Svg,
+            "png" => crate::charts::Format::Png,
+            f => return Err(ApiError::invalid("format", format!("must be svg or png, got '{f}'")).into()),
+        };
+        let view = crate::studies::get(&self.store, r.id).await?;
+        let data = crate::studies::chart(&view, format)?;
+        Ok(Response::new(pb::Chart { content_type: format.content_type().into(), data }))
     }
 }

@@ -46,7 +46,9 @@ pub struct SubmitBody {
         crate::rest_studies::list,
         crate::rest_studies::get,
         crate::rest_studies::chart,
+        crate::rest_studies::chart_png,
         crate::rest_studies::job_chart,
+        crate::rest_studies::job_chart_png,
         rest::openapi,
         rest::healthz,
         rest::metrics

@@ -1,5 +1,5 @@
 //! The REST routes of studies and charts: `POST /v1/studies`, `GET /v1/studies[/{id}]`,
-//! `GET /v1/studies/{id}/chart.svg`, `GET /v1/jobs/{id}/chart.svg`.
+//! `GET /v1/studies/{id}/chart.svg` (and `.png`), `GET /v1/jobs/{id}/chart.svg` (and `.png`).
 
 use axum::body::Bytes;
 use axum::extract::rejection::{BytesRejection, QueryRejection};
@@ -10,6 +10,7 @@ use axum::Json;
 use serde::Deserialize;
 
 use crate::api::{self, ApiError};
+use crate::charts::Format;
 use crate::rest::{json_body, parse_id, AppState};
 use crate::studies::{self, StudyView};
 
@@ -20,8 +21,8 @@ fn study_id(s: &str) -> Result<i64, ApiError> {
         .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer study id, got '{s}'")))
 }
 
-fn svg(text: String) -> Response {
-    ([(header::CONTENT_TYPE, "image/svg+xml"), (header::CACHE_CONTROL, "no-cache")], text).into_response()
+fn image(format: Format, bytes: Vec<u8>) -> Response {
+    ([(header::CONTENT_TYPE, format.content_type()), (header::CACHE_CONTROL, "no-cache")], bytes).into_response()
 }
 
 /// `POST /v1/studies`.
@@ -76,8 +77,25 @@ pub(crate) async fn get(State(st): State<AppState>, Path(id): Path<String>) -> R
         (status = 409, description = "No report yet", body = api::ErrorBody),
     ))]
 pub(crate) async fn chart(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
-    let view = studies::get(&st.store, study_id(&id)?).await?;
-    Ok(svg(studies::chart(&view)?))
+    study_chart(&st, &id, Format::Svg).await
+}
+
+/// `GET /v1/studies/{id}/chart.png`.
+#[utoipa::path(get, path = "/v1/studies/{id}/chart.png", tag = "studies", summary = "The study's chart as PNG",
+    params(("id" = i64, Path, description = "Study id")),
+    responses(
+        (status = 200, description = "PNG", content_type = "image/png"),
+        (status = 404, description = "No such study", body = api::ErrorBody),
+        (status = 409, description = "No report yet", body = api::ErrorBody),
+    ))]
+pub(crate) async fn chart_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    study_chart(&st, &id, Format::Png).await
+}
+
+async fn study_chart(st: &AppState, id: &str, format: Format) -> Result<Response, ApiError> {
+    let view = studies::get(&st.store, study_id(id)?).await?;
+    let bytes = studies::chart(&view, format)?;
+    Ok(image(format, bytes))
 }
 
 /// Query of `GET /v1/jobs/{id}/chart.svg`.
@@ -91,6 +109,9 @@ pub(crate) struct ChartParams {
     x: Option<String>,
     /// Other jobs drawn on the same axes, comma-separated ids.
     with: Option<String>,
+    /// Only the samples of this stage of the experiment. Default: every sample, or the last
+    /// stage's when `x` is `strain` (strains restart at each stage).
+    stage: Option<String>,
 }
 
 /// `GET /v1/jobs/{id}/chart.svg`.
@@ -106,7 +127,32 @@ pub(crate) async fn job_chart(
     Path(id): Path<String>,
     q: Result<Query<ChartParams>, QueryRejection>,
 ) -> Result<Response, ApiError> {
-    let first = parse_id(&id)?;
+    samples_chart(&st, &id, q, Format::Svg).await
+}
+
+/// `GET /v1/jobs/{id}/chart.png`.
+#[utoipa::path(get, path = "/v1/jobs/{id}/chart.png", tag = "jobs", summary = "The same chart as PNG",
+    params(("id" = i64, Path, description = "Job id"), ChartParams),
+    responses(
+        (status = 200, description = "PNG", content_type = "image/png"),
+        (status = 404, description = "No such job", body = api::ErrorBody),
+        (status = 422, description = "A field is not in the samples", body = api::ErrorBody),
+    ))]
+pub(crate) async fn job_chart_png(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    q: Result<Query<ChartParams>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    samples_chart(&st, &id, q, Format::Png).await
+}
+
+async fn samples_chart(
+    st: &AppState,
+    id: &str,
+    q: Result<Query<ChartParams>, QueryRejection>,
+    format: Format,
+) -> Result<Response, ApiError> {
+    let first = parse_id(id)?;
     let p = q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))?;
     let y = p.y.unwrap_or_else(|| "mu".into());
     let x = p.x.unwrap_or_else(|| "time".into());
@@ -128,6 +174,12 @@ pub(crate) async fn job_chart(
     for id in ids {
         let job = st.store.get(id).await?;
         let (_, samples) = api::samples(&st.store, id, 0, None, Some(2000)).await?;
+        // Strains restart at every stage: by default a strain axis shows the last stage.
+        let stage = p.stage.clone().or_else(|| if x == "strain" { samples.iter().rev().find_map(|s| s.stage.clone()) } else { None });
+        let samples: Vec<_> = samples.into_iter().filter(|s| stage.is_none() || s.stage == stage).collect();
+        if let (Some(st), true) = (&p.stage, samples.is_empty()) {
+            return Err(ApiError::invalid("stage", format!("job {id} has no sample of stage '{st}'")));
+        }
         let mut pts = Vec::with_capacity(samples.len());
         for s in &samples {
             let doc = serde_json::to_value(s).map_err(|e| ApiError::Internal(e.to_string()))?;
@@ -160,5 +212,5 @@ pub(crate) async fn job_chart(
         "kinetic_energy" | "elastic_energy" => format!("{f}, J"),
         other => other.to_string(),
     };
-    Ok(svg(crate::charts::lines_svg(&title, &unit(&x), &unit(&y), &series).map_err(ApiError::Internal)?))
+    Ok(image(format, crate::charts::lines(&title, &unit(&x), &unit(&y), &series, format).map_err(ApiError::Internal)?))
 }

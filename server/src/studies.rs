@@ -124,14 +124,14 @@ async fn probe_run(
     Ok(NewRun { idx, series: "probe".into(), label, value: Some(value), job })
 }
 
-/// The chart of a study's report (SVG).
-pub fn chart(view: &StudyView) -> Result<String, ApiError> {
+/// The chart of a study's report, as SVG or PNG.
+pub fn chart(view: &StudyView, format: crate::charts::Format) -> Result<Vec<u8>, ApiError> {
     let report = view
         .report
         .clone()
         .and_then(|r| serde_json::from_value::<StudyReport>(r).ok())
         .ok_or_else(|| ApiError::Conflict(format!("study {} has no report yet: ask again in a moment", view.id)))?;
-    crate::charts::study_svg(&view.name, &report).map_err(ApiError::Internal)
+    crate::charts::study(&view.name, &report, format).map_err(ApiError::Internal)
 }
 
 /// One study as the APIs show it.
@@ -214,6 +214,16 @@ pub async fn drive(store: JobStore, limits: Limits, every: Duration, stop: tokio
 /// One round of the driver for one study: measure the runs that ended, add a search's next
 /// probe, recompute and store the report, and end the study when its runs are all done.
 pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Result<(), ApiError> {
+    let mut runs = store.study_runs(row.id).await?;
+    // Nothing to do when no run changed since the last report (the study file is not parsed
+    // again, which for large scenes is the expensive part of a round).
+    if let Some(last) = row.report.as_deref().and_then(|r| serde_json::from_str::<StudyReport>(r).ok()) {
+        let same =
+            last.points.len() == runs.len() && last.points.iter().zip(&runs).all(|(p, r)| p.state == r.state && p.job_id == r.job_id);
+        if same && runs.iter().any(|r| !ended(&r.state)) {
+            return Ok(());
+        }
+    }
     let (spec, study) = match parse_study(&row.spec) {
         Ok(x) => x,
         Err(v) => {
@@ -222,7 +232,6 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
             return Ok(());
         }
     };
-    let mut runs = store.study_runs(row.id).await?;
     // Measure what ended.
     if let Study::Sweep { measure, .. } = &study {
         for r in runs.iter_mut().filter(|r| ended(&r.state) && r.measured_done == 0) {
@@ -254,11 +263,20 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
         theory: None,
     };
     match &study {
-        Study::Sweep { measure, reference, .. } => {
+        Study::Sweep { measure, reference, points } => {
             report.measure = measure.describe();
-            let (value, source) = reference_value(store, &spec, reference, measure, &report).await?;
-            report.reference_source = source;
-            report.score(value);
+            match reference.formula.as_deref().map(sable_engine::study::formula::Formula::parse) {
+                Some(Ok(f)) => {
+                    report.reference_source = format!("formula {}", reference.formula.as_deref().unwrap_or_default());
+                    report.score_each(|p| points.get(p.index).and_then(|pt| f.eval(&pt.vars).ok()));
+                }
+                Some(Err(e)) => return Err(ApiError::Internal(format!("the stored formula no longer parses: {e}"))),
+                None => {
+                    let (value, source) = reference_value(store, &spec, reference, measure, &report).await?;
+                    report.reference_source = source;
+                    report.score(value);
+                }
+            }
         }
         Study::Search { search, scene } => {
             report.measure = format!("stability of {}", search.parameter);
@@ -316,6 +334,7 @@ fn point_of(r: &RunRow) -> PointReport {
             solver_iterations: r.solver_iterations.max(0) as u64,
         },
         measured: r.measured,
+        reference: None,
         error: None,
         relative_error: None,
         failure: failure_of(r),

@@ -861,6 +861,13 @@ async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
     for needle in ["<svg", "error against cost", "CPU time", "Pareto front", "DEM", "5e-3", "restitution"] {
         assert!(svg.contains(needle), "the chart lacks '{needle}'");
     }
+    // The same chart as PNG: a 960 x 640 image.
+    let png = h.http.get(format!("{}/v1/studies/{}/chart.png", h.base, done["id"])).send().await.expect("png");
+    assert_eq!(png.headers()["content-type"], "image/png");
+    let png = png.bytes().await.expect("bytes");
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 10_000, "{} bytes", png.len());
+    let size = |k: usize| u32::from_be_bytes([png[k], png[k + 1], png[k + 2], png[k + 3]]);
+    assert_eq!((size(16), size(20)), (960, 640));
     // A job's samples against time.
     let c =
         h.http.get(format!("{}/v1/jobs/{}/chart.svg?y=kinetic_energy&x=time", h.base, points[0]["job_id"])).send().await.expect("chart");
@@ -925,7 +932,10 @@ async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_z
     let ratio = r["theory"]["ratio"].as_f64().expect("ratio");
     assert!((0.95..=1.0 + 1e-9).contains(&ratio), "{r}");
     assert!(r["limit"]["mode"].is_string() && r["theory"]["what"].as_str().unwrap_or_default().starts_with("2/ω0"), "{r}");
-    let svg = String::from_utf8(client.study_chart(s.id).await.expect("chart")).expect("utf-8");
+    let svg = String::from_utf8(client.study_chart(s.id, "svg").await.expect("chart")).expect("utf-8");
+    assert!(client.study_chart(s.id, "png").await.expect("png chart").starts_with(b"\x89PNG"));
+    let e = client.study_chart(s.id, "gif").await.expect_err("no gif");
+    assert!(e.to_string().contains("format: must be svg or png, got 'gif'"), "{e}");
     assert!(svg.contains("theory") && svg.contains("ran through (stable)") && svg.contains("failed: "), "chart");
     // A study with an unknown reference series is refused over gRPC too.
     let bad =
@@ -933,4 +943,53 @@ async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_z
     let e = client.create_study(&bad.to_string()).await.expect_err("rejected");
     assert_eq!(e.code(), Some(tonic::Code::InvalidArgument));
     assert!(e.to_string().contains("reference.finest: no series is labelled 'B'"), "{e}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_formula_reference_is_evaluated_for_each_run() {
+    let h = Harness::start(1).await;
+    // A disk settling on the floor stores (m g)^2 / (2 k_n) in its contact at rest.
+    let grain = json!({
+        "dimension": 2,
+        "method": {"kind": "dem", "threads": 1},
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e4}, "restitution": 0.5, "friction": 0.0}},
+        "particles": [{"material": "glass", "count": 1, "size": {"kind": "monodisperse", "diameter": 1e-3},
+                       "placement": {"kind": "list", "positions": [[0.005, 0.000501]]}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+        "gravity": [0, -9.81],
+        "stop": {"time": 0.2},
+        "sampling": {"every_time": 0.05}
+    });
+    let m = 2500.0 * std::f64::consts::PI * 0.25e-6;
+    let study = json!({
+        "scene": grain,
+        "series": [{"label": "DEM", "sweep": [{"parameter": "materials.glass.contact.k_n", "values": [1e3, 1e4, 1e5]}]}],
+        "measure": {"sample": "elastic_energy"},
+        "reference": {"formula": format!("({m} * 9.81)^2 / (2 * k_n)")}
+    });
+    let (status, created) = h.post("/v1/studies", &study, None).await;
+    assert_eq!(status, 201, "{created}");
+    let done = wait_study(&h, created["id"].as_i64().expect("id")).await;
+    let points = done["report"]["points"].as_array().expect("points");
+    for (p, k) in points.iter().zip([1e3, 1e4, 1e5]) {
+        let expected = (m * 9.81f64).powi(2) / (2.0 * k);
+        let reference = p["reference"].as_f64().expect("a reference per run");
+        assert!((reference / expected - 1.0).abs() < 1e-12, "{p}");
+        // At rest the contact holds the weight: the stored energy is the analytic one.
+        assert!(p["relative_error"].as_f64().expect("error") < 1e-3, "{p}");
+    }
+    assert!(done["report"]["reference_source"].as_str().unwrap_or_default().starts_with("formula ("), "{done}");
+    // A variable that no series sweeps is named in the error.
+    let mut bad = study.clone();
+    bad["reference"] = json!({"formula": "2 / k_t"});
+    let (status, err) = h.post("/v1/studies", &bad, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert_eq!(err["details"][0]["field"], "reference.formula");
+    assert!(
+        err["details"][0]["rule"]
+            .as_str()
+            .unwrap_or_default()
+            .starts_with("'k_t' is not a numeric parameter of series 'DEM' (its variables: k_n)"),
+        "{err}"
+    );
 }

@@ -9,6 +9,7 @@
 //! ([`report`]); the service runs the scenes as jobs and stores both. The format is
 //! documented in `docs/studies.md`.
 
+pub mod formula;
 pub mod measure;
 pub mod paths;
 pub mod report;
@@ -80,6 +81,10 @@ pub struct ReferenceSpec {
     /// An analytic value, in the units of the measure.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
+    /// A formula of the swept parameters, each named by its last field (`k_n`,
+    /// `time_step_fraction`), evaluated for each run ([`formula`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formula: Option<String>,
     /// `restitution`: the restitution coefficient of the scene's first material (what a
     /// binary collision should give; PHYSICS.md §2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -102,6 +107,9 @@ pub struct Point {
     pub series: String,
     /// Swept parameters and their values.
     pub params: Vec<(String, Value)>,
+    /// The numeric parameters the series sets and sweeps, by their last field: the variables of
+    /// a reference formula.
+    pub vars: std::collections::BTreeMap<String, f64>,
     /// The scene to run.
     pub scene: Value,
 }
@@ -252,7 +260,13 @@ pub fn check(spec: &StudySpec) -> Result<Study, Vec<Violation>> {
                 };
                 scene_ok(&mut v, &scene, &context);
             }
-            points.push(Point { index: points.len(), series: series.label.clone(), params, scene });
+            let vars = series
+                .set
+                .iter()
+                .chain(params.iter().map(|(p, v)| (p, v)))
+                .filter_map(|(p, v)| v.as_f64().map(|x| (formula::variable_of(p), x)))
+                .collect();
+            points.push(Point { index: points.len(), series: series.label.clone(), params, vars, scene });
         }
     }
     let measure = match &spec.measure {
@@ -269,9 +283,35 @@ pub fn check(spec: &StudySpec) -> Result<Study, Vec<Violation>> {
     };
     let reference = match &spec.reference {
         Some(r) => {
-            let given = [r.value.is_some(), r.analytic.is_some(), r.job.is_some(), r.finest.is_some()].iter().filter(|x| **x).count();
+            let given = [r.value.is_some(), r.formula.is_some(), r.analytic.is_some(), r.job.is_some(), r.finest.is_some()]
+                .iter()
+                .filter(|x| **x)
+                .count();
             if given != 1 {
-                fail(&mut v, "reference".into(), "give exactly one of value, analytic, job, finest".into());
+                fail(&mut v, "reference".into(), "give exactly one of value, formula, analytic, job, finest".into());
+            }
+            if let Some(text) = &r.formula {
+                match formula::Formula::parse(text) {
+                    Err(e) => fail(&mut v, "reference.formula".into(), e),
+                    Ok(f) => {
+                        // Every run must give every variable a value.
+                        for p in &points {
+                            if let Some(missing) = f.variables().into_iter().find(|x| !p.vars.contains_key(x)) {
+                                let known: Vec<&str> = p.vars.keys().map(String::as_str).collect();
+                                fail(
+                                    &mut v,
+                                    "reference.formula".into(),
+                                    format!(
+                                        "'{missing}' is not a numeric parameter of series '{}' (its variables: {})",
+                                        p.series,
+                                        if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                                    ),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
             }
             if let Some(a) = &r.analytic {
                 if a != "restitution" {
@@ -291,7 +331,7 @@ pub fn check(spec: &StudySpec) -> Result<Study, Vec<Violation>> {
             r.clone()
         }
         None => {
-            fail(&mut v, "reference".into(), "required: a value, analytic, a job, or the finest run of a series".into());
+            fail(&mut v, "reference".into(), "required: a value, a formula, analytic, a job, or the finest run of a series".into());
             ReferenceSpec::default()
         }
     };

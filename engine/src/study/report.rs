@@ -39,6 +39,9 @@ pub struct PointReport {
     /// The measured value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measured: Option<f64>,
+    /// The reference of this run (the study's, or its formula's value for this run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<f64>,
     /// `|measured − reference|`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<f64>,
@@ -96,11 +99,17 @@ impl StudyReport {
     /// that no other run beats on both CPU time and error.
     pub fn score(&mut self, reference: Option<f64>) {
         self.reference = reference;
+        self.score_each(|_| reference);
+    }
+
+    /// [`StudyReport::score`] with a reference per run (a formula of its parameters).
+    pub fn score_each(&mut self, reference: impl Fn(&PointReport) -> Option<f64>) {
         for p in &mut self.points {
+            p.reference = reference(p);
             p.error = None;
             p.relative_error = None;
             p.pareto = false;
-            if let (Some(m), Some(r)) = (p.measured, reference) {
+            if let (Some(m), Some(r)) = (p.measured, p.reference) {
                 let e = (m - r).abs();
                 p.error = Some(e);
                 p.relative_error = (r != 0.0).then(|| e / r.abs());
@@ -141,6 +150,7 @@ mod tests {
             state: state.into(),
             cost: Cost { cpu_seconds: cpu, wall_seconds: cpu, steps: 10, solver_iterations: 0 },
             measured,
+            reference: None,
             error: None,
             relative_error: None,
             failure: None,

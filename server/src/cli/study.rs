@@ -24,7 +24,8 @@ pub struct StudyArgs {
     /// Follow the study until its runs have all ended, then print its report.
     #[arg(long)]
     pub watch: bool,
-    /// Write the study's chart (SVG) to this file (after --watch, the final one).
+    /// Write the study's chart to this file, PNG if it ends in .png, else SVG (after --watch,
+    /// the final one).
     #[arg(long)]
     pub chart: Option<PathBuf>,
     /// Print the study as JSON.
@@ -84,8 +85,9 @@ pub fn study(a: StudyArgs) -> anyhow::Result<()> {
             }
         }
         if let Some(path) = &a.chart {
-            let svg = client.study_chart(s.id).await?;
-            std::fs::write(path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+            let format = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) { "png" } else { "svg" };
+            let bytes = client.study_chart(s.id, format).await?;
+            std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
             eprintln!("chart written to {}", path.display());
         }
         Ok(())
@@ -95,8 +97,10 @@ pub fn study(a: StudyArgs) -> anyhow::Result<()> {
 /// A report as a table.
 pub fn render(r: &StudyReport) -> String {
     let mut out = format!("measure: {}\n", r.measure);
-    if let Some(v) = r.reference {
-        out.push_str(&format!("reference: {v:.6e} ({})\n", r.reference_source));
+    match r.reference {
+        Some(v) => out.push_str(&format!("reference: {v:.6e} ({})\n", r.reference_source)),
+        None if !r.reference_source.is_empty() => out.push_str(&format!("reference: {}\n", r.reference_source)),
+        None => {}
     }
     out.push_str(&format!(
         "{:>4}  {:<10}  {:<18}  {:<9}  {:>7}  {:>10}  {:>10}  {:>12}  {:>11}  {:>10}  pareto\n",
