@@ -26,7 +26,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
-use crate::scene::{CdParams, CompactionDrive, Deformation, DemParams, ElasticLaw, Experiment, Method, Placement, Scene, WallMotion};
+use crate::scene::{CdParams, CompactionDrive, Deformation, DemParams, Experiment, Method, Placement, Scene, WallMotion};
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
@@ -295,16 +295,7 @@ pub fn advise(scene: &Scene) -> Advice {
     let p = l.pressure.as_ref().map(|x| x.0);
     let rate = l.rate.as_ref().map(|x| x.0);
     let law = scene.materials.first().map(|m| m.law);
-    let kappa = p.zip(law).map(|(p, law)| match law {
-        ElasticLaw::Linear { k_n, .. } => {
-            if dim == 3 {
-                k_n / (p * d)
-            } else {
-                k_n / p
-            }
-        }
-        ElasticLaw::HertzMindlin { young, poisson } => (young / ((1.0 - poisson * poisson) * p)).powf(2.0 / 3.0),
-    });
+    let kappa = p.zip(law).map(|(p, law)| law.stiffness_number(dim, p, d));
     let inertial = match (p, rate) {
         (Some(p), Some(r)) if d > 0.0 => Some(r * d * (rho / p).sqrt()),
         (Some(_), None) => Some(0.0),
@@ -445,17 +436,10 @@ fn wet(scene: &Scene) -> bool {
 /// The largest attraction between two grains of diameter `d`, N (N/m in 2D): the capillary
 /// force at contact `2π γ cosθ R` (R = d/2; PHYSICS.md §1) or the dry cohesion F_0.
 fn adhesion(scene: &Scene, d: Real) -> Option<Real> {
-    let mut f: Option<Real> = None;
-    for m in &scene.materials {
-        if let Some(l) = m.liquid.filter(|_| wet(scene)) {
-            let c = 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos() * 0.5 * d;
-            f = Some(f.map_or(c, |x| x.max(c)));
-        }
-        if let Some(co) = m.cohesion {
-            f = Some(f.map_or(co.force, |x| x.max(co.force)));
-        }
-    }
-    f.filter(|x| *x > 0.0)
+    let wet = wet(scene);
+    let capillary = scene.materials.iter().filter_map(|m| m.liquid.filter(|_| wet)).map(|l| l.capillary_prefactor() * 0.5 * d);
+    let cohesion = scene.materials.iter().filter_map(|m| m.cohesion).map(|c| c.force);
+    capillary.chain(cohesion).fold(None, |f: Option<Real>, x| Some(f.map_or(x, |f| f.max(x)))).filter(|x| *x > 0.0)
 }
 
 /// The axis gravity points along (the largest component; y if there is none).

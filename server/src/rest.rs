@@ -105,13 +105,18 @@ pub(crate) fn json_body(st: &AppState, body: Result<Bytes, BytesRejection>) -> R
 }
 
 pub(crate) fn parse_id(s: &str) -> Result<i64, ApiError> {
+    positive_id(s, "job")
+}
+
+/// A path id of a `what` (job, study): a positive integer.
+pub(crate) fn positive_id(s: &str, what: &str) -> Result<i64, ApiError> {
     s.parse::<i64>()
         .ok()
         .filter(|&i| i > 0)
-        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer job id, got '{s}'")))
+        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer {what} id, got '{s}'")))
 }
 
-fn query<T>(q: Result<Query<T>, QueryRejection>) -> Result<T, ApiError> {
+pub(crate) fn query<T>(q: Result<Query<T>, QueryRejection>) -> Result<T, ApiError> {
     q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))
 }
 

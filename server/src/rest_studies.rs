@@ -11,14 +11,11 @@ use serde::Deserialize;
 
 use crate::api::{self, ApiError};
 use crate::charts::Format;
-use crate::rest::{json_body, parse_id, AppState};
+use crate::rest::{json_body, parse_id, positive_id, query, AppState};
 use crate::studies::{self, StudyView};
 
 fn study_id(s: &str) -> Result<i64, ApiError> {
-    s.parse::<i64>()
-        .ok()
-        .filter(|&i| i > 0)
-        .ok_or_else(|| ApiError::malformed("id", format!("must be a positive integer study id, got '{s}'")))
+    positive_id(s, "study")
 }
 
 fn image(format: Format, bytes: Vec<u8>) -> Response {
@@ -153,7 +150,7 @@ async fn samples_chart(
     format: Format,
 ) -> Result<Response, ApiError> {
     let first = parse_id(id)?;
-    let p = q.map(|Query(t)| t).map_err(|e| ApiError::malformed("query", e.body_text()))?;
+    let p = query(q)?;
     let y = p.y.unwrap_or_else(|| "mu".into());
     let x = p.x.unwrap_or_else(|| "time".into());
     let mut ids = vec![first];
@@ -180,26 +177,19 @@ async fn samples_chart(
         if let (Some(st), true) = (&p.stage, samples.is_empty()) {
             return Err(ApiError::invalid("stage", format!("job {id} has no sample of stage '{st}'")));
         }
-        let mut pts = Vec::with_capacity(samples.len());
+        let (mut pts, mut has_y) = (Vec::with_capacity(samples.len()), false);
         for s in &samples {
             let doc = serde_json::to_value(s).map_err(|e| ApiError::Internal(e.to_string()))?;
             let get = |path: &str| sable_engine::study::paths::get(&doc, path).and_then(|v| v.as_f64());
-            if let (Some(a), Some(b)) = (get(&x_path), get(&y)) {
+            let (a, b) = (get(&x_path), get(&y));
+            has_y |= b.is_some();
+            if let (Some(a), Some(b)) = (a, b) {
                 pts.push((a, b));
             }
         }
         if pts.is_empty() && !samples.is_empty() {
-            return Err(ApiError::invalid(
-                if samples
-                    .iter()
-                    .all(|s| serde_json::to_value(s).ok().and_then(|d| sable_engine::study::paths::get(&d, &y).cloned()).is_none())
-                {
-                    "y"
-                } else {
-                    "x"
-                },
-                format!("job {id}'s samples have no number at '{y}' against '{x}'"),
-            ));
+            let field = if has_y { "x" } else { "y" };
+            return Err(ApiError::invalid(field, format!("job {id}'s samples have no number at '{y}' against '{x}'")));
         }
         series.push((format!("job {id}: {}", job.name), pts));
     }

@@ -12,7 +12,7 @@ use std::time::Duration;
 use sable_engine::advise::ExpectedCost;
 use sable_engine::study::report::{Cost, PointReport, StudyReport, Theory};
 use sable_engine::study::search::{FailureMode, Next, Probe};
-use sable_engine::study::{parse_study, probe_scene, theory, ReferenceSpec, Study, StudySpec};
+use sable_engine::study::{parse_checked_study, parse_study, probe_scene, theory, ReferenceSpec, Study, StudySpec};
 use serde::Serialize;
 
 use crate::api::{self, rfc3339, ApiError, Limits};
@@ -73,7 +73,24 @@ pub async fn create(store: &JobStore, limits: &Limits, body: &serde_json::Value)
     if text.len() > limits.max_body_bytes {
         return Err(ApiError::TooLarge(limits.max_body_bytes));
     }
-    let (spec, study) = parse_study(&text).map_err(ApiError::InvalidArgument)?;
+    // A base scene that starts from a job's final state is checked with that state in place; its
+    // runs keep the reference, which each job resolves when it is submitted and leased (as a
+    // submitted scene does), so the state is not copied into every run.
+    if let Some(job) = body.get("scene").and_then(crate::start_from::referenced_job) {
+        let gz = store.final_state(job).await.map_err(|_| {
+            ApiError::invalid("scene.start_from.job", format!("job {job} has no final state: name a job of this server that succeeded"))
+        })?;
+        let mut resolved = body.clone();
+        resolved["scene"] = crate::start_from::with_state(&body["scene"], &gz)
+            .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?;
+        let resolved = serde_json::to_string(&resolved).map_err(|e| ApiError::Internal(e.to_string()))?;
+        parse_study(&resolved).map_err(ApiError::InvalidArgument)?;
+    }
+    let (spec, study) = match crate::start_from::referenced_job(&body["scene"]) {
+        Some(_) => parse_checked_study(&text),
+        None => parse_study(&text),
+    }
+    .map_err(ApiError::InvalidArgument)?;
     let name = spec.name.clone().unwrap_or_else(|| {
         let scene = spec.scene.get("name").and_then(|n| n.as_str()).unwrap_or("scene");
         format!("study of {scene}")
@@ -224,11 +241,11 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
             return Ok(());
         }
     }
-    let (spec, study) = match parse_study(&row.spec) {
+    let (spec, study) = match parse_checked_study(&row.spec) {
         Ok(x) => x,
         Err(v) => {
             let why = sable_engine::scene::format_violations(&v);
-            store.set_study_report(row.id, "null", "failed", Some(&format!("the stored study no longer validates: {why}"))).await?;
+            store.set_study_report(row.id, "null", "failed", Some(&format!("the stored study cannot be read any more: {why}"))).await?;
             return Ok(());
         }
     };
@@ -236,11 +253,8 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
     if let Study::Sweep { measure, .. } = &study {
         for r in runs.iter_mut().filter(|r| ended(&r.state) && r.measured_done == 0) {
             let (value, note) = if r.state == "succeeded" {
-                let samples = store.samples(r.job_id, 0, None).await?;
-                let result = r.result.as_deref().and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok());
-                match measure.evaluate(&samples, result.as_ref()) {
-                    Ok(v) if v.is_finite() => (Some(v), None),
-                    Ok(v) => (None, Some(format!("the measure is not finite ({v})"))),
+                match measure_job(store, measure, r.job_id, r.result.as_deref()).await? {
+                    Ok(v) => (Some(v), None),
                     Err(e) => (None, Some(e)),
                 }
             } else {
@@ -343,6 +357,23 @@ fn point_of(r: &RunRow) -> PointReport {
     }
 }
 
+/// The measure of a succeeded job, from its samples and its results (`result`, JSON), or why
+/// there is none.
+async fn measure_job(
+    store: &JobStore,
+    measure: &sable_engine::study::MeasureSpec,
+    job: i64,
+    result: Option<&str>,
+) -> Result<Result<f64, String>, ApiError> {
+    let samples = store.samples(job, 0, None).await?;
+    let result = result.and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok());
+    Ok(match measure.evaluate(&samples, result.as_ref()) {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) => Err(format!("the measure is not finite ({v})")),
+        Err(e) => Err(e),
+    })
+}
+
 /// The reference value (once it can be known) and where it comes from.
 async fn reference_value(
     store: &JobStore,
@@ -367,9 +398,7 @@ async fn reference_value(
     }
     if let Some(job) = reference.job {
         let row = store.get(job).await?;
-        let samples = store.samples(job, 0, None).await?;
-        let result = row.result.as_deref().and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok());
-        return Ok((measure.evaluate(&samples, result.as_ref()).ok(), format!("job {job}")));
+        return Ok((measure_job(store, measure, job, row.result.as_deref()).await?.ok(), format!("job {job}")));
     }
     let label = reference.finest.clone().unwrap_or_default();
     Ok(match report.finest(&label) {

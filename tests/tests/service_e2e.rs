@@ -733,6 +733,29 @@ async fn a_job_starts_from_the_final_state_of_another() {
         assert!(fields.contains(&field), "expected a violation on '{field}', got {err}");
     }
     assert_eq!(h.jobs_in_db().await, jobs);
+
+    // A study of the scene that starts from it: checked with the state in place, its runs keep
+    // the reference and start from the same particles; a missing state is refused.
+    let study = json!({
+        "scene": next,
+        "series": [{"label": "DEM", "sweep": [{"parameter": "method.time_step_fraction", "values": [0.01, 0.02]}]}],
+        "measure": {"sample": "phi", "at": "min"},
+        "reference": {"value": before}
+    });
+    let (status, created) = h.post("/v1/studies", &study, None).await;
+    assert_eq!(status, 201, "{created}");
+    let done = wait_study(&h, created["id"].as_i64().expect("id")).await;
+    for p in done["report"]["points"].as_array().expect("points") {
+        let job = h.get(&format!("/v1/jobs/{}", p["job_id"])).await.1;
+        assert_eq!(job["scene"]["start_from"], json!({"job": first}));
+        // Φ (the grains' volume over the box's) is the state's: same grains, same box.
+        assert!(p["error"].as_f64().expect("error") < 1e-9, "{p}");
+    }
+    let mut missing = study.clone();
+    missing["scene"]["start_from"] = json!({"job": second + 100});
+    let (status, err) = h.post("/v1/studies", &missing, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert_eq!(err["details"][0]["field"], "scene.start_from.job");
 }
 
 /// A rigid, slowly loaded biaxial test: the advisor takes contact dynamics for it.

@@ -300,7 +300,7 @@ impl Analysis {
         let wet = material
             .and_then(|m| m.liquid)
             .filter(|_| any_wet)
-            .map(|l| WetScales { kappa: 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos(), viscosity: l.viscosity });
+            .map(|l| WetScales { kappa: l.capillary_prefactor(), viscosity: l.viscosity });
         Self {
             experiment: scene.experiment.clone(),
             dim: scene.dim,
@@ -346,10 +346,7 @@ impl Analysis {
         if p <= 0.0 {
             return None;
         }
-        match self.law? {
-            ElasticLaw::Linear { k_n, .. } => Some(if self.dim == 3 { k_n / (p * d) } else { k_n / p }),
-            ElasticLaw::HertzMindlin { young, poisson } => Some((young / ((1.0 - poisson * poisson) * p)).powf(2.0 / 3.0)),
-        }
+        Some(self.law?.stiffness_number(self.dim, p, d))
     }
 
     /// The results, given the grains' mean diameter (m) and density (kg/m³).

@@ -252,6 +252,19 @@ pub enum ElasticLaw {
     },
 }
 
+impl ElasticLaw {
+    /// Stiffness number at confining stress `p` (Pa) for grains of mean diameter `d` (m)
+    /// (RC 2.3.4): `k_n/(p d)` (linear, 3D), `k_n/p` (linear, 2D: k_n per metre),
+    /// `(E/((1-ν²) p))^(2/3)` (Hertz). Its inverse is the contact deflection over `d`.
+    pub fn stiffness_number(&self, dim: usize, p: Real, d: Real) -> Real {
+        match *self {
+            Self::Linear { k_n, .. } if dim == 3 => k_n / (p * d),
+            Self::Linear { k_n, .. } => k_n / p,
+            Self::HertzMindlin { young, poisson } => (young / ((1.0 - poisson * poisson) * p)).powf(2.0 / 3.0),
+        }
+    }
+}
+
 /// Rolling resistance parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rolling {
@@ -268,6 +281,14 @@ pub struct Cohesion {
     pub force: Real,
     /// Range D_0 beyond contact, m.
     pub distance: Real,
+}
+
+impl Liquid {
+    /// The capillary prefactor `κ = 2π γ cos θ`, N/m: the bridge pulls with `κ R` at contact
+    /// (PHYSICS.md §1, eq. 1.5-1.6).
+    pub fn capillary_prefactor(&self) -> Real {
+        2.0 * std::f64::consts::PI * self.surface_tension * self.contact_angle.cos()
+    }
 }
 
 /// Interstitial liquid parameters.
