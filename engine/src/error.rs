@@ -41,6 +41,11 @@ pub enum InstabilityCause {
         excess: f64,
         /// Reference energy scale the excess was compared with, J.
         scale: f64,
+        /// The part of the mechanical energy that grew the most since the budget started:
+        /// `kinetic`, `elastic` (the contacts' springs), `gravitational` or `capillary`.
+        part: &'static str,
+        /// How much that part grew, J.
+        part_gain: f64,
     },
 }
 
@@ -57,9 +62,10 @@ impl std::fmt::Display for InstabilityCause {
                 f,
                 "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
             ),
-            Self::EnergyGrowth { excess, scale } => {
-                write!(f, "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J)")
-            }
+            Self::EnergyGrowth { excess, scale, part, part_gain } => write!(
+                f,
+                "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J); the {part} energy grew the most, by {part_gain:.3e} J"
+            ),
         }
     }
 }

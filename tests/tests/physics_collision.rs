@@ -156,3 +156,22 @@ fn hertz_collision_time_and_overlap_match_theory() {
         }
     }
 }
+
+#[test]
+fn hertz_collisions_rebound_at_the_requested_restitution() {
+    // The damping coefficient is calibrated so that a head-on Hertz collision returns the
+    // requested e, with the force floored at zero (the default) or not, at any impact speed.
+    // At the default step (t_c/50) the remaining error is the integrator's: the issue asks 1e-2.
+    let nu = 0.3;
+    for dim in [2, 3] {
+        let young = 1e7 * mass(dim) / mass(3);
+        for limit in [true, false] {
+            for e in [0.1, 0.3, 0.5, 0.7, 0.9] {
+                for v in [0.05, 0.5] {
+                    let c = collide(dim, json!({"law": "hertz_mindlin", "young_modulus": young, "poisson_ratio": nu}), e, limit, v, 0.02);
+                    assert!((c.restitution - e).abs() < 1e-2, "{dim}D e={e} limit_damping={limit} v={v}: rebounds at {}", c.restitution);
+                }
+            }
+        }
+    }
+}

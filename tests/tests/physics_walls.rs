@@ -91,8 +91,16 @@ fn the_guard_stops_a_grain_crushed_by_a_wall_with_an_overlap_error() {
         }
     };
     match &error {
-        sable_engine::EngineError::Unstable { cause: sable_engine::error::InstabilityCause::Overlap { fraction, limit }, time, .. } => {
+        sable_engine::EngineError::Unstable {
+            cause: sable_engine::error::InstabilityCause::Overlap { fraction, limit },
+            time,
+            suggestion,
+            ..
+        } => {
             assert_eq!(*limit, 0.1);
+            // The step is already the default t_c/50: the advice is about the contacts, and never
+            // asks for the step in use.
+            assert!(suggestion.contains("too soft") && !suggestion.contains("use dt"), "{suggestion}");
             assert!(*fraction > 0.1 && *fraction < 0.11, "stopped at an overlap of {fraction} of the radius");
             assert!(*time > 0.1 && *time < 0.105, "stopped at t = {time} s");
             println!("stopped at t = {time:.4} s (dt {dt:.2e} s) with an overlap of {fraction:.4} of the radius");

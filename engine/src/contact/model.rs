@@ -176,7 +176,7 @@ impl PairLaw {
                 let e_star = 1.0 / ((1.0 - na * na) / ea + (1.0 - nb * nb) / eb);
                 let (ga, gb) = (ea / (2.0 * (1.0 + na)), eb / (2.0 * (1.0 + nb)));
                 let g_star = 1.0 / ((2.0 - na) / ga + (2.0 - nb) / gb);
-                let damp = hertz_damping_coefficient(e);
+                let damp = hertz_damping_coefficient(e, limit_damping);
                 (NormalLaw::Hertz(NormalHertz { e_star, damp }), TangentialLaw::Mindlin { g_star, damp })
             }
             (la, lb) => {

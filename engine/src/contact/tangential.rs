@@ -6,7 +6,14 @@
 //! turns it (twist), then it is projected onto the current tangent plane and rescaled to keep its
 //! length, so that a pair in rigid rotation keeps its tangential force (objectivity). Then
 //! `f_t = -(k_t xi + gamma_t v_t)`; if `|f_t| > mu f_n` the force is scaled back onto the Coulomb
-//! cone and the spring reset to `xi = -(f_t + gamma_t v_t) / k_t` (LAMMPS `gran/hooke/history`).
+//! cone and the spring reset to carry that force alone, `xi = -f_t / k_t`: a spring in series
+//! with the slider holds the Coulomb force, so a sliding contact stores `|f_t|² / (2 k_t)` and
+//! nothing more (Cundall & Strack 1979; LIGGGHTS's `tangential_model_history` and Yade's
+//! Cundall-Strack law likewise never let the spring hold more than the Coulomb force). LAMMPS's `gran/hooke/history` keeps the dashpot's share in the spring
+//! instead, `xi = -(f_t + gamma_t v_t) / k_t`: where `gamma_t |v_t|` exceeds the Coulomb force —
+//! a fast slip under a light load — that spring is stretched backwards by
+//! `(gamma_t |v_t| - mu f_n) / k_t` and pushes the grains along the slip once it slows, energy
+//! no spring was given. Both resets give the same force while the contact slides.
 
 use crate::math::Vec3;
 
@@ -43,7 +50,7 @@ pub fn tangential_force(xi: &mut Vec3, v_t: &Vec3, v_damp: &Vec3, dt: f64, k_t: 
             f_t *= cap / mag2.sqrt();
         }
         if k_t > 0.0 {
-            *xi = -(f_t + v_damp * gamma_t) / k_t;
+            *xi = -f_t / k_t;
         } else {
             *xi = Vec3::zeros();
         }

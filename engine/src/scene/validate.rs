@@ -518,11 +518,14 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) ->
     let ratio = m.tangential_damping_ratio.unwrap_or(0.5);
     c.non_negative(&format!("{p}.tangential_damping_ratio"), ratio);
     let limit_damping = m.limit_damping.unwrap_or(true);
-    if !rigid && limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
+    // A floored linear contact cannot lose more than critical damping takes; a Hertz contact's
+    // damping grows as its overlap closes, so it reaches any restitution.
+    let linear = matches!(law, ElasticLaw::Linear { .. });
+    if !rigid && linear && limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
         c.fail(
             format!("{p}.restitution"),
             format!(
-                "must be >= {} when limit_damping is true (an overdamped contact cannot reach lower); got {}",
+                "must be >= {} with the linear law when limit_damping is true (an overdamped contact cannot reach lower); got {}",
                 crate::contact::damping::MIN_LIMITED_RESTITUTION,
                 m.restitution
             ),

@@ -247,7 +247,10 @@ mod tests {
         use crate::error::{EngineError, InstabilityCause};
         let err = |cause| EngineError::Unstable { step: 1, time: 0.0, cause, suggestion: String::new() }.to_string();
         assert_eq!(FailureMode::of("unstable", &err(InstabilityCause::NonFinite { particle: 0 })), FailureMode::BlowUp);
-        assert_eq!(FailureMode::of("unstable", &err(InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0 })), FailureMode::BlowUp);
+        assert_eq!(
+            FailureMode::of("unstable", &err(InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part: "kinetic", part_gain: 1.0 })),
+            FailureMode::BlowUp
+        );
         assert_eq!(
             FailureMode::of("unstable", &err(InstabilityCause::Overlap { fraction: 0.2, limit: 0.1 })),
             FailureMode::ExcessiveOverlap

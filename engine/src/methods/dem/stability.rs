@@ -17,10 +17,8 @@ use crate::math::{Real, Vec3};
 /// Running account of mechanical energy and external work.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct EnergyBudget {
-    /// Mechanical energy at the start, J.
-    start: Real,
-    /// Gravitational energy at the start, J.
-    gravity0: Real,
+    /// The parts of the mechanical energy at the start, J.
+    start: Energies,
     /// Work done on the particles by moving walls since the start, J.
     work_in: Real,
     /// Largest energy scale seen (kinetic + elastic + |capillary| + |gravity change|), J.
@@ -52,7 +50,21 @@ impl Energies {
 
 impl EnergyBudget {
     pub(crate) fn start(e: Energies) -> Self {
-        Self { start: e.total(), gravity0: e.gravity, work_in: 0.0, scale: e.scale() }
+        Self { start: e, work_in: 0.0, scale: e.scale() }
+    }
+}
+
+impl Energies {
+    /// The part that grew the most from `start`, with its gain, J.
+    fn largest_gain(&self, start: &Energies) -> (&'static str, Real) {
+        [
+            ("kinetic", self.kinetic - start.kinetic),
+            ("elastic", self.elastic - start.elastic),
+            ("gravitational", self.gravity - start.gravity),
+            ("capillary", self.capillary - start.capillary),
+        ]
+        .into_iter()
+        .fold(("kinetic", Real::NEG_INFINITY), |best, part| if part.1 > best.1 { part } else { best })
     }
 }
 
@@ -184,23 +196,42 @@ impl Dem {
         self.deformation.is_none() && !self.domain.sheared() && !gravity_along_periodic
     }
 
-    /// Builds the typed error for `cause`, with a suggestion.
+    /// Builds the typed error for `cause`, with a suggestion that depends on the step in use:
+    /// above the default t_c/50 it asks for t_c/50; at or below it, it never names the step in
+    /// use again but says what else to change for what grew.
     pub(crate) fn unstable(&self, cause: InstabilityCause) -> EngineError {
         let c = &self.collision;
-        let step_fix = format!(
-            "dt = {:.3e} s against a collision time t_c = {:.3e} s ({}); the stable limit of velocity Verlet is about {:.3e} s: \
-             use dt <= t_c/50 = {:.3e} s (method.time_step_fraction 0.02)",
-            self.dt,
-            c.t_c,
-            c.limiting,
-            c.dt_limit,
-            c.t_c / 50.0
+        let per_collision = c.t_c / self.dt;
+        let now = format!(
+            "dt = {:.3e} s = t_c/{per_collision:.0}, with the collision time t_c = {:.3e} s of the {} and velocity Verlet's stable limit {:.3e} s",
+            self.dt, c.t_c, c.limiting, c.dt_limit
         );
+        // The default fraction: a step above it is the first thing to change.
+        let fraction = crate::scene::DemParams::default().time_step_fraction;
+        let coarse = self.dt > fraction * c.t_c * (1.0 + 1e-9);
+        let smaller_step = if coarse {
+            format!("use dt <= t_c/{:.0} = {:.3e} s (method.time_step_fraction {fraction}; {now})", 1.0 / fraction, fraction * c.t_c)
+        } else {
+            format!(
+                "{now}: the step already resolves the collisions, so halving it (method.time_step {:.3e} s) only tells a numerical growth, which follows the step, from one it does not change",
+                0.5 * self.dt
+            )
+        };
         let suggestion = match &cause {
-            InstabilityCause::Overlap { .. } if self.dt <= 0.1 * c.t_c => format!(
-                "the contacts are too soft for the load: raise the stiffness (k_n or E) or lower velocities, wall speeds or stresses ({step_fix})"
-            ),
-            _ => step_fix,
+            InstabilityCause::Overlap { .. } if self.dt <= 0.1 * c.t_c => {
+                let step = if coarse { format!("; {smaller_step}") } else { format!(" ({now})") };
+                format!("the contacts are too soft for the load: raise the stiffness (k_n or E) or lower velocities, wall speeds or stresses{step}")
+            }
+            InstabilityCause::EnergyGrowth { part, .. } if !coarse => {
+                let hint = match *part {
+                    "elastic" => "springs that store energy faster than the collision time allows: a tangential stiffness k_t (or a rolling stiffness) far above k_n makes modes faster than t_c; lower it",
+                    "capillary" => "bridges that form and break within a step: lower the rupture distance's ratio to the step's displacement (a smaller step or slower grains)",
+                    "gravitational" => "grains pushed up out of deep overlaps: lower the speeds or loads that make them, or stiffen the contacts",
+                    _ => "forces that do work no spring stored: a contact stiffer than its collision time, or an imposed motion the budget does not count; lower the stiffest contact's k_n or the speeds",
+                };
+                format!("{hint}; {smaller_step}")
+            }
+            _ => smaller_step,
         };
         EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
     }
@@ -218,11 +249,12 @@ impl Dem {
         if self.energy_check_applies() {
             let e = scan.energies;
             let b = &mut self.budget;
-            b.scale = b.scale.max(e.scale() + b.work_in.abs() + (e.gravity - b.gravity0).abs());
-            let excess = e.total() - b.start - b.work_in;
+            b.scale = b.scale.max(e.scale() + b.work_in.abs() + (e.gravity - b.start.gravity).abs());
+            let excess = e.total() - b.start.total() - b.work_in;
             if excess > ENERGY_TOLERANCE * b.scale && excess > 0.0 {
                 let scale = b.scale;
-                return Err(self.unstable(InstabilityCause::EnergyGrowth { excess, scale }));
+                let (part, part_gain) = e.largest_gain(&b.start);
+                return Err(self.unstable(InstabilityCause::EnergyGrowth { excess, scale, part, part_gain }));
             }
         }
         Ok(scan.energies)
@@ -285,6 +317,70 @@ mod tests {
             p.push(3, Vec3::new(i as Real, 0.0, 0.0), Vec3::zeros(), 0.5, 1000.0, 0, false);
         }
         p
+    }
+
+    /// A grain resting on a floor, at `fraction` of the collision time.
+    fn resting(fraction: f64) -> Dem {
+        let scene = crate::scene::parse_scene(
+            &serde_json::json!({
+                "dimension": 2,
+                "method": {"kind": "dem", "time_step_fraction": fraction},
+                "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e4}, "restitution": 0.5, "friction": 0.5}},
+                "particles": [{"material": "m", "placement": {"kind": "list", "positions": [[0.02, 0.005]], "diameters": [0.01]}}],
+                "container": {"min": [0, 0], "max": [0.04, 0.04], "wall_material": "m"},
+                "gravity": [0, -9.81],
+                "stop": {"steps": 1}
+            })
+            .to_string(),
+        )
+        .unwrap_or_else(|v| panic!("{v:?}"));
+        let crate::scene::Method::Dem(params) = &scene.method else { panic!("dem") };
+        Dem::new(&scene, params).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn the_advice_never_asks_for_the_step_in_use() {
+        let causes = [
+            InstabilityCause::NonFinite { particle: 0 },
+            InstabilityCause::Overlap { fraction: 0.2, limit: 0.1 },
+            InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part: "kinetic", part_gain: 1.0 },
+            InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part: "elastic", part_gain: 1.0 },
+            InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part: "gravitational", part_gain: 1.0 },
+            InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part: "capillary", part_gain: 1.0 },
+        ];
+        // At the default step t_c/50 and finer: the step in use is stated, never asked for.
+        for fraction in [0.02, 0.01] {
+            let sim = resting(fraction);
+            for cause in &causes {
+                let EngineError::Unstable { suggestion, .. } = sim.unstable(cause.clone()) else { panic!("unstable") };
+                assert!(!suggestion.contains("use dt"), "t_c × {fraction}, {cause}: {suggestion}");
+                assert!(suggestion.contains(&format!("t_c/{:.0}", 1.0 / fraction)), "{suggestion}");
+                if matches!(cause, InstabilityCause::EnergyGrowth { .. } | InstabilityCause::NonFinite { .. }) {
+                    assert!(suggestion.contains("halving it"), "{suggestion}");
+                }
+            }
+            // What grew decides the advice.
+            let advice = |part| match sim.unstable(InstabilityCause::EnergyGrowth { excess: 1.0, scale: 1.0, part, part_gain: 1.0 }) {
+                EngineError::Unstable { suggestion, .. } => suggestion,
+                _ => String::new(),
+            };
+            assert!(advice("elastic").contains("k_t"));
+            assert_ne!(advice("elastic"), advice("kinetic"));
+        }
+        // Above the default, the first thing to change is the step, to t_c/50.
+        let sim = resting(0.1);
+        for cause in &causes {
+            let EngineError::Unstable { suggestion, .. } = sim.unstable(cause.clone()) else { panic!("unstable") };
+            assert!(suggestion.contains("use dt <= t_c/50"), "{cause}: {suggestion}");
+        }
+    }
+
+    #[test]
+    fn the_largest_gain_names_the_part_that_grew() {
+        let start = Energies { kinetic: 1.0, elastic: 2.0, gravity: 3.0, capillary: -1.0 };
+        let now = Energies { kinetic: 1.5, elastic: 1.0, gravity: 3.2, capillary: -0.1 };
+        assert_eq!(now.largest_gain(&start), ("capillary", 0.9));
+        assert_eq!(Energies { elastic: 2.6, ..start }.largest_gain(&start).0, "elastic");
     }
 
     #[test]
