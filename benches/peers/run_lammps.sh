@@ -1,15 +1,22 @@
 #!/usr/bin/env bash
-# LAMMPS side of the Sable DEM peer benchmark (standard scene: 20,000 spheres,
-# 2000 steps; see README.md).
+# LAMMPS side of the Sable DEM peer benchmarks (see README.md): the periodic gas
+# (in.sable_bench: 20,000 spheres, 2000 steps) and the twins of the suite's other
+# scenes (in.<scene>).
 #
-# Usage: run_lammps.sh [DATA_FILE]
+# Usage: [SCENE=name] run_lammps.sh [DATA_FILE]
 #
-# DATA_FILE (or env SABLE_LAMMPS_DATA): data file to run. Default:
-#   $OUT_DIR/data.sable_bench, generated with gen_data.py if missing. Pass the
+# DATA_FILE (or env SABLE_LAMMPS_DATA): data file to run. For the gas, default
+#   $OUT_DIR/data.sable_bench, generated with gen_data.py if missing; pass the
 #   file written by `sable bench dem --lammps-data FILE` to run Sable's own
-#   initial state.
+#   initial state. For the other scenes it is required: the file written by
+#   `sable bench dem --scene NAME --lammps-data FILE`, with FILE.vars beside it
+#   (the scene's parameters, steps included).
 #
 # Environment knobs (all optional):
+#   SCENE     gas (default), deposition_3d, shear_3d, deposition_2d, biaxial_2d,
+#             polydisperse_3d
+#   NEIGHBOR  neighbour list style of the suite inputs (default bin; multi bins
+#             each size class apart)
 #   OUT_DIR   logs + generated data   (default ${TMPDIR:-/tmp}/sable-bench-lammps)
 #   MODES     runs to do, in order    (default "serial mpi2 omp2"; unsupported ones are skipped)
 #   REPEATS   timings per mode        (default 2)
@@ -27,6 +34,8 @@ set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 OUT_DIR="${OUT_DIR:-${TMPDIR:-/tmp}/sable-bench-lammps}"
+SCENE="${SCENE:-gas}"
+NEIGHBOR="${NEIGHBOR:-bin}"
 MODES="${MODES:-serial mpi2 omp2}"
 REPEATS="${REPEATS:-2}"
 NSTEPS="${NSTEPS:-2000}"
@@ -64,6 +73,9 @@ if [[ "$(id -u)" == 0 ]]; then MPI_FLAGS+=(--allow-run-as-root); fi
 
 # --- data file ----------------------------------------------------------------
 DATA="${1:-${SABLE_LAMMPS_DATA:-}}"
+if [[ -z "$DATA" && "$SCENE" != gas ]]; then
+  note "SCENE=$SCENE needs the data file of sable bench dem --scene $SCENE --lammps-data FILE"; exit 2
+fi
 if [[ -z "$DATA" ]]; then
   DATA="$OUT_DIR/data.sable_bench"
   if [[ ! -s "$DATA" ]]; then
@@ -82,7 +94,14 @@ if [[ -n "$TIME_BIN" ]]; then
   note "idle LAMMPS process max RSS: ${RSS_BASE_KB} kB"
 fi
 
-LMP_ARGS=(-in "$HERE/in.sable_bench" -var data "$DATA" -var nsteps "$NSTEPS" -var diag "$DIAG" -var limit "$LIMIT_DAMPING" -nocite -screen none)
+if [[ "$SCENE" == gas ]]; then
+  LMP_ARGS=(-in "$HERE/in.sable_bench" -var data "$DATA" -var nsteps "$NSTEPS" -var diag "$DIAG" -var limit "$LIMIT_DAMPING" -nocite -screen none)
+else
+  [[ -f "$HERE/in.$SCENE" ]] || { note "no LAMMPS twin for scene '$SCENE' ($HERE/in.$SCENE)"; exit 2; }
+  [[ -s "$DATA.vars" ]] || { note "$DATA.vars missing: write it with sable bench dem --lammps-data"; exit 2; }
+  LMP_ARGS=(-in "$HERE/in.$SCENE" -var data "$DATA" -var peers "$HERE" -var neighbor_style "$NEIGHBOR" -nocite -screen none)
+  LIMIT_DAMPING=1  # the twins of the suite floor the normal force, as Sable does by default
+fi
 
 # --- one run ----------------------------------------------------------------
 # run_one MODE RANKS THREADS REPEAT
@@ -107,9 +126,9 @@ run_one() {
   local load; load="$(cut -d' ' -f1 /proc/loadavg 2>/dev/null || echo '')"
   note "[$tag] load=$load OMP_NUM_THREADS=$threads ${cmd[*]}"
   OMP_NUM_THREADS="$threads" "${cmd[@]}" >/dev/null
-  "$PY" - "$log" "$mode" "$ranks" "$threads" "$rep" "$LMP_VERSION" "$DATA" "$rss" "$RSS_BASE_KB" "$load" "$LIMIT_DAMPING" <<'PYEOF' | tee -a "$OUT_DIR/results.jsonl"
+  "$PY" - "$log" "$mode" "$ranks" "$threads" "$rep" "$LMP_VERSION" "$DATA" "$rss" "$RSS_BASE_KB" "$load" "$LIMIT_DAMPING" "$SCENE" "$NEIGHBOR" <<'PYEOF' | tee -a "$OUT_DIR/results.jsonl"
 import glob, json, re, sys
-log, mode, ranks, threads, rep, version, data, rss, rss_base, load, limit = sys.argv[1:12]
+log, mode, ranks, threads, rep, version, data, rss, rss_base, load, limit, scene, neighbor = sys.argv[1:14]
 rss_base = int(rss_base) if rss_base.strip().isdigit() else None
 ranks, threads, rep = int(ranks), int(threads), int(rep)
 text = open(log).read()
@@ -142,6 +161,8 @@ for p in sorted(glob.glob(rss + ".*")):
         pass
 out = {
     "code": "lammps",
+    "scene": scene,
+    "neighbor": neighbor,
     "mode": mode,
     "particles": atoms,
     "steps": steps,
@@ -166,7 +187,7 @@ out = {
     "dangerous_builds": int(dangerous[-1]) if dangerous else None,
     "mass_each_kg": float(mass[-1][1]) if mass else None,
     "thermo": [
-        {k: (int(v) if k in ("Step", "Atoms", "v_contacts") else v) for k, v in row.items()
+        {k: (int(round(v)) if k in ("Step", "Atoms", "v_contacts") else v) for k, v in row.items()
          if k != "CPU"}
         for row in thermo
     ],

@@ -40,6 +40,13 @@ impl Drum {
         d
     }
 
+    /// Gap between a sphere (disk) of radius `r` at `x` and the drum's inner surface, m
+    /// (negative: they overlap).
+    #[inline]
+    pub fn gap(&self, x: &Vec3, r: Real) -> Real {
+        self.def.radius - self.radial(x).norm() - r
+    }
+
     /// Contact of a sphere (disk) of radius `r` at `x` with the drum's inner surface: the unit
     /// normal pointing into the drum (from the surface towards the grain) and the overlap, m;
     /// `None` when they do not touch.

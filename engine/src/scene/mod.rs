@@ -1,6 +1,7 @@
 //! The scene format: what users write ([`spec`]), the checked form methods build from
 //! ([`model`]), and the validation between them ([`validate`]).
 
+pub mod bench_suite;
 pub mod experiments;
 pub mod model;
 pub mod presets;

@@ -1,24 +1,19 @@
-//! `sable bench dem`: throughput of soft-contact DEM on the standard scene, in particle-steps
-//! per second, with memory per particle; `sable bench cd`: contact dynamics in contact-iterations
-//! per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
+//! `sable bench dem` ([`super::bench_dem`]): throughput of soft-contact DEM on the scenes of the
+//! suite, in particle-steps per second, with memory per particle; `sable bench cd`: contact
+//! dynamics in contact-iterations per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
-use std::io::Write;
-use std::path::PathBuf;
-
-use anyhow::Context;
 use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
-use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::biaxial_benchmark, presets::cd_benchmark, presets::dem_benchmark, Method, Sweep};
+use sable_engine::scene::{parse_scene, presets::biaxial_benchmark, presets::cd_benchmark, Method, Sweep};
 use serde::Serialize;
 
 /// What `sable bench` measures.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
-    /// Soft-contact DEM on the standard 3D periodic scene (particle-steps per second).
-    Dem(BenchArgs),
+    /// Soft-contact DEM on a scene of the suite or a scene file (particle-steps per second).
+    Dem(super::bench_dem::BenchArgs),
     /// Contact dynamics on a dense pile of rigid spheres (contact-iterations per second).
     Cd(CdBenchArgs),
     /// One quasi-static biaxial test by CD and by DEM (stiffness numbers 1e3 and 1e4): wall time,
@@ -31,53 +26,11 @@ pub enum BenchCommand {
 /// Runs the chosen benchmark.
 pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
-        BenchCommand::Dem(a) => bench(a),
+        BenchCommand::Dem(a) => super::bench_dem::bench(a),
         BenchCommand::Cd(a) => bench_cd(a),
         BenchCommand::Biaxial(a) => bench_biaxial(a),
         BenchCommand::Service(a) => super::bench_service::bench(a),
     }
-}
-
-/// Arguments of `sable bench dem`.
-#[derive(Debug, Args)]
-pub struct BenchArgs {
-    /// Number of particles.
-    #[arg(long, default_value_t = 20_000)]
-    pub particles: usize,
-    /// Number of steps.
-    #[arg(long, default_value_t = 2_000)]
-    pub steps: u64,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print one JSON object instead of text.
-    #[arg(long)]
-    pub json: bool,
-    /// Also report the time spent in each stage of the step.
-    #[arg(long)]
-    pub profile: bool,
-    /// Also write the initial state as a LAMMPS data file (atom_style sphere), for
-    /// benches/peers/run_lammps.sh.
-    #[arg(long)]
-    pub lammps_data: Option<PathBuf>,
-}
-
-#[derive(Debug, Serialize)]
-struct BenchResult {
-    method: &'static str,
-    particles: usize,
-    steps: u64,
-    threads: usize,
-    wall_seconds: f64,
-    particle_steps_per_second: f64,
-    bytes_per_particle: f64,
-    neighbor_pairs: usize,
-    interacting_pairs: usize,
-    neighbor_builds: u64,
-    near_pairs: usize,
-    near_filters: u64,
-    kinetic_energy_start: f64,
-    kinetic_energy_end: f64,
 }
 
 /// Arguments of `sable bench cd`.
@@ -342,91 +295,5 @@ pub fn bench_biaxial(a: BiaxialBenchArgs) -> anyhow::Result<()> {
             100.0 * r.steady_zeta_difference
         );
     }
-    Ok(())
-}
-
-/// `sable bench dem`.
-pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
-    let (scene, threads, pool) = prepare(a.threads, |t| dem_benchmark(a.particles, a.steps, t))?;
-    let Method::Dem(params) = &scene.method else { anyhow::bail!("the DEM benchmark scene must use method dem") };
-    let mut sim = pool.install(|| Dem::new(&scene, params))?;
-    if let Some(path) = &a.lammps_data {
-        write_lammps_data(&sim, path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    let ke0 = sim.sample()?.kinetic_energy;
-    sim.set_profiling(a.profile);
-    let start = std::time::Instant::now();
-    pool.install(|| (0..a.steps).try_for_each(|_| sim.step()))?;
-    let wall = start.elapsed().as_secs_f64();
-    let ke1 = sim.sample()?.kinetic_energy;
-    let r = BenchResult {
-        method: "dem",
-        particles: sim.particle_count(),
-        steps: a.steps,
-        threads,
-        wall_seconds: wall,
-        particle_steps_per_second: sim.particle_count() as f64 * a.steps as f64 / wall,
-        bytes_per_particle: sim.memory_bytes() as f64 / sim.particle_count() as f64,
-        neighbor_pairs: sim.neighbor_pairs(),
-        interacting_pairs: sim.interacting_pairs(),
-        neighbor_builds: sim.neighbor_builds(),
-        near_pairs: sim.near_pairs(),
-        near_filters: sim.near_filters(),
-        kinetic_energy_start: ke0,
-        kinetic_energy_end: ke1,
-    };
-    if let Some(t) = sim.stage_times() {
-        eprintln!(
-            "stages (s): integrate {:.3}, boundaries {:.3}, neighbours {:.3}, pair forces {:.3}, walls and gather {:.3}, check {:.3}",
-            t.integrate, t.boundaries, t.neighbors, t.pairs, t.forces, t.check
-        );
-    }
-    if a.json {
-        println!("{}", serde_json::to_string(&r)?);
-    } else {
-        println!(
-            "dem: {} particles x {} steps on {} thread(s): {:.3} s, {:.3e} particle-steps/s, {:.0} bytes/particle \
-             ({} pairs listed, {} near, {} interacting, {} neighbour builds, {} near filterings; kinetic energy {:.4e} -> {:.4e} J)",
-            r.particles,
-            r.steps,
-            r.threads,
-            r.wall_seconds,
-            r.particle_steps_per_second,
-            r.bytes_per_particle,
-            r.neighbor_pairs,
-            r.near_pairs,
-            r.interacting_pairs,
-            r.neighbor_builds,
-            r.near_filters,
-            r.kinetic_energy_start,
-            r.kinetic_energy_end
-        );
-    }
-    Ok(())
-}
-
-/// Writes the current state as a LAMMPS data file (atom_style sphere: id type diameter density
-/// x y z; velocities with angular velocities).
-fn write_lammps_data(sim: &Dem, path: &PathBuf) -> anyhow::Result<()> {
-    let p = sim.particles();
-    let d = sim.domain();
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    writeln!(f, "LAMMPS data file written by sable bench dem\n")?;
-    writeln!(f, "{} atoms\n1 atom types\n", p.len())?;
-    for (a, name) in ["x", "y", "z"].iter().enumerate() {
-        writeln!(f, "{:.16e} {:.16e} {name}lo {name}hi", d.lo[a], d.hi[a])?;
-    }
-    writeln!(f, "\nAtoms # sphere\n")?;
-    for i in 0..p.len() {
-        let r = p.radius[i];
-        let vol = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
-        writeln!(f, "{} 1 {:.16e} {:.16e} {:.16e} {:.16e} {:.16e}", i + 1, 2.0 * r, p.mass[i] / vol, p.pos[i].x, p.pos[i].y, p.pos[i].z)?;
-    }
-    writeln!(f, "\nVelocities\n")?;
-    for i in 0..p.len() {
-        let (v, w) = (p.vel[i], p.omega[i]);
-        writeln!(f, "{} {:.16e} {:.16e} {:.16e} {:.16e} {:.16e} {:.16e}", i + 1, v.x, v.y, v.z, w.x, w.y, w.z)?;
-    }
-    f.flush()?;
     Ok(())
 }

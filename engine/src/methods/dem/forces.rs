@@ -1,20 +1,19 @@
 //! The force stage of DEM: the pairs of the neighbour list in parallel, by blocks of particles
-//! (each block owns the records of its interacting pairs, see [`super::pair_state`]), then walls,
-//! then the gather: each thread sums the forces of its own range of particles over all records,
-//! in block order, and gives them the second half kick. No atomics: the result does not depend
-//! on the number of threads.
+//! (each block owns the records of its interacting pairs, see [`super::pair_state`]), then the
+//! gather: each task evaluates the wall contacts of its own range of particles
+//! ([`super::wall_contacts`]), sums their forces over all pair records, in block order, and gives
+//! them the second half kick. No atomics: the result does not depend on the number of threads.
 
 use rayon::prelude::*;
 
 use super::pair_state::{PairContact, PairExtra};
+use super::wall_contacts::{evaluate_block, Grains, Owned, WallScene};
 use super::{half_kick, Dem};
 use crate::contact::{ContactInput, ContactOutput, ContactTable};
 use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
 use crate::particles::Particles;
-
-const CHUNK: usize = 256;
 
 /// What a force task owns: its block's records (current and previous evaluation), near pairs
 /// and reach (see `Dem::reach`).
@@ -93,13 +92,13 @@ impl Dem {
         self.wall_forces_and_gather(kick);
     }
 
-    /// The part of [`Dem::compute_forces`] after the pair forces: wall forces, then the
-    /// gather (with `kick`, the second half kick).
+    /// The part of [`Dem::compute_forces`] after the pair forces: the gather with the wall
+    /// contacts (with `kick`, the second half kick), then the walls' reactions.
     pub(crate) fn wall_forces_and_gather(&mut self, kick: bool) {
-        if self.wall_slots() > 0 {
-            self.wall_forces();
-        }
         self.gather(kick);
+        if self.wall_slots() > 0 {
+            self.wall_reactions();
+        }
         if !self.glued.is_empty() {
             self.glued_loads();
         }
@@ -233,51 +232,91 @@ impl Dem {
     }
 
     /// Sums the forces on each particle: gravity, walls, then every interacting pair in block
-    /// order. Each task owns a range of particles and walks the records of the blocks that can
-    /// reach it (its own blocks, and those whose second particles fall in the range, see
-    /// `Dem::reach`), adding only to its own particles: each particle receives its terms in the
-    /// same order whatever the number of threads and tasks, so the result does not depend on
-    /// them, and no step is serial. With several threads the particles go in several tasks per
-    /// thread, so that a thread that joins late takes fewer. With `kick`, the task then gives
-    /// its particles the second half kick.
+    /// order. Each task owns a range of whole blocks of particles: it first evaluates their wall
+    /// contacts (with the forces of the last evaluation, which it is about to overwrite), then
+    /// walks the records of the blocks that can reach its particles (its own blocks, and those
+    /// whose second particles fall in the range, see `Dem::reach`), adding only to its own
+    /// particles: each particle receives its terms in the same order whatever the number of
+    /// threads and tasks, so the result does not depend on them, and no step is serial. With
+    /// several threads the particles go in several tasks per thread, so that a thread that joins
+    /// late takes fewer. With `kick`, the task then gives its particles the second half kick.
     fn gather(&mut self, kick: bool) {
         let g = self.gravity;
         let field = self.field;
+        let slots = self.wall_slots();
+        let scene = WallScene {
+            walls: &self.walls,
+            drum: self.drum.as_ref(),
+            glued_to: &self.glued_to,
+            table: &self.wall_table,
+            wall_material: self.wall_material,
+            dt: self.dt,
+        };
         let p = &mut self.p;
-        let pos = &p.pos;
-        let (mass, inv_mass, inv_inertia) = (&p.mass, &p.inv_mass, &p.inv_inertia);
-        let (wall_f, wall_t) = (&self.wall_total_f, &self.wall_total_t);
         let (contacts, reach) = (&self.contacts, &self.reach);
         debug_assert!(
             contacts.iter().zip(reach).all(|(list, &(lo, hi))| list.iter().all(|c| (lo..=hi).contains(&c.j))),
             "a block's reach must cover its records (written by pair_forces)"
         );
         let (h, alpha) = (0.5 * self.dt, self.params.local_damping);
-        let n = mass.len();
+        let n = p.len();
         let threads = rayon::current_num_threads().max(1);
         let tasks = if threads == 1 { 1 } else { GATHER_TASKS_PER_THREAD * threads };
         let span = n.div_ceil(tasks).next_multiple_of(PARTICLE_BLOCK).max(PARTICLE_BLOCK);
+        let blocks = span / PARTICLE_BLOCK;
+        // What the tasks write (forces, torques, and the velocities they kick), and what every
+        // task reads.
+        let grains = Grains {
+            pos: &p.pos,
+            radius: &p.radius,
+            mass: &p.mass,
+            inv_mass: &p.inv_mass,
+            inv_inertia: &p.inv_inertia,
+            material: &p.material,
+        };
+        let w = &mut self.wall_contacts;
+        // As many chunks of blocks as of particles (`span` is a whole number of blocks).
+        debug_assert_eq!(w.records.len(), n.div_ceil(PARTICLE_BLOCK));
+        debug_assert_eq!(w.block_force.len(), w.records.len() * slots.max(1));
+        let walls_per_task = (
+            w.records.par_chunks_mut(blocks),
+            w.previous.par_chunks_mut(blocks),
+            w.candidates.par_chunks(blocks),
+            w.block_force.par_chunks_mut(blocks * slots.max(1)),
+            w.block_drum_torque.par_chunks_mut(blocks),
+        );
         let ranges = p
             .force
             .par_chunks_mut(span)
             .zip(p.torque.par_chunks_mut(span))
             .zip(p.vel.par_chunks_mut(span))
             .zip(p.omega.par_chunks_mut(span))
+            .zip(walls_per_task.0.zip(walls_per_task.1).zip(walls_per_task.2).zip(walls_per_task.3.zip(walls_per_task.4)))
             .with_max_len(1);
-        ranges.enumerate().for_each(|(c, (((fs, ts), vs), ws))| {
+        ranges.enumerate().for_each(|(c, ((((fs, ts), vs), ws), (((records, previous), candidates), (block_force, drum_torque))))| {
             let base = c * span;
             let owned = base..base + fs.len();
-            // Gravity, then walls (each array is read only when it holds something).
+            // The wall contacts of the task's blocks, with the forces of the last evaluation and
+            // the velocities the pairs saw.
+            if slots > 0 {
+                let owner = Owned { base, vel: vs, omega: ws, force: fs, torque: ts };
+                let lists = records.iter_mut().zip(previous.iter_mut()).zip(candidates).zip(block_force.chunks_mut(slots)).zip(drum_torque);
+                for ((((records, previous), candidates), block_force), drum_torque) in lists {
+                    evaluate_block(&scene, &grains, &owner, candidates, records, previous, block_force, drum_torque);
+                }
+            }
+            let (mass, pos) = (&grains.mass[owned.clone()], &grains.pos[owned.clone()]);
+            // Gravity, then walls, then pairs.
             if g == Vec3::zeros() {
                 fs.fill(Vec3::zeros());
             } else {
-                for (f, m) in fs.iter_mut().zip(&mass[owned.clone()]) {
+                for (f, m) in fs.iter_mut().zip(mass) {
                     *f = g * *m;
                 }
             }
             // The centripetal field that gathers a granule.
             if let Some((centre, a)) = field {
-                for ((f, m), x) in fs.iter_mut().zip(&mass[owned.clone()]).zip(&pos[owned.clone()]) {
+                for ((f, m), x) in fs.iter_mut().zip(mass).zip(pos) {
                     let d = centre - x;
                     let r = d.norm();
                     if r > 0.0 {
@@ -286,11 +325,9 @@ impl Dem {
                 }
             }
             ts.fill(Vec3::zeros());
-            if !wall_f.is_empty() {
-                for ((f, t), (wf, wt)) in fs.iter_mut().zip(ts.iter_mut()).zip(wall_f[owned.clone()].iter().zip(&wall_t[owned.clone()])) {
-                    *f += wf;
-                    *t += wt;
-                }
+            for c in records.iter().flatten() {
+                fs[c.i as usize - base] += c.force;
+                ts[c.i as usize - base] += c.torque;
             }
             // A block holds the pairs of its own particles i, whose partners j lie in its reach.
             let (lo, hi) = (owned.start as u32, owned.end as u32);
@@ -313,7 +350,7 @@ impl Dem {
                 }
             }
             if kick {
-                let (im, ii) = (&inv_mass[owned.clone()], &inv_inertia[owned]);
+                let (im, ii) = (&grains.inv_mass[owned.clone()], &grains.inv_inertia[owned]);
                 for ((((v, w), f), t), (im, ii)) in vs.iter_mut().zip(ws.iter_mut()).zip(fs.iter()).zip(ts.iter()).zip(im.iter().zip(ii)) {
                     half_kick(v, w, f, t, h * im, h * ii, alpha);
                 }
@@ -321,112 +358,16 @@ impl Dem {
         });
     }
 
-    fn wall_forces(&mut self) {
-        let nw = self.wall_slots();
-        let walls = &self.walls;
-        let drum = self.drum.as_ref();
-        let glued_to = &self.glued_to;
-        let table = &self.wall_table;
-        let wall_mat = self.wall_material;
-        let dt = self.dt;
-        let p = &self.p;
-        let (pos, vel, omega, radius, mass, material) = (&p.pos, &p.vel, &p.omega, &p.radius, &p.mass, &p.material);
-        let (inv_mass, inv_inertia) = (&p.inv_mass, &p.inv_inertia);
-        let (force, torque) = (&p.force, &p.torque);
-        let run = |total_f: &mut [Vec3], total_t: &mut [Vec3], xi: &mut [Vec3], roll: &mut [Vec3], wf: &mut [Vec3]| {
-            total_f
-                .par_iter_mut()
-                .zip(total_t.par_iter_mut())
-                .zip(xi.par_chunks_mut(nw))
-                .zip(roll.par_chunks_mut(nw))
-                .zip(wf.par_chunks_mut(nw))
-                .enumerate()
-                .with_min_len(CHUNK)
-                .for_each(|(i, ((((f, t), xi), roll), wf))| {
-                    let r = radius[i];
-                    let law = table.get(material[i] as usize, wall_mat);
-                    // Forces of the previous step, for the end-of-step velocity prediction.
-                    let (dv, dw) = (force[i] * (0.5 * dt * inv_mass[i]), torque[i] * (0.5 * dt * inv_inertia[i]));
-                    *f = Vec3::zeros();
-                    *t = Vec3::zeros();
-                    // Plane walls, then the drum (the last slot).
-                    // A grain glued to a wall is part of it.
-                    let own = glued_to.get(i).map_or(usize::MAX, |&w| w as usize);
-                    for w in 0..nw {
-                        let touch = match walls.get(w) {
-                            Some(_) if w == own => None,
-                            Some(wall) => {
-                                let n = wall.normal();
-                                let delta = r - (pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
-                                (delta > 0.0).then_some((n, delta, wall.velocity))
-                            }
-                            None => drum.and_then(|d| {
-                                d.touch(&pos[i], r).map(|(n, delta)| (n, delta, d.surface_velocity(&(pos[i] - n * (r - delta)))))
-                            }),
-                        };
-                        let Some((n, delta, wall_velocity)) = touch else {
-                            xi[w] = Vec3::zeros();
-                            roll[w] = Vec3::zeros();
-                            wf[w] = Vec3::zeros();
-                            continue;
-                        };
-                        let a_i = r - delta;
-                        let v_c = vel[i] - (omega[i] * a_i).cross(&n) - wall_velocity;
-                        let v_damp = v_c + dv - (dw * a_i).cross(&n);
-                        let input = ContactInput {
-                            n,
-                            delta,
-                            r_i: r,
-                            r_j: f64::INFINITY,
-                            r_eff: r,
-                            m_eff: mass[i],
-                            a_i,
-                            a_j: 0.0,
-                            v_c,
-                            v_damp,
-                            w_rel: omega[i],
-                            spin_n: 0.5 * omega[i].dot(&n),
-                        };
-                        let out = law.compute(&input, &mut xi[w], Some(&mut roll[w]), None, dt);
-                        *f += out.force;
-                        *t += out.torque_i;
-                        wf[w] = out.force;
-                    }
-                })
-        };
-        run(&mut self.wall_total_f, &mut self.wall_total_t, &mut self.wall_xi, &mut self.wall_roll, &mut self.wall_f);
-        // Reaction on each wall (and the drum's torque about its axis), summed in a fixed order
-        // in one pass.
-        const BLOCK: usize = 1024;
-        let drum = self.drum.as_ref();
-        let partial: Vec<(Vec<Vec3>, Real)> = self
-            .wall_f
-            .par_chunks(BLOCK * nw)
-            .zip(self.p.pos.par_chunks(BLOCK))
-            .map(|(c, xs)| {
-                let (mut s, mut torque) = (vec![Vec3::zeros(); nw], 0.0);
-                for (per, x) in c.chunks(nw).zip(xs) {
-                    for (w, f) in per.iter().enumerate() {
-                        s[w] += f;
-                    }
-                    if let Some(d) = drum.filter(|_| per[nw - 1] != Vec3::zeros()) {
-                        torque += d.torque_of(&d.surface_point(x), &per[nw - 1]);
-                    }
-                }
-                (s, torque)
-            })
-            .collect();
-        for wall in &mut self.walls {
-            wall.force = Vec3::zeros();
-        }
-        for (s, _) in &partial {
-            for (wall, f) in self.walls.iter_mut().zip(s) {
-                wall.force -= f;
-            }
+    /// The walls' and the drum's reactions: what the particles' wall contacts push on them,
+    /// summed block by block in order.
+    fn wall_reactions(&mut self) {
+        let (on_walls, drum_torque) = self.wall_contacts.reactions();
+        for (wall, f) in self.walls.iter_mut().zip(&on_walls) {
+            wall.force = *f;
         }
         if let Some(d) = self.drum.as_mut() {
-            d.force = -partial.iter().map(|(s, _)| s[nw - 1]).fold(Vec3::zeros(), |a, f| a + f);
-            d.torque = -partial.iter().map(|(_, t)| t).sum::<Real>();
+            d.force = on_walls[self.walls.len()];
+            d.torque = drum_torque;
         }
     }
 }

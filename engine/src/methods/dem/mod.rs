@@ -8,6 +8,7 @@ mod forces;
 mod pair_state;
 mod stability;
 pub mod timestep;
+mod wall_contacts;
 
 use rayon::prelude::*;
 
@@ -26,6 +27,7 @@ use forces::LOOP_CHUNK;
 use pair_state::PairContact;
 use stability::EnergyBudget;
 use timestep::{collision_time, Bodies, CollisionTime};
+use wall_contacts::WallContacts;
 
 /// The stages of one DEM step, in execution order:
 /// 1. `InitialIntegrate`: half kick of velocities and spins and drift of positions, in one pass
@@ -70,6 +72,8 @@ pub struct StageTimes {
     pub forces: f64,
     /// Stability guard.
     pub check: f64,
+    /// Samples (the guard's scan, contacts and metrics), outside the steps.
+    pub sampling: f64,
 }
 
 /// Margin of the near pairs as a fraction of the Verlet skin (see
@@ -133,13 +137,9 @@ pub struct Dem {
     /// the build): saves the neighbour check a pass over the positions.
     drift2: Option<Real>,
     needs_extra: bool,
-    /// Tangential springs, rolling springs and forces of the particle-wall contacts, `slots`
-    /// per particle: one per plane wall, then the drum.
-    wall_xi: Vec<Vec3>,
-    wall_roll: Vec<Vec3>,
-    wall_f: Vec<Vec3>,
-    wall_total_f: Vec<Vec3>,
-    wall_total_t: Vec<Vec3>,
+    /// The particle-wall contacts: candidates, records with their springs, reactions
+    /// ([`wall_contacts`]); slots are the plane walls, then the drum.
+    wall_contacts: WallContacts,
     step: u64,
     time: Real,
     len0: Vec3,
@@ -228,7 +228,6 @@ impl Dem {
         let nw = walls.len() + usize::from(drum.is_some());
         let needs_extra = table.laws().iter().any(|l| l.rolling.is_some() || l.capillary.is_some());
         let n = p.len();
-        let has_wall_rolling = table.laws().iter().any(|l| l.rolling.is_some());
         let len0 = domain.hi - domain.lo;
         let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
         let pool = if params.threads > 0 {
@@ -268,11 +267,7 @@ impl Dem {
             xr_current: false,
             drift2: None,
             needs_extra,
-            wall_xi: vec![Vec3::zeros(); n * nw],
-            wall_roll: if has_wall_rolling || nw > 0 { vec![Vec3::zeros(); n * nw] } else { Vec::new() },
-            wall_f: vec![Vec3::zeros(); n * nw],
-            wall_total_f: if nw > 0 { vec![Vec3::zeros(); n] } else { Vec::new() },
-            wall_total_t: if nw > 0 { vec![Vec3::zeros(); n] } else { Vec::new() },
+            wall_contacts: WallContacts::new(n.div_ceil(forces::PARTICLE_BLOCK), nw),
             step: 0,
             time: 0.0,
             len0,
@@ -321,6 +316,11 @@ impl Dem {
         &self.walls
     }
 
+    /// The Verlet skin, m.
+    pub fn skin(&self) -> Real {
+        self.nl.skin
+    }
+
     /// Number of neighbour-list builds so far.
     pub fn neighbor_builds(&self) -> u64 {
         self.nl.builds
@@ -348,6 +348,11 @@ impl Dem {
     /// Number of pairs that interacted at the last force evaluation.
     pub fn interacting_pairs(&self) -> usize {
         self.contacts.iter().map(Vec::len).sum()
+    }
+
+    /// Number of particle-wall contacts (drum included) at the last force evaluation.
+    pub fn wall_contact_count(&self) -> usize {
+        self.wall_contacts.len()
     }
 
     /// The particle pairs (i < j) that interacted at the last force evaluation — touching, or
@@ -388,8 +393,7 @@ impl Dem {
             + self.near.heap_bytes()
             + self.contacts.iter().chain(&self.previous_contacts).map(|l| l.capacity() * std::mem::size_of::<PairContact>()).sum::<usize>()
             + self.xr.capacity() * 32
-            + (self.wall_xi.capacity() + self.wall_roll.capacity() + self.wall_f.capacity()) * std::mem::size_of::<Vec3>()
-            + (self.wall_total_f.capacity() + self.wall_total_t.capacity()) * std::mem::size_of::<Vec3>()
+            + self.wall_contacts.heap_bytes()
     }
 
     /// Current contact forces as records (pairs and walls), for metrics and tests.
@@ -404,24 +408,19 @@ impl Dem {
             let touching = d.norm() < self.p.radius[c.i as usize] + self.p.radius[c.j as usize];
             records.push(ContactRecord { i: c.i, j: Some(c.j), force: c.out.force, branch: d, touching, bonded });
         }
-        let nw = self.wall_slots();
-        for i in 0..self.p.len() {
-            for (w, wall) in self.walls.iter().enumerate() {
-                let f = self.wall_f[i * nw + w];
-                if f == Vec3::zeros() {
-                    continue;
+        for c in self.wall_contacts.iter().filter(|c| c.force != Vec3::zeros()) {
+            let i = c.i as usize;
+            let branch = match self.walls.get(c.w as usize) {
+                Some(wall) => {
+                    let n = wall.normal();
+                    n * ((self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis])
                 }
-                let n = wall.normal();
-                let dist = (self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
-                records.push(ContactRecord { i: i as u32, j: None, force: f, branch: n * dist, touching: true, bonded: false });
-            }
-            if let Some(drum) = &self.drum {
-                let f = self.wall_f[i * nw + nw - 1];
-                if let Some((n, delta)) = drum.touch(&self.p.pos[i], self.p.radius[i]).filter(|_| f != Vec3::zeros()) {
-                    let branch = n * (self.p.radius[i] - delta);
-                    records.push(ContactRecord { i: i as u32, j: None, force: f, branch, touching: true, bonded: false });
-                }
-            }
+                None => match self.drum.as_ref().and_then(|d| d.touch(&self.p.pos[i], self.p.radius[i])) {
+                    Some((n, delta)) => n * (self.p.radius[i] - delta),
+                    None => continue,
+                },
+            };
+            records.push(ContactRecord { i: c.i, j: None, force: c.force, branch, touching: true, bonded: false });
         }
         records
     }
@@ -437,6 +436,7 @@ impl Dem {
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
         self.near.invalidate();
         pair_state::renumber(&mut self.contacts, &self.nl);
+        self.wall_contacts.choose(&self.p, &self.walls, self.drum.as_ref(), self.nl.skin);
     }
 
     /// Glues to each wall the grains whose surface lies within `gap` mean diameters of it: they
@@ -704,27 +704,12 @@ impl Simulation for Dem {
     }
 
     fn sample(&mut self) -> Result<Sample, EngineError> {
-        let energies = self.check_stability()?;
-        let contacts = self.contacts();
-        let walls = world::wall_views(&self.walls, &self.domain);
-        let view = SystemView {
-            dim: self.dim,
-            step: self.step,
-            time: self.time,
-            particles: &self.p,
-            volume: self.domain.volume(),
-            contacts: &contacts,
-            walls: &walls,
-            shear: self.shear_geometry(),
-            elastic_energy: energies.elastic,
-            rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
-            drum: self.drum.as_ref().map(Drum::view),
-        };
-        let s = measure(&view);
-        if !s.is_finite() {
-            return Err(self.unstable(crate::error::InstabilityCause::NonFinite { particle: 0 }));
+        let clock = self.profile.map(|_| std::time::Instant::now());
+        let sample = self.take_sample();
+        if let (Some(c), Some(t)) = (clock, self.profile.as_mut()) {
+            t.sampling += c.elapsed().as_secs_f64();
         }
-        Ok(s)
+        sample
     }
 
     fn memory_bytes(&self) -> usize {
@@ -792,8 +777,8 @@ impl Simulation for Dem {
                 count += 1;
             }
         }
-        for f in self.wall_f.iter().filter(|f| **f != Vec3::zeros()) {
-            sum += f.norm();
+        for c in self.wall_contacts.iter().filter(|c| c.force != Vec3::zeros()) {
+            sum += c.force.norm();
             count += 1;
         }
         let mean_contact = if count > 0 { sum / count as Real } else { 0.0 };
@@ -843,14 +828,39 @@ impl Simulation for Dem {
             contacts: self.contacts(),
             walls: world::wall_faces(&self.walls),
             drum: self.drum.as_ref().map(|d| {
-                let nw = self.wall_slots();
-                d.shell(p.pos.iter().zip(self.wall_f.chunks(nw)).map(|(x, f)| (*x, f[nw - 1])))
+                let slot = self.walls.len() as u16;
+                d.shell(self.wall_contacts.iter().filter(|c| c.w == slot).map(|c| (p.pos[c.i as usize], c.force)))
             }),
         }
     }
 }
 
 impl Dem {
+    /// Takes a sample: the guard's scan (its elastic energy), the contacts, the metrics.
+    fn take_sample(&mut self) -> Result<Sample, EngineError> {
+        let energies = self.check_stability()?;
+        let contacts = self.contacts();
+        let walls = world::wall_views(&self.walls, &self.domain);
+        let view = SystemView {
+            dim: self.dim,
+            step: self.step,
+            time: self.time,
+            particles: &self.p,
+            volume: self.domain.volume(),
+            contacts: &contacts,
+            walls: &walls,
+            shear: self.shear_geometry(),
+            elastic_energy: energies.elastic,
+            rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
+            drum: self.drum.as_ref().map(Drum::view),
+        };
+        let s = measure(&view);
+        if !s.is_finite() {
+            return Err(self.unstable(crate::error::InstabilityCause::NonFinite { particle: 0 }));
+        }
+        Ok(s)
+    }
+
     fn wrapped(&self) -> (Vec<Vec3>, Vec<Vec3>) {
         world::wrapped(&self.domain, &self.p)
     }
@@ -875,7 +885,7 @@ impl Dem {
         let rebuild = match self.drift2.take() {
             Some(max2) => self.nl.needs_rebuild_after(max2, &self.domain),
             None => self.nl.needs_rebuild(&self.p.pos, &self.domain),
-        };
+        } || self.wall_contacts.walls_moved(&self.walls, self.nl.skin);
         if rebuild {
             self.refresh_neighbors();
         }

@@ -9,6 +9,7 @@
 
 use rayon::prelude::*;
 
+use super::wall_contacts;
 use super::Dem;
 use crate::contact::NormalForce;
 use crate::error::{EngineError, InstabilityCause};
@@ -80,9 +81,9 @@ impl Dem {
     fn scan(&self) -> Scan {
         let p = &self.p;
         let g = self.gravity;
-        let nw = self.walls.len();
+
         // Per block of particles: the first non-finite particle, the kinetic energy, the
-        // potential of gravity and of the centripetal field, and the walls' overlaps and springs.
+        // potential of gravity and of the centripetal field.
         let particles: Vec<ParticleTerms> = (0..p.len().div_ceil(BLOCK))
             .into_par_iter()
             .map(|b| {
@@ -105,41 +106,30 @@ impl Dem {
                         potential += p.mass[i] * a * (p.pos[i] - c).norm();
                     }
                 }
-                let (mut elastic, mut overlap) = (0.0, 0.0);
-                if nw > 0 {
-                    for i in r.clone() {
-                        let law = self.wall_table.get(p.material[i] as usize, self.wall_material);
-                        let rad = p.radius[i];
-                        for (w, wall) in self.walls.iter().enumerate() {
-                            let n = wall.normal();
-                            let delta = rad - (p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis];
-                            if delta > 0.0 {
-                                overlap = Real::max(overlap, delta / rad);
-                                elastic += law.normal.energy(delta, rad)
-                                    + law.tangential.energy(self.wall_xi[i * nw + w].norm_squared(), delta, rad);
-                                if let Some(rr) = law.rolling {
-                                    elastic += 0.5 * rr.stiffness * self.wall_roll[i * nw + w].norm_squared();
-                                }
-                            }
-                        }
-                    }
-                }
-                if let Some(d) = self.drum.as_ref() {
-                    for i in r {
-                        if let Some((_, delta)) = d.touch(&p.pos[i], p.radius[i]) {
-                            overlap = Real::max(overlap, delta / p.radius[i]);
-                        }
-                    }
-                }
-                ParticleTerms { bad, kinetic, potential, wall_elastic: elastic, wall_overlap: overlap }
+                ParticleTerms { bad, kinetic, potential }
             })
             .collect();
-        // Per block of pair records: the largest overlap, the springs' and the bridges' energy.
+        // Per block of pair and wall records: the largest overlap, the springs' and the bridges'
+        // energy.
         let pairs: Vec<(Real, Real, Real)> = self
             .contacts
             .par_iter()
-            .map(|list| {
+            .zip(self.wall_contacts.records.par_iter())
+            .map(|(list, walls)| {
                 let (mut overlap, mut elastic, mut capillary) = (0.0, 0.0, 0.0);
+                for c in walls {
+                    let i = c.i as usize;
+                    let rad = p.radius[i];
+                    let Some((_, delta, _)) = wall_contacts::touch(&self.walls, self.drum.as_ref(), &p.pos[i], rad, c.w as usize) else {
+                        continue;
+                    };
+                    overlap = Real::max(overlap, delta / rad);
+                    let law = self.wall_table.get(p.material[i] as usize, self.wall_material);
+                    elastic += law.normal.energy(delta, rad) + law.tangential.energy(c.xi.norm_squared(), delta, rad);
+                    if let Some(rr) = law.rolling {
+                        elastic += 0.5 * rr.stiffness * c.roll.norm_squared();
+                    }
+                }
                 for c in list {
                     let (i, j) = (c.i as usize, c.j as usize);
                     let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
@@ -163,19 +153,15 @@ impl Dem {
             })
             .collect();
         let mut scan = Scan { bad: particles.iter().find_map(|b| b.bad), ..Default::default() };
-        let mut wall_elastic = 0.0;
         for b in &particles {
             scan.energies.kinetic += b.kinetic;
             scan.energies.gravity += b.potential;
-            wall_elastic += b.wall_elastic;
-            scan.overlap = scan.overlap.max(b.wall_overlap);
         }
         for (overlap, elastic, capillary) in &pairs {
             scan.energies.elastic += elastic;
             scan.energies.capillary += capillary;
             scan.overlap = scan.overlap.max(*overlap);
         }
-        scan.energies.elastic += wall_elastic;
         scan
     }
 
@@ -278,10 +264,6 @@ struct ParticleTerms {
     kinetic: Real,
     /// Potential energy of gravity and of the centripetal field, J.
     potential: Real,
-    /// Elastic energy of the wall contacts, J.
-    wall_elastic: Real,
-    /// Largest overlap of a wall or drum contact over the radius.
-    wall_overlap: Real,
 }
 
 /// What the guard measures ([`Dem::scan`]).
