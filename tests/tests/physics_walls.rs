@@ -43,13 +43,19 @@ fn servo_walls_hold_the_imposed_stress_at_equilibrium() {
             sim.step().expect("stable");
         }
         sample = sim.sample().expect("sample");
-        // At rest: three checks in a row (3,000 steps) with almost no kinetic energy and walls
-        // that moved by less than 1e-3 of the typical overlap (1e-3 d) in 1,000 steps.
+        // At rest: three checks in a row (3,000 steps) with almost no translational kinetic
+        // energy and walls that moved by less than 1e-3 of the typical overlap (1e-3 d) in 1,000
+        // steps. Spins do not count: a rattler spinning against a frictionless wall keeps its
+        // spin for ever (nothing exerts a torque on it) while the packing is at rest, which is
+        // why the engine's own equilibrium test leaves them out too (`Dem::balance`); whether
+        // one is left spinning depends on the last bits of the trajectory.
         let after = positions(&sim);
         let still = before.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1e-3 * 1e-3 * d);
         before = after;
-        rest_checks = if still && sample.kinetic_energy < 1e-4 * sample.elastic_energy { rest_checks + 1 } else { 0 };
-        assert!(sim.steps_done() < 600_000, "no equilibrium: KE {:e}, elastic {:e}", sample.kinetic_energy, sample.elastic_energy);
+        let p = sim.particles();
+        let translational: f64 = (0..p.len()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared()).sum();
+        rest_checks = if still && translational < 1e-4 * sample.elastic_energy { rest_checks + 1 } else { 0 };
+        assert!(sim.steps_done() < 600_000, "no equilibrium: translational KE {translational:e}, elastic {:e}", sample.elastic_energy);
     }
     assert!(sample.phi > 0.75, "the packing must be jammed, phi = {}", sample.phi);
     for w in &sample.walls {

@@ -121,7 +121,7 @@ pub struct PairLaw {
 }
 
 /// Geometry and kinematics of one contact, computed by the caller.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct ContactInput {
     /// Unit normal from j to i.
     pub n: Vec3,

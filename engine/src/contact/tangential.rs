@@ -19,20 +19,36 @@ use crate::math::Vec3;
 
 /// Carries the spring along with the contact frame: twist by the mean spin about `n` over `dt`,
 /// then project on the plane normal to `n`, keeping the length.
+///
+/// With `c = n·xi` and `s = spin_n dt`, the twist `xi × (s n)` is normal to `n` and to the
+/// projected spring, so the carried spring is `xi - xi × (s n) - c n` and its squared length
+/// `(|xi|² - c²)(1 + s²)`: the rescale to the old length is known from `c` and `s` alone, and
+/// every part is computed side by side instead of one after the other (the carry was a quarter
+/// of a dense packing's contact cost as a chain of dependent operations).
 #[inline(always)]
 pub fn carry_spring(xi: &mut Vec3, n: &Vec3, spin_n: f64, dt: f64) {
     let len2 = xi.norm_squared();
     if len2 == 0.0 {
         return;
     }
-    // Rotation about n by the angle spin_n dt (first order; exact length restored below).
-    let twist = n * (spin_n * dt);
-    *xi -= xi.cross(&twist);
-    *xi -= n * xi.dot(n);
-    let new2 = xi.norm_squared();
-    if new2 > 0.0 {
-        *xi *= (len2 / new2).sqrt();
-    }
+    let s = spin_n * dt;
+    let c = n.dot(xi);
+    // Rotation about n by the angle s (first order; the exact length is restored below).
+    let twist = xi.cross(n) * s;
+    // sqrt(len2 / new2) = (1 - e)^(-1/2) with e = 1 - new2/len2. A contact turns by a tiny
+    // angle per step (e ~ 1e-10), where four terms of the series are exact to rounding (the next
+    // is 35/128 e^4 < 3e-17 for |e| < 1e-4) and spare it a division and a square root.
+    let kept = 1.0 - c * c / len2;
+    let e = 1.0 - kept * (1.0 + s * s);
+    let scale = if e.abs() < 1e-4 {
+        1.0 + e * (0.5 + e * (0.375 + e * 0.3125))
+    } else if kept > 0.0 {
+        (1.0 / (kept * (1.0 + s * s))).sqrt()
+    } else {
+        // The spring lies along the normal: nothing of it is left in the tangent plane.
+        0.0
+    };
+    *xi = (*xi - twist - n * c) * scale;
 }
 
 /// Advances the spring by `v_t dt` (mid-step sliding velocity) and returns the tangential force

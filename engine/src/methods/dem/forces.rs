@@ -6,18 +6,19 @@
 
 use rayon::prelude::*;
 
-use super::pair_state::{PairContact, PairExtra};
+use super::pair_state::{PairBlock, PairExtra, PairForce, PairSprings};
 use super::wall_contacts::{evaluate_block, Grains, Owned, WallScene};
-use super::{half_kick, Dem};
-use crate::contact::{ContactInput, ContactOutput, ContactTable};
+use super::{half_kick, Dem, Kin};
+use crate::contact::batch::{BatchInput, BatchOutput, BatchSprings, LANES};
+use crate::contact::{ContactOutput, ContactTable};
 use crate::geometry::near_pairs::NearPair;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
 use crate::particles::Particles;
 
-/// What a force task owns: its block's records (current and previous evaluation), near pairs
-/// and reach (see `Dem::reach`).
-type BlockState<'a> = (((&'a mut Vec<PairContact>, &'a mut Vec<PairContact>), &'a mut Vec<NearPair>), &'a mut (u32, u32));
+/// What a force task owns: its block's pairs, the springs of the evaluation before, its near
+/// pairs and reach (see `Dem::reach`).
+type BlockState<'a> = (((&'a mut PairBlock, &'a mut PairSprings), &'a mut Vec<NearPair>), &'a mut (u32, u32));
 
 /// Particles per task in the simple per-particle loops (plain slice loops inside each task).
 pub(crate) const LOOP_CHUNK: usize = 2048;
@@ -29,58 +30,211 @@ pub(crate) const PARTICLE_BLOCK: usize = 256;
 /// reach its particles, so more tasks cost little).
 const GATHER_TASKS_PER_THREAD: usize = 4;
 
-/// Force and torques of one interacting pair (i, j'), where j' is the image `img` of j and
-/// `d = r_i - r_j'`; advances the springs `xi` and `extra` carried by the pair's record.
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-fn pair_contact(
-    p: &Particles,
-    domain: &Domain,
-    table: &ContactTable,
+/// What the contact laws of a pair need from the simulation.
+struct PairScene<'a> {
+    p: &'a Particles,
+    kin: &'a [Kin],
+    domain: &'a Domain,
+    table: &'a ContactTable,
     dt: f64,
     with_extra: bool,
-    (i, j): (usize, usize),
-    (ri, rj): (Real, Real),
-    xi: &mut Vec3,
-    extra: &mut PairExtra,
-    img: [i8; 3],
-    d: Vec3,
-) -> ContactOutput {
-    let h = 0.5 * dt;
-    let dist = d.norm();
-    let n = d / dist;
-    let delta = ri + rj - dist;
-    let (a_i, a_j) = (ri - 0.5 * delta, rj - 0.5 * delta);
-    let (wi, wj) = (p.omega[i], p.omega[j]);
-    let mut v_rel = p.vel[i] - p.vel[j];
-    v_rel.x -= domain.image_velocity(img[1]);
-    let v_c = v_rel - (wi * a_i + wj * a_j).cross(&n);
-    // End-of-step prediction from the previous accelerations.
-    let dv = p.force[i] * (h * p.inv_mass[i]) - p.force[j] * (h * p.inv_mass[j]);
-    let (alpha_i, alpha_j) = (p.torque[i] * (h * p.inv_inertia[i]), p.torque[j] * (h * p.inv_inertia[j]));
-    let v_damp = v_c + dv - (alpha_i * a_i + alpha_j * a_j).cross(&n);
-    let (mi, mj) = (p.mass[i], p.mass[j]);
-    let input = ContactInput {
-        n,
-        delta,
-        r_i: ri,
-        r_j: rj,
-        r_eff: ri * rj / (ri + rj),
-        m_eff: mi * mj / (mi + mj),
-        a_i,
-        a_j,
-        v_c,
-        v_damp,
-        w_rel: wi - wj,
-        spin_n: 0.5 * (wi + wj).dot(&n),
-    };
-    let law = table.get(p.material[i] as usize, p.material[j] as usize);
-    if with_extra {
-        let both_wet = p.wet[i] && p.wet[j];
-        let PairExtra { roll, bridge } = extra;
-        law.compute(&input, xi, Some(roll), both_wet.then_some(bridge), dt)
-    } else {
-        law.compute(&input, xi, None, None, dt)
+}
+
+/// The touching pairs of a block waiting for their contact laws, a batch at a time, field by
+/// field: the scan of the near pairs (short, branchy) fills it, then the batch is evaluated in
+/// loops over its pairs — gathering the particles' velocities, then the geometry and kinematics,
+/// then the law ([`crate::contact::PairLaw::compute_batch`], which the compiler turns into vector instructions
+/// over several contacts). Each pair: its index `q` in the neighbour list, i and the image of j
+/// (`image_y`: its period along y, for the Lees-Edwards velocity), their separation
+/// `d = r_i - r_j'`, radii, and the springs carried from its last evaluation.
+struct Batch {
+    q: [u32; LANES],
+    i: [u32; LANES],
+    j: [u32; LANES],
+    image_y: [i8; LANES],
+    d: [[Real; LANES]; 3],
+    r_i: [Real; LANES],
+    r_j: [Real; LANES],
+    extra: [PairExtra; LANES],
+    /// The particles' velocities, gathered: relative velocity at mid-step and predicted, the
+    /// spins and predicted spins of i and j, the masses.
+    kin: Gathered,
+    input: BatchInput,
+    springs: BatchSprings,
+    out: BatchOutput,
+    len: usize,
+}
+
+/// The particles' kinematics of a batch's pairs, gathered into arrays.
+struct Gathered {
+    v_rel: [[Real; LANES]; 3],
+    vp_rel: [[Real; LANES]; 3],
+    w_i: [[Real; LANES]; 3],
+    w_j: [[Real; LANES]; 3],
+    wp_i: [[Real; LANES]; 3],
+    wp_j: [[Real; LANES]; 3],
+    m_i: [Real; LANES],
+    m_j: [Real; LANES],
+}
+
+impl Batch {
+    fn new() -> Self {
+        let (z, z3) = ([0.0; LANES], [[0.0; LANES]; 3]);
+        Self {
+            q: [0; LANES],
+            i: [0; LANES],
+            j: [0; LANES],
+            image_y: [0; LANES],
+            d: z3,
+            r_i: z,
+            r_j: z,
+            extra: [PairExtra::default(); LANES],
+            kin: Gathered { v_rel: z3, vp_rel: z3, w_i: z3, w_j: z3, wp_i: z3, wp_j: z3, m_i: z, m_j: z },
+            input: BatchInput::default(),
+            springs: BatchSprings::default(),
+            out: BatchOutput::default(),
+            len: 0,
+        }
+    }
+
+    /// Queues the pair `q` of i and the image `image` of j; evaluates the batch into `out` when
+    /// it is full.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn push(
+        &mut self,
+        s: &PairScene<'_>,
+        out: &mut PairBlock,
+        (q, i, j, image): (u32, u32, u32, [i8; 3]),
+        d: Vec3,
+        radii: (Real, Real),
+        xi: Vec3,
+        extra: PairExtra,
+    ) {
+        let k = self.len;
+        self.q[k] = q;
+        self.i[k] = i;
+        self.j[k] = j;
+        self.image_y[k] = image[1];
+        for a in 0..3 {
+            self.d[a][k] = d[a];
+            self.springs.xi[a][k] = xi[a];
+        }
+        (self.r_i[k], self.r_j[k]) = radii;
+        if s.with_extra {
+            self.extra[k] = extra;
+        }
+        self.len = k + 1;
+        if self.len == LANES {
+            self.flush(s, out);
+        }
+    }
+
+    /// Evaluates the queued pairs, in order, into the block's lists.
+    #[inline(never)]
+    fn flush(&mut self, s: &PairScene<'_>, out: &mut PairBlock) {
+        let n = self.len;
+        if n == 0 {
+            return;
+        }
+        let g = &mut self.kin;
+        for k in 0..n {
+            let (a, b) = (&s.kin[self.i[k] as usize], &s.kin[self.j[k] as usize]);
+            let image = s.domain.image_velocity(self.image_y[k]);
+            for c in 0..3 {
+                g.v_rel[c][k] = a.v[c] - b.v[c];
+                g.vp_rel[c][k] = a.vp[c] - b.vp[c];
+                (g.w_i[c][k], g.w_j[c][k], g.wp_i[c][k], g.wp_j[c][k]) = (a.w[c], b.w[c], a.wp[c], b.wp[c]);
+            }
+            g.v_rel[0][k] -= image;
+            g.vp_rel[0][k] -= image;
+            (g.m_i[k], g.m_j[k]) = (a.m, b.m);
+        }
+        contact_inputs(&self.d, (&self.r_i, &self.r_j), g, &mut self.input, n);
+        // One law for the whole batch (a scene of one material): evaluated at once; otherwise,
+        // or with rolling or bridges, pair by pair.
+        let material = |k: usize| (s.p.material[self.i[k] as usize], s.p.material[self.j[k] as usize]);
+        let first = material(0);
+        let law = s.table.get(first.0 as usize, first.1 as usize);
+        if !s.with_extra && law.batchable() && (1..n).all(|k| material(k) == first) {
+            law.compute_batch(&self.input, &mut self.springs, &mut self.out, s.dt);
+        } else {
+            for k in 0..n {
+                let (i, j) = (self.i[k] as usize, self.j[k] as usize);
+                let input = self.input.contact(k, &g.w_i, &g.w_j, (self.r_i[k], self.r_j[k]));
+                let law = s.table.get(s.p.material[i] as usize, s.p.material[j] as usize);
+                let mut xi = Vec3::new(self.springs.xi[0][k], self.springs.xi[1][k], self.springs.xi[2][k]);
+                let force = if s.with_extra {
+                    let both_wet = s.p.wet[i] && s.p.wet[j];
+                    let extra = &mut self.extra[k];
+                    law.compute(&input, &mut xi, Some(&mut extra.roll), both_wet.then_some(&mut extra.bridge), s.dt)
+                } else {
+                    law.compute(&input, &mut xi, None, None, s.dt)
+                };
+                for c in 0..3 {
+                    self.springs.xi[c][k] = xi[c];
+                    (self.out.force[c][k], self.out.torque_i[c][k], self.out.torque_j[c][k]) =
+                        (force.force[c], force.torque_i[c], force.torque_j[c]);
+                }
+            }
+        }
+        out.state.q.extend_from_slice(&self.q[..n]);
+        if s.with_extra {
+            out.state.extras.extend_from_slice(&self.extra[..n]);
+        }
+        for (c, f) in out.state.xi.iter_mut().zip(&self.springs.xi) {
+            c.extend_from_slice(&f[..n]);
+        }
+        let o = &self.out;
+        let v = |a: &[[Real; LANES]; 3], k: usize| Vec3::new(a[0][k], a[1][k], a[2][k]);
+        out.forces.extend((0..n).map(|k| PairForce {
+            i: self.i[k],
+            j: self.j[k],
+            out: ContactOutput { force: v(&o.force, k), torque_i: v(&o.torque_i, k), torque_j: v(&o.torque_j, k) },
+        }));
+        self.len = 0;
+    }
+}
+
+/// The geometry and kinematics of the first `n` pairs of a batch for their contact laws:
+/// normal, overlap, levers, the contact point's relative velocity at mid-step (which advances
+/// the springs) and predicted at the end of the step from the last accelerations (which the
+/// dashpots use), effective radius and mass, mean spin about the normal. Every lane is computed
+/// (a loop of fixed length becomes vector instructions, four lanes a time with AVX2).
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn contact_inputs(d: &[[Real; LANES]; 3], (r_i, r_j): (&[Real; LANES], &[Real; LANES]), g: &Gathered, input: &mut BatchInput, n: usize) {
+    input.len = n;
+    for k in 0..LANES {
+        let (dx, dy, dz) = (d[0][k], d[1][k], d[2][k]);
+        let dist = (dx * dx + dy * dy + dz * dz).sqrt();
+        let inv = 1.0 / dist;
+        let (n0, n1, n2) = (dx * inv, dy * inv, dz * inv);
+        let (ri, rj) = (r_i[k], r_j[k]);
+        let delta = ri + rj - dist;
+        let (a_i, a_j) = (ri - 0.5 * delta, rj - 0.5 * delta);
+        // (w_i a_i + w_j a_j) × n, and the same with the predicted spins.
+        let cross = |wi: &[[Real; LANES]; 3], wj: &[[Real; LANES]; 3]| {
+            let (u0, u1, u2) = (wi[0][k] * a_i + wj[0][k] * a_j, wi[1][k] * a_i + wj[1][k] * a_j, wi[2][k] * a_i + wj[2][k] * a_j);
+            (u1 * n2 - u2 * n1, u2 * n0 - u0 * n2, u0 * n1 - u1 * n0)
+        };
+        let (c0, c1, c2) = cross(&g.w_i, &g.w_j);
+        let (p0, p1, p2) = cross(&g.wp_i, &g.wp_j);
+        input.n[0][k] = n0;
+        input.n[1][k] = n1;
+        input.n[2][k] = n2;
+        input.delta[k] = delta;
+        input.a_i[k] = a_i;
+        input.a_j[k] = a_j;
+        input.v_c[0][k] = g.v_rel[0][k] - c0;
+        input.v_c[1][k] = g.v_rel[1][k] - c1;
+        input.v_c[2][k] = g.v_rel[2][k] - c2;
+        input.v_damp[0][k] = g.vp_rel[0][k] - p0;
+        input.v_damp[1][k] = g.vp_rel[1][k] - p1;
+        input.v_damp[2][k] = g.vp_rel[2][k] - p2;
+        let (s0, s1, s2) = (g.w_i[0][k] + g.w_j[0][k], g.w_i[1][k] + g.w_j[1][k], g.w_i[2][k] + g.w_j[2][k]);
+        input.spin_n[k] = 0.5 * (s0 * n0 + s1 * n1 + s2 * n2);
+        input.r_eff[k] = ri * rj / (ri + rj);
+        input.m_eff[k] = g.m_i[k] * g.m_j[k] / (g.m_i[k] + g.m_j[k]);
     }
 }
 
@@ -96,6 +250,9 @@ impl Dem {
     /// contacts (with `kick`, the second half kick), then the walls' reactions.
     pub(crate) fn wall_forces_and_gather(&mut self, kick: bool) {
         self.gather(kick);
+        // New forces (and, with the kick, velocities): the packed predictions are out of date
+        // until the next drift writes them.
+        self.kin_current = false;
         if self.wall_slots() > 0 {
             self.wall_reactions();
         }
@@ -107,12 +264,13 @@ impl Dem {
     /// The pair forces: the near scan (or the filtering of the Verlet list into near pairs)
     /// and the contact law of every touching pair, one task per block of particles.
     pub(crate) fn pair_forces(&mut self) {
+        if !self.kin_current {
+            self.pack_kinematics();
+        }
         let p = &self.p;
         let nl = &self.nl;
         let domain = &self.domain;
-        let table = &self.table;
-        let dt = self.dt;
-        let with_extra = self.needs_extra;
+        let scene = PairScene { p, kin: &self.kin, domain, table: &self.table, dt: self.dt, with_extra: self.needs_extra };
         // Positions and radii packed together: one load per neighbour in the loops below.
         let pos = &self.p.pos;
         if !self.xr_current {
@@ -130,37 +288,46 @@ impl Dem {
         // A pair that interacted last time and is not touching now keeps interacting only if a
         // capillary bridge holds it (bridges form on contact, so only such pairs can hold one);
         // otherwise it is dropped, which forgets its springs.
-        let untouched = |c: &PairContact, current: &mut Vec<PairContact>| {
-            if c.extra.bridge {
-                let (d, _) = nl.separation(c.q as usize, pos, domain);
-                let image = nl.pair[c.q as usize].image;
-                let (mut xi, mut extra) = (c.xi, c.extra);
-                let (i, j) = (c.i as usize, c.j as usize);
-                let out = pair_contact(p, domain, table, dt, with_extra, (i, j), (p.radius[i], p.radius[j]), &mut xi, &mut extra, image, d);
-                current.push(PairContact { xi, extra, out, ..*c });
+        let untouched = |previous: &PairSprings, k: usize, batch: &mut Batch, current: &mut PairBlock| {
+            if let Some(&extra) = previous.extras.get(k).filter(|e| e.bridge) {
+                let (q, xi) = (previous.q[k], previous.xi(k));
+                let (d, _) = nl.separation(q as usize, pos, domain);
+                let (i, j) = (nl.pi[q as usize], nl.pair[q as usize].j);
+                let image = nl.pair[q as usize].image;
+                let radii = (p.radius[i as usize], p.radius[j as usize]);
+                batch.push(&scene, current, (q, i, j, image), d, radii, xi, extra);
             }
         };
         // A touching pair picks up its record from the last evaluation by a merge walk (both are
-        // in pair order) and goes to `pair_contact`, out of line; records before it that are not
-        // touching any more go through `untouched`. The new records come out in pair order.
+        // in pair order) and joins the batch of pairs waiting for their laws; records before it
+        // that are not touching any more go through `untouched`. The new records come out in
+        // pair order.
         #[allow(clippy::too_many_arguments)]
-        let touch =
-            |previous: &[PairContact], cursor: &mut usize, current: &mut Vec<PairContact>, q: u32, i: u32, j: u32, image, d, radii| {
-                while let Some(old) = previous.get(*cursor).filter(|o| o.q < q) {
-                    untouched(old, current);
+        let touch = |previous: &PairSprings,
+                     cursor: &mut usize,
+                     batch: &mut Batch,
+                     current: &mut PairBlock,
+                     q: u32,
+                     i: u32,
+                     j: u32,
+                     image,
+                     d,
+                     radii| {
+            while previous.q.get(*cursor).is_some_and(|&o| o < q) {
+                untouched(previous, *cursor, batch, current);
+                *cursor += 1;
+            }
+            let (xi, extra) = match previous.q.get(*cursor) {
+                Some(&old) if old == q => {
+                    let extra = previous.extras.get(*cursor).copied().unwrap_or_default();
+                    let xi = previous.xi(*cursor);
                     *cursor += 1;
+                    (xi, extra)
                 }
-                // Only the springs are carried over: the record is written once, whole.
-                let (mut xi, mut extra) = match previous.get(*cursor) {
-                    Some(old) if old.q == q => {
-                        *cursor += 1;
-                        (old.xi, old.extra)
-                    }
-                    _ => (Vec3::zeros(), PairExtra::default()),
-                };
-                let out = pair_contact(p, domain, table, dt, with_extra, (i as usize, j as usize), radii, &mut xi, &mut extra, image, d);
-                current.push(PairContact { q, i, j, xi, extra, out });
+                _ => (Vec3::zeros(), PairExtra::default()),
             };
+            batch.push(&scene, current, (q, i, j, image), d, radii, xi, extra);
+        };
         // Separation of i and the image of j, squared distance, and the two radii.
         let separation = |i: usize, j: usize, image: [i8; 3]| {
             let ([xi, yi, zi, ri], [xj, yj, zj, rj]) = (xr[i], xr[j]);
@@ -181,9 +348,12 @@ impl Dem {
         let refilter = self.near.is_stale(domain);
         let gap = self.near.gap;
         let kernel = |(b, (((current, previous), near), reach)): (usize, BlockState<'_>)| {
-            std::mem::swap(current, previous);
-            current.clear();
+            std::mem::swap(&mut current.state, previous);
+            current.state.clear();
+            current.forces.clear();
+            let previous = &*previous;
             let mut cursor = 0;
+            let mut batch = Batch::new();
             if refilter {
                 near.clear();
                 let i0 = b * PARTICLE_BLOCK;
@@ -198,7 +368,7 @@ impl Dem {
                             let q = (s + off) as u32;
                             near.push(NearPair { q, i: i as u32, j: pr.j, image: pr.image });
                             if d2 < reach * reach {
-                                touch(previous, &mut cursor, current, q, i as u32, pr.j, pr.image, d, radii);
+                                touch(previous, &mut cursor, &mut batch, current, q, i as u32, pr.j, pr.image, d, radii);
                             }
                         }
                     }
@@ -208,19 +378,20 @@ impl Dem {
                     let (d, d2, radii) = separation(np.i as usize, np.j as usize, np.image);
                     let reach = radii.0 + radii.1;
                     if d2 < reach * reach {
-                        touch(previous, &mut cursor, current, np.q, np.i, np.j, np.image, d, radii);
+                        touch(previous, &mut cursor, &mut batch, current, np.q, np.i, np.j, np.image, d, radii);
                     }
                 }
             }
-            for old in &previous[cursor..] {
-                untouched(old, current);
+            for k in cursor..previous.len() {
+                untouched(previous, k, &mut batch, current);
             }
-            *reach = current.iter().fold((u32::MAX, 0), |(lo, hi), c| (lo.min(c.j), hi.max(c.j)));
+            batch.flush(&scene, current);
+            *reach = current.forces.iter().fold((u32::MAX, 0), |(lo, hi), c| (lo.min(c.j), hi.max(c.j)));
         };
         // One block per task (no sequential runs of blocks that an idle thread could not take).
-        self.contacts
+        self.pairs
             .par_iter_mut()
-            .zip(self.previous_contacts.par_iter_mut())
+            .zip(self.previous_springs.par_iter_mut())
             .zip(self.near.blocks.par_iter_mut())
             .zip(self.reach.par_iter_mut())
             .with_max_len(1)
@@ -253,9 +424,9 @@ impl Dem {
             dt: self.dt,
         };
         let p = &mut self.p;
-        let (contacts, reach) = (&self.contacts, &self.reach);
+        let (pairs, reach) = (&self.pairs, &self.reach);
         debug_assert!(
-            contacts.iter().zip(reach).all(|(list, &(lo, hi))| list.iter().all(|c| (lo..=hi).contains(&c.j))),
+            pairs.iter().zip(reach).all(|(list, &(lo, hi))| list.forces.iter().all(|c| (lo..=hi).contains(&c.j))),
             "a block's reach must cover its records (written by pair_forces)"
         );
         let (h, alpha) = (0.5 * self.dt, self.params.local_damping);
@@ -336,7 +507,7 @@ impl Dem {
                 let (jlo, jhi) = reach[b];
                 (own.start < hi && own.end > lo) || (jlo < hi && jhi >= lo)
             };
-            for list in contacts.iter().enumerate().filter(|&(b, _)| reaches(b)).map(|(_, list)| list) {
+            for list in pairs.iter().enumerate().filter(|&(b, _)| reaches(b)).map(|(_, list)| &list.forces) {
                 for c in list {
                     let (i, j) = (c.i as usize, c.j as usize);
                     if owned.contains(&i) {

@@ -24,7 +24,7 @@ use crate::run::Balance;
 use crate::run::Simulation;
 use crate::scene::{Controls, Deformation, DemParams, Material, Scene, StateFile};
 use forces::LOOP_CHUNK;
-use pair_state::PairContact;
+use pair_state::{PairBlock, PairSprings};
 use stability::EnergyBudget;
 use timestep::{collision_time, Bodies, CollisionTime};
 use wall_contacts::WallContacts;
@@ -121,9 +121,9 @@ pub struct Dem {
     near: NearPairs,
     /// The interacting pairs of each block of particles, with their springs and forces, in
     /// pair order ([`pair_state`]).
-    contacts: Vec<Vec<PairContact>>,
-    /// The records of the evaluation before (scratch of the force stage).
-    previous_contacts: Vec<Vec<PairContact>>,
+    pairs: Vec<PairBlock>,
+    /// The springs of the evaluation before (scratch of the force stage).
+    previous_springs: Vec<PairSprings>,
     /// The particles each block's records touch: the smallest and largest second particle j
     /// (`(u32::MAX, 0)` for a block without records), written with the records, so that a
     /// gather task skips the blocks that cannot reach its particles.
@@ -132,6 +132,11 @@ pub struct Dem {
     /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
     xr_current: bool,
+    /// Velocities and their end-of-step predictions of each particle, packed for the contact
+    /// laws ([`Kin`]): written by the drift, recomputed before the force stage when velocities
+    /// or forces changed otherwise (`kin_current` false).
+    kin: Vec<Kin>,
+    kin_current: bool,
     /// The largest squared displacement since the last neighbour build, m², measured by this
     /// step's drift (`None` when positions moved after it, or the particles are not those of
     /// the build): saves the neighbour check a pass over the positions.
@@ -260,11 +265,13 @@ impl Dem {
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
             near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
-            contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
-            previous_contacts: vec![Vec::new(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            pairs: vec![PairBlock::default(); n.div_ceil(forces::PARTICLE_BLOCK)],
+            previous_springs: vec![PairSprings::default(); n.div_ceil(forces::PARTICLE_BLOCK)],
             reach: vec![(u32::MAX, 0); n.div_ceil(forces::PARTICLE_BLOCK)],
             xr: vec![[0.0; 4]; n],
             xr_current: false,
+            kin: vec![Kin::default(); n],
+            kin_current: false,
             drift2: None,
             needs_extra,
             wall_contacts: WallContacts::new(n.div_ceil(forces::PARTICLE_BLOCK), nw),
@@ -303,6 +310,7 @@ impl Dem {
         // Particles may be moved by any amount: the near pairs must be filtered again.
         self.near.invalidate();
         self.xr_current = false;
+        self.kin_current = false;
         &mut self.p
     }
 
@@ -347,7 +355,7 @@ impl Dem {
 
     /// Number of pairs that interacted at the last force evaluation.
     pub fn interacting_pairs(&self) -> usize {
-        self.contacts.iter().map(Vec::len).sum()
+        self.pairs.iter().map(PairBlock::len).sum()
     }
 
     /// Number of particle-wall contacts (drum included) at the last force evaluation.
@@ -359,7 +367,7 @@ impl Dem {
     /// held by a capillary bridge — whatever their force (a contact whose damped force is floored
     /// at zero still counts). For tests and diagnostics.
     pub fn interacting_pair_list(&self) -> Vec<(u32, u32)> {
-        self.contacts.iter().flatten().map(|c| (c.i.min(c.j), c.i.max(c.j))).collect()
+        self.pairs.iter().flat_map(PairBlock::pairs).map(|c| (c.i.min(c.j), c.i.max(c.j))).collect()
     }
 
     /// Number of near pairs (the listed pairs scanned every step, see
@@ -391,16 +399,18 @@ impl Dem {
         self.p.heap_bytes()
             + self.nl.heap_bytes()
             + self.near.heap_bytes()
-            + self.contacts.iter().chain(&self.previous_contacts).map(|l| l.capacity() * std::mem::size_of::<PairContact>()).sum::<usize>()
+            + self.pairs.iter().map(PairBlock::heap_bytes).sum::<usize>()
+            + self.previous_springs.iter().map(PairSprings::heap_bytes).sum::<usize>()
             + self.xr.capacity() * 32
+            + self.kin.capacity() * std::mem::size_of::<Kin>()
             + self.wall_contacts.heap_bytes()
     }
 
     /// Current contact forces as records (pairs and walls), for metrics and tests.
     pub fn contacts(&self) -> Vec<ContactRecord> {
         let mut records = Vec::new();
-        for c in self.contacts.iter().flatten() {
-            let bonded = c.extra.bridge;
+        for c in self.pairs.iter().flat_map(PairBlock::pairs) {
+            let bonded = c.extra.is_some_and(|e| e.bridge);
             if c.out.force == Vec3::zeros() && !bonded {
                 continue;
             }
@@ -427,7 +437,9 @@ impl Dem {
 
     fn refresh_neighbors(&mut self) {
         let domain = &self.domain;
+        // Wrapping may shift velocities (Lees-Edwards images).
         self.xr_current = false;
+        self.kin_current = false;
         self.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
             for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
                 domain.wrap(x, v);
@@ -435,7 +447,7 @@ impl Dem {
         });
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
         self.near.invalidate();
-        pair_state::renumber(&mut self.contacts, &self.nl);
+        pair_state::renumber(&mut self.pairs, &self.nl);
         self.wall_contacts.choose(&self.p, &self.walls, self.drum.as_ref(), self.nl.skin);
     }
 
@@ -444,6 +456,7 @@ impl Dem {
     /// inertia for the integrator; `boundaries` sets their motion).
     fn glue_to_walls(&mut self, gap: Real) {
         world::glue_to_walls(&mut self.p, &self.walls, &mut self.glued_to, &mut self.glued, gap);
+        self.kin_current = false;
     }
 
     /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
@@ -468,6 +481,8 @@ impl Dem {
             self.p.omega[i] = Vec3::zeros();
             let x = self.p.pos[i];
             self.xr[i] = [x.x, x.y, x.z, self.p.radius[i]];
+            // A glued grain has no inverse mass: no acceleration to predict.
+            self.kin[i] = Kin { v, w: Vec3::zeros(), vp: v, wp: Vec3::zeros(), m: self.kin[i].m };
             largest = largest.max(correction.norm());
         }
         self.near.add_motion(largest);
@@ -498,11 +513,11 @@ impl Dem {
         // Partial sums per particle block, added in order: the same result for any thread count.
         let p = &self.p;
         let partial: Vec<(Vec3, Real)> = self
-            .contacts
+            .pairs
             .par_iter()
             .map(|list| {
                 let (mut virial, mut stiff) = (Vec3::zeros(), 0.0);
-                for c in list {
+                for c in list.pairs() {
                     let (i, j) = (c.i as usize, c.j as usize);
                     let l = self.nl.separation(c.q as usize, &p.pos, &self.domain).0;
                     virial += c.out.force.component_mul(&l);
@@ -580,9 +595,10 @@ impl Dem {
 
     /// Half kick of velocities and spins, then drift of the particles by `v dt` with the new
     /// velocity, in one pass (the first half of velocity Verlet), which saves a sweep over memory
-    /// and a parallel region per step. The drift reports the largest displacement to the near
-    /// pairs, and the largest displacement since the last neighbour build to the neighbour
-    /// stage ([`Dem::drift2`]). (The second half kick runs inside the gather of the force stage.)
+    /// and a parallel region per step; the pass also packs positions and velocities for the
+    /// force stage. The drift reports the largest displacement to the near pairs, and the
+    /// largest displacement since the last neighbour build to the neighbour stage
+    /// ([`Dem::drift2`]). (The second half kick runs inside the gather of the force stage.)
     fn kick_and_drift(&mut self) {
         let h = 0.5 * self.dt;
         let dt = self.dt;
@@ -590,24 +606,29 @@ impl Dem {
         let reference = self.nl.reference_positions();
         let measured = reference.len() == self.p.len();
         let p = &mut self.p;
-        let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
+        let (force, torque, inv_mass, inv_inertia, radius, mass) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius, &p.mass);
         // No wrap after the drift: particles return into the box at the next neighbour build.
         let (largest2, drift2) = p
             .vel
             .par_chunks_mut(LOOP_CHUNK)
             .zip(p.omega.par_chunks_mut(LOOP_CHUNK))
             .zip(p.pos.par_chunks_mut(LOOP_CHUNK))
-            .zip(self.xr.par_chunks_mut(LOOP_CHUNK))
+            .zip(self.xr.par_chunks_mut(LOOP_CHUNK).zip(self.kin.par_chunks_mut(LOOP_CHUNK)))
             .enumerate()
-            .map(|(c, (((vs, ws), xs), xrs))| {
+            .map(|(c, (((vs, ws), xs), (xrs, kins)))| {
                 let (mut largest2, mut drift2): (Real, Real) = (0.0, 0.0);
                 let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
                 let refs = if measured { &reference[r.clone()] } else { &[] };
-                let parts =
-                    force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
-                let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut());
-                for (k, ((((v, w), x), xr), ((((f, t), im), ii), rad))) in state.zip(parts).enumerate() {
+                let parts = force[r.clone()]
+                    .iter()
+                    .zip(&torque[r.clone()])
+                    .zip(&inv_mass[r.clone()])
+                    .zip(&inv_inertia[r.clone()])
+                    .zip(radius[r.clone()].iter().zip(&mass[r]));
+                let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut().zip(kins.iter_mut()));
+                for (k, ((((v, w), x), (xr, kin)), ((((f, t), im), ii), (rad, m)))) in state.zip(parts).enumerate() {
                     half_kick(v, w, f, t, h * im, h * ii, alpha);
+                    *kin = Kin::predicted(v, w, f, t, h * im, h * ii, *m);
                     let step = *v * dt;
                     *x += step;
                     largest2 = largest2.max(step.norm_squared());
@@ -622,10 +643,52 @@ impl Dem {
         self.near.add_motion(largest2.sqrt());
         self.drift2 = measured.then_some(drift2);
         self.xr_current = true;
+        self.kin_current = true;
+    }
+
+    /// Packs every particle's velocities and predictions ([`Kin`]) from the current state.
+    fn pack_kinematics(&mut self) {
+        let h = 0.5 * self.dt;
+        let p = &self.p;
+        self.kin.par_chunks_mut(LOOP_CHUNK).enumerate().for_each(|(c, kins)| {
+            for (k, kin) in kins.iter_mut().enumerate() {
+                let i = c * LOOP_CHUNK + k;
+                *kin =
+                    Kin::predicted(&p.vel[i], &p.omega[i], &p.force[i], &p.torque[i], h * p.inv_mass[i], h * p.inv_inertia[i], p.mass[i]);
+            }
+        });
+        self.kin_current = true;
     }
 
     fn shear_geometry(&self) -> Option<ShearGeometry> {
         world::shear_geometry(&self.domain, &self.walls)
+    }
+}
+
+/// What the contact laws read of a particle, packed in one record (one load, one bounds check
+/// and two cache lines a particle instead of a dozen arrays): its velocity and spin at mid-step,
+/// which advance the springs, their end-of-step predictions from the last forces
+/// (`v + F h/m`, `w + T h/I`), which the dashpots use, and its mass.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Kin {
+    /// Velocity, m/s.
+    pub v: Vec3,
+    /// Angular velocity, rad/s.
+    pub w: Vec3,
+    /// Predicted velocity at the end of the step, m/s.
+    pub vp: Vec3,
+    /// Predicted angular velocity at the end of the step, rad/s.
+    pub wp: Vec3,
+    /// Mass, kg.
+    pub m: Real,
+}
+
+impl Kin {
+    /// The record of a particle with velocity `v`, spin `w`, last force `f` and torque `t`
+    /// (`h_im` = h/m, `h_ii` = h/I, h half the step) and mass `m`.
+    #[inline(always)]
+    fn predicted(v: &Vec3, w: &Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real, m: Real) -> Self {
+        Self { v: *v, w: *w, vp: v + f * h_im, wp: w + t * h_ii, m }
     }
 }
 
@@ -771,7 +834,7 @@ impl Simulation for Dem {
         let elastic = self.elastic_energy();
         let net: Real = p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real;
         let (mut sum, mut count) = (0.0, 0usize);
-        for c in self.contacts.iter().flatten() {
+        for c in self.pairs.iter().flat_map(PairBlock::pairs) {
             if c.out.force != Vec3::zeros() {
                 sum += c.out.force.norm();
                 count += 1;

@@ -112,7 +112,7 @@ impl Dem {
         // Per block of pair and wall records: the largest overlap, the springs' and the bridges'
         // energy.
         let pairs: Vec<(Real, Real, Real)> = self
-            .contacts
+            .pairs
             .par_iter()
             .zip(self.wall_contacts.records.par_iter())
             .map(|(list, walls)| {
@@ -130,7 +130,7 @@ impl Dem {
                         elastic += 0.5 * rr.stiffness * c.roll.norm_squared();
                     }
                 }
-                for c in list {
+                for c in list.pairs() {
                     let (i, j) = (c.i as usize, c.j as usize);
                     let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
                     let (ri, rj) = (p.radius[i], p.radius[j]);
@@ -141,11 +141,11 @@ impl Dem {
                         overlap = Real::max(overlap, delta / ri.min(rj));
                         let r_eff = ri * rj / (ri + rj);
                         elastic += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
-                        if let Some(rr) = law.rolling {
-                            elastic += 0.5 * rr.stiffness * c.extra.roll.norm_squared();
+                        if let (Some(rr), Some(e)) = (law.rolling, c.extra) {
+                            elastic += 0.5 * rr.stiffness * e.roll.norm_squared();
                         }
                     }
-                    if let (true, Some(cap)) = (c.extra.bridge, law.capillary) {
+                    if let (Some(true), Some(cap)) = (c.extra.map(|e| e.bridge), law.capillary) {
                         capillary += cap.energy(dist - ri - rj, ri, rj);
                     }
                 }
