@@ -123,7 +123,7 @@ fn resolve(a: &BenchArgs, threads: usize) -> anyhow::Result<BenchScene> {
     if let Some(steps) = a.steps {
         timed["stop"] = serde_json::json!({"steps": steps});
     }
-    Ok(BenchScene { name: "file", description: path.display().to_string(), preparation: None, timed })
+    Ok(BenchScene { name: "file", description: path.display().to_string(), preparation: None, timed, skip_stages: 0 })
 }
 
 fn parse(v: &serde_json::Value, what: &str) -> anyhow::Result<Scene> {
@@ -182,13 +182,21 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     let Method::Dem(params) = &scene.method else { anyhow::bail!("sable bench dem runs method dem; the scene asks for another") };
     let mut sim = pool.install(|| Dem::new(&scene, params))?;
     let setup_seconds = setup.elapsed().as_secs_f64();
+    let mut runner = Runner::for_scene(&scene);
+    // An experiment's stages that the preparation already ran.
+    runner.stages.drain(..bench_scene.skip_stages.min(runner.stages.len().saturating_sub(1)));
     if let Some(path) = &a.lammps_data {
+        // The state the steps start from: with the first stage's controls applied (a shear
+        // stage gives the grains their velocity profile); the runner applies them again at the
+        // stage's start, which changes nothing more.
+        if let Some(stage) = runner.stages.first() {
+            pool.install(|| sim.apply_controls(&stage.controls))?;
+        }
         write_lammps_data(&sim, path).with_context(|| format!("cannot write {}", path.display()))?;
     }
     let walls_before: Vec<(String, f64)> = sim.walls().iter().map(|w| (w.face.name(), w.position)).collect();
     let ke0 = kinetic_energy(&sim).0;
     sim.set_profiling(a.profile);
-    let runner = Runner::for_scene(&scene);
     let mut samples = 0usize;
     let start = std::time::Instant::now();
     pool.install(|| runner.run(&mut sim, &mut |_, _| samples += 1))?;
@@ -396,6 +404,9 @@ fn write_lammps_vars(sim: &Dem, scene: &Scene, walls_before: &[(String, f64)], s
         }
     }
     var("shear_rate", d.shear_rate)?;
+    if let Some(sable_engine::scene::Deformation::NormalStress { axis, target, .. }) = sim.cell_deformation() {
+        var(&format!("normal_stress_{}", ["x", "y", "z"][axis]), target)?;
+    }
     let every = match scene.sampling {
         sable_engine::scene::Sampling::Steps(n) => n as f64,
         sable_engine::scene::Sampling::Time(t) => (t / sim.time_step()).round().max(1.0),

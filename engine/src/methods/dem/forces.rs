@@ -65,6 +65,11 @@ struct Batch {
     len: usize,
 }
 
+thread_local! {
+    /// The batch of the force stage's blocks run on this thread.
+    static BATCH: std::cell::RefCell<Box<Batch>> = std::cell::RefCell::new(Box::new(Batch::new()));
+}
+
 /// The particles' kinematics of a batch's pairs, gathered into arrays.
 struct Gathered {
     v_rel: [[Real; LANES]; 3],
@@ -138,17 +143,20 @@ impl Batch {
             return;
         }
         let g = &mut self.kin;
+        let p = s.p;
         for k in 0..n {
-            let (a, b) = (&s.kin[self.i[k] as usize], &s.kin[self.j[k] as usize]);
+            let (i, j) = (self.i[k] as usize, self.j[k] as usize);
+            let (a, b) = (&s.kin[i], &s.kin[j]);
+            let (vi, vj, wi, wj) = (&p.vel[i], &p.vel[j], &p.omega[i], &p.omega[j]);
             let image = s.domain.image_velocity(self.image_y[k]);
             for c in 0..3 {
-                g.v_rel[c][k] = a.v[c] - b.v[c];
+                g.v_rel[c][k] = vi[c] - vj[c];
                 g.vp_rel[c][k] = a.vp[c] - b.vp[c];
-                (g.w_i[c][k], g.w_j[c][k], g.wp_i[c][k], g.wp_j[c][k]) = (a.w[c], b.w[c], a.wp[c], b.wp[c]);
+                (g.w_i[c][k], g.w_j[c][k], g.wp_i[c][k], g.wp_j[c][k]) = (wi[c], wj[c], a.wp[c], b.wp[c]);
             }
             g.v_rel[0][k] -= image;
             g.vp_rel[0][k] -= image;
-            (g.m_i[k], g.m_j[k]) = (a.m, b.m);
+            (g.m_i[k], g.m_j[k]) = (p.mass[i], p.mass[j]);
         }
         contact_inputs(&self.d, (&self.r_i, &self.r_j), g, &mut self.input, n);
         // One law for the whole batch (a scene of one material): evaluated at once; otherwise,
@@ -353,39 +361,43 @@ impl Dem {
             current.forces.clear();
             let previous = &*previous;
             let mut cursor = 0;
-            let mut batch = Batch::new();
-            if refilter {
-                near.clear();
-                let i0 = b * PARTICLE_BLOCK;
-                let i1 = (i0 + PARTICLE_BLOCK).min(nl.start.len() - 1);
-                for i in i0..i1 {
-                    let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
-                    for (off, pr) in nl.pair[s..e].iter().enumerate() {
-                        let (d, d2, radii) = separation(i, pr.j as usize, pr.image);
-                        let reach = radii.0 + radii.1;
-                        let far = reach + gap;
-                        if d2 < far * far {
-                            let q = (s + off) as u32;
-                            near.push(NearPair { q, i: i as u32, j: pr.j, image: pr.image });
-                            if d2 < reach * reach {
-                                touch(previous, &mut cursor, &mut batch, current, q, i as u32, pr.j, pr.image, d, radii);
+            // Each thread keeps one batch (20 KB) for all the blocks it takes: zeroing a new one
+            // for each block cost a sparse gas more than its contacts.
+            BATCH.with_borrow_mut(|batch| {
+                batch.len = 0;
+                if refilter {
+                    near.clear();
+                    let i0 = b * PARTICLE_BLOCK;
+                    let i1 = (i0 + PARTICLE_BLOCK).min(nl.start.len() - 1);
+                    for i in i0..i1 {
+                        let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
+                        for (off, pr) in nl.pair[s..e].iter().enumerate() {
+                            let (d, d2, radii) = separation(i, pr.j as usize, pr.image);
+                            let reach = radii.0 + radii.1;
+                            let far = reach + gap;
+                            if d2 < far * far {
+                                let q = (s + off) as u32;
+                                near.push(NearPair { q, i: i as u32, j: pr.j, image: pr.image });
+                                if d2 < reach * reach {
+                                    touch(previous, &mut cursor, batch, current, q, i as u32, pr.j, pr.image, d, radii);
+                                }
                             }
                         }
                     }
-                }
-            } else {
-                for np in near.iter() {
-                    let (d, d2, radii) = separation(np.i as usize, np.j as usize, np.image);
-                    let reach = radii.0 + radii.1;
-                    if d2 < reach * reach {
-                        touch(previous, &mut cursor, &mut batch, current, np.q, np.i, np.j, np.image, d, radii);
+                } else {
+                    for np in near.iter() {
+                        let (d, d2, radii) = separation(np.i as usize, np.j as usize, np.image);
+                        let reach = radii.0 + radii.1;
+                        if d2 < reach * reach {
+                            touch(previous, &mut cursor, batch, current, np.q, np.i, np.j, np.image, d, radii);
+                        }
                     }
                 }
-            }
-            for k in cursor..previous.len() {
-                untouched(previous, k, &mut batch, current);
-            }
-            batch.flush(&scene, current);
+                for k in cursor..previous.len() {
+                    untouched(previous, k, batch, current);
+                }
+                batch.flush(&scene, current);
+            });
             *reach = current.forces.iter().fold((u32::MAX, 0), |(lo, hi), c| (lo.min(c.j), hi.max(c.j)));
         };
         // One block per task (no sequential runs of blocks that an idle thread could not take).

@@ -132,9 +132,9 @@ pub struct Dem {
     /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
     xr_current: bool,
-    /// Velocities and their end-of-step predictions of each particle, packed for the contact
-    /// laws ([`Kin`]): written by the drift, recomputed before the force stage when velocities
-    /// or forces changed otherwise (`kin_current` false).
+    /// The end-of-step predictions of each particle's velocity and spin ([`Kin`]): written by
+    /// the drift, recomputed before the force stage when velocities or forces changed otherwise
+    /// (`kin_current` false).
     kin: Vec<Kin>,
     kin_current: bool,
     /// The largest squared displacement since the last neighbour build, m², measured by this
@@ -324,6 +324,11 @@ impl Dem {
         &self.walls
     }
 
+    /// What the periodic cell's deformation imposes now, if anything.
+    pub fn cell_deformation(&self) -> Option<Deformation> {
+        self.deformation.as_ref().map(|d| d.kind)
+    }
+
     /// The Verlet skin, m.
     pub fn skin(&self) -> Real {
         self.nl.skin
@@ -482,7 +487,7 @@ impl Dem {
             let x = self.p.pos[i];
             self.xr[i] = [x.x, x.y, x.z, self.p.radius[i]];
             // A glued grain has no inverse mass: no acceleration to predict.
-            self.kin[i] = Kin { v, w: Vec3::zeros(), vp: v, wp: Vec3::zeros(), m: self.kin[i].m };
+            self.kin[i] = Kin { vp: v, wp: Vec3::zeros() };
             largest = largest.max(correction.norm());
         }
         self.near.add_motion(largest);
@@ -606,7 +611,7 @@ impl Dem {
         let reference = self.nl.reference_positions();
         let measured = reference.len() == self.p.len();
         let p = &mut self.p;
-        let (force, torque, inv_mass, inv_inertia, radius, mass) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius, &p.mass);
+        let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
         // No wrap after the drift: particles return into the box at the next neighbour build.
         let (largest2, drift2) = p
             .vel
@@ -619,16 +624,12 @@ impl Dem {
                 let (mut largest2, mut drift2): (Real, Real) = (0.0, 0.0);
                 let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
                 let refs = if measured { &reference[r.clone()] } else { &[] };
-                let parts = force[r.clone()]
-                    .iter()
-                    .zip(&torque[r.clone()])
-                    .zip(&inv_mass[r.clone()])
-                    .zip(&inv_inertia[r.clone()])
-                    .zip(radius[r.clone()].iter().zip(&mass[r]));
+                let parts =
+                    force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
                 let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut().zip(kins.iter_mut()));
-                for (k, ((((v, w), x), (xr, kin)), ((((f, t), im), ii), (rad, m)))) in state.zip(parts).enumerate() {
+                for (k, ((((v, w), x), (xr, kin)), ((((f, t), im), ii), rad))) in state.zip(parts).enumerate() {
                     half_kick(v, w, f, t, h * im, h * ii, alpha);
-                    *kin = Kin::predicted(v, w, f, t, h * im, h * ii, *m);
+                    *kin = Kin::predicted(v, w, f, t, h * im, h * ii);
                     let step = *v * dt;
                     *x += step;
                     largest2 = largest2.max(step.norm_squared());
@@ -653,8 +654,7 @@ impl Dem {
         self.kin.par_chunks_mut(LOOP_CHUNK).enumerate().for_each(|(c, kins)| {
             for (k, kin) in kins.iter_mut().enumerate() {
                 let i = c * LOOP_CHUNK + k;
-                *kin =
-                    Kin::predicted(&p.vel[i], &p.omega[i], &p.force[i], &p.torque[i], h * p.inv_mass[i], h * p.inv_inertia[i], p.mass[i]);
+                *kin = Kin::predicted(&p.vel[i], &p.omega[i], &p.force[i], &p.torque[i], h * p.inv_mass[i], h * p.inv_inertia[i]);
             }
         });
         self.kin_current = true;
@@ -665,30 +665,23 @@ impl Dem {
     }
 }
 
-/// What the contact laws read of a particle, packed in one record (one load, one bounds check
-/// and two cache lines a particle instead of a dozen arrays): its velocity and spin at mid-step,
-/// which advance the springs, their end-of-step predictions from the last forces
-/// (`v + F h/m`, `w + T h/I`), which the dashpots use, and its mass.
+/// The end-of-step predictions of a particle's velocity and spin from its last force and torque
+/// (`v + F h/m`, `w + T h/I`), which the contact dashpots use; written by the drift for the force
+/// stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Kin {
-    /// Velocity, m/s.
-    pub v: Vec3,
-    /// Angular velocity, rad/s.
-    pub w: Vec3,
     /// Predicted velocity at the end of the step, m/s.
     pub vp: Vec3,
     /// Predicted angular velocity at the end of the step, rad/s.
     pub wp: Vec3,
-    /// Mass, kg.
-    pub m: Real,
 }
 
 impl Kin {
-    /// The record of a particle with velocity `v`, spin `w`, last force `f` and torque `t`
-    /// (`h_im` = h/m, `h_ii` = h/I, h half the step) and mass `m`.
+    /// The prediction for a particle with velocity `v`, spin `w`, last force `f` and torque `t`
+    /// (`h_im` = h/m, `h_ii` = h/I, h half the step).
     #[inline(always)]
-    fn predicted(v: &Vec3, w: &Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real, m: Real) -> Self {
-        Self { v: *v, w: *w, vp: v + f * h_im, wp: w + t * h_ii, m }
+    pub(crate) fn predicted(v: &Vec3, w: &Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real) -> Self {
+        Self { vp: v + f * h_im, wp: w + t * h_ii }
     }
 }
 
