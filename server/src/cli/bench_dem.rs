@@ -5,6 +5,8 @@
 //! state is kept in a cache directory for the next run); then the timed scene runs as a job
 //! does, with its sampling. Never a pass/fail test.
 //!
+//! `--scaling N1,N2,...` runs a suite scene at several counts instead (`super::bench_scaling`).
+//!
 //! `--lammps-data FILE` writes the timed scene's initial state as a LAMMPS data file, and
 //! `FILE.vars`, the LAMMPS variables of the scene (written after the run: a servo wall's mean
 //! speed is only known then), for the twin inputs of `benches/peers/`.
@@ -54,11 +56,21 @@ pub struct BenchArgs {
     /// Also write the final state (a scene may start from it: `start_from.file`).
     #[arg(long)]
     pub save_state: Option<PathBuf>,
+    /// Instead of one run, the cost per particle-step against the number of particles: the
+    /// suite scene at each of these counts (comma-separated), in `--rounds` alternated rounds.
+    #[arg(long, value_delimiter = ',')]
+    pub scaling: Vec<usize>,
+    /// Rounds of a `--scaling` sweep (each runs every count once, in turn).
+    #[arg(long, default_value_t = 3)]
+    pub rounds: usize,
+    /// Chart of a `--scaling` sweep (SVG, or PNG by the extension).
+    #[arg(long)]
+    pub chart: Option<PathBuf>,
 }
 
 /// The state at the end of the timed run, to compare with the LAMMPS twin's.
 #[derive(Debug, Serialize)]
-struct FinalState {
+pub(super) struct FinalState {
     /// Translational kinetic energy, J (J/m in 2D).
     kinetic_energy: f64,
     /// Rotational kinetic energy, J.
@@ -77,27 +89,28 @@ struct FinalState {
     p: f64,
 }
 
+/// One timed run.
 #[derive(Debug, Serialize)]
-struct BenchResult {
+pub(super) struct BenchResult {
     method: &'static str,
     scene: String,
-    particles: usize,
-    steps: u64,
-    threads: usize,
+    pub(super) particles: usize,
+    pub(super) steps: u64,
+    pub(super) threads: usize,
     /// Parsing the scene, placing the grains, the first neighbour list and forces, s.
     setup_seconds: f64,
     /// The untimed preparation, s (0 when read from the cache or there is none).
     preparation_seconds: f64,
     /// The timed run (steps and samples), s.
-    wall_seconds: f64,
-    particle_steps_per_second: f64,
-    bytes_per_particle: f64,
+    pub(super) wall_seconds: f64,
+    pub(super) particle_steps_per_second: f64,
+    pub(super) bytes_per_particle: f64,
     samples: usize,
     /// Time spent taking samples, s (with `--profile`).
     sampling_seconds: Option<f64>,
     time_step: f64,
-    neighbor_pairs: usize,
-    interacting_pairs: usize,
+    pub(super) neighbor_pairs: usize,
+    pub(super) interacting_pairs: usize,
     neighbor_builds: u64,
     near_pairs: usize,
     near_filters: u64,
@@ -107,8 +120,8 @@ struct BenchResult {
 }
 
 /// The scene to run: a suite scene, or a scene file (timed as it is).
-fn resolve(a: &BenchArgs, threads: usize) -> anyhow::Result<BenchScene> {
-    if let Some(s) = bench_scene(&a.scene, a.particles, a.steps, threads) {
+fn resolve(a: &BenchArgs, particles: Option<usize>, threads: usize) -> anyhow::Result<BenchScene> {
+    if let Some(s) = bench_scene(&a.scene, particles, a.steps, threads) {
         return Ok(s);
     }
     let path = Path::new(&a.scene);
@@ -117,8 +130,8 @@ fn resolve(a: &BenchArgs, threads: usize) -> anyhow::Result<BenchScene> {
     }
     let (text, _) = super::run::read_scene_text(path)?;
     let mut timed: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
-    if a.particles.is_some() {
-        anyhow::bail!("--particles: only for the scenes of the suite; a scene file sets its own counts");
+    if particles.is_some() {
+        anyhow::bail!("--particles, --scaling: only for the scenes of the suite; a scene file sets its own counts");
     }
     if let Some(steps) = a.steps {
         timed["stop"] = serde_json::json!({"steps": steps});
@@ -165,8 +178,44 @@ fn prepared_state(prep: &serde_json::Value, name: &str, cache: &Path, pool: &ray
 
 /// `sable bench dem`.
 pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
+    if !a.scaling.is_empty() {
+        return super::bench_scaling::sweep(&a);
+    }
+    let r = measure(&a, a.particles)?;
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "dem {}: {} particles x {} steps on {} thread(s): {:.3} s ({:.3} s setup), {:.3e} particle-steps/s, {:.0} bytes/particle \
+             ({} samples; {} pairs listed, {} near, {} interacting, {} wall contacts, {} neighbour builds, {} near filterings; \
+             kinetic energy {:.4e} -> {:.4e} J)",
+            r.scene,
+            r.particles,
+            r.steps,
+            r.threads,
+            r.wall_seconds,
+            r.setup_seconds,
+            r.particle_steps_per_second,
+            r.bytes_per_particle,
+            r.samples,
+            r.neighbor_pairs,
+            r.near_pairs,
+            r.interacting_pairs,
+            r.end.wall_contacts,
+            r.neighbor_builds,
+            r.near_filters,
+            r.kinetic_energy_start,
+            r.kinetic_energy_end
+        );
+    }
+    Ok(())
+}
+
+/// One timed run of the scene of `a` with `particles` (a suite scene's count), with the files
+/// `a` asks for written.
+pub(super) fn measure(a: &BenchArgs, particles: Option<usize>) -> anyhow::Result<BenchResult> {
     let budget = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let mut bench_scene = resolve(&a, budget)?;
+    let mut bench_scene = resolve(a, particles, budget)?;
     let pool = sable_worker::execute::job_pool(budget).map_err(anyhow::Error::msg)?;
     let cache = a.cache.clone().unwrap_or_else(|| std::env::temp_dir().join("sable-bench"));
     let mut preparation_seconds = 0.0;
@@ -252,33 +301,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
             t.integrate, t.boundaries, t.neighbors, t.pairs, t.forces, t.check, t.sampling
         );
     }
-    if a.json {
-        println!("{}", serde_json::to_string(&r)?);
-    } else {
-        println!(
-            "dem {}: {} particles x {} steps on {} thread(s): {:.3} s ({:.3} s setup), {:.3e} particle-steps/s, {:.0} bytes/particle \
-             ({} samples; {} pairs listed, {} near, {} interacting, {} wall contacts, {} neighbour builds, {} near filterings; \
-             kinetic energy {:.4e} -> {:.4e} J)",
-            r.scene,
-            r.particles,
-            r.steps,
-            r.threads,
-            r.wall_seconds,
-            r.setup_seconds,
-            r.particle_steps_per_second,
-            r.bytes_per_particle,
-            r.samples,
-            r.neighbor_pairs,
-            r.near_pairs,
-            r.interacting_pairs,
-            r.end.wall_contacts,
-            r.neighbor_builds,
-            r.near_filters,
-            r.kinetic_energy_start,
-            r.kinetic_energy_end
-        );
-    }
-    Ok(())
+    Ok(r)
 }
 
 /// Translational and rotational kinetic energy, J.

@@ -3,6 +3,7 @@
 pub mod advise;
 pub mod bench;
 pub mod bench_dem;
+pub mod bench_scaling;
 pub mod bench_service;
 pub mod run;
 pub mod service;
