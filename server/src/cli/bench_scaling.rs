@@ -48,6 +48,11 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// Smallest and largest of `v`.
+fn range(v: &[f64]) -> (f64, f64) {
+    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)))
+}
+
 /// Peak resident set of this process, bytes (`VmHWM` of /proc/self/status).
 fn peak_rss() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -107,7 +112,8 @@ pub fn sweep(a: &BenchArgs) -> anyhow::Result<()> {
             }
         })
         .collect();
-    let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| (lo.min(p.median_ns), hi.max(p.median_ns)));
+    let medians: Vec<f64> = points.iter().map(|p| p.median_ns).collect();
+    let (lo, hi) = range(&medians);
     let s = Sweep { scene: a.scene.clone(), spread: hi / lo - 1.0, points, peak_rss_bytes: peak_rss() };
     if let Some(path) = &a.chart {
         write_chart(&s, path)?;
@@ -121,7 +127,7 @@ pub fn sweep(a: &BenchArgs) -> anyhow::Result<()> {
     );
     println!("|---|---|---|---|---|---|---|");
     for p in &s.points {
-        let (min, max) = p.ns_per_particle_step.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        let (min, max) = range(&p.ns_per_particle_step);
         println!(
             "| {} | {} | {} | {:.2}–{:.2} ({:.2}) | {:.0} | {:.2} | {:.3} |",
             p.particles,
@@ -147,12 +153,12 @@ fn write_chart(s: &Sweep, path: &Path) -> anyhow::Result<()> {
     let series = |label: &str, f: &dyn Fn(&Point) -> f64| {
         (label.to_string(), s.points.iter().map(|p| ((p.particles as f64).log10(), f(p))).collect())
     };
-    let fold = |p: &Point, max: bool| {
-        p.ns_per_particle_step.iter().copied().fold(if max { 0.0 } else { f64::INFINITY }, |a, x| if max { a.max(x) } else { a.min(x) })
-    };
     let threads = s.points.first().map_or(1, |p| p.threads);
-    let all =
-        [series("median", &|p| p.median_ns), series("fastest round", &|p| fold(p, false)), series("slowest round", &|p| fold(p, true))];
+    let all = [
+        series("median", &|p| p.median_ns),
+        series("fastest round", &|p| range(&p.ns_per_particle_step).0),
+        series("slowest round", &|p| range(&p.ns_per_particle_step).1),
+    ];
     let format = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
         sable_server::charts::Format::Png
     } else {
