@@ -29,6 +29,7 @@
 //! ```
 
 pub mod advise;
+pub mod constitutive;
 pub mod contact;
 pub mod error;
 pub mod geometry;
