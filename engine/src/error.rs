@@ -35,6 +35,38 @@ pub enum InstabilityCause {
         /// The tolerance on the largest violation.
         worst_tolerance: f64,
     },
+    /// The Newton iterations of an implicit step did not converge within their budget.
+    NewtonBudget {
+        /// Iterations done (the budget).
+        iterations: u32,
+        /// Size of the last velocity correction relative to the velocity scale.
+        correction: f64,
+        /// Its tolerance.
+        tolerance: f64,
+    },
+    /// A material point of a deformable grain turned inside out (`J = det F <= 0`) or left the
+    /// domain its constitutive law is defined on.
+    Inverted {
+        /// Grain index.
+        grain: usize,
+        /// Point index within the whole set of points.
+        point: usize,
+        /// `det F` reached.
+        jacobian: f64,
+    },
+    /// A material point left the background grid.
+    LeftGrid {
+        /// Grain index.
+        grain: usize,
+        /// Point index within the whole set of points.
+        point: usize,
+    },
+    /// A grain's Newton matrix `M + (θh)² K` lost positive definiteness (a geometric stiffness
+    /// stronger than the mass term at this step).
+    NotPositiveDefinite {
+        /// Grain index.
+        grain: usize,
+    },
     /// Mechanical energy grew more than the work put in by walls and gravity allows.
     EnergyGrowth {
         /// Energy gained beyond the work put in, J.
@@ -62,6 +94,17 @@ impl std::fmt::Display for InstabilityCause {
                 f,
                 "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
             ),
+            Self::NewtonBudget { iterations, correction, tolerance } => write!(
+                f,
+                "the Newton iterations did not converge in {iterations} iterations (last velocity correction {correction:.2e} of the velocity scale, tolerance {tolerance:.1e})"
+            ),
+            Self::Inverted { grain, point, jacobian } => {
+                write!(f, "material point {point} of grain {grain} inverted (det F = {jacobian:.3e})")
+            }
+            Self::LeftGrid { grain, point } => write!(f, "material point {point} of grain {grain} left the background grid"),
+            Self::NotPositiveDefinite { grain } => {
+                write!(f, "the Newton matrix of grain {grain} is not positive definite (its geometric stiffness outweighs its mass at this step)")
+            }
             Self::EnergyGrowth { excess, scale, part, part_gain } => write!(
                 f,
                 "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J); the {part} energy grew the most, by {part_gain:.3e} J"

@@ -3,6 +3,7 @@
 
 pub mod cd;
 pub mod dem;
+pub mod mpm;
 pub(crate) mod world;
 
 use crate::error::EngineError;

@@ -657,7 +657,6 @@ impl Nlgs {
         (h, mean_diameter): (Real, Real),
         sweep: impl Fn(&mut [RigidContact], &mut [Vec3], &mut B, Pass) -> Sums,
     ) -> NlgsReport {
-        let mut report = NlgsReport { contacts: contacts.len(), ..NlgsReport::default() };
         for c in contacts.iter_mut() {
             if c.r != Vec3::zeros() {
                 c.apply(&c.frame.to_global(&c.r), bodies);
@@ -673,7 +672,47 @@ impl Nlgs {
                 c.rolling.m = Vec3::zeros();
             }
         }
-        if contacts.is_empty() {
+        self.prime(contacts.iter().map(|c| c.r));
+        self.iterate(contacts.len(), (h, mean_diameter), |last, pass| sweep(contacts, last, bodies, pass))
+    }
+
+    /// Solves a contact problem of any kind of bodies ([`ContactProblem`]: a method's own
+    /// contacts, such as the nodal contacts of deformable grains) with the same sweeps,
+    /// acceleration and criterion as [`Nlgs::solve`], serially, for a step of `h` seconds
+    /// between bodies of mean diameter `mean_diameter` (m).
+    pub(crate) fn solve_problem<P: ContactProblem>(&mut self, problem: &mut P, h: Real, mean_diameter: Real) -> NlgsReport {
+        self.history.clear();
+        problem.warm_start();
+        let n = problem.len();
+        self.prime((0..n).map(|c| problem.impulse(c)));
+        self.iterate(n, (h, mean_diameter), |last, pass| {
+            let mut sums = Sums::default();
+            for (c, slot) in last.iter_mut().enumerate() {
+                match pass {
+                    Pass::Solve { omega } => problem.visit(c, omega, &mut sums),
+                    Pass::Carry { beta } => problem.carry(c, slot, beta),
+                }
+            }
+            sums
+        })
+    }
+
+    /// Sets the momentum's previous impulses for a solve starting from `impulses`.
+    fn prime(&mut self, impulses: impl ExactSizeIterator<Item = Vec3>) {
+        let n = impulses.len();
+        self.last.clear();
+        if self.settings.acceleration > 0.0 {
+            self.last.extend(impulses);
+        } else {
+            self.last.resize(n, Vec3::zeros());
+        }
+    }
+
+    /// The sweeps of a solve of `n` contacts (warm-started, with [`Nlgs::prime`] done), `sweep`
+    /// doing one pass over them with their slots of the previous impulses.
+    fn iterate(&mut self, n: usize, (h, mean_diameter): (Real, Real), mut sweep: impl FnMut(&mut [Vec3], Pass) -> Sums) -> NlgsReport {
+        let mut report = NlgsReport { contacts: n, ..NlgsReport::default() };
+        if n == 0 {
             report.converged = true;
             return report;
         }
@@ -681,18 +720,12 @@ impl Nlgs {
         let omega = self.settings.relaxation;
         let mut previous = std::mem::take(&mut self.last);
         let accelerate = self.settings.acceleration > 0.0;
-        if accelerate {
-            previous.clear();
-            previous.extend(contacts.iter().map(|c| c.r));
-        } else {
-            previous.resize(contacts.len(), Vec3::zeros());
-        }
         // The sweep the momentum restarted at, and the violations of the last sweep.
         let (mut restart, mut violations) = (0, Real::INFINITY);
         for it in 1..=self.settings.max_iterations {
             // Always forward: sweeping backward every other time (symmetric Gauss-Seidel)
             // took 40% more sweeps on the quickstart deposition.
-            let sums = sweep(contacts, &mut previous, bodies, Pass::Solve { omega });
+            let sums = sweep(&mut previous, Pass::Solve { omega });
             let change = if sums.size2 > 0.0 {
                 (sums.change2 / sums.size2).sqrt()
             } else if sums.change2 > 0.0 {
@@ -716,12 +749,32 @@ impl Nlgs {
                 violations = sums.violation;
                 let k = Real::from(it - restart);
                 let beta = ((k - 1.0) / (k + 2.0)).clamp(0.0, self.settings.acceleration);
-                sweep(contacts, &mut previous, bodies, Pass::Carry { beta });
+                sweep(&mut previous, Pass::Carry { beta });
             }
         }
         self.last = previous;
         report
     }
+}
+
+/// A contact problem the solver can sweep whatever its bodies ([`Nlgs::solve_problem`]):
+/// each contact's local velocity comes from its bodies, its impulse changes them. A method
+/// implements the bodies' side (what an impulse does to them) and calls [`visit_local`] and
+/// [`carry_local`] for the contact's own turn, so that the local laws, the relaxation, the
+/// acceleration and the criterion are those of every other method.
+pub(crate) trait ContactProblem {
+    /// Number of contacts.
+    fn len(&self) -> usize;
+    /// Contact `c`'s impulse (local components, N·s).
+    fn impulse(&self, c: usize) -> Vec3;
+    /// Adds the contacts' warm-start impulses to their bodies.
+    fn warm_start(&mut self);
+    /// Contact `c`'s turn in a sweep at relaxation `omega` ([`visit_local`]), its impulse's
+    /// change applied to its bodies.
+    fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums);
+    /// The accelerated sweep's momentum on contact `c` ([`carry_local`]), whose impulse after
+    /// the previous sweep is in `last`.
+    fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real);
 }
 
 /// One pass of the solver over the contacts.
@@ -756,23 +809,31 @@ impl Pass {
 /// velocity), the change applied to its bodies; `last` takes the impulse the sweep left.
 #[inline(always)]
 pub(crate) fn carry(c: &mut RigidContact, last: &mut Vec3, bodies: &mut impl BodyStore, beta: Real) {
-    let x = c.r;
+    let y = carry_local(c.r, last, beta, &c.law, || c.frame.n.dot(&c.velocity_in(bodies)));
+    if let Some(y) = y {
+        c.apply(&c.frame.to_global(&(y - c.r)), bodies);
+        c.r = y;
+    }
+}
+
+/// The momentum of the accelerated sweep on a contact of impulse `x` (local, N·s) and law
+/// `law`, whatever its bodies: `x` carried on by `beta` times its change since `last`,
+/// projected on the admissible set (with a liquid's viscosity at the normal velocity
+/// `normal_velocity()`); `last` takes `x`. The new impulse if it differs from `x`.
+#[inline(always)]
+pub(crate) fn carry_local(x: Vec3, last: &mut Vec3, beta: Real, law: &LocalLaw, normal_velocity: impl FnOnce() -> Real) -> Option<Vec3> {
     let d = x - *last;
     *last = x;
     if beta == 0.0 || d == Vec3::zeros() {
-        return;
+        return None;
     }
     // The liquid's part of the normal impulse at the current normal velocity.
-    let viscous = if c.law.viscosity > 0.0 { c.law.viscosity * c.frame.n.dot(&c.velocity_in(bodies)) } else { 0.0 };
+    let viscous = if law.viscosity > 0.0 { law.viscosity * normal_velocity() } else { 0.0 };
     let ahead = x + d * beta;
-    let r_n = ahead.x.max(-c.law.cohesion - viscous);
-    let (t1, t2) = local::within_disk(ahead.y, ahead.z, c.law.friction * (r_n + c.law.cohesion + viscous));
+    let r_n = ahead.x.max(-law.cohesion - viscous);
+    let (t1, t2) = local::within_disk(ahead.y, ahead.z, law.friction * (r_n + law.cohesion + viscous));
     let y = Vec3::new(r_n, t1, t2);
-    let dy = y - x;
-    if dy != Vec3::zeros() {
-        c.apply(&c.frame.to_global(&dy), bodies);
-        c.r = y;
-    }
+    (y != x).then_some(y)
 }
 
 /// What a sweep adds up for the criterion: the squared changes and sizes of the impulses, the
@@ -803,22 +864,10 @@ impl std::ops::AddAssign for Sums {
 #[inline(always)]
 pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Real, sums: &mut Sums) {
     let u_now = c.frame.to_local(&c.velocity_in(bodies));
-    let violation = (c.law.target - u_now.x).max(0.0);
-    sums.violation += violation;
-    sums.worst = sums.worst.max(violation / c.a_i);
-    let u_free = u_now - c.w.apply(&c.r);
-    let mut r = local::solve(&c.w, &u_free, &c.law);
-    if omega != 1.0 {
-        r = c.r + (r - c.r) * omega;
-    }
+    let (r, u_free) = visit_local(u_now, &c.w, &c.law, c.r, Turn { omega, near: c.near, scale: c.scale, lever: c.a_i }, sums);
     let dr = r - c.r;
     if dr != Vec3::zeros() {
         c.apply(&c.frame.to_global(&dr), bodies);
-        sums.change2 += dr.norm_squared();
-    }
-    if !c.near || r != Vec3::zeros() || dr != Vec3::zeros() {
-        sums.size2 += r.norm_squared().max(c.scale * c.scale);
-        sums.count += 1;
     }
     c.r = r;
     if c.rolling.bound > 0.0 && c.rolling.w > 0.0 {
@@ -838,6 +887,45 @@ pub(crate) fn visit(c: &mut RigidContact, bodies: &mut impl BodyStore, omega: Re
         sums.size2 += m.norm_squared() / (c.a_i * c.a_i);
         c.rolling.m = m;
     }
+}
+
+/// What a contact brings to its turn in a sweep besides its velocity, block, law and impulse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Turn {
+    /// Relaxation.
+    pub(crate) omega: Real,
+    /// A near pair ([`RigidContact::near`]).
+    pub(crate) near: bool,
+    /// Impulse scale for the criterion, N·s ([`RigidContact::scale`]).
+    pub(crate) scale: Real,
+    /// Length the largest violation is measured against (the first body's radius), m.
+    pub(crate) lever: Real,
+}
+
+/// A contact's turn in a sweep, whatever its bodies: its violation measured at the local
+/// velocity `u_now` (with its impulse `r` in it), its local problem of block `w` solved
+/// exactly with the rest frozen, relaxed by `turn.omega`, the sums of the criterion updated.
+/// Returns the new impulse and the velocity the contact would have without its own impulse;
+/// the caller applies the change of impulse to the bodies.
+#[inline(always)]
+pub(crate) fn visit_local(u_now: Vec3, w: &Delassus, law: &LocalLaw, r_old: Vec3, turn: Turn, sums: &mut Sums) -> (Vec3, Vec3) {
+    let violation = (law.target - u_now.x).max(0.0);
+    sums.violation += violation;
+    sums.worst = sums.worst.max(violation / turn.lever);
+    let u_free = u_now - w.apply(&r_old);
+    let mut r = local::solve(w, &u_free, law);
+    if turn.omega != 1.0 {
+        r = r_old + (r - r_old) * turn.omega;
+    }
+    let dr = r - r_old;
+    if dr != Vec3::zeros() {
+        sums.change2 += dr.norm_squared();
+    }
+    if !turn.near || r != Vec3::zeros() || dr != Vec3::zeros() {
+        sums.size2 += r.norm_squared().max(turn.scale * turn.scale);
+        sums.count += 1;
+    }
+    (r, u_free)
 }
 
 /// The law of a contact whose normal velocity at the start of the step is `u_n` (m/s), for the

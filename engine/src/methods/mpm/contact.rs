@@ -1,0 +1,256 @@
+//! Contact between grains and with walls at the nodes of the grid (the multi-field method of
+//! the sources: the habilitation N 1.2.2; Nezamabadi et al., Comput. Phys. Commun. 237, 17,
+//! 2019), solved by the shared contact solver ([`crate::nscd`]).
+//!
+//! **Candidates.** Every grid node where two grains both have mass is a candidate contact
+//! between them; a node of a grain within reach of a wall (its stencil's points within a cell
+//! and a half of the plane) is one between the grain and the wall. The normal, from the
+//! second member towards the first, is that of the two mass fields,
+//! `n = (∇m_a − ∇m_b) / |∇m_a − ∇m_b|` (Bardenhagen et al. 2001), or the wall's.
+//!
+//! **Gap.** Nodes are shared a cell and a half before the grains touch, so the mass fields
+//! alone would make grains collide early. The gap along `n` at the node is measured from the
+//! points of each grain in the node's stencil: each point covers the parallelogram its
+//! deformation gradient makes of the square it was placed as, and the gap is the distance
+//! between grain `a`'s nearest extent and grain `b`'s (or the wall's plane). A contact with a
+//! positive gap may close it within the step and no more: the Signorini condition on the
+//! relative normal velocity at the step's end is `U_n >= −gap / h` (CD's near pairs), and
+//! `U_n >= 0` once touching (no restitution at a node: grains rebound by their elasticity).
+//!
+//! **Delassus operator.** A node's velocity answers an impulse through its grain's Newton
+//! matrix: `v = v_free + A⁻¹ Hᵀ P`. For each grain the columns of `A⁻¹` at its contact nodes
+//! are computed with its factorised matrix, so that every impulse a contact changes updates
+//! the velocities of all the contact nodes of its grains at once (the exact coupling through
+//! the grain's stiffness, not the node's mass alone). The solver's local problems see the
+//! diagonal of each contact's block in its frame, and its sweeps converge to the solution of
+//! the full coupled problem (each visit reads the velocities the other contacts left).
+
+use super::field::Field;
+use super::grid::V2;
+use super::points::Points;
+use crate::math::{Real, Vec3};
+use crate::nscd::local::{Delassus, LocalLaw};
+use crate::nscd::nlgs::{carry_local, visit_local, ContactProblem, Sums, Turn};
+use crate::nscd::ContactFrame;
+
+/// A plane rigid wall: the points `x` with `(x − point)·normal >= 0` are on the grains' side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wall {
+    /// A point of the plane, m.
+    pub point: V2,
+    /// Unit normal towards the grains.
+    pub normal: V2,
+    /// Velocity, m/s (imposed).
+    pub velocity: V2,
+    /// Friction coefficient with any grain.
+    pub friction: Real,
+}
+
+/// The second member of a nodal contact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Other {
+    /// Grain `grain` at its contact node `slot`.
+    Grain {
+        /// Grain index.
+        grain: u32,
+        /// Index of the node among the grain's contact nodes.
+        slot: u32,
+    },
+    /// Wall `wall`.
+    Wall(u32),
+}
+
+/// One contact at a grid node between grain `a` and a grain or a wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodalContact {
+    /// Grid node (linear index `i + nx j`).
+    pub node: usize,
+    /// First grain.
+    pub a: u32,
+    /// Its contact-node slot.
+    pub a_slot: u32,
+    /// Second member.
+    pub b: Other,
+    /// Frame; `n` points from `b` towards `a`.
+    pub frame: ContactFrame,
+    /// Gap along `n` at the step's start, m (negative: overlapping extents).
+    pub gap: Real,
+    /// Friction coefficient.
+    pub friction: Real,
+    /// The law for the step.
+    pub law: LocalLaw,
+    /// Diagonal of the local Delassus block, 1/kg·m.
+    pub w: Delassus,
+    /// Impulse (local components), N·s/m.
+    pub r: Vec3,
+    /// Impulse scale of the criterion, N·s/m.
+    pub scale: Real,
+    /// Radius of grain `a`, m (the largest violation's unit).
+    pub lever: Real,
+}
+
+impl NodalContact {
+    /// Key of the contact across steps (node, grains or wall), for the warm start.
+    pub fn key(&self) -> (usize, u32, i64) {
+        let other = match self.b {
+            Other::Grain { grain, .. } => grain as i64,
+            Other::Wall(w) => -1 - w as i64,
+        };
+        (self.node, self.a, other)
+    }
+
+    /// Whether the contact carries a compressive impulse.
+    pub fn active(&self) -> bool {
+        self.r.x > 0.0
+    }
+}
+
+/// A grain's side of the contact problem: its contact nodes, the block of `A⁻¹` between them
+/// and their velocities during the solve.
+#[derive(Debug, Default, Clone)]
+pub struct GrainContacts {
+    /// Local node of each slot.
+    pub nodes: Vec<usize>,
+    /// `A⁻¹` between the slots' unknowns, `(2C)x(2C)`, row-major.
+    pub inverse: Vec<Real>,
+    /// Velocities of the slots during the solve, m/s.
+    pub u: Vec<V2>,
+    /// Contacts and sides (`true`: the grain is `a`) at each slot.
+    pub entries: Vec<Vec<(u32, bool)>>,
+}
+
+impl GrainContacts {
+    /// Slots.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// True when the grain has no contact node.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The 2x2 block of `A⁻¹` between slots `k` and `l`.
+    #[inline(always)]
+    pub fn block(&self, k: usize, l: usize) -> nalgebra::Matrix2<Real> {
+        let n = 2 * self.nodes.len();
+        let at = |r: usize, c: usize| self.inverse[r * n + c];
+        nalgebra::Matrix2::new(at(2 * k, 2 * l), at(2 * k, 2 * l + 1), at(2 * k + 1, 2 * l), at(2 * k + 1, 2 * l + 1))
+    }
+
+    /// Adds to the slots' velocities what an impulse `p` at slot `l` does to them.
+    #[inline(always)]
+    pub fn apply(&mut self, l: usize, p: &V2) {
+        let n = 2 * self.nodes.len();
+        let (c0, c1) = (2 * l, 2 * l + 1);
+        for (k, u) in self.u.iter_mut().enumerate() {
+            let (r0, r1) = (2 * k * n, (2 * k + 1) * n);
+            u.x += self.inverse[r0 + c0] * p.x + self.inverse[r0 + c1] * p.y;
+            u.y += self.inverse[r1 + c0] * p.x + self.inverse[r1 + c1] * p.y;
+        }
+    }
+
+    /// Computes `inverse` from the grain's factorised matrix: one solve per unknown of its
+    /// contact nodes.
+    pub fn invert(&mut self, field: &Field, work: &mut Vec<Real>) {
+        let c = self.nodes.len();
+        let n = 2 * c;
+        self.inverse.clear();
+        self.inverse.resize(n * n, 0.0);
+        let size = 2 * field.nodes();
+        for col in 0..n {
+            work.clear();
+            work.resize(size, 0.0);
+            work[2 * self.nodes[col / 2] + col % 2] = 1.0;
+            field.solve(work);
+            for (row, &node) in self.nodes.iter().enumerate() {
+                self.inverse[2 * row * n + col] = work[2 * node];
+                self.inverse[(2 * row + 1) * n + col] = work[2 * node + 1];
+            }
+        }
+    }
+}
+
+/// The contact problem of a Newton iteration, as the shared solver sweeps it.
+pub struct Problem<'a> {
+    /// The contacts.
+    pub contacts: &'a mut [NodalContact],
+    /// Each grain's side.
+    pub grains: &'a mut [GrainContacts],
+    /// The walls.
+    pub walls: &'a [Wall],
+}
+
+impl Problem<'_> {
+    /// Relative velocity of contact `c` (global), m/s.
+    #[inline(always)]
+    fn velocity(&self, c: usize) -> Vec3 {
+        let k = &self.contacts[c];
+        let ua = self.grains[k.a as usize].u[k.a_slot as usize];
+        let ub = match k.b {
+            Other::Grain { grain, slot } => self.grains[grain as usize].u[slot as usize],
+            Other::Wall(w) => self.walls[w as usize].velocity,
+        };
+        let d = ua - ub;
+        Vec3::new(d.x, d.y, 0.0)
+    }
+
+    /// Applies the global impulse `p` (on `a`, `−p` on `b`).
+    #[inline(always)]
+    fn apply(&mut self, c: usize, p: &Vec3) {
+        let k = self.contacts[c];
+        let p2 = V2::new(p.x, p.y);
+        self.grains[k.a as usize].apply(k.a_slot as usize, &p2);
+        if let Other::Grain { grain, slot } = k.b {
+            self.grains[grain as usize].apply(slot as usize, &(-p2));
+        }
+    }
+}
+
+impl ContactProblem for Problem<'_> {
+    fn len(&self) -> usize {
+        self.contacts.len()
+    }
+
+    fn impulse(&self, c: usize) -> Vec3 {
+        self.contacts[c].r
+    }
+
+    fn warm_start(&mut self) {
+        for c in 0..self.contacts.len() {
+            let k = self.contacts[c];
+            if k.r != Vec3::zeros() {
+                self.apply(c, &k.frame.to_global(&k.r));
+            }
+        }
+    }
+
+    fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
+        let u_now = self.contacts[c].frame.to_local(&self.velocity(c));
+        let k = self.contacts[c];
+        let turn = Turn { omega, near: k.gap > 0.0, scale: k.scale, lever: k.lever };
+        let (r, _) = visit_local(u_now, &k.w, &k.law, k.r, turn, sums);
+        let dr = r - k.r;
+        if dr != Vec3::zeros() {
+            self.apply(c, &k.frame.to_global(&dr));
+        }
+        self.contacts[c].r = r;
+    }
+
+    fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real) {
+        let k = self.contacts[c];
+        if let Some(y) = carry_local(k.r, last, beta, &k.law, || 0.0) {
+            self.apply(c, &k.frame.to_global(&(y - k.r)));
+            self.contacts[c].r = y;
+        }
+    }
+}
+
+/// The extents of the points of a stencil along a direction: the least `ξ − e` of grain `a`'s
+/// points and the largest `ξ + e` of grain `b`'s, `ξ = (x_p − x_node)·n`, `e` the point's half
+/// extent along `n`.
+pub fn extent(points: &Points, p: usize, node: &V2, n: &V2) -> (Real, Real) {
+    let xi = (points.x[p] - node).dot(n);
+    let e = points.half_extent(p, n);
+    (xi - e, xi + e)
+}

@@ -1,0 +1,292 @@
+//! One grain's nodal field for a step (the multi-field method: every grain has its own nodes,
+//! so two grains meet only through contact, Bardenhagen et al., Comput. Model. Eng. Sci. 2,
+//! 509, 2001): the box of grid nodes its points reach, the nodal masses and velocities projected
+//! from the points, and the grain's Newton system — residual and matrix — at the current
+//! velocity iterate.
+//!
+//! Time integration is Moreau-Jean's θ-method (Jean, Comput. Methods Appl. Mech. Eng. 177,
+//! 235, 1999), the one the sources' contact dynamics uses, on the nodal velocities `v` of the
+//! step's end, `v0` those of its start:
+//! `M (v − v0) = h [(1 − θ) f(0) + θ f(u)] + h M g + Hᵀ P`, with the nodal displacements
+//! `u = h (θ v + (1 − θ) v0)`, `f` the internal forces, `P` the contact impulses. Newton on
+//! `v` uses the matrix `M + (θh)² K`, `K = −∂f/∂u` (material and geometric stiffness from the
+//! law's tangent). θ = ½ is the trapezoidal rule (no numerical damping: the vibrating bar
+//! keeps its amplitude), θ = 1 backward Euler (damps the high frequencies contacts excite).
+//! Being implicit, the step is not bound by the time a wave takes to cross a cell.
+//!
+//! Internal forces at the points' start-of-step positions (updated Lagrangian): with `F_n`
+//! the point's deformation gradient at the step's start, `f_inc = I + Σ u_i ⊗ ∇N_i`,
+//! `F = f_inc F_n`, `P` the first Piola-Kirchhoff stress at `F` and `g_i = F_nᵀ ∇N_i`:
+//! `f_i = −Σ_p V0_p P_p g_i`, `K_(ia)(jc) = Σ_p V0_p A_aBcE g_iB g_jE`.
+
+use super::banded::Banded;
+use super::grid::{Grid, Stencil, V2};
+use super::points::Points;
+use crate::constitutive::{ConstitutiveLaw, History, Mat2};
+use crate::math::Real;
+
+/// Why a field could not be formed or assembled: the point (index in [`Points`]) and what
+/// happened to it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PointFailure {
+    /// The point left the grid.
+    LeftGrid(usize),
+    /// The point's deformation has `det F <= 0` (or its law is undefined there).
+    Inverted(usize, Real),
+}
+
+/// The integration settings a field needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scheme {
+    /// Time step, s.
+    pub dt: Real,
+    /// θ of the θ-method, in [½, 1].
+    pub theta: Real,
+    /// Gravity, m/s².
+    pub gravity: V2,
+}
+
+/// One grain's nodal field (module documentation).
+#[derive(Debug, Default)]
+pub struct Field {
+    /// First node of the box along x and y.
+    pub i0: usize,
+    /// First node of the box along y.
+    pub j0: usize,
+    /// Nodes of the box along x.
+    pub wx: usize,
+    /// Nodes of the box along y.
+    pub wy: usize,
+    /// Nodes numbered x fastest (the box is narrower along x) or y fastest.
+    x_fast: bool,
+    /// Nodal masses, kg/m (zero at nodes of the box no point reaches).
+    pub mass: Vec<Real>,
+    /// Nodal velocities at the step's start, m/s.
+    pub v0: Vec<V2>,
+    /// Nodal velocities of the current iterate, m/s.
+    pub v: Vec<V2>,
+    /// Gradients of the mass field at the nodes, `−Σ m_p ∇N_i(x_p)`, kg/m², pointing into the
+    /// grain (the contact normals).
+    pub mass_gradient: Vec<V2>,
+    /// Internal forces at the step's start, N/m.
+    force0: Vec<V2>,
+    /// Each point's stencil at its start-of-step position.
+    pub stencils: Vec<Stencil>,
+    /// Each point's deformation gradient and history at the current iterate.
+    pub f_new: Vec<Mat2>,
+    /// Each point's history at the current iterate.
+    pub history_new: Vec<History>,
+    /// Newton residual `G(v)` per node, N·s/m.
+    pub residual: Vec<V2>,
+    /// The Newton matrix `M + (θh)² K`, factorised after [`Field::assemble`].
+    pub matrix: Banded,
+}
+
+impl Field {
+    /// Number of nodes of the box.
+    pub fn nodes(&self) -> usize {
+        self.wx * self.wy
+    }
+
+    /// Local index of grid node `(i, j)` (in the box).
+    #[inline(always)]
+    pub fn local(&self, i: usize, j: usize) -> usize {
+        if self.x_fast {
+            (j - self.j0) * self.wx + (i - self.i0)
+        } else {
+            (i - self.i0) * self.wy + (j - self.j0)
+        }
+    }
+
+    /// Grid node `(i, j)` of local node `k`.
+    pub fn grid_node(&self, k: usize) -> (usize, usize) {
+        if self.x_fast {
+            (self.i0 + k % self.wx, self.j0 + k / self.wx)
+        } else {
+            (self.i0 + k / self.wy, self.j0 + k % self.wy)
+        }
+    }
+
+    /// The local indices of the 3x3 nodes of stencil `s`, `[a][b]` for node `base + (a, b)`.
+    #[inline(always)]
+    pub fn stencil_nodes(&self, s: &Stencil) -> [[usize; 3]; 3] {
+        let mut k = [[0; 3]; 3];
+        for (a, row) in k.iter_mut().enumerate() {
+            for (b, x) in row.iter_mut().enumerate() {
+                *x = self.local(s.base[0] + a, s.base[1] + b);
+            }
+        }
+        k
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let v2 = std::mem::size_of::<V2>();
+        self.mass.capacity() * 8
+            + (self.v0.capacity() + self.v.capacity() + self.mass_gradient.capacity() + self.force0.capacity() + self.residual.capacity())
+                * v2
+            + self.stencils.capacity() * std::mem::size_of::<Stencil>()
+            + self.f_new.capacity() * std::mem::size_of::<Mat2>()
+            + self.history_new.capacity() * std::mem::size_of::<History>()
+            + self.matrix.heap_bytes()
+    }
+
+    /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
+    /// velocities (momentum over mass), mass gradients and the internal forces at the start.
+    pub fn begin(
+        &mut self,
+        grid: &Grid,
+        pts: &Points,
+        range: std::ops::Range<usize>,
+        law: &dyn ConstitutiveLaw,
+    ) -> Result<(), PointFailure> {
+        self.stencils.clear();
+        let (mut lo, mut hi) = ([usize::MAX; 2], [0usize; 2]);
+        for p in range.clone() {
+            let s = grid.stencil(&pts.x[p]).ok_or(PointFailure::LeftGrid(p))?;
+            for a in 0..2 {
+                lo[a] = lo[a].min(s.base[a]);
+                hi[a] = hi[a].max(s.base[a] + 2);
+            }
+            self.stencils.push(s);
+        }
+        if self.stencils.is_empty() {
+            (lo, hi) = ([0, 0], [0, 0]);
+        }
+        self.i0 = lo[0];
+        self.j0 = lo[1];
+        self.wx = hi[0] + 1 - lo[0];
+        self.wy = hi[1] + 1 - lo[1];
+        self.x_fast = self.wx <= self.wy;
+        let n = self.nodes();
+        self.mass.clear();
+        self.mass.resize(n, 0.0);
+        for buf in [&mut self.v0, &mut self.v, &mut self.mass_gradient, &mut self.force0, &mut self.residual] {
+            buf.clear();
+            buf.resize(n, V2::zeros());
+        }
+        self.f_new.clear();
+        self.history_new.clear();
+        for (k, p) in range.enumerate() {
+            let s = self.stencils[k];
+            let nodes = self.stencil_nodes(&s);
+            let (m, fp) = (pts.mass[p], &pts.f[p]);
+            let (stress, _) = law.first_piola(fp, &pts.history[p]).ok_or(PointFailure::Inverted(p, fp.determinant()))?;
+            let vp = stress * (fp.transpose() * pts.vol0[p]);
+            for a in 0..3 {
+                for b in 0..3 {
+                    let (w, grad) = (s.weight(a, b), s.gradient(a, b));
+                    let i = nodes[a][b];
+                    self.mass[i] += w * m;
+                    self.v0[i] += pts.v[p] * (w * m);
+                    // The mass field's gradient at the node: ∂/∂x_i of Σ m_p N(x_p − x_i),
+                    // which points into the grain.
+                    self.mass_gradient[i] -= grad * m;
+                    self.force0[i] -= vp * grad;
+                }
+            }
+            self.f_new.push(*fp);
+            self.history_new.push(pts.history[p]);
+        }
+        for (v, &m) in self.v0.iter_mut().zip(&self.mass) {
+            if m > 0.0 {
+                *v /= m;
+            }
+        }
+        self.v.copy_from_slice(&self.v0);
+        Ok(())
+    }
+
+    /// The nodal displacement of the step at the current iterate, `h (θ v + (1 − θ) v0)`, m.
+    #[inline(always)]
+    pub fn displacement(&self, i: usize, sc: &Scheme) -> V2 {
+        (self.v[i] * sc.theta + self.v0[i] * (1.0 - sc.theta)) * sc.dt
+    }
+
+    /// Assembles the residual and the matrix of the points `range` at the current iterate `v`
+    /// and factorises the matrix; each point's `F` and history at the iterate are kept in
+    /// `f_new`, `history_new`. Returns `Err(None)` on a matrix that is not positive definite.
+    pub fn assemble(
+        &mut self,
+        pts: &Points,
+        range: std::ops::Range<usize>,
+        law: &dyn ConstitutiveLaw,
+        sc: &Scheme,
+    ) -> Result<(), Option<PointFailure>> {
+        let n = self.nodes();
+        let fast = if self.x_fast { self.wx } else { self.wy };
+        self.matrix.reset(2 * n, 4 * fast + 5);
+        let hth = sc.dt * sc.theta;
+        for i in 0..n {
+            let m = self.mass[i];
+            self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
+            let d = if m > 0.0 { m } else { 1.0 };
+            self.matrix.add_lower(2 * i, 2 * i, d);
+            self.matrix.add_lower(2 * i + 1, 2 * i + 1, d);
+        }
+        let k2 = hth * hth;
+        for (k, p) in range.enumerate() {
+            let s = self.stencils[k];
+            let nodes = self.stencil_nodes(&s);
+            let fp = pts.f[p];
+            let ft = fp.transpose();
+            let mut inc = Mat2::identity();
+            let mut g = [V2::zeros(); 9];
+            let mut idx = [0usize; 9];
+            for a in 0..3 {
+                for b in 0..3 {
+                    let grad = s.gradient(a, b);
+                    let i = nodes[a][b];
+                    inc += self.displacement(i, sc) * grad.transpose();
+                    g[3 * a + b] = ft * grad;
+                    idx[3 * a + b] = i;
+                }
+            }
+            let f = inc * fp;
+            let h0 = pts.history[p];
+            let (stress, hist) = law.first_piola(&f, &h0).ok_or(Some(PointFailure::Inverted(p, f.determinant())))?;
+            let tangent = law.tangent(&f, &h0).ok_or(Some(PointFailure::Inverted(p, f.determinant())))?;
+            self.f_new[k] = f;
+            self.history_new[k] = hist;
+            let v0 = pts.vol0[p];
+            for q in 0..9 {
+                self.residual[idx[q]] += stress * g[q] * (sc.dt * sc.theta * v0);
+            }
+            // T[q][r][c][E] = Σ_B A[rB][cE] g_qB, then the block (q, q') is Σ_E T g_q'E.
+            let mut t = [[[0.0; 4]; 2]; 9];
+            for q in 0..9 {
+                for r in 0..2 {
+                    for ce in 0..4 {
+                        t[q][r][ce] = tangent[2 * r][ce] * g[q].x + tangent[2 * r + 1][ce] * g[q].y;
+                    }
+                }
+            }
+            let w = k2 * v0;
+            for q in 0..9 {
+                for q2 in 0..9 {
+                    let (i, j) = (idx[q], idx[q2]);
+                    if j > i {
+                        continue;
+                    }
+                    for r in 0..2 {
+                        let di = 2 * i + r;
+                        for c in 0..2 {
+                            let dj = 2 * j + c;
+                            if dj > di {
+                                continue;
+                            }
+                            let kv = t[q][r][2 * c] * g[q2].x + t[q][r][2 * c + 1] * g[q2].y;
+                            self.matrix.add_lower(di, dj, w * kv);
+                        }
+                    }
+                }
+            }
+        }
+        self.matrix.factorise().map_err(|_| None)
+    }
+
+    /// Solves the factorised Newton matrix for `rhs` (two entries a node) in place.
+    pub fn solve(&self, rhs: &mut [Real]) {
+        self.matrix.solve(rhs);
+    }
+}

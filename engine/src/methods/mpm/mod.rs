@@ -1,0 +1,24 @@
+//! Deformable grains by the implicit material point method with contact dynamics (MPM-CD;
+//! PHYSICS.md §5, the habilitation N 1.2.2, Nezamabadi et al., Comput. Phys. Commun. 237, 17,
+//! 2019), in 2D plane strain.
+//!
+//! - [`grid`]: the background grid and its quadratic B-spline shape functions;
+//! - [`points`]: the material points of the grains;
+//! - [`field`]: one grain's nodal field, its θ-method residual and Newton matrix;
+//! - [`banded`]: the banded Cholesky factorisation of that matrix;
+//! - [`contact`]: the nodal contacts between grains and with walls, as a problem of the
+//!   shared contact solver ([`crate::nscd`]);
+//! - [`system`]: the step.
+
+// The kernels index small fixed arrays (3x3 stencils, 2x2 blocks) by their axes.
+#![allow(clippy::needless_range_loop)]
+
+pub mod banded;
+pub mod contact;
+pub mod field;
+pub mod grid;
+pub mod points;
+pub mod system;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,547 @@
+//! The implicit material point method with contact dynamics, one step at a time: grains as
+//! clouds of points ([`super::points`]), each with its own nodal field ([`super::field`]),
+//! touching at nodes ([`super::contact`]) through the shared contact solver.
+//!
+//! A step:
+//! 1. each grain projects its points on its nodes (mass, velocity, mass gradient, internal
+//!    force at the start);
+//! 2. the candidate contacts are found at the nodes two grains share and near the walls,
+//!    with their normals and gaps;
+//! 3. Newton iterations on the nodal velocities of every grain at once: each grain assembles
+//!    its residual and matrix and solves for its free correction (no contact impulse); the
+//!    contact problem, with each grain's `A⁻¹` between its contact nodes, is solved by the
+//!    non-linear Gauss-Seidel sweeps of [`crate::nscd`] for the step's total impulses
+//!    (warm-started from the previous iteration and step); each grain then takes its
+//!    correction with the impulses. The iterations stop when the correction is below
+//!    `newton_tolerance` times the velocity scale;
+//! 4. the points move with their nodes: displacement `Σ N_i u_i`, deformation gradient
+//!    `(I + Σ u_i ⊗ ∇N_i) F`, history from the law, velocity by a FLIP/PIC blend.
+//!
+//! Momentum is conserved exactly by every iteration (the internal forces of a grain sum to
+//! zero and the contact impulses are equal and opposite), whatever the convergence.
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+
+use super::contact::{extent, GrainContacts, NodalContact, Other, Problem, Wall};
+use super::field::{Field, PointFailure, Scheme};
+use super::grid::{Grid, V2};
+use super::points::{Grain, Points};
+use crate::constitutive::ConstitutiveLaw;
+use crate::error::InstabilityCause;
+use crate::math::{Real, Vec3};
+use crate::nscd::local::{Delassus, LocalLaw};
+use crate::nscd::{ContactFrame, Convergence, Nlgs, NlgsReport};
+
+/// Settings of the method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Time step, s.
+    pub dt: Real,
+    /// θ of the θ-method, in [½, 1] ([`super::field`]).
+    pub theta: Real,
+    /// FLIP fraction of the points' velocity update (1: pure FLIP, no damping of the modes the
+    /// grid carries; 0: PIC).
+    pub flip: Real,
+    /// Gravity, m/s².
+    pub gravity: V2,
+    /// Newton's tolerance on the velocity correction, relative to the velocity scale.
+    pub newton_tolerance: Real,
+    /// Newton's budget of iterations a step.
+    pub max_newton: u32,
+    /// The contact solver's settings.
+    pub contact: Convergence,
+}
+
+/// What a step cost.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepReport {
+    /// Newton iterations.
+    pub newton: u32,
+    /// Contact-solver sweeps, over all iterations.
+    pub sweeps: u32,
+    /// Candidate nodal contacts.
+    pub contacts: usize,
+}
+
+/// Why a step failed (the method turns it into an [`crate::EngineError::Unstable`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepFailure {
+    /// What happened.
+    pub cause: InstabilityCause,
+}
+
+/// The whole state of the method (module documentation).
+pub struct System {
+    /// Background grid.
+    pub grid: Grid,
+    /// Material points.
+    pub points: Points,
+    /// Grains.
+    pub grains: Vec<Grain>,
+    /// Constitutive laws, indexed by [`Grain::law`].
+    pub laws: Vec<Box<dyn ConstitutiveLaw>>,
+    /// Walls.
+    pub walls: Vec<Wall>,
+    /// Settings.
+    pub settings: Settings,
+    /// The nodal contacts of the last step, with their impulses.
+    pub contacts: Vec<NodalContact>,
+    /// Steps done.
+    pub steps: u64,
+    /// Time, s.
+    pub time: Real,
+    /// Newton iterations and contact sweeps since the start.
+    pub totals: StepReport,
+    fields: Vec<Field>,
+    sides: Vec<GrainContacts>,
+    warm: HashMap<(usize, u32, i64), Vec3>,
+    nlgs: Nlgs,
+}
+
+fn fail(cause: InstabilityCause) -> StepFailure {
+    StepFailure { cause }
+}
+
+impl System {
+    /// A system at rest in time.
+    pub fn new(
+        grid: Grid,
+        points: Points,
+        grains: Vec<Grain>,
+        laws: Vec<Box<dyn ConstitutiveLaw>>,
+        walls: Vec<Wall>,
+        settings: Settings,
+    ) -> Self {
+        let n = grains.len();
+        Self {
+            grid,
+            points,
+            grains,
+            laws,
+            walls,
+            settings,
+            contacts: Vec::new(),
+            steps: 0,
+            time: 0.0,
+            totals: StepReport::default(),
+            fields: (0..n).map(|_| Field::default()).collect(),
+            sides: vec![GrainContacts::default(); n],
+            warm: HashMap::new(),
+            nlgs: Nlgs::new(settings.contact),
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.points.heap_bytes()
+            + self.fields.iter().map(Field::heap_bytes).sum::<usize>()
+            + self.sides.iter().map(|s| (s.inverse.capacity() + 3 * s.nodes.capacity()) * 8).sum::<usize>()
+            + self.contacts.capacity() * std::mem::size_of::<NodalContact>()
+            + self.nlgs.heap_bytes()
+    }
+
+    /// Kinetic energy of the points, J/m (per metre of thickness).
+    pub fn kinetic_energy(&self) -> Real {
+        (0..self.points.len()).map(|p| 0.5 * self.points.mass[p] * self.points.v[p].norm_squared()).sum()
+    }
+
+    /// Energy stored in the grains' deformation, J/m (the elastic part for plastic laws).
+    pub fn strain_energy(&self) -> Real {
+        let mut e = 0.0;
+        for g in &self.grains {
+            let law = self.laws[g.law].as_ref();
+            for p in g.points.clone() {
+                e += self.points.vol0[p] * law.stored_energy(&self.points.f[p], &self.points.history[p]).unwrap_or(0.0);
+            }
+        }
+        e
+    }
+
+    /// Mean grain diameter, m.
+    pub fn mean_diameter(&self) -> Real {
+        2.0 * self.grains.iter().map(|g| g.radius).sum::<Real>() / self.grains.len().max(1) as Real
+    }
+
+    fn point_failure(&self, f: PointFailure) -> StepFailure {
+        let grain_of = |p: usize| self.grains.iter().position(|g| g.points.contains(&p)).unwrap_or(0);
+        match f {
+            PointFailure::LeftGrid(p) => fail(InstabilityCause::LeftGrid { grain: grain_of(p), point: p }),
+            PointFailure::Inverted(p, j) => fail(InstabilityCause::Inverted { grain: grain_of(p), point: p, jacobian: j }),
+        }
+    }
+
+    /// Advances one step (module documentation).
+    pub fn step(&mut self) -> Result<StepReport, StepFailure> {
+        let sc = Scheme { dt: self.settings.dt, theta: self.settings.theta, gravity: self.settings.gravity };
+        // 1. The fields.
+        {
+            let (grid, points, laws) = (&self.grid, &self.points, &self.laws);
+            let begun: Result<(), PointFailure> = self
+                .fields
+                .par_iter_mut()
+                .zip(&self.grains)
+                .try_for_each(|(f, g)| f.begin(grid, points, g.points.clone(), laws[g.law].as_ref()));
+            if let Err(e) = begun {
+                return Err(self.point_failure(e));
+            }
+        }
+        // 2. The candidate contacts.
+        self.detect();
+        let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };
+        // 3. Newton.
+        let v_ref = self.walls.iter().map(|w| w.velocity.norm()).fold(self.settings.gravity.norm() * sc.dt, Real::max);
+        let rms = |fields: &[Field], of: fn(&Field, usize) -> V2| {
+            let (mut s, mut m) = (0.0, 0.0);
+            for f in fields {
+                for i in 0..f.nodes() {
+                    s += f.mass[i] * of(f, i).norm_squared();
+                    m += f.mass[i];
+                }
+            }
+            (s / m.max(Real::MIN_POSITIVE)).sqrt()
+        };
+        let mut scale = v_ref.max(rms(&self.fields, |f, i| f.v0[i]));
+        let mut corrections = vec![Vec::<Real>::new(); self.grains.len()];
+        let mut converged = false;
+        let mut last = Real::INFINITY;
+        for it in 1..=self.settings.max_newton {
+            report.newton = it;
+            self.newton_free(&sc, &mut corrections)?;
+            let solved = self.solve_contacts(&sc);
+            report.sweeps += solved.iterations;
+            if !solved.converged {
+                let s = self.settings.contact;
+                return Err(fail(InstabilityCause::SolverBudget {
+                    iterations: solved.iterations,
+                    change: solved.last.change,
+                    violation: solved.last.violation,
+                    tolerance: s.tolerance,
+                    violation_tolerance: s.violation_tolerance,
+                    worst: solved.last.worst,
+                    worst_tolerance: s.worst_tolerance,
+                }));
+            }
+            let (dv2, m) = self.newton_update(&mut corrections);
+            let correction = (dv2 / m.max(Real::MIN_POSITIVE)).sqrt();
+            if it == 1 {
+                scale = scale.max(correction);
+            }
+            scale = scale.max(rms(&self.fields, |f, i| f.v[i]));
+            last = correction / scale.max(Real::MIN_POSITIVE);
+            if last <= self.settings.newton_tolerance {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            return Err(fail(InstabilityCause::NewtonBudget {
+                iterations: self.settings.max_newton,
+                correction: last,
+                tolerance: self.settings.newton_tolerance,
+            }));
+        }
+        // 4. The points.
+        self.move_points(&sc)?;
+        for w in &mut self.walls {
+            w.point += w.velocity * sc.dt;
+        }
+        self.warm.clear();
+        for c in &self.contacts {
+            if c.r != Vec3::zeros() {
+                self.warm.insert(c.key(), c.r);
+            }
+        }
+        self.steps += 1;
+        self.time += sc.dt;
+        self.totals.newton += report.newton;
+        self.totals.sweeps += report.sweeps;
+        self.totals.contacts = report.contacts;
+        Ok(report)
+    }
+
+    /// Finds the candidate contacts of the step, their frames, gaps, laws and warm starts, and
+    /// each grain's contact nodes.
+    fn detect(&mut self) {
+        let (grid, h, dt) = (self.grid, self.grid.h, self.settings.dt);
+        // Grid node, grain, local node, for every node with mass.
+        let mut at: Vec<(usize, u32, u32)> = Vec::new();
+        for (g, f) in self.fields.iter().enumerate() {
+            for k in 0..f.nodes() {
+                if f.mass[k] > 0.0 {
+                    let (i, j) = f.grid_node(k);
+                    at.push((i + grid.nx * j, g as u32, k as u32));
+                }
+            }
+        }
+        at.sort_unstable();
+        struct Candidate {
+            node: usize,
+            a: u32,
+            ka: u32,
+            b: Option<(u32, u32)>,
+            wall: u32,
+            n: V2,
+        }
+        let mut cands: Vec<Candidate> = Vec::new();
+        let mut s = 0;
+        while s < at.len() {
+            let mut e = s + 1;
+            while e < at.len() && at[e].0 == at[s].0 {
+                e += 1;
+            }
+            for x in s..e {
+                for y in x + 1..e {
+                    let (node, ga, ka) = at[x];
+                    let (_, gb, kb) = at[y];
+                    let d = self.fields[ga as usize].mass_gradient[ka as usize] - self.fields[gb as usize].mass_gradient[kb as usize];
+                    let len = d.norm();
+                    if len > 0.0 && len.is_finite() {
+                        cands.push(Candidate { node, a: ga, ka, b: Some((gb, kb)), wall: 0, n: d / len });
+                    }
+                }
+            }
+            s = e;
+        }
+        for (g, f) in self.fields.iter().enumerate() {
+            for k in 0..f.nodes() {
+                if f.mass[k] == 0.0 {
+                    continue;
+                }
+                let (i, j) = f.grid_node(k);
+                let x = grid.node_position(i, j);
+                for (w, wall) in self.walls.iter().enumerate() {
+                    if (x - wall.point).dot(&wall.normal) < 2.5 * h {
+                        cands.push(Candidate { node: i + grid.nx * j, a: g as u32, ka: k as u32, b: None, wall: w as u32, n: wall.normal });
+                    }
+                }
+            }
+        }
+        // Gaps from the points of each stencil: per grain, each local node's candidates.
+        let mut lo = vec![Real::INFINITY; cands.len()];
+        let mut hi = vec![Real::NEG_INFINITY; cands.len()];
+        let mut by_grain: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); self.grains.len()];
+        for (c, k) in cands.iter().enumerate() {
+            by_grain[k.a as usize].push((k.ka, c as u32, true));
+            match k.b {
+                Some((gb, kb)) => by_grain[gb as usize].push((kb, c as u32, false)),
+                None => {
+                    let x = grid.node_position(k.node % grid.nx, k.node / grid.nx);
+                    hi[c] = (self.walls[k.wall as usize].point - x).dot(&k.n);
+                }
+            }
+        }
+        for (g, list) in by_grain.iter_mut().enumerate() {
+            if list.is_empty() {
+                continue;
+            }
+            list.sort_unstable();
+            let f = &self.fields[g];
+            let grain = &self.grains[g];
+            for (q, p) in grain.points.clone().enumerate() {
+                let st = f.stencils[q];
+                for a in 0..3 {
+                    for b in 0..3 {
+                        let k = f.local(st.base[0] + a, st.base[1] + b) as u32;
+                        let first = list.partition_point(|e| e.0 < k);
+                        for &(_, c, is_a) in list[first..].iter().take_while(|e| e.0 == k) {
+                            let cand = &cands[c as usize];
+                            let node = grid.node_position(cand.node % grid.nx, cand.node / grid.nx);
+                            let (l, u) = extent(&self.points, p, &node, &cand.n);
+                            if is_a {
+                                lo[c as usize] = lo[c as usize].min(l);
+                            } else {
+                                hi[c as usize] = hi[c as usize].max(u);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // The contacts within a cell of touching, with each grain's slots.
+        for side in &mut self.sides {
+            side.nodes.clear();
+            side.entries.clear();
+        }
+        let mut slot_of: Vec<HashMap<u32, u32>> = vec![HashMap::new(); self.grains.len()];
+        let mut slot = |sides: &mut [GrainContacts], g: u32, k: u32| -> u32 {
+            *slot_of[g as usize].entry(k).or_insert_with(|| {
+                let side = &mut sides[g as usize];
+                side.nodes.push(k as usize);
+                side.entries.push(Vec::new());
+                (side.nodes.len() - 1) as u32
+            })
+        };
+        self.contacts.clear();
+        for (c, k) in cands.iter().enumerate() {
+            let gap = lo[c] - hi[c];
+            if gap.is_nan() || gap > h {
+                continue;
+            }
+            let a_slot = slot(&mut self.sides, k.a, k.ka);
+            let (b, friction) = match k.b {
+                Some((gb, kb)) => (
+                    Other::Grain { grain: gb, slot: slot(&mut self.sides, gb, kb) },
+                    (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt(),
+                ),
+                None => (Other::Wall(k.wall), (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt()),
+            };
+            let frame = ContactFrame::new(2, Vec3::new(k.n.x, k.n.y, 0.0));
+            let law = LocalLaw { target: if gap > 0.0 { -gap / dt } else { 0.0 }, friction, cohesion: 0.0, viscosity: 0.0 };
+            let mut contact = NodalContact {
+                node: k.node,
+                a: k.a,
+                a_slot,
+                b,
+                frame,
+                gap,
+                friction,
+                law,
+                w: Delassus { n: 0.0, t: 0.0 },
+                r: Vec3::zeros(),
+                scale: 0.0,
+                lever: self.grains[k.a as usize].radius,
+            };
+            contact.r = self.warm.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros);
+            let index = self.contacts.len() as u32;
+            self.sides[k.a as usize].entries[a_slot as usize].push((index, true));
+            if let Other::Grain { grain, slot } = b {
+                self.sides[grain as usize].entries[slot as usize].push((index, false));
+            }
+            self.contacts.push(contact);
+        }
+    }
+
+    /// Assembles and factorises every grain's Newton system at the current iterate, solves for
+    /// its free correction (into `corrections`), and prepares its side of the contact problem.
+    fn newton_free(&mut self, sc: &Scheme, corrections: &mut [Vec<Real>]) -> Result<(), StepFailure> {
+        let (points, laws) = (&self.points, &self.laws);
+        let out: Result<(), (usize, Option<PointFailure>)> =
+            self.fields.par_iter_mut().zip(self.sides.par_iter_mut()).zip(corrections.par_iter_mut()).enumerate().try_for_each(
+                |(g, ((f, side), dv))| {
+                    let grain = &self.grains[g];
+                    f.assemble(points, grain.points.clone(), laws[grain.law].as_ref(), sc).map_err(|e| (g, e))?;
+                    dv.clear();
+                    dv.extend(f.residual.iter().flat_map(|r| [-r.x, -r.y]));
+                    f.solve(dv);
+                    if !side.is_empty() {
+                        let mut work = Vec::new();
+                        side.invert(f, &mut work);
+                        side.u.clear();
+                        side.u.extend(side.nodes.iter().map(|&k| f.v[k] + V2::new(dv[2 * k], dv[2 * k + 1])));
+                    }
+                    Ok(())
+                },
+            );
+        match out {
+            Ok(()) => Ok(()),
+            Err((_, Some(p))) => Err(self.point_failure(p)),
+            Err((g, None)) => Err(fail(InstabilityCause::NotPositiveDefinite { grain: g })),
+        }
+    }
+
+    /// Sets each contact's Delassus block and impulse scale and solves the contact problem.
+    fn solve_contacts(&mut self, sc: &Scheme) -> NlgsReport {
+        let g = self.settings.gravity.norm() * sc.dt;
+        for c in &mut self.contacts {
+            let sa = &self.sides[c.a as usize];
+            let mut w = sa.block(c.a_slot as usize, c.a_slot as usize);
+            let mut speed = sa.u[c.a_slot as usize].norm();
+            let ub = match c.b {
+                Other::Grain { grain, slot } => {
+                    let sb = &self.sides[grain as usize];
+                    w += sb.block(slot as usize, slot as usize);
+                    speed += sb.u[slot as usize].norm();
+                    sb.u[slot as usize]
+                }
+                Other::Wall(k) => self.walls[k as usize].velocity,
+            };
+            let n = V2::new(c.frame.n.x, c.frame.n.y);
+            let t = V2::new(c.frame.t1.x, c.frame.t1.y);
+            c.w = Delassus { n: n.dot(&(w * n)), t: t.dot(&(w * t)) };
+            let u_n = (sa.u[c.a_slot as usize] - ub).dot(&n);
+            c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
+        }
+        let mut problem = Problem { contacts: &mut self.contacts, grains: &mut self.sides, walls: &self.walls };
+        self.nlgs.solve_problem(
+            &mut problem,
+            sc.dt,
+            2.0 * self.grains.iter().map(|g| g.radius).sum::<Real>() / self.grains.len().max(1) as Real,
+        )
+    }
+
+    /// Adds each grain's correction with the contact impulses to its iterate; returns the
+    /// mass-weighted squared correction and the mass.
+    fn newton_update(&mut self, corrections: &mut [Vec<Real>]) -> (Real, Real) {
+        let contacts = &self.contacts;
+        self.fields
+            .par_iter_mut()
+            .zip(self.sides.par_iter())
+            .zip(corrections.par_iter_mut())
+            .map(|((f, side), dv)| {
+                if !side.is_empty() {
+                    let mut rhs = vec![0.0; dv.len()];
+                    for (s, list) in side.entries.iter().enumerate() {
+                        let k = side.nodes[s];
+                        for &(c, is_a) in list {
+                            let ct = &contacts[c as usize];
+                            let p = ct.frame.to_global(&ct.r) * if is_a { 1.0 } else { -1.0 };
+                            rhs[2 * k] += p.x;
+                            rhs[2 * k + 1] += p.y;
+                        }
+                    }
+                    f.solve(&mut rhs);
+                    dv.iter_mut().zip(&rhs).for_each(|(d, r)| *d += r);
+                }
+                let (mut s, mut m) = (0.0, 0.0);
+                for i in 0..f.nodes() {
+                    let d = V2::new(dv[2 * i], dv[2 * i + 1]);
+                    if f.mass[i] > 0.0 {
+                        f.v[i] += d;
+                        s += f.mass[i] * d.norm_squared();
+                        m += f.mass[i];
+                    }
+                }
+                (s, m)
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
+    }
+
+    /// Moves the points with their grains' converged nodal fields.
+    fn move_points(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
+        let flip = self.settings.flip;
+        for (g, grain) in self.grains.iter().enumerate() {
+            let f = &self.fields[g];
+            let law = self.laws[grain.law].as_ref();
+            for (q, p) in grain.points.clone().enumerate() {
+                let st = f.stencils[q];
+                let nodes = f.stencil_nodes(&st);
+                let (mut u, mut dv, mut pic) = (V2::zeros(), V2::zeros(), V2::zeros());
+                let mut inc = crate::constitutive::Mat2::identity();
+                for a in 0..3 {
+                    for b in 0..3 {
+                        let i = nodes[a][b];
+                        let w = st.weight(a, b);
+                        let ui = f.displacement(i, sc);
+                        u += ui * w;
+                        dv += (f.v[i] - f.v0[i]) * w;
+                        pic += f.v[i] * w;
+                        inc += ui * st.gradient(a, b).transpose();
+                    }
+                }
+                let fnew = inc * self.points.f[p];
+                let j = fnew.determinant();
+                let response = if j > 0.0 { law.response(&fnew, &self.points.history[p]) } else { None };
+                let Some(r) = response else {
+                    return Err(fail(InstabilityCause::Inverted { grain: g, point: p, jacobian: j }));
+                };
+                self.points.history[p] = r.history;
+                self.points.f[p] = fnew;
+                self.points.x[p] += u;
+                self.points.v[p] = (self.points.v[p] + dv) * flip + pic * (1.0 - flip);
+            }
+        }
+        Ok(())
+    }
+}
