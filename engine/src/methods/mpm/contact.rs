@@ -16,6 +16,16 @@
 //! positive gap may close it within the step and no more: the Signorini condition on the
 //! relative normal velocity at the step's end is `U_n >= −gap / h` (CD's near pairs), and
 //! `U_n >= 0` once touching (no restitution at a node: grains rebound by their elasticity).
+//! The gap is measured with the points of the node's own column (within half a cell across
+//! the normal), so that it is the gap at the node's place.
+//!
+//! **Which nodes.** Two grains share three rows of nodes around their interface (quadratic
+//! splines reach a cell and a half); constraining all of them locks a layer a cell thick into
+//! a rigid punch (measured on a disk pressed on a plane: the contact half-width 2.4 cells too
+//! wide). Only the nodes within half a cell of the interface along the normal are contacts
+//! between grains; against a wall, those and the nodes beyond the plane (which carry the
+//! grain's field into the wall). What remains of the error — the nodes' velocities stand for
+//! the surface's — is measured in the tests (Hertz line contact).
 //!
 //! **Delassus operator.** A node's velocity answers an impulse through its grain's Newton
 //! matrix: `v = v_free + A⁻¹ Hᵀ P`. For each grain the columns of `A⁻¹` at its contact nodes

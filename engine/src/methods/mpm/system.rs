@@ -348,6 +348,13 @@ impl System {
                         for &(_, c, is_a) in list[first..].iter().take_while(|e| e.0 == k) {
                             let cand = &cands[c as usize];
                             let node = grid.node_position(cand.node % grid.nx, cand.node / grid.nx);
+                            // Only the points in the node's own column along the normal
+                            // (within half a cell across it): the gap at the node's place,
+                            // not the nearest one over the stencil's three cells.
+                            let across = (self.points.x[p] - node).dot(&V2::new(-cand.n.y, cand.n.x));
+                            if across.abs() > 0.5 * h {
+                                continue;
+                            }
                             let (l, u) = extent(&self.points, p, &node, &cand.n);
                             if is_a {
                                 lo[c as usize] = lo[c as usize].min(l);
@@ -376,7 +383,12 @@ impl System {
         self.contacts.clear();
         for (c, k) in cands.iter().enumerate() {
             let gap = lo[c] - hi[c];
-            if gap.is_nan() || gap > h {
+            // Only the nodes within half a cell of the interface along the normal (about one
+            // a column): a constraint on every node the two fields share (three rows with
+            // quadratic splines) would lock a layer a cell thick into a rigid punch.
+            let middle = 0.5 * (lo[c] + hi[c]);
+            let beyond = if k.b.is_none() { Real::INFINITY } else { 0.5 * h };
+            if gap.is_nan() || gap > h || middle < -0.5 * h || middle >= beyond {
                 continue;
             }
             let a_slot = slot(&mut self.sides, k.a, k.ka);

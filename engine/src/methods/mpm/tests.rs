@@ -14,7 +14,7 @@ fn settings(dt: Real) -> Settings {
         theta: 0.5,
         flip: 1.0,
         gravity: V2::zeros(),
-        newton_tolerance: 1e-8,
+        newton_tolerance: 1e-6,
         max_newton: 20,
         contact: Convergence {
             tolerance: 1e-6,
@@ -94,7 +94,8 @@ fn the_vibrating_bar_keeps_its_amplitude_and_period() {
 /// ±(0.1, 0.1), E = 1000, ν = 0.3, ρ = 1000, plane strain, to t = 4, at dt = 0.01 (ten times
 /// the reference's explicit step). With one field per grain the disks meet through contact
 /// and part again; momentum is conserved to rounding at every step and energy never grows.
-/// Measured: they part at 0.79 of their approach speed, with 77% of the energy.
+/// Measured: they part at 0.54 of their approach speed, with 45% of the energy (the nodal
+/// contact is inelastic; with every shared node constrained, 0.79 and 77%).
 #[test]
 fn two_disks_collide_and_part() {
     let (rho, r) = (1000.0, 0.2);
@@ -132,5 +133,79 @@ fn two_disks_collide_and_part() {
     // The trapezoidal rule adds no energy; the contact (inelastic at the nodes) takes some.
     assert!(most <= energy0 * (1.0 + 1e-6), "energy grew to {most} from {energy0}");
     assert!(touched, "the disks never touched");
-    assert!(after < -0.5 * before, "the disks did not part: relative normal velocity {after} after, {before} before");
+    assert!(after < -0.4 * before, "the disks did not part: relative normal velocity {after} after, {before} before");
+}
+
+/// Half-width of the contact from the nodal wall forces: for the Hertz pressure
+/// `p0 sqrt(1 − x²/a²)`, `<x²> = a²/4`; forces lumped on quadratic B-spline nodes add the
+/// spline's variance `h²/4`. Returns (a, total force, peak nodal pressure).
+fn wall_contact(sys: &System, h: Real) -> (Real, Real, Real) {
+    let (mut f, mut fx, mut fx2, mut peak) = (0.0, 0.0, 0.0, 0.0 as Real);
+    for c in &sys.contacts {
+        if let super::contact::Other::Wall(_) = c.b {
+            let force = c.r.x / sys.settings.dt;
+            let x = sys.grid.node_position(c.node % sys.grid.nx, c.node / sys.grid.nx).x;
+            f += force;
+            fx += force * x;
+            fx2 += force * x * x;
+            peak = peak.max(force / h);
+        }
+    }
+    let mean = fx / f;
+    let var = fx2 / f - mean * mean;
+    (2.0 * (var - h * h / 4.0).max(0.0).sqrt(), f, peak)
+}
+
+/// Runs an elastic disk of radius 1 m settling under gravity on a rigid floor, quasi-statically
+/// (backward Euler, steps longer than its slowest period), at `cells` cells across the radius.
+fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
+    let (r, young, nu, rho) = (1.0, 1e6, 0.3, 1000.0);
+    let e_star = young / (1.0 - nu * nu);
+    // Load for a/R = 0.16: P' = π E* a² / 4R.
+    let a_want: Real = 0.16;
+    let load = std::f64::consts::PI * e_star * a_want * a_want / (4.0 * r);
+    let h = r / cells as Real;
+    let mut points = Points::default();
+    let range = points.fill_disk(V2::new(0.0, r), r, h / 2.0, V2::zeros(), rho);
+    let mass: Real = points.mass[range.clone()].iter().sum();
+    let g = load / mass;
+    let grid = Grid::covering(V2::new(-1.2 * r, 0.0), V2::new(1.2 * r, 2.2 * r), h, 4);
+    let floor = Wall { point: V2::zeros(), normal: V2::new(0.0, 1.0), velocity: V2::zeros(), friction: 0.0 };
+    let grains = vec![Grain { points: range, law: 0, friction: 0.0, radius: r }];
+    let mut s = settings(0.1);
+    s.theta = 1.0;
+    s.flip = 0.0;
+    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![floor], s);
+    for k in 1..=30 {
+        sys.settings.gravity = V2::new(0.0, -g * (k as Real / 10.0).min(1.0));
+        sys.step().expect("stable");
+    }
+    let (a, f, p0) = wall_contact(&sys, h);
+    let load = mass * g;
+    let a_hertz = (4.0 * load * r / (std::f64::consts::PI * e_star)).sqrt();
+    (a, a_hertz, f, load, p0, 2.0 * load / (std::f64::consts::PI * a_hertz))
+}
+
+/// An elastic disk (R = 1 m, E = 1 MPa, ν = 0.3) pressed on a rigid plane by its weight,
+/// loaded quasi-statically, against Hertz's line contact (REFERENCES §G 19, Johnson 1985 §4):
+/// `a = sqrt(4 P' R / π E*)`, `p0 = 2 P' / π a`, for `a / R = 0.16`. The nodal wall forces
+/// balance the load exactly; the peak nodal pressure is within 5% of `p0` at 30 cells across
+/// the radius (measured 3.2%); the half-width from the forces' spread converges on Hertz's as
+/// the grid is refined (measured 53%, 20% and 9% too wide at 10, 20 and 30 cells a radius):
+/// the nodal contact constrains the velocities of the nodes, not of the surface, so the
+/// pressure is carried towards the edges of the patch as by a flat punch.
+#[test]
+fn an_elastic_disk_on_a_plane_approaches_hertz() {
+    let mut errors = Vec::new();
+    for cells in [20, 30] {
+        let (a, a_h, f, load, p0, p0_h) = disk_on_plane(cells);
+        eprintln!("R/h {cells}: a {a:.4} (Hertz {a_h:.4}), force {f:.4e} (load {load:.4e}), peak {p0:.4e} (Hertz {p0_h:.4e})");
+        assert!((f - load).abs() < 1e-6 * load, "wall force {f} against the load {load}");
+        errors.push((a - a_h) / a_h);
+        if cells == 30 {
+            assert!((p0 - p0_h).abs() < 0.05 * p0_h, "peak pressure {p0} against Hertz {p0_h}");
+        }
+    }
+    assert!(errors[1] < 0.7 * errors[0], "the half-width does not converge: errors {errors:?}");
+    assert!(errors[1].abs() < 0.12, "half-width error {:.3} at 30 cells a radius", errors[1]);
 }
