@@ -209,3 +209,46 @@ fn an_elastic_disk_on_a_plane_approaches_hertz() {
     assert!(errors[1] < 0.7 * errors[0], "the half-width does not converge: errors {errors:?}");
     assert!(errors[1].abs() < 0.12, "half-width error {:.3} at 30 cells a radius", errors[1]);
 }
+
+/// A soft block on a floor under gravity tilted by θ (the incline), friction μ = 0.5 with the
+/// floor (REFERENCES §G 23): it rests iff tan θ <= μ, and slides with the acceleration
+/// g (sin θ − μ cos θ) otherwise. Returns the block's mean velocity along the slope at `t/2`
+/// and `t`, and the sliding acceleration of Coulomb's law.
+fn block_on_incline(tan: Real, t: Real) -> (Real, Real, Real) {
+    let (mu, g, rho) = (0.5, 9.81, 1000.0);
+    let h = 0.1;
+    let mut points = Points::default();
+    let range = points.fill_rectangle(V2::new(-0.5, 0.0), V2::new(0.5, 0.5), h / 2.0, |_| V2::zeros(), rho);
+    let grid = Grid::covering(V2::new(-1.5, 0.0), V2::new(3.0, 1.0), h, 4);
+    let floor = Wall { point: V2::zeros(), normal: V2::new(0.0, 1.0), velocity: V2::zeros(), friction: mu };
+    let grains = vec![Grain { points: range.clone(), law: 0, friction: mu, radius: 0.25 }];
+    let angle = tan.atan();
+    let mut s = settings(0.01);
+    s.theta = 1.0;
+    s.gravity = V2::new(g * angle.sin(), -g * angle.cos());
+    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: 1e6, poisson: 0.3 })], vec![floor], s);
+    let steps = (t / 0.01).round() as usize;
+    let mut half = 0.0;
+    for k in 1..=steps {
+        sys.step().expect("stable");
+        if k == steps / 2 {
+            half = mean_velocity(&sys.points, range.clone()).x;
+        }
+    }
+    (half, mean_velocity(&sys.points, range).x, g * (angle.sin() - mu * angle.cos()))
+}
+
+/// At tan θ = 0.4 the block stays (its mean velocity within 1e-3 of what sliding would give);
+/// at tan θ = 0.6 it slides at Coulomb's acceleration within 1%, measured over the second half
+/// second (the first carries the block's settling on the floor, when its normal force is
+/// still building up).
+#[test]
+fn a_block_on_an_incline_rests_iff_tan_is_within_friction() {
+    let t = 1.0;
+    let (_, v_rest, _) = block_on_incline(0.4, t);
+    let (v_half, v_slide, a) = block_on_incline(0.6, t);
+    let measured = (v_slide - v_half) / (0.5 * t);
+    eprintln!("incline: tan 0.4 mean velocity {v_rest:.3e} m/s; tan 0.6 acceleration {measured:.4} m/s² (Coulomb {a:.4})");
+    assert!(v_rest.abs() < 1e-3 * a * t, "the block slid at tan θ = 0.4 < μ: {v_rest} m/s");
+    assert!((measured - a).abs() < 0.01 * a, "sliding acceleration {measured} against {a}");
+}
