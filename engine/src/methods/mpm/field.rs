@@ -205,7 +205,14 @@ impl Field {
 
     /// Assembles the residual and the matrix of the points `range` at the current iterate `v`
     /// and factorises the matrix; each point's `F` and history at the iterate are kept in
-    /// `f_new`, `history_new`. Returns `Err(None)` on a matrix that is not positive definite.
+    /// `f_new`, `history_new`.
+    ///
+    /// Under compression the geometric stiffness is negative, and at long steps it can outweigh
+    /// the mass term along a few modes (a grain squeezed between walls turning as a whole):
+    /// the matrix is then not positive definite. The assembly is redone with a shift of its
+    /// diagonal by 1e-3, 1e-2, 0.1 and 1 times the mean diagonal stiffness: Newton's fixed
+    /// point does not depend on the matrix, only its rate of convergence does (linear instead of
+    /// quadratic). Returns `Err(None)` if even the largest shift leaves it indefinite.
     pub fn assemble(
         &mut self,
         pts: &Points,
@@ -213,6 +220,28 @@ impl Field {
         law: &dyn ConstitutiveLaw,
         sc: &Scheme,
     ) -> Result<(), Option<PointFailure>> {
+        let mean = match self.assemble_shifted(pts, range.clone(), law, sc, 0.0)? {
+            None => return Ok(()),
+            Some(mean) => mean,
+        };
+        for factor in [1e-3, 1e-2, 1e-1, 1.0] {
+            if self.assemble_shifted(pts, range.clone(), law, sc, factor * mean)?.is_none() {
+                return Ok(());
+            }
+        }
+        Err(None)
+    }
+
+    /// [`Field::assemble`] with `shift` added to the diagonal; `Ok(None)` when factorised,
+    /// `Ok(Some(mean diagonal stiffness))` when not positive definite.
+    fn assemble_shifted(
+        &mut self,
+        pts: &Points,
+        range: std::ops::Range<usize>,
+        law: &dyn ConstitutiveLaw,
+        sc: &Scheme,
+        shift: Real,
+    ) -> Result<Option<Real>, Option<PointFailure>> {
         let n = self.nodes();
         let fast = if self.x_fast { self.wx } else { self.wy };
         self.matrix.reset(2 * n, 4 * fast + 5);
@@ -220,11 +249,12 @@ impl Field {
         for i in 0..n {
             let m = self.mass[i];
             self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
-            let d = if m > 0.0 { m } else { 1.0 };
+            let d = if m > 0.0 { m + shift } else { 1.0 };
             self.matrix.add_lower(2 * i, 2 * i, d);
             self.matrix.add_lower(2 * i + 1, 2 * i + 1, d);
         }
         let k2 = hth * hth;
+        let mut diagonal = 0.0;
         for (k, p) in range.enumerate() {
             let s = self.stencils[k];
             let nodes = self.stencil_nodes(&s);
@@ -277,12 +307,18 @@ impl Field {
                             }
                             let kv = t[q][r][2 * c] * g[q2].x + t[q][r][2 * c + 1] * g[q2].y;
                             self.matrix.add_lower(di, dj, w * kv);
+                            if di == dj {
+                                diagonal += (w * kv).abs();
+                            }
                         }
                     }
                 }
             }
         }
-        self.matrix.factorise().map_err(|_| None)
+        if self.matrix.factorise().is_ok() {
+            return Ok(None);
+        }
+        Ok(Some(diagonal / (2 * n).max(1) as Real))
     }
 
     /// Solves the factorised Newton matrix for `rhs` (two entries a node) in place.

@@ -94,6 +94,8 @@ pub struct System {
     pub time: Real,
     /// Newton iterations and contact sweeps since the start.
     pub totals: StepReport,
+    /// Steps done again as two halves since the start.
+    pub substeps: u64,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
     warm: HashMap<(usize, u32, i64), Vec3>,
@@ -126,6 +128,7 @@ impl System {
             steps: 0,
             time: 0.0,
             totals: StepReport::default(),
+            substeps: 0,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
             warm: HashMap::new(),
@@ -172,9 +175,44 @@ impl System {
         }
     }
 
-    /// Advances one step (module documentation).
+    /// Advances one step of `settings.dt` (module documentation). A step whose Newton
+    /// iterations or contact solve do not converge, or whose matrix stays indefinite, is done
+    /// again as two
+    /// halves, down to a sixteenth of the step (nothing has moved when they fail: the points
+    /// move only once the iterations converged); past that the failure is returned.
     pub fn step(&mut self) -> Result<StepReport, StepFailure> {
-        let sc = Scheme { dt: self.settings.dt, theta: self.settings.theta, gravity: self.settings.gravity };
+        let report = self.advance(self.settings.dt, 0)?;
+        self.steps += 1;
+        self.totals.newton += report.newton;
+        self.totals.sweeps += report.sweeps;
+        self.totals.contacts = report.contacts;
+        Ok(report)
+    }
+
+    /// Advances by `dt`, splitting it on a recoverable failure (`depth` halvings so far).
+    fn advance(&mut self, dt: Real, depth: u32) -> Result<StepReport, StepFailure> {
+        match self.try_step(dt) {
+            Err(f)
+                if depth < 4
+                    && matches!(
+                        f.cause,
+                        InstabilityCause::NewtonBudget { .. }
+                            | InstabilityCause::NotPositiveDefinite { .. }
+                            | InstabilityCause::SolverBudget { .. }
+                    ) =>
+            {
+                self.substeps += 1;
+                let a = self.advance(0.5 * dt, depth + 1)?;
+                let b = self.advance(0.5 * dt, depth + 1)?;
+                Ok(StepReport { newton: a.newton + b.newton, sweeps: a.sweeps + b.sweeps, contacts: b.contacts })
+            }
+            other => other,
+        }
+    }
+
+    /// One step of `dt` without splitting.
+    fn try_step(&mut self, dt: Real) -> Result<StepReport, StepFailure> {
+        let sc = Scheme { dt, theta: self.settings.theta, gravity: self.settings.gravity };
         // 1. The fields.
         {
             let (grid, points, laws) = (&self.grid, &self.points, &self.laws);
@@ -188,7 +226,7 @@ impl System {
             }
         }
         // 2. The candidate contacts.
-        self.detect();
+        self.detect(dt);
         let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };
         // 3. Newton.
         let v_ref = self.walls.iter().map(|w| w.velocity.norm()).fold(self.settings.gravity.norm() * sc.dt, Real::max);
@@ -253,18 +291,14 @@ impl System {
                 self.warm.insert(c.key(), c.r);
             }
         }
-        self.steps += 1;
         self.time += sc.dt;
-        self.totals.newton += report.newton;
-        self.totals.sweeps += report.sweeps;
-        self.totals.contacts = report.contacts;
         Ok(report)
     }
 
     /// Finds the candidate contacts of the step, their frames, gaps, laws and warm starts, and
     /// each grain's contact nodes.
-    fn detect(&mut self) {
-        let (grid, h, dt) = (self.grid, self.grid.h, self.settings.dt);
+    fn detect(&mut self, dt: Real) {
+        let (grid, h) = (self.grid, self.grid.h);
         // Grid node, grain, local node, for every node with mass.
         let mut at: Vec<(usize, u32, u32)> = Vec::new();
         for (g, f) in self.fields.iter().enumerate() {
