@@ -509,12 +509,9 @@ impl System {
             let u_n = (sa.u[c.a_slot as usize] - ub).dot(&n);
             c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
         }
+        let d = self.mean_diameter();
         let mut problem = Problem { contacts: &mut self.contacts, grains: &mut self.sides, walls: &self.walls };
-        self.nlgs.solve_problem(
-            &mut problem,
-            sc.dt,
-            2.0 * self.grains.iter().map(|g| g.radius).sum::<Real>() / self.grains.len().max(1) as Real,
-        )
+        self.nlgs.solve_problem(&mut problem, sc.dt, d)
     }
 
     /// Adds each grain's correction with the contact impulses to its iterate; returns the
