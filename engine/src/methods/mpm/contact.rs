@@ -85,9 +85,7 @@ pub struct NodalContact {
     pub frame: ContactFrame,
     /// Gap along `n` at the step's start, m (negative: overlapping extents).
     pub gap: Real,
-    /// Friction coefficient.
-    pub friction: Real,
-    /// The law for the step.
+    /// The law for the step (its `friction` the pair's coefficient).
     pub law: LocalLaw,
     /// Diagonal of the local Delassus block, 1/kg·m.
     pub w: Delassus,
@@ -127,6 +125,11 @@ pub struct GrainContacts {
     pub u: Vec<V2>,
     /// Contacts and sides (`true`: the grain is `a`) at each slot.
     pub entries: Vec<Vec<(u32, bool)>>,
+    /// Slot of each local node of the grain's field (`u32::MAX`: none), for the step.
+    pub slot_of: Vec<u32>,
+    /// Scratch of the grain's size in unknowns, kept between solves (the columns of
+    /// [`GrainContacts::invert`], the impulses' right-hand side of a Newton update).
+    pub work: Vec<Real>,
 }
 
 impl GrainContacts {
@@ -162,7 +165,8 @@ impl GrainContacts {
 
     /// Computes `inverse` from the grain's factorised matrix: one solve per unknown of its
     /// contact nodes.
-    pub fn invert(&mut self, field: &Field, work: &mut Vec<Real>) {
+    pub fn invert(&mut self, field: &Field) {
+        let work = &mut self.work;
         let c = self.nodes.len();
         let n = 2 * c;
         self.inverse.clear();

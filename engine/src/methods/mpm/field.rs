@@ -80,6 +80,8 @@ pub struct Field {
     pub residual: Vec<V2>,
     /// The Newton matrix `M + (θh)² K`, factorised after [`Field::assemble`].
     pub matrix: Banded,
+    /// The Newton correction of the current iteration, two entries a node, m/s.
+    pub correction: Vec<Real>,
 }
 
 impl Field {
@@ -129,6 +131,7 @@ impl Field {
             + self.f_new.capacity() * std::mem::size_of::<Mat2>()
             + self.history_new.capacity() * std::mem::size_of::<History>()
             + self.matrix.heap_bytes()
+            + self.correction.capacity() * std::mem::size_of::<Real>()
     }
 
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,

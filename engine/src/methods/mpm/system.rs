@@ -241,12 +241,11 @@ impl System {
             (s / m.max(Real::MIN_POSITIVE)).sqrt()
         };
         let mut scale = v_ref.max(rms(&self.fields, |f, i| f.v0[i]));
-        let mut corrections = vec![Vec::<Real>::new(); self.grains.len()];
         let mut converged = false;
         let mut last = Real::INFINITY;
         for it in 1..=self.settings.max_newton {
             report.newton = it;
-            self.newton_free(&sc, &mut corrections)?;
+            self.newton_free(&sc)?;
             let solved = self.solve_contacts(&sc);
             report.sweeps += solved.iterations;
             if !solved.converged {
@@ -261,7 +260,7 @@ impl System {
                     worst_tolerance: s.worst_tolerance,
                 }));
             }
-            let (dv2, m) = self.newton_update(&mut corrections);
+            let (dv2, m) = self.newton_update();
             let correction = (dv2 / m.max(Real::MIN_POSITIVE)).sqrt();
             if it == 1 {
                 scale = scale.max(correction);
@@ -317,6 +316,7 @@ impl System {
             b: Option<(u32, u32)>,
             wall: u32,
             n: V2,
+            x: V2,
         }
         let mut cands: Vec<Candidate> = Vec::new();
         let mut s = 0;
@@ -332,7 +332,15 @@ impl System {
                     let d = self.fields[ga as usize].mass_gradient[ka as usize] - self.fields[gb as usize].mass_gradient[kb as usize];
                     let len = d.norm();
                     if len > 0.0 && len.is_finite() {
-                        cands.push(Candidate { node, a: ga, ka, b: Some((gb, kb)), wall: 0, n: d / len });
+                        cands.push(Candidate {
+                            node,
+                            a: ga,
+                            ka,
+                            b: Some((gb, kb)),
+                            wall: 0,
+                            n: d / len,
+                            x: grid.node_position(node % grid.nx, node / grid.nx),
+                        });
                     }
                 }
             }
@@ -347,7 +355,15 @@ impl System {
                 let x = grid.node_position(i, j);
                 for (w, wall) in self.walls.iter().enumerate() {
                     if (x - wall.point).dot(&wall.normal) < 2.5 * h {
-                        cands.push(Candidate { node: i + grid.nx * j, a: g as u32, ka: k as u32, b: None, wall: w as u32, n: wall.normal });
+                        cands.push(Candidate {
+                            node: i + grid.nx * j,
+                            a: g as u32,
+                            ka: k as u32,
+                            b: None,
+                            wall: w as u32,
+                            n: wall.normal,
+                            x,
+                        });
                     }
                 }
             }
@@ -360,10 +376,7 @@ impl System {
             by_grain[k.a as usize].push((k.ka, c as u32, true));
             match k.b {
                 Some((gb, kb)) => by_grain[gb as usize].push((kb, c as u32, false)),
-                None => {
-                    let x = grid.node_position(k.node % grid.nx, k.node / grid.nx);
-                    hi[c] = (self.walls[k.wall as usize].point - x).dot(&k.n);
-                }
+                None => hi[c] = (self.walls[k.wall as usize].point - k.x).dot(&k.n),
             }
         }
         for (g, list) in by_grain.iter_mut().enumerate() {
@@ -381,7 +394,7 @@ impl System {
                         let first = list.partition_point(|e| e.0 < k);
                         for &(_, c, is_a) in list[first..].iter().take_while(|e| e.0 == k) {
                             let cand = &cands[c as usize];
-                            let node = grid.node_position(cand.node % grid.nx, cand.node / grid.nx);
+                            let node = cand.x;
                             // Only the points in the node's own column along the normal
                             // (within half a cell across it): the gap at the node's place,
                             // not the nearest one over the stencil's three cells.
@@ -401,18 +414,20 @@ impl System {
             }
         }
         // The contacts within a cell of touching, with each grain's slots.
-        for side in &mut self.sides {
+        for (side, f) in self.sides.iter_mut().zip(&self.fields) {
             side.nodes.clear();
             side.entries.clear();
+            side.slot_of.clear();
+            side.slot_of.resize(f.nodes(), u32::MAX);
         }
-        let mut slot_of: Vec<HashMap<u32, u32>> = vec![HashMap::new(); self.grains.len()];
-        let mut slot = |sides: &mut [GrainContacts], g: u32, k: u32| -> u32 {
-            *slot_of[g as usize].entry(k).or_insert_with(|| {
-                let side = &mut sides[g as usize];
+        let slot = |sides: &mut [GrainContacts], g: u32, k: u32| -> u32 {
+            let side = &mut sides[g as usize];
+            if side.slot_of[k as usize] == u32::MAX {
+                side.slot_of[k as usize] = side.nodes.len() as u32;
                 side.nodes.push(k as usize);
                 side.entries.push(Vec::new());
-                (side.nodes.len() - 1) as u32
-            })
+            }
+            side.slot_of[k as usize]
         };
         self.contacts.clear();
         for (c, k) in cands.iter().enumerate() {
@@ -442,7 +457,6 @@ impl System {
                 b,
                 frame,
                 gap,
-                friction,
                 law,
                 w: Delassus { n: 0.0, t: 0.0 },
                 r: Vec3::zeros(),
@@ -460,26 +474,26 @@ impl System {
     }
 
     /// Assembles and factorises every grain's Newton system at the current iterate, solves for
-    /// its free correction (into `corrections`), and prepares its side of the contact problem.
-    fn newton_free(&mut self, sc: &Scheme, corrections: &mut [Vec<Real>]) -> Result<(), StepFailure> {
+    /// its free correction (into `Field::correction`), and prepares its side of the contact
+    /// problem.
+    fn newton_free(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
         let (points, laws) = (&self.points, &self.laws);
         let out: Result<(), (usize, Option<PointFailure>)> =
-            self.fields.par_iter_mut().zip(self.sides.par_iter_mut()).zip(corrections.par_iter_mut()).enumerate().try_for_each(
-                |(g, ((f, side), dv))| {
-                    let grain = &self.grains[g];
-                    f.assemble(points, grain.points.clone(), laws[grain.law].as_ref(), sc).map_err(|e| (g, e))?;
-                    dv.clear();
-                    dv.extend(f.residual.iter().flat_map(|r| [-r.x, -r.y]));
-                    f.solve(dv);
-                    if !side.is_empty() {
-                        let mut work = Vec::new();
-                        side.invert(f, &mut work);
-                        side.u.clear();
-                        side.u.extend(side.nodes.iter().map(|&k| f.v[k] + V2::new(dv[2 * k], dv[2 * k + 1])));
-                    }
-                    Ok(())
-                },
-            );
+            self.fields.par_iter_mut().zip(self.sides.par_iter_mut()).enumerate().try_for_each(|(g, (f, side))| {
+                let grain = &self.grains[g];
+                f.assemble(points, grain.points.clone(), laws[grain.law].as_ref(), sc).map_err(|e| (g, e))?;
+                let mut dv = std::mem::take(&mut f.correction);
+                dv.clear();
+                dv.extend(f.residual.iter().flat_map(|r| [-r.x, -r.y]));
+                f.solve(&mut dv);
+                if !side.is_empty() {
+                    side.invert(f);
+                    side.u.clear();
+                    side.u.extend(side.nodes.iter().map(|&k| f.v[k] + V2::new(dv[2 * k], dv[2 * k + 1])));
+                }
+                f.correction = dv;
+                Ok(())
+            });
         match out {
             Ok(()) => Ok(()),
             Err((_, Some(p))) => Err(self.point_failure(p)),
@@ -516,15 +530,17 @@ impl System {
 
     /// Adds each grain's correction with the contact impulses to its iterate; returns the
     /// mass-weighted squared correction and the mass.
-    fn newton_update(&mut self, corrections: &mut [Vec<Real>]) -> (Real, Real) {
+    fn newton_update(&mut self) -> (Real, Real) {
         let contacts = &self.contacts;
         self.fields
             .par_iter_mut()
-            .zip(self.sides.par_iter())
-            .zip(corrections.par_iter_mut())
-            .map(|((f, side), dv)| {
+            .zip(self.sides.par_iter_mut())
+            .map(|(f, side)| {
+                let mut dv = std::mem::take(&mut f.correction);
                 if !side.is_empty() {
-                    let mut rhs = vec![0.0; dv.len()];
+                    let mut rhs = std::mem::take(&mut side.work);
+                    rhs.clear();
+                    rhs.resize(dv.len(), 0.0);
                     for (s, list) in side.entries.iter().enumerate() {
                         let k = side.nodes[s];
                         for &(c, is_a) in list {
@@ -536,6 +552,7 @@ impl System {
                     }
                     f.solve(&mut rhs);
                     dv.iter_mut().zip(&rhs).for_each(|(d, r)| *d += r);
+                    side.work = rhs;
                 }
                 let (mut s, mut m) = (0.0, 0.0);
                 for i in 0..f.nodes() {
@@ -546,6 +563,7 @@ impl System {
                         m += f.mass[i];
                     }
                 }
+                f.correction = dv;
                 (s, m)
             })
             .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))

@@ -193,7 +193,9 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
 /// the radius (measured 3.2%); the half-width from the forces' spread converges on Hertz's as
 /// the grid is refined (measured 53%, 20% and 9% too wide at 10, 20 and 30 cells a radius):
 /// the nodal contact constrains the velocities of the nodes, not of the surface, so the
-/// pressure is carried towards the edges of the patch as by a flat punch.
+/// pressure is carried towards the edges of the patch as by a flat punch. The 12% bound on
+/// the half-width at 30 cells is a guard against regression just above the measured 9%, not
+/// the 5%, which this contact does not meet yet.
 #[test]
 fn an_elastic_disk_on_a_plane_approaches_hertz() {
     let mut errors = Vec::new();
