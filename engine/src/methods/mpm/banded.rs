@@ -68,6 +68,14 @@ impl Banded {
         }
     }
 
+    /// Multiplies the diagonal by `1 + factor` (before [`Banded::factorise`]).
+    pub fn scale_diagonal(&mut self, factor: Real) {
+        for i in 0..self.n {
+            let k = self.index(i, i);
+            self.data[k] *= 1.0 + factor;
+        }
+    }
+
     /// Factorises in place into `L` (`A = L Lᵀ`); on failure, the first row whose pivot was not
     /// positive.
     pub fn factorise(&mut self) -> Result<(), usize> {

@@ -24,7 +24,7 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::contact::{extent, GrainContacts, NodalContact, Other, Problem, Wall};
+use super::contact::{extent, GrainContacts, NodalContact, Other, Problem, Support, Wall};
 use super::field::{Field, PointFailure, Scheme};
 use super::grid::{Grid, V2};
 use super::points::{Grain, Points};
@@ -96,6 +96,13 @@ pub struct System {
     pub totals: StepReport,
     /// Steps done again as two halves since the start.
     pub substeps: u64,
+    /// The impulse the grains gave each wall over the last step (all its parts when it was
+    /// split), N·s/m: the wall's mean force over the step times the step.
+    pub wall_impulse: Vec<V2>,
+    /// The force the grains exert on each wall at the step's end, N/m: the impulse of its last
+    /// part over that part's duration (backward Euler's end-of-step force; with θ < 1 the
+    /// mean over the part).
+    pub wall_force: Vec<V2>,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
     warm: HashMap<(usize, u32, i64), Vec3>,
@@ -117,6 +124,7 @@ impl System {
         settings: Settings,
     ) -> Self {
         let n = grains.len();
+        let walls_len = walls.len();
         Self {
             grid,
             points,
@@ -129,6 +137,8 @@ impl System {
             time: 0.0,
             totals: StepReport::default(),
             substeps: 0,
+            wall_impulse: vec![V2::zeros(); walls_len],
+            wall_force: vec![V2::zeros(); walls_len],
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
             warm: HashMap::new(),
@@ -181,6 +191,7 @@ impl System {
     /// halves, down to a sixteenth of the step (nothing has moved when they fail: the points
     /// move only once the iterations converged); past that the failure is returned.
     pub fn step(&mut self) -> Result<StepReport, StepFailure> {
+        self.wall_impulse.iter_mut().for_each(|p| *p = V2::zeros());
         let report = self.advance(self.settings.dt, 0)?;
         self.steps += 1;
         self.totals.newton += report.newton;
@@ -284,6 +295,14 @@ impl System {
         for w in &mut self.walls {
             w.point += w.velocity * sc.dt;
         }
+        self.wall_force.iter_mut().for_each(|p| *p = V2::zeros());
+        for c in &self.contacts {
+            if let Other::Wall(k) = c.b {
+                let p = c.frame.to_global(&c.r);
+                self.wall_impulse[k as usize] -= V2::new(p.x, p.y);
+                self.wall_force[k as usize] -= V2::new(p.x, p.y) / sc.dt;
+            }
+        }
         self.warm.clear();
         for c in &self.contacts {
             if c.r != Vec3::zeros() {
@@ -371,6 +390,10 @@ impl System {
         // Gaps from the points of each stencil: per grain, each local node's candidates.
         let mut lo = vec![Real::INFINITY; cands.len()];
         let mut hi = vec![Real::NEG_INFINITY; cands.len()];
+        // Mass-weighted position across the normal of grain `a`'s points in each column, and
+        // their mass: where the column's material is (a column at a grain's edge holds
+        // material on one side of its node only).
+        let mut across_sum = vec![V2::zeros(); cands.len()];
         let mut by_grain: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); self.grains.len()];
         for (c, k) in cands.iter().enumerate() {
             by_grain[k.a as usize].push((k.ka, c as u32, true));
@@ -405,6 +428,8 @@ impl System {
                             let (l, u) = extent(&self.points, p, &node, &cand.n);
                             if is_a {
                                 lo[c as usize] = lo[c as usize].min(l);
+                                let m = self.points.mass[p];
+                                across_sum[c as usize] += V2::new(m * across, m);
                             } else {
                                 hi[c as usize] = hi[c as usize].max(u);
                             }
@@ -432,45 +457,109 @@ impl System {
         self.contacts.clear();
         for (c, k) in cands.iter().enumerate() {
             let gap = lo[c] - hi[c];
-            // Only the nodes within half a cell of the interface along the normal (about one
-            // a column): a constraint on every node the two fields share (three rows with
+            // Only the nodes within half a cell of the interface along the normal (one a
+            // column): a constraint on every node the two fields share (three rows with
             // quadratic splines) would lock a layer a cell thick into a rigid punch.
-            let middle = 0.5 * (lo[c] + hi[c]);
-            let beyond = if k.b.is_none() { Real::INFINITY } else { 0.5 * h };
-            if gap.is_nan() || gap > h || middle < -0.5 * h || middle >= beyond {
+            let (middle, surface) = match k.b {
+                Some(_) => (0.5 * (lo[c] + hi[c]), 0.0),
+                None => (lo[c], lo[c]),
+            };
+            if gap.is_nan() || gap > h || middle < -0.5 * h || middle >= 0.5 * h {
                 continue;
             }
-            let a_slot = slot(&mut self.sides, k.a, k.ka);
-            let (b, friction) = match k.b {
-                Some((gb, kb)) => (
-                    Other::Grain { grain: gb, slot: slot(&mut self.sides, gb, kb) },
-                    (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt(),
-                ),
-                None => (Other::Wall(k.wall), (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt()),
+            let (support, b, friction, at) = match k.b {
+                Some((gb, kb)) => {
+                    let a_slot = slot(&mut self.sides, k.a, k.ka);
+                    let b = Other::Grain { grain: gb, slot: slot(&mut self.sides, gb, kb) };
+                    let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 1 };
+                    support.slots[0] = a_slot;
+                    support.weights[0] = 1.0;
+                    (support, b, (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt(), k.x)
+                }
+                None => {
+                    // The grain's surface in the node's column, `x_s = x_node + lo n + a t` (`a`
+                    // where the column's material is across the normal), moving
+                    // with the velocity the field gives it there: the nodes of its stencil share
+                    // the impulse by their weights (those the grain has no mass at left out).
+                    let t = V2::new(-k.n.y, k.n.x);
+                    let across = across_sum[c].x / across_sum[c].y;
+                    let at = k.x + k.n * surface + t * across;
+                    let Some(support) = self.surface_support(k.a, &at) else {
+                        continue;
+                    };
+                    (support, Other::Wall(k.wall), (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt(), at)
+                }
             };
-            let frame = ContactFrame::new(2, Vec3::new(k.n.x, k.n.y, 0.0));
-            let law = LocalLaw { target: if gap > 0.0 { -gap / dt } else { 0.0 }, friction, cohesion: 0.0, viscosity: 0.0 };
-            let mut contact = NodalContact {
-                node: k.node,
-                a: k.a,
-                a_slot,
-                b,
-                frame,
-                gap,
-                law,
-                w: Delassus { n: 0.0, t: 0.0 },
-                r: Vec3::zeros(),
-                scale: 0.0,
-                lever: self.grains[k.a as usize].radius,
-            };
-            contact.r = self.warm.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros);
-            let index = self.contacts.len() as u32;
-            self.sides[k.a as usize].entries[a_slot as usize].push((index, true));
-            if let Other::Grain { grain, slot } = b {
-                self.sides[grain as usize].entries[slot as usize].push((index, false));
-            }
-            self.contacts.push(contact);
+            self.push_contact(k.node, at, k.a, support, b, k.n, gap, friction, dt);
         }
+    }
+
+    /// The nodes of grain `g` that carry its field at `x`, with their weights renormalised over
+    /// those where it has mass; `None` if there are none.
+    fn surface_support(&mut self, g: u32, x: &V2) -> Option<Support> {
+        let st = self.grid.stencil(x)?;
+        let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 0 };
+        let mut total = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                let (i, j) = (st.base[0] + a, st.base[1] + b);
+                let f = &self.fields[g as usize];
+                if i < f.i0 || j < f.j0 || i >= f.i0 + f.wx || j >= f.j0 + f.wy {
+                    continue;
+                }
+                let k = f.local(i, j);
+                let wt = st.weight(a, b);
+                if f.mass[k] == 0.0 || wt == 0.0 {
+                    continue;
+                }
+                let side = &mut self.sides[g as usize];
+                if side.slot_of[k] == u32::MAX {
+                    side.slot_of[k] = side.nodes.len() as u32;
+                    side.nodes.push(k);
+                    side.entries.push(Vec::new());
+                }
+                let l = support.len as usize;
+                support.slots[l] = side.slot_of[k];
+                support.weights[l] = wt;
+                support.len += 1;
+                total += wt;
+            }
+        }
+        if support.len == 0 {
+            return None;
+        }
+        support.weights[..support.len as usize].iter_mut().for_each(|x| *x /= total);
+        Some(support)
+    }
+
+    /// Adds a contact of the step, warm-started, and enters it at its grains' slots.
+    #[allow(clippy::too_many_arguments)]
+    fn push_contact(&mut self, node: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real, dt: Real) {
+        let frame = ContactFrame::new(2, Vec3::new(n.x, n.y, 0.0));
+        let law = LocalLaw { target: if gap > 0.0 { -gap / dt } else { 0.0 }, friction, cohesion: 0.0, viscosity: 0.0 };
+        let mut contact = NodalContact {
+            node,
+            at,
+            a,
+            support,
+            b,
+            frame,
+            gap,
+            law,
+            w: Delassus { n: 0.0, t: 0.0 },
+            r: Vec3::zeros(),
+            scale: 0.0,
+            lever: self.grains[a as usize].radius,
+        };
+        contact.r = self.warm.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros);
+        let index = self.contacts.len() as u32;
+        for (s, w) in support.iter() {
+            self.sides[a as usize].entries[s].push((index, true, w));
+        }
+        if let Other::Grain { grain, slot } = b {
+            self.sides[grain as usize].entries[slot as usize].push((index, false, 1.0));
+        }
+        self.contacts.push(contact);
     }
 
     /// Assembles and factorises every grain's Newton system at the current iterate, solves for
@@ -506,8 +595,15 @@ impl System {
         let g = self.settings.gravity.norm() * sc.dt;
         for c in &mut self.contacts {
             let sa = &self.sides[c.a as usize];
-            let mut w = sa.block(c.a_slot as usize, c.a_slot as usize);
-            let mut speed = sa.u[c.a_slot as usize].norm();
+            let mut w = nalgebra::Matrix2::zeros();
+            let mut ua = V2::zeros();
+            for (k, wk) in c.support.iter() {
+                ua += sa.u[k] * wk;
+                for (l, wl) in c.support.iter() {
+                    w += sa.block(k, l) * (wk * wl);
+                }
+            }
+            let mut speed = ua.norm();
             let ub = match c.b {
                 Other::Grain { grain, slot } => {
                     let sb = &self.sides[grain as usize];
@@ -520,7 +616,7 @@ impl System {
             let n = V2::new(c.frame.n.x, c.frame.n.y);
             let t = V2::new(c.frame.t1.x, c.frame.t1.y);
             c.w = Delassus { n: n.dot(&(w * n)), t: t.dot(&(w * t)) };
-            let u_n = (sa.u[c.a_slot as usize] - ub).dot(&n);
+            let u_n = (ua - ub).dot(&n);
             c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
         }
         let d = self.mean_diameter();
@@ -543,9 +639,9 @@ impl System {
                     rhs.resize(dv.len(), 0.0);
                     for (s, list) in side.entries.iter().enumerate() {
                         let k = side.nodes[s];
-                        for &(c, is_a) in list {
+                        for &(c, is_a, w) in list {
                             let ct = &contacts[c as usize];
-                            let p = ct.frame.to_global(&ct.r) * if is_a { 1.0 } else { -1.0 };
+                            let p = ct.frame.to_global(&ct.r) * if is_a { w } else { -w };
                             rhs[2 * k] += p.x;
                             rhs[2 * k + 1] += p.y;
                         }
