@@ -26,7 +26,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
-use crate::scene::{CdParams, CompactionDrive, Deformation, DemParams, Experiment, Method, Placement, Scene, WallMotion};
+use crate::scene::{CdParams, CompactionDrive, Deformation, DemParams, Experiment, Method, MpmParams, Placement, Scene, WallMotion};
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
@@ -104,7 +104,7 @@ impl Regime {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Advice {
-    /// The method chosen (`dem` or `cd`).
+    /// The method chosen (`dem`, `cd` or `mpm`).
     pub method: String,
     /// The method the scene asked for (`auto`, or a name).
     pub requested: String,
@@ -149,10 +149,10 @@ pub struct ExpectedCost {
 impl Advice {
     /// The chosen method with its default parameters.
     pub fn method(&self) -> Method {
-        if self.method == "cd" {
-            Method::Cd(CdParams::default())
-        } else {
-            Method::Dem(DemParams::default())
+        match self.method.as_str() {
+            "cd" => Method::Cd(CdParams::default()),
+            "mpm" => Method::Mpm(MpmParams::default()),
+            _ => Method::Dem(DemParams::default()),
         }
     }
 
@@ -340,10 +340,44 @@ pub fn advise(scene: &Scene) -> Advice {
     let mut needs = None;
     let mut method = "dem";
     let deflection = kappa.map(|k| 1.0 / k);
+    let deformable: Vec<&str> = scene
+        .sets
+        .iter()
+        .filter_map(|s| scene.materials.get(s.material))
+        .filter(|m| m.deformable.is_some())
+        .map(|m| m.name.as_str())
+        .collect();
+    if let Some(name) = deformable.first() {
+        // Deformable grains have one method: their shape is the unknown.
+        let mut reasons = vec![format!(
+            "deformable grains (materials.{name}.deformable): the material point method with contact dynamics follows their shape (PHYSICS.md §5)"
+        )];
+        if let Some(x) = deflection {
+            reasons.push(format!("contact deflection ~ 1/κ = {x:.2e} of the diameter at the loading's stress"));
+        }
+        reasons.push(why);
+        return Advice {
+            method: "mpm".to_string(),
+            requested: String::new(),
+            regime,
+            numbers,
+            reasons,
+            dropped: dropped(scene),
+            needs: None,
+            suggestions: suggestions(scene),
+            expected_cost: Vec::new(),
+        };
+    }
     if let Some(x) = deflection.filter(|x| *x > DEFORMABLE_DEFLECTION) {
-        needs = Some("a soft-particle method (MPM-CD or FEM-CD), which this version does not have".to_string());
+        needs = Some(if scene.dim == 2 {
+            "deformable grains: give the material a `deformable` constitutive law (its Young's modulus and Poisson's ratio) and method mpm"
+                .to_string()
+        } else {
+            "a soft-particle method in 3D, which this version does not have (method mpm is 2D)".to_string()
+        });
         reasons.push(format!(
-            "the grains deform: contact deflection ~ 1/κ = {x:.2} of the diameter (> {DEFORMABLE_DEFLECTION}); DEM's overlaps stand in for the deformation beyond their validity"
+            "the grains deform: contact deflection ~ 1/κ = {x:.2} of the diameter (> {DEFORMABLE_DEFLECTION}, κ < {:.0}); DEM's overlaps stand in for the deformation beyond their validity",
+            1.0 / DEFORMABLE_DEFLECTION
         ));
     }
     match regime {
@@ -574,7 +608,7 @@ mod tests {
         assert_eq!(a.needs, None);
         // Contacts deflected by a tenth of a diameter: the grains deform.
         let a = advise(&biaxial(1e4, 1000.0, 0.01));
-        assert!(a.needs.as_deref().is_some_and(|n| n.contains("soft-particle method")), "{a:?}");
+        assert!(a.needs.as_deref().is_some_and(|n| n.contains("deformable` constitutive law") && n.contains("method mpm")), "{a:?}");
         assert!(has(&a.reasons, "the grains deform: contact deflection ~ 1/κ = 0.10"), "{:?}", a.reasons);
         assert_eq!(a.method, "dem");
         // Rigid grains loaded fast (I = 0.016): a dense inertial flow, DEM.

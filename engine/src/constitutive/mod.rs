@@ -129,6 +129,18 @@ pub fn central_tangent(p: impl Fn(&Mat2) -> Option<Mat2>, f: &Mat2) -> Option<Ta
     Some(a)
 }
 
+impl LawSpec {
+    /// Young's modulus (Pa) and Poisson's ratio of the law at small strain.
+    pub fn young_poisson(&self) -> (Real, Real) {
+        match *self {
+            Self::LinearElastic { young, poisson } | Self::Elastoplastic { young, poisson, .. } => (young, poisson),
+            Self::NeoHookean { shear_modulus: mu, lambda } => {
+                (mu * (3.0 * lambda + 2.0 * mu) / (lambda + mu), lambda / (2.0 * (lambda + mu)))
+            }
+        }
+    }
+}
+
 /// The laws a scene can name, with their parameters (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LawSpec {

@@ -298,6 +298,7 @@ mod tests {
             rolling: None,
             liquid: None,
             cohesion: None,
+            deformable: None,
         }
     }
 

@@ -15,5 +15,6 @@ pub fn build(scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
     match &scene.method {
         Method::Dem(params) => Ok(Box::new(dem::Dem::new(scene, params)?)),
         Method::Cd(params) => Ok(Box::new(cd::Cd::new(scene, params)?)),
+        Method::Mpm(params) => Ok(Box::new(mpm::sim::Mpm::new(scene, params)?)),
     }
 }

@@ -1,7 +1,7 @@
 //! Computation of a [`Sample`] from a method-independent view of the system.
 
 use super::drum::{measure_drum, DrumView};
-use super::sample::{Sample, Stress, WallSample};
+use super::sample::{DeformableSample, Sample, Stress, WallSample};
 use crate::math::{Mat3, Real, Vec3};
 use crate::particles::Particles;
 
@@ -86,6 +86,20 @@ pub struct SystemView<'a> {
     pub rattler_threshold: usize,
     /// The rotating drum, if there is one.
     pub drum: Option<DrumView>,
+    /// What deformable grains add (method `mpm`; FEM and bonded aggregates alike): their
+    /// kinetic energy with their internal motion, and their deformation. Their `particles`
+    /// are the grains as disks of their *current* area (centroid, mean velocity), so that Φ,
+    /// the coordination, the stress and p, q, μ are measured as for rigid grains.
+    pub deformable: Option<DeformableView>,
+}
+
+/// The part of a [`SystemView`] only deformable grains have.
+#[derive(Debug, Clone, Copy)]
+pub struct DeformableView {
+    /// Kinetic energy of all the material, J (replaces the grains' rigid-body one).
+    pub kinetic_energy: Real,
+    /// Shape, Jacobian, dissipation and cost.
+    pub sample: DeformableSample,
 }
 
 /// Contacts a particle needs not to be a rattler, in `dim` dimensions, with or without friction.
@@ -191,13 +205,14 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         q,
         stress,
         inertial_number,
-        kinetic_energy: kinetic,
+        kinetic_energy: v.deformable.map_or(kinetic, |d| d.kinetic_energy),
         elastic_energy: v.elastic_energy,
         walls,
         stage: None,
         strain: None,
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
         solver: None,
+        deformable: v.deformable.map(|d| Box::new(d.sample)),
     }
 }
 

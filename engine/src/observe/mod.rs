@@ -15,7 +15,7 @@ pub mod vtk;
 
 pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
 pub use granule::GranuleResult;
-pub use metrics::{measure, rattler_threshold, ContactRecord, ShearGeometry, SystemView, WallView};
+pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, ShearGeometry, SystemView, WallView};
 pub use results::{Analysis, ExperimentResult};
-pub use sample::{Sample, SolverSample, StrainSample, Stress, WallSample};
+pub use sample::{DeformableSample, Sample, SolverSample, StrainSample, Stress, WallSample};
 pub use snapshot::{Snapshot, WallFace};

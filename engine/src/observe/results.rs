@@ -581,6 +581,7 @@ mod tests {
             strain: Some(StrainSample { axes: vec![ev - axial, axial], volumetric: ev, deviatoric: 0.0 }),
             drum: None,
             solver: None,
+            deformable: None,
         }
     }
 

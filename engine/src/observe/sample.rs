@@ -83,6 +83,33 @@ pub struct Sample {
     /// The contact solver's work on the last step (contact dynamics).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<Box<SolverSample>>,
+    /// The grains' own deformation and the energy it took (deformable grains).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deformable: Option<Box<DeformableSample>>,
+}
+
+/// The state of deformable grains at a sample (method `mpm`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct DeformableSample {
+    /// Mean aspect ratio of the grains (1 for a disk): the square root of the ratio of the
+    /// principal second moments of each grain's area about its centroid.
+    pub mean_aspect_ratio: f64,
+    /// Largest aspect ratio of a grain.
+    pub max_aspect_ratio: f64,
+    /// Smallest `det F` of a material point (1 undeformed; never <= 0).
+    pub min_jacobian: f64,
+    /// Energy dissipated since the start, J (per metre of thickness in 2D): the work of the
+    /// walls and gravity less the change of kinetic and elastic (strain) energy. The walls'
+    /// work is their end-of-step force over each step, so that with backward Euler (θ = 1)
+    /// it includes the scheme's numerical dissipation (a third of the stored energy over three
+    /// equal steps of a linear ramp; less as steps are finer), besides plasticity, the
+    /// inelastic contacts and PIC's velocity averaging.
+    pub dissipated_energy: f64,
+    /// Newton iterations on the step before the sample.
+    pub newton_iterations: u32,
+    /// Contact-solver sweeps on that step.
+    pub sweeps: u32,
 }
 
 /// What the contact solver of contact dynamics did on the step before a sample
@@ -195,5 +222,8 @@ impl Sample {
                 .solver
                 .as_ref()
                 .is_none_or(|v| [v.change, v.violation, v.max_interpenetration, v.mean_interpenetration].iter().all(|x| x.is_finite()))
+            && self.deformable.as_ref().is_none_or(|d| {
+                [d.mean_aspect_ratio, d.max_aspect_ratio, d.min_jacobian, d.dissipated_energy].iter().all(|x| x.is_finite())
+            })
     }
 }

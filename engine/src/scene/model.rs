@@ -57,6 +57,9 @@ pub enum Method {
     Dem(DemParams),
     /// Contact dynamics, Moreau-Jean (PHYSICS.md §3).
     Cd(CdParams),
+    /// Implicit material point method with contact dynamics, for deformable grains
+    /// (PHYSICS.md §5).
+    Mpm(MpmParams),
 }
 
 impl Method {
@@ -65,6 +68,7 @@ impl Method {
         match self {
             Self::Dem(_) => "dem",
             Self::Cd(_) => "cd",
+            Self::Mpm(_) => "mpm",
         }
     }
 }
@@ -179,6 +183,60 @@ impl Default for CdParams {
     }
 }
 
+/// Parameters of the implicit material point method ([`crate::methods::mpm`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MpmParams {
+    /// Time step, s; `None`: the fastest imposed motion covers `max_displacement` of a cell in
+    /// one step.
+    pub time_step: Option<Real>,
+    /// Largest expected displacement per step / grid cell (default time step).
+    pub max_displacement: Real,
+    /// Grid cells across the smallest grain diameter.
+    pub cells_per_diameter: Real,
+    /// Material points per cell along each axis.
+    pub points_per_cell: u32,
+    /// θ of the time integration, in [½, 1].
+    pub theta: Real,
+    /// FLIP fraction of the points' velocity update, in [0, 1].
+    pub flip: Real,
+    /// Newton's tolerance on the velocity correction, relative.
+    pub newton_tolerance: Real,
+    /// Newton iterations allowed per step.
+    pub max_newton: u32,
+    /// Contact solver: tolerance on the relative change of the impulses over a sweep.
+    pub tolerance: Real,
+    /// Contact solver: tolerance on the mean violation.
+    pub violation_tolerance: Real,
+    /// Contact solver: sweeps allowed per Newton iteration.
+    pub max_iterations: u32,
+    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1).
+    pub acceleration: Real,
+    /// Threads; 0 = rayon's global pool.
+    pub threads: usize,
+}
+
+impl Default for MpmParams {
+    /// The settings of the compaction test (`methods::mpm::tests`): backward Euler and PIC for
+    /// quasi-static loadings, eight cells and sixteen points across the smallest grain.
+    fn default() -> Self {
+        Self {
+            time_step: None,
+            max_displacement: 0.05,
+            cells_per_diameter: 8.0,
+            points_per_cell: 2,
+            theta: 1.0,
+            flip: 0.0,
+            newton_tolerance: 1e-5,
+            max_newton: 25,
+            tolerance: 1e-6,
+            violation_tolerance: 1e-6,
+            max_iterations: 20_000,
+            acceleration: 0.9,
+            threads: 0,
+        }
+    }
+}
+
 /// Order of the contact-dynamics sweep ([`crate::nscd::colour`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -231,6 +289,9 @@ pub struct Material {
     pub liquid: Option<Liquid>,
     /// Dry cohesion.
     pub cohesion: Option<Cohesion>,
+    /// The constitutive law of a deformable material (method `mpm`); its `law` is then the
+    /// Hertz–Mindlin law of its small-strain elastic constants, which only the advisor reads.
+    pub deformable: Option<crate::constitutive::LawSpec>,
 }
 
 /// Elastic contact law of a material.

@@ -67,16 +67,23 @@ pub struct StartFromSpec {
     pub state: Option<Box<super::state::StateFile>>,
 }
 
-/// A material: density and contact law.
+/// A material: density and contact law (rigid or soft-contact grains), or density and
+/// constitutive law (grains that deform, method `mpm`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
     /// Density, kg/m³.
     pub density: f64,
-    /// Elastic contact law.
-    pub contact: ContactLawSpec,
-    /// Normal coefficient of restitution in (0, 1].
-    pub restitution: f64,
+    /// Elastic contact law (required unless `deformable`).
+    #[serde(default)]
+    pub contact: Option<ContactLawSpec>,
+    /// Normal coefficient of restitution in (0, 1] (required unless `deformable`).
+    #[serde(default)]
+    pub restitution: Option<f64>,
+    /// The grains deform under their constitutive law (method `mpm`); they touch through it,
+    /// with no contact stiffness and no restitution.
+    #[serde(default)]
+    pub deformable: Option<DeformableSpec>,
     /// Coulomb friction coefficient (>= 0). Default 0.
     #[serde(default)]
     pub friction: f64,
@@ -95,6 +102,38 @@ pub struct MaterialSpec {
     /// Optional dry cohesion: a constant attraction within a distance (RC 2.2.3).
     #[serde(default)]
     pub cohesion: Option<CohesionSpec>,
+}
+
+/// The constitutive law of a deformable material (plane strain).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DeformableSpec {
+    /// Hooke's law (on the logarithmic strain at finite strain).
+    LinearElastic {
+        /// Young's modulus E, Pa.
+        young_modulus: f64,
+        /// Poisson's ratio ν in (-1, 0.5).
+        poisson_ratio: f64,
+    },
+    /// Compressible neo-Hookean, `S = (λ ln J − μ) C⁻¹ + μ I`.
+    NeoHookean {
+        /// Shear modulus μ, Pa.
+        shear_modulus: f64,
+        /// First Lamé constant λ, Pa (>= 0).
+        lambda: f64,
+    },
+    /// Von Mises plasticity with linear isotropic hardening.
+    Elastoplastic {
+        /// Young's modulus E, Pa.
+        young_modulus: f64,
+        /// Poisson's ratio ν in (-1, 0.5).
+        poisson_ratio: f64,
+        /// Initial yield stress σ_y, Pa.
+        yield_stress: f64,
+        /// Hardening modulus H, Pa (>= 0). Default 0 (perfect plasticity).
+        #[serde(default)]
+        hardening: f64,
+    },
 }
 
 /// The elastic part of the contact law.
@@ -490,6 +529,56 @@ pub struct CdParamsSpec {
     pub threads: Option<usize>,
 }
 
+/// Parameters of the implicit material point method with contact dynamics (all optional).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MpmParamsSpec {
+    /// Always `"mpm"`.
+    #[serde(default)]
+    pub kind: String,
+    /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of a cell
+    /// in one step.
+    #[serde(default)]
+    pub time_step: Option<f64>,
+    /// Largest expected displacement per step / grid cell (default time step). Default 0.05.
+    #[serde(default)]
+    pub max_displacement: Option<f64>,
+    /// Grid cells across the smallest grain diameter (>= 1). Default 8.
+    #[serde(default)]
+    pub cells_per_diameter: Option<f64>,
+    /// Material points per cell along each axis (>= 1). Default 2.
+    #[serde(default)]
+    pub points_per_cell: Option<u32>,
+    /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
+    #[serde(default)]
+    pub theta: Option<f64>,
+    /// FLIP fraction of the points' velocity update, in [0, 1]. Default 0 (PIC).
+    #[serde(default)]
+    pub flip: Option<f64>,
+    /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
+    #[serde(default)]
+    pub newton_tolerance: Option<f64>,
+    /// Newton iterations allowed per step. Default 25.
+    #[serde(default)]
+    pub max_newton: Option<u32>,
+    /// Contact solver: tolerance on the relative change of the impulses. Default 1e-6.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
+    /// Default 1e-6.
+    #[serde(default)]
+    pub violation_tolerance: Option<f64>,
+    /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
+    #[serde(default)]
+    pub max_iterations: Option<u32>,
+    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
+    #[serde(default)]
+    pub acceleration: Option<f64>,
+    /// Threads; 0 = rayon's global pool. Default 0.
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
 /// A standard experiment (`docs/scene-format.md` §13).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -510,6 +599,22 @@ pub enum ExperimentSpec {
     Drum(DrumSpec),
     /// Diametral compression of a wet granule between two plates.
     GranuleCompression(GranuleCompressionSpec),
+}
+
+impl ExperimentSpec {
+    /// The experiment's `kind` as written in scene files.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Isotropic(_) => "isotropic",
+            Self::Biaxial(_) => "biaxial",
+            Self::Triaxial(_) => "triaxial",
+            Self::Compaction(_) => "compaction",
+            Self::PlaneShear(_) => "plane_shear",
+            Self::Deposition(_) => "deposition",
+            Self::Drum(_) => "drum",
+            Self::GranuleCompression(_) => "granule_compression",
+        }
+    }
 }
 
 /// Parameters of the diametral compression of a granule; every field has a default.

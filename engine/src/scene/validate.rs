@@ -5,12 +5,13 @@ use super::model::*;
 use super::spec::*;
 use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
+use crate::constitutive::LawSpec;
 use crate::math::{vec_from_slice, Real, Vec3, AXES};
 
 /// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
 pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
 /// Methods this version can run (`auto` picks among them).
-pub const AVAILABLE_METHODS: [&str; 3] = ["dem", "cd", "auto"];
+pub const AVAILABLE_METHODS: [&str; 4] = ["dem", "cd", "mpm", "auto"];
 
 /// Parses scene JSON text and validates it.
 ///
@@ -47,8 +48,9 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     let rigid = matches!(method, Method::Cd(_));
     let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m, rigid)).collect();
     let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
-    if let Some(first) = materials.first() {
-        for m in &materials[1..] {
+    let contact_materials: Vec<&Material> = materials.iter().filter(|m| m.deformable.is_none()).collect();
+    if let Some(first) = contact_materials.first() {
+        for m in &contact_materials[1..] {
             if hertz(m) != hertz(first) {
                 c.fail(
                     format!("materials.{}.contact.law", m.name),
@@ -118,6 +120,10 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             check_set(&mut c, &path, p, dim, material, &materials, &container, drum_fill.is_some())
         })
         .collect();
+
+    let any_deformable = sets.iter().any(|s| materials.get(s.material).is_some_and(|m| m.deformable.is_some()));
+    let mpm = matches!(method, Method::Mpm(_)) || (auto && any_deformable);
+    check_deformable_fit(&mut c, spec, mpm, method.name(), dim, &materials, &sets, &container);
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
@@ -336,9 +342,13 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool
             let Some(s) = params::<CdParamsSpec>(c, object) else { return fallback };
             (Method::Cd(check_cd_params(c, &s)), "chosen by the scene".to_string(), false)
         }
+        "mpm" => {
+            let Some(s) = params::<MpmParamsSpec>(c, object) else { return fallback };
+            (Method::Mpm(check_mpm_params(c, &s)), "chosen by the scene".to_string(), false)
+        }
         "auto" => {
             for key in object.and_then(|o| o.as_object()).into_iter().flat_map(|m| m.keys()).filter(|k| *k != "kind") {
-                c.fail(format!("method.{key}"), "auto chooses the method and its parameters; name the method (dem or cd) to set them");
+                c.fail(format!("method.{key}"), "auto chooses the method and its parameters; name the method (dem, cd or mpm) to set them");
             }
             (Method::Dem(DemParams::default()), String::new(), true)
         }
@@ -346,6 +356,157 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool
             let Some(s) = params::<DemParamsSpec>(c, object) else { return fallback };
             (Method::Dem(check_dem_params(c, &s)), "chosen by the scene".to_string(), false)
         }
+    }
+}
+
+fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
+    let mut p = MpmParams::default();
+    if let Some(dt) = s.time_step {
+        if c.positive("method.time_step", dt) {
+            p.time_step = Some(dt);
+        }
+    }
+    if let Some(f) = s.max_displacement {
+        if s.time_step.is_some() {
+            c.fail("method.max_displacement", "give time_step or max_displacement, not both");
+        } else if c.positive("method.max_displacement", f) {
+            p.max_displacement = f;
+        }
+    }
+    if let Some(n) = s.cells_per_diameter {
+        if !(n.is_finite() && n >= 1.0) {
+            c.fail(
+                "method.cells_per_diameter",
+                format!("must be >= 1 (a grid cell larger than the smallest grain cannot tell its shape), got {n}"),
+            );
+        } else {
+            p.cells_per_diameter = n;
+        }
+    }
+    if let Some(n) = s.points_per_cell {
+        if n == 0 || n > 8 {
+            c.fail("method.points_per_cell", format!("must be 1 to 8, got {n}"));
+        } else {
+            p.points_per_cell = n;
+        }
+    }
+    if p.cells_per_diameter * (p.points_per_cell as Real) < 2.0 {
+        c.fail(
+            "method.points_per_cell",
+            format!(
+                "gives {} point(s) across the smallest grain (cells_per_diameter × points_per_cell); a grain needs at least 2",
+                p.cells_per_diameter * p.points_per_cell as Real
+            ),
+        );
+    }
+    if let Some(t) = s.theta {
+        if c.within("method.theta", t, 0.5, 1.0) {
+            p.theta = t;
+        }
+    }
+    if let Some(f) = s.flip {
+        if c.within("method.flip", f, 0.0, 1.0) {
+            p.flip = f;
+        }
+    }
+    if let Some(t) = s.newton_tolerance {
+        if c.positive("method.newton_tolerance", t) {
+            p.newton_tolerance = t;
+        }
+    }
+    match s.max_newton {
+        Some(0) => c.fail("method.max_newton", "must be >= 1"),
+        Some(n) => p.max_newton = n,
+        None => {}
+    }
+    if let Some(t) = s.tolerance {
+        if c.positive("method.tolerance", t) {
+            p.tolerance = t;
+        }
+    }
+    if let Some(t) = s.violation_tolerance {
+        if c.positive("method.violation_tolerance", t) {
+            p.violation_tolerance = t;
+        }
+    }
+    match s.max_iterations {
+        Some(0) => c.fail("method.max_iterations", "must be >= 1"),
+        Some(n) => p.max_iterations = n,
+        None => {}
+    }
+    if let Some(a) = s.acceleration {
+        if !(a.is_finite() && (0.0..1.0).contains(&a)) {
+            c.fail("method.acceleration", format!("must be >= 0 and < 1, got {a}"));
+        } else {
+            p.acceleration = a;
+        }
+    }
+    p.threads = s.threads.unwrap_or(0);
+    p
+}
+
+/// What method `mpm` cannot run, and deformable grains with a method for rigid ones: every
+/// such field named. `mpm`: the method is (or `auto` will pick) the material point method.
+#[allow(clippy::too_many_arguments)]
+fn check_deformable_fit(
+    c: &mut Checker,
+    spec: &SceneSpec,
+    mpm: bool,
+    method: &str,
+    dim: usize,
+    materials: &[Material],
+    sets: &[ParticleSet],
+    container: &Container,
+) {
+    for (i, set) in sets.iter().enumerate() {
+        let Some(m) = materials.get(set.material) else { continue };
+        match (mpm, m.deformable.is_some()) {
+            (true, false) => c.fail(
+                format!("particles[{i}].material"),
+                format!("method mpm needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
+            ),
+            (false, true) => c.fail(
+                format!("particles[{i}].material"),
+                format!("'{}' is deformable: its grains need method mpm (method {method} moves rigid grains)", m.name),
+            ),
+            _ => {}
+        }
+        if mpm && set.wet_fraction > 0.0 {
+            c.fail(format!("particles[{i}].wet_fraction"), "not with method mpm (no capillary law between deformable grains)");
+        }
+    }
+    if !mpm {
+        return;
+    }
+    if dim != 2 {
+        c.fail("dimension", "method mpm is 2D (plane strain) in this version");
+    }
+    if spec.start_from.is_some() {
+        c.fail("start_from", "not with method mpm: a saved state holds rigid grains, not material points");
+    }
+    if container.periodic.iter().any(|&p| p) {
+        c.fail("container.periodic", "not with method mpm: its grains meet walls only");
+    }
+    if spec.container.lees_edwards.is_some() {
+        c.fail("container.lees_edwards", "not with method mpm (it needs walls all round)");
+    }
+    if spec.container.deformation.is_some() {
+        c.fail("container.deformation", "not with method mpm (it needs walls all round)");
+    }
+    for w in &container.walls {
+        match w.motion {
+            WallMotion::Fixed | WallMotion::Velocity(_) | WallMotion::StrainRate(_) => {}
+            _ => c.fail(
+                format!("container.walls.{}", w.face.name()),
+                "stress-controlled walls are not available with method mpm yet: give it a velocity or a strain rate",
+            ),
+        }
+    }
+    if let Some(e) = &spec.experiment {
+        c.fail(
+            "experiment",
+            format!("the {} experiment is not available with method mpm yet: drive the walls of a plain scene instead", e.kind()),
+        );
     }
 }
 
@@ -487,32 +648,103 @@ fn check_cd_params(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
     p
 }
 
+/// Checks a deformable material's constitutive law (every bad parameter named).
+fn check_deformable(c: &mut Checker, p: &str, d: &DeformableSpec) -> LawSpec {
+    let q = format!("{p}.deformable");
+    let poisson = |c: &mut Checker, nu: f64| {
+        if !(nu.is_finite() && nu > -1.0 && nu < 0.5) {
+            c.fail(format!("{q}.poisson_ratio"), format!("must be > -1 and < 0.5, got {nu}"));
+        }
+    };
+    match *d {
+        DeformableSpec::LinearElastic { young_modulus, poisson_ratio } => {
+            c.positive(&format!("{q}.young_modulus"), young_modulus);
+            poisson(c, poisson_ratio);
+            LawSpec::LinearElastic { young: young_modulus, poisson: poisson_ratio }
+        }
+        DeformableSpec::NeoHookean { shear_modulus, lambda } => {
+            c.positive(&format!("{q}.shear_modulus"), shear_modulus);
+            c.non_negative(&format!("{q}.lambda"), lambda);
+            LawSpec::NeoHookean { shear_modulus, lambda }
+        }
+        DeformableSpec::Elastoplastic { young_modulus, poisson_ratio, yield_stress, hardening } => {
+            c.positive(&format!("{q}.young_modulus"), young_modulus);
+            poisson(c, poisson_ratio);
+            c.positive(&format!("{q}.yield_stress"), yield_stress);
+            c.non_negative(&format!("{q}.hardening"), hardening);
+            LawSpec::Elastoplastic { young: young_modulus, poisson: poisson_ratio, yield_stress, hardening }
+        }
+    }
+}
+
 /// Checks a material; `rigid`: for contact dynamics, where the restitution is an impact law
 /// (0 allowed: perfectly plastic impacts) and not a damping ratio.
 fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) -> Material {
     let p = format!("materials.{name}");
     c.positive(&format!("{p}.density"), m.density);
+    if let Some(d) = &m.deformable {
+        let deformable = check_deformable(c, &p, d);
+        for (given, key) in [
+            (m.contact.is_some(), "contact"),
+            (m.restitution.is_some(), "restitution"),
+            (m.rolling.is_some(), "rolling"),
+            (m.liquid.is_some(), "liquid"),
+            (m.cohesion.is_some(), "cohesion"),
+            (m.tangential_damping_ratio.is_some(), "tangential_damping_ratio"),
+            (m.limit_damping.is_some(), "limit_damping"),
+        ] {
+            if given {
+                c.fail(
+                    format!("{p}.{key}"),
+                    "not for a deformable material: its grains touch through their constitutive law (leave it out)",
+                );
+            }
+        }
+        c.non_negative(&format!("{p}.friction"), m.friction);
+        let (young, poisson) = deformable.young_poisson();
+        return Material {
+            name: name.to_string(),
+            density: m.density,
+            law: ElasticLaw::HertzMindlin { young, poisson },
+            restitution: 0.0,
+            friction: m.friction,
+            tangential_damping_ratio: 0.0,
+            limit_damping: true,
+            rolling: None,
+            liquid: None,
+            cohesion: None,
+            deformable: Some(deformable),
+        };
+    }
     let law = match m.contact {
-        ContactLawSpec::Linear { k_n, k_t } => {
+        Some(ContactLawSpec::Linear { k_n, k_t }) => {
             c.positive(&format!("{p}.contact.k_n"), k_n);
             let k_t = k_t.unwrap_or(2.0 / 7.0 * k_n);
             c.non_negative(&format!("{p}.contact.k_t"), k_t);
             ElasticLaw::Linear { k_n, k_t }
         }
-        ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio } => {
+        Some(ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio }) => {
             c.positive(&format!("{p}.contact.young_modulus"), young_modulus);
             if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
                 c.fail(format!("{p}.contact.poisson_ratio"), format!("must be > -1 and < 0.5, got {poisson_ratio}"));
             }
             ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
         }
-    };
-    if rigid {
-        if !(m.restitution.is_finite() && (0.0..=1.0).contains(&m.restitution)) {
-            c.fail(format!("{p}.restitution"), format!("must be >= 0 and <= 1 with method cd, got {}", m.restitution));
+        None => {
+            c.fail(format!("{p}.contact"), "required (the elastic contact law), unless the material is deformable");
+            ElasticLaw::Linear { k_n: 1.0, k_t: 0.0 }
         }
-    } else if !(m.restitution.is_finite() && m.restitution > 0.0 && m.restitution <= 1.0) {
-        c.fail(format!("{p}.restitution"), format!("must be > 0 and <= 1, got {}", m.restitution));
+    };
+    let restitution = m.restitution.unwrap_or_else(|| {
+        c.fail(format!("{p}.restitution"), "required, unless the material is deformable");
+        1.0
+    });
+    if rigid {
+        if !(restitution.is_finite() && (0.0..=1.0).contains(&restitution)) {
+            c.fail(format!("{p}.restitution"), format!("must be >= 0 and <= 1 with method cd, got {restitution}"));
+        }
+    } else if !(restitution.is_finite() && restitution > 0.0 && restitution <= 1.0) {
+        c.fail(format!("{p}.restitution"), format!("must be > 0 and <= 1, got {restitution}"));
     }
     c.non_negative(&format!("{p}.friction"), m.friction);
     let ratio = m.tangential_damping_ratio.unwrap_or(0.5);
@@ -521,13 +753,13 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) ->
     // A floored linear contact cannot lose more than critical damping takes; a Hertz contact's
     // damping grows as its overlap closes, so it reaches any restitution.
     let linear = matches!(law, ElasticLaw::Linear { .. });
-    if !rigid && linear && limit_damping && m.restitution > 0.0 && m.restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
+    if !rigid && linear && limit_damping && restitution > 0.0 && restitution < crate::contact::damping::MIN_LIMITED_RESTITUTION {
         c.fail(
             format!("{p}.restitution"),
             format!(
                 "must be >= {} with the linear law when limit_damping is true (an overdamped contact cannot reach lower); got {}",
                 crate::contact::damping::MIN_LIMITED_RESTITUTION,
-                m.restitution
+                restitution
             ),
         );
     }
@@ -570,13 +802,14 @@ fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec, rigid: bool) ->
         name: name.to_string(),
         density: m.density,
         law,
-        restitution: m.restitution,
+        restitution,
         friction: m.friction,
         tangential_damping_ratio: ratio,
         limit_damping,
         rolling,
         liquid,
         cohesion,
+        deformable: None,
     }
 }
 
@@ -1012,6 +1245,122 @@ mod tests {
         assert_eq!(
             rules(&scene_with(serde_json::json!("cd"), 1.5)),
             vec!["materials.glass.restitution: must be >= 0 and <= 1 with method cd, got 1.5"]
+        );
+    }
+
+    fn soft_scene(method: serde_json::Value, law: serde_json::Value, extra: serde_json::Value) -> String {
+        let mut v = serde_json::json!({
+            "dimension": 2,
+            "method": method,
+            "materials": {"rubber": {"density": 990, "friction": 0.5, "deformable": law}},
+            "particles": [{"material": "rubber", "count": 4, "size": {"kind": "monodisperse", "diameter": 0.002}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "rubber"},
+            "stop": {"steps": 10}
+        });
+        if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
+            for (k, x) in e {
+                o.insert(k.clone(), x.clone());
+            }
+        }
+        v.to_string()
+    }
+
+    #[test]
+    fn a_deformable_scene_parses_with_method_mpm() {
+        let law = serde_json::json!({"law": "neo_hookean", "shear_modulus": 1.5e6, "lambda": 3e6});
+        let scene = parse_scene(&soft_scene(serde_json::json!({"kind": "mpm", "cells_per_diameter": 5}), law, serde_json::json!({})))
+            .expect("valid");
+        match &scene.method {
+            Method::Mpm(p) => assert_eq!((p.cells_per_diameter, p.points_per_cell, p.theta), (5.0, 2, 1.0)),
+            other => panic!("method {}", other.name()),
+        }
+        let m = &scene.materials[0];
+        assert_eq!(m.deformable, Some(LawSpec::NeoHookean { shear_modulus: 1.5e6, lambda: 3e6 }));
+        // The advisor's elastic constants: E = μ(3λ + 2μ)/(λ + μ), ν = λ / 2(λ + μ).
+        assert_eq!(m.law, ElasticLaw::HertzMindlin { young: 1.5e6 * 12e6 / 4.5e6, poisson: 3e6 / 9e6 });
+    }
+
+    /// Every bad parameter of a deformable material and of method mpm named at once.
+    #[test]
+    fn bad_deformable_input_names_every_field() {
+        let law =
+            serde_json::json!({"law": "elastoplastic", "young_modulus": 0, "poisson_ratio": 0.5, "yield_stress": -1, "hardening": -2});
+        let got = rules(&soft_scene(
+            serde_json::json!({"kind": "mpm", "cells_per_diameter": 0.5, "points_per_cell": 1, "theta": 0.2, "max_newton": 0}),
+            law,
+            serde_json::json!({}),
+        ));
+        for want in [
+            "materials.rubber.deformable.young_modulus: must be > 0",
+            "materials.rubber.deformable.poisson_ratio: must be > -1 and < 0.5, got 0.5",
+            "materials.rubber.deformable.yield_stress: must be > 0",
+            "materials.rubber.deformable.hardening: must be >= 0",
+            "method.cells_per_diameter: must be >= 1 (a grid cell larger than the smallest grain cannot tell its shape), got 0.5",
+            "method.theta: must be",
+            "method.max_newton: must be >= 1",
+        ] {
+            assert!(got.iter().any(|g| g.starts_with(want)), "missing {want:?} in {got:#?}");
+        }
+        let neo = rules(&soft_scene(
+            serde_json::json!("mpm"),
+            serde_json::json!({"law": "neo_hookean", "shear_modulus": -1, "lambda": -3}),
+            serde_json::json!({}),
+        ));
+        assert!(neo.iter().any(|g| g.starts_with("materials.rubber.deformable.shear_modulus: must be > 0")), "{neo:?}");
+        assert!(neo.iter().any(|g| g.starts_with("materials.rubber.deformable.lambda: must be >= 0")), "{neo:?}");
+        let few = rules(&soft_scene(
+            serde_json::json!({"kind": "mpm", "cells_per_diameter": 1, "points_per_cell": 1}),
+            serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.45}),
+            serde_json::json!({}),
+        ));
+        assert!(few.iter().any(|g| g.starts_with("method.points_per_cell: gives 1 point(s) across the smallest grain")), "{few:?}");
+    }
+
+    /// Deformable grains need mpm, mpm needs deformable grains in a 2D box with walls; a contact
+    /// law or restitution on a deformable material is refused.
+    #[test]
+    fn deformable_grains_and_methods_must_fit() {
+        let law = serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.45});
+        let dem = rules(&soft_scene(serde_json::json!("dem"), law.clone(), serde_json::json!({})));
+        assert_eq!(dem, vec!["particles[0].material: 'rubber' is deformable: its grains need method mpm (method dem moves rigid grains)"]);
+        let periodic = rules(&soft_scene(
+            serde_json::json!("mpm"),
+            law.clone(),
+            serde_json::json!({"container": {"min": [0, 0], "max": [0.01, 0.01], "periodic": ["x"], "wall_material": "rubber"}, "dimension": 3}),
+        ));
+        assert!(periodic.iter().any(|g| g.starts_with("container.periodic: not with method mpm")), "{periodic:?}");
+        assert!(periodic.iter().any(|g| g.starts_with("dimension: method mpm is 2D")), "{periodic:?}");
+        let mut both: serde_json::Value =
+            serde_json::from_str(&soft_scene(serde_json::json!("mpm"), law, serde_json::json!({}))).expect("json");
+        both["materials"]["rubber"]["restitution"] = serde_json::json!(0.5);
+        both["materials"]["rubber"]["contact"] = serde_json::json!({"law": "linear", "k_n": 1e5});
+        let got = rules(&both.to_string());
+        assert!(got.iter().any(|g| g.starts_with("materials.rubber.contact: not for a deformable material")), "{got:?}");
+        assert!(got.iter().any(|g| g.starts_with("materials.rubber.restitution: not for a deformable material")), "{got:?}");
+        let rigid = rules(&scene_with(serde_json::json!("mpm"), 0.5));
+        assert!(rigid.iter().any(|g| g.starts_with("particles[0].material: method mpm needs deformable grains")), "{rigid:?}");
+        let mut missing: serde_json::Value = serde_json::from_str(&scene_with(serde_json::json!("dem"), 0.5)).expect("json");
+        let glass = missing["materials"]["glass"].as_object_mut().expect("object");
+        glass.remove("contact");
+        glass.remove("restitution");
+        let got = rules(&missing.to_string());
+        assert!(
+            got.contains(&"materials.glass.contact: required (the elastic contact law), unless the material is deformable".to_string()),
+            "{got:?}"
+        );
+        assert!(got.contains(&"materials.glass.restitution: required, unless the material is deformable".to_string()), "{got:?}");
+    }
+
+    /// `auto` takes the material point method for deformable grains, and says why.
+    #[test]
+    fn auto_takes_mpm_for_deformable_grains() {
+        let law = serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.45});
+        let scene = parse_scene(&soft_scene(serde_json::json!("auto"), law, serde_json::json!({}))).expect("valid");
+        assert!(matches!(scene.method, Method::Mpm(_)), "auto chose {}", scene.method.name());
+        assert!(
+            scene.method_reason.starts_with("auto chose mpm: deformable grains (materials.rubber.deformable)"),
+            "{}",
+            scene.method_reason
         );
     }
 }

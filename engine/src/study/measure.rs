@@ -173,6 +173,7 @@ mod tests {
             strain: None,
             drum: None,
             solver: None,
+            deformable: None,
         }
     }
 

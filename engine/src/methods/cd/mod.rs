@@ -1146,6 +1146,7 @@ impl Simulation for Cd {
             elastic_energy: 0.0,
             rattler_threshold: rattler_threshold(self.dim, self.laws.frictional()),
             drum: self.drum.as_ref().map(Drum::view),
+            deformable: None,
         };
         let mut s = measure(&view);
         s.solver = Some(Box::new(SolverSample {

@@ -909,6 +909,7 @@ impl Dem {
             elastic_energy: energies.elastic,
             rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
             drum: self.drum.as_ref().map(Drum::view),
+            deformable: None,
         };
         let s = measure(&view);
         if !s.is_finite() {

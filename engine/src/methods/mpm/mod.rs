@@ -8,7 +8,9 @@
 //! - [`banded`]: the banded Cholesky factorisation of that matrix;
 //! - [`contact`]: the nodal contacts between grains and with walls, as a problem of the
 //!   shared contact solver ([`crate::nscd`]);
-//! - [`system`]: the step.
+//! - [`system`]: the step;
+//! - [`measure`]: the grains' centroids, areas, shapes and contacts as the metrics see them;
+//! - [`sim`]: the method on a scene, as a [`crate::run::Simulation`].
 
 // The kernels index small fixed arrays (3x3 stencils, 2x2 blocks) by their axes.
 #![allow(clippy::needless_range_loop)]
@@ -17,7 +19,9 @@ pub mod banded;
 pub mod contact;
 pub mod field;
 pub mod grid;
+pub mod measure;
 pub mod points;
+pub mod sim;
 pub mod system;
 
 #[cfg(test)]

@@ -103,6 +103,9 @@ pub struct System {
     /// part over that part's duration (backward Euler's end-of-step force; with θ < 1 the
     /// mean over the part).
     pub wall_force: Vec<V2>,
+    /// Duration of the last part of the last step, s (the step, or its last half when split):
+    /// the contacts' impulses are over it.
+    last_dt: Real,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
     warm: HashMap<(usize, u32, i64), Vec3>,
@@ -139,11 +142,17 @@ impl System {
             substeps: 0,
             wall_impulse: vec![V2::zeros(); walls_len],
             wall_force: vec![V2::zeros(); walls_len],
+            last_dt: settings.dt,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
             warm: HashMap::new(),
             nlgs: Nlgs::new(settings.contact),
         }
+    }
+
+    /// Duration of the last part of the last step, s: the contacts' impulses are over it.
+    pub fn last_dt(&self) -> Real {
+        self.last_dt
     }
 
     /// Heap bytes held.
@@ -210,6 +219,7 @@ impl System {
                         InstabilityCause::NewtonBudget { .. }
                             | InstabilityCause::NotPositiveDefinite { .. }
                             | InstabilityCause::SolverBudget { .. }
+                            | InstabilityCause::Inverted { .. }
                     ) =>
             {
                 self.substeps += 1;
@@ -296,6 +306,7 @@ impl System {
             w.point += w.velocity * sc.dt;
         }
         self.wall_force.iter_mut().for_each(|p| *p = V2::zeros());
+        self.last_dt = sc.dt;
         for c in &self.contacts {
             if let Other::Wall(k) = c.b {
                 let p = c.frame.to_global(&c.r);
@@ -668,30 +679,43 @@ impl System {
     /// Moves the points with their grains' converged nodal fields.
     fn move_points(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
         let flip = self.settings.flip;
+        // The point's displacement, velocity change, interpolated velocity and new `F`.
+        let kinematics = |f: &Field, q: usize, fp: &crate::constitutive::Mat2| {
+            let st = f.stencils[q];
+            let nodes = f.stencil_nodes(&st);
+            let (mut u, mut dv, mut pic) = (V2::zeros(), V2::zeros(), V2::zeros());
+            let mut inc = crate::constitutive::Mat2::identity();
+            for a in 0..3 {
+                for b in 0..3 {
+                    let i = nodes[a][b];
+                    let w = st.weight(a, b);
+                    let ui = f.displacement(i, sc);
+                    u += ui * w;
+                    dv += (f.v[i] - f.v0[i]) * w;
+                    pic += f.v[i] * w;
+                    inc += ui * st.gradient(a, b).transpose();
+                }
+            }
+            (u, dv, pic, inc * fp)
+        };
+        // First every point is checked, so that a failed step leaves them all as they were
+        // (the step is then split, or the run stops on the state before it).
         for (g, grain) in self.grains.iter().enumerate() {
-            let f = &self.fields[g];
             let law = self.laws[grain.law].as_ref();
             for (q, p) in grain.points.clone().enumerate() {
-                let st = f.stencils[q];
-                let nodes = f.stencil_nodes(&st);
-                let (mut u, mut dv, mut pic) = (V2::zeros(), V2::zeros(), V2::zeros());
-                let mut inc = crate::constitutive::Mat2::identity();
-                for a in 0..3 {
-                    for b in 0..3 {
-                        let i = nodes[a][b];
-                        let w = st.weight(a, b);
-                        let ui = f.displacement(i, sc);
-                        u += ui * w;
-                        dv += (f.v[i] - f.v0[i]) * w;
-                        pic += f.v[i] * w;
-                        inc += ui * st.gradient(a, b).transpose();
-                    }
-                }
-                let fnew = inc * self.points.f[p];
+                let (_, _, _, fnew) = kinematics(&self.fields[g], q, &self.points.f[p]);
                 let j = fnew.determinant();
-                let response = if j > 0.0 { law.response(&fnew, &self.points.history[p]) } else { None };
-                let Some(r) = response else {
+                if !(j > 0.0 && law.response(&fnew, &self.points.history[p]).is_some()) {
                     return Err(fail(InstabilityCause::Inverted { grain: g, point: p, jacobian: j }));
+                }
+            }
+        }
+        for (g, grain) in self.grains.iter().enumerate() {
+            let law = self.laws[grain.law].as_ref();
+            for (q, p) in grain.points.clone().enumerate() {
+                let (u, dv, pic, fnew) = kinematics(&self.fields[g], q, &self.points.f[p]);
+                let Some(r) = law.response(&fnew, &self.points.history[p]) else {
+                    return Err(fail(InstabilityCause::Inverted { grain: g, point: p, jacobian: fnew.determinant() }));
                 };
                 self.points.history[p] = r.history;
                 self.points.f[p] = fnew;

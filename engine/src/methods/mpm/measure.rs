@@ -1,0 +1,118 @@
+//! What the grains of the material point method look like now: each grain's centroid, mean
+//! velocity, current area and shape, from its points; the smallest `det F`; the contacts
+//! gathered per pair of grains and per grain and wall, as the shared metrics count them.
+
+use super::contact::Other;
+use super::grid::V2;
+use super::system::System;
+use crate::math::{Real, Vec3};
+use crate::observe::ContactRecord;
+
+/// One grain now.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrainState {
+    /// Centroid (mass centre), m.
+    pub centroid: V2,
+    /// Mean velocity, m/s.
+    pub velocity: V2,
+    /// Mass, kg/m.
+    pub mass: Real,
+    /// Current area, m² (`Σ J V0`).
+    pub area: Real,
+    /// Aspect ratio: `sqrt(I1 / I2)` of the principal second moments of its area about the
+    /// centroid (1 for a disk, `a / b` for an ellipse of half-axes `a`, `b`).
+    pub aspect_ratio: Real,
+}
+
+impl System {
+    /// Every grain's [`GrainState`]. Each point counts with its area and its own second moment,
+    /// that of the parallelogram `F` makes of its square (`J V0 F Fᵀ s0² / 12`).
+    pub fn grain_states(&self) -> Vec<GrainState> {
+        let pts = &self.points;
+        self.grains
+            .iter()
+            .map(|g| {
+                let (mut m, mut mx, mut mv, mut area, mut ax) = (0.0, V2::zeros(), V2::zeros(), 0.0, V2::zeros());
+                for p in g.points.clone() {
+                    let a = pts.area(p);
+                    m += pts.mass[p];
+                    mx += pts.x[p] * pts.mass[p];
+                    mv += pts.v[p] * pts.mass[p];
+                    area += a;
+                    ax += pts.x[p] * a;
+                }
+                let c = if area > 0.0 { ax / area } else { V2::zeros() };
+                let mut second = nalgebra::Matrix2::<Real>::zeros();
+                for p in g.points.clone() {
+                    let a = pts.area(p);
+                    let d = pts.x[p] - c;
+                    let f = pts.f[p];
+                    second += d * d.transpose() * a + f * f.transpose() * (a * pts.side0[p] * pts.side0[p] / 12.0);
+                }
+                let (xx, yy, xy) = (second[(0, 0)], second[(1, 1)], second[(0, 1)]);
+                let mean = 0.5 * (xx + yy);
+                let radius = (0.25 * (xx - yy) * (xx - yy) + xy * xy).sqrt();
+                let (big, small) = (mean + radius, mean - radius);
+                let aspect_ratio = if small > 0.0 { (big / small).sqrt() } else { Real::INFINITY };
+                let (centroid, velocity) = if m > 0.0 { (mx / m, mv / m) } else { (c, V2::zeros()) };
+                GrainState { centroid, velocity, mass: m, area, aspect_ratio }
+            })
+            .collect()
+    }
+
+    /// Smallest `det F` over the points (1 without any).
+    pub fn min_jacobian(&self) -> Real {
+        self.points.f.iter().map(|f| f.determinant()).fold(1.0, Real::min)
+    }
+
+    /// Mass (kg/m) and centre of mass (m) of all the points.
+    pub fn center_of_mass(&self) -> (Real, V2) {
+        let (mut m, mut mx) = (0.0, V2::zeros());
+        for (x, &mp) in self.points.x.iter().zip(&self.points.mass) {
+            m += mp;
+            mx += x * mp;
+        }
+        (m, if m > 0.0 { mx / m } else { V2::zeros() })
+    }
+
+    /// The contacts of the last step as the metrics count them (forces in N/m): one record per
+    /// pair of grains that share a contact node, the sum of their nodal forces, with the
+    /// branch between their centroids (each nodal force acts at one node on both grains, so
+    /// the sum of `f ⊗ (x_a − x_b)` is exactly the Love–Weber sum over the nodes); one per
+    /// grain and wall, its branch from the force-weighted contact point to the centroid.
+    /// `grains` from [`System::grain_states`].
+    pub fn contact_records(&self, grains: &[GrainState]) -> Vec<ContactRecord> {
+        let dt = self.last_dt();
+        // (a, b or u32::MAX - wall) -> (force on a, Σ |f_n| at, Σ |f_n|)
+        let mut pairs: std::collections::BTreeMap<(u32, u32), (V2, V2, Real)> = std::collections::BTreeMap::new();
+        for c in &self.contacts {
+            if c.r == Vec3::zeros() {
+                continue;
+            }
+            let g = c.frame.to_global(&c.r) / dt;
+            let f = V2::new(g.x, g.y);
+            let (a, b) = match c.b {
+                // Pairs keyed with the smaller grain first, the force taken on it.
+                Other::Grain { grain, .. } if grain < c.a => (grain, c.a),
+                Other::Grain { grain, .. } => (c.a, grain),
+                Other::Wall(w) => (c.a, u32::MAX - w),
+            };
+            let sign = if a == c.a { 1.0 } else { -1.0 };
+            let e = pairs.entry((a, b)).or_insert((V2::zeros(), V2::zeros(), 0.0));
+            e.0 += f * sign;
+            let weight = c.r.x.abs();
+            e.1 += c.at * weight;
+            e.2 += weight;
+        }
+        let v3 = |v: V2| Vec3::new(v.x, v.y, 0.0);
+        pairs
+            .into_iter()
+            .map(|((a, b), (force, at, weight))| {
+                let ca = grains[a as usize].centroid;
+                let wall = b > u32::MAX - self.walls.len() as u32;
+                let branch = if wall { ca - if weight > 0.0 { at / weight } else { ca } } else { ca - grains[b as usize].centroid };
+                ContactRecord { i: a, j: (!wall).then_some(b), force: v3(force), branch: v3(branch), touching: true, bonded: false }
+            })
+            .collect()
+    }
+}
