@@ -119,16 +119,15 @@ impl Mpm {
                 Wall::new(w.face, pos, w.motion, 0.0, 0.0)
             })
             .collect();
-        // Without a wall material, a wall has the friction of the grain it touches (the pair's
-        // coefficient is the geometric mean of the two).
-        let grain_friction = grains.first().map_or(0.0, |g| g.friction);
+        // A grain–wall pair's coefficient is the geometric mean of the grain's and the wall
+        // material's (which validation requires when there are walls).
         let planes: Vec<PlaneWall> = walls
             .iter()
             .map(|w| {
                 let n = w.normal();
                 let mut point = V2::zeros();
                 point[w.face.axis] = w.position;
-                PlaneWall { point, normal: v2(&n), velocity: v2(&w.velocity), friction: wall_friction.unwrap_or(grain_friction) }
+                PlaneWall { point, normal: v2(&n), velocity: v2(&w.velocity), friction: wall_friction.unwrap_or(0.0) }
             })
             .collect();
         // The time step: the fastest imposed motion covers `max_displacement` of a cell.
@@ -378,11 +377,7 @@ impl Simulation for Mpm {
                 w.set_motion(def.motion);
             }
         }
-        if let Some(mu) = controls.friction {
-            for g in &mut self.sys.grains {
-                g.friction = mu;
-            }
-        }
+        self.sys.pair_friction = controls.friction;
         Ok(())
     }
 

@@ -103,6 +103,9 @@ pub struct System {
     /// part over that part's duration (backward Euler's end-of-step force; with θ < 1 the
     /// mean over the part).
     pub wall_force: Vec<V2>,
+    /// The friction of every grain–grain contact when set (a stage's `friction`); otherwise
+    /// the geometric mean of the two grains'. Wall contacts keep their own.
+    pub pair_friction: Option<Real>,
     /// Duration of the last part of the last step, s (the step, or its last half when split):
     /// the contacts' impulses are over it.
     last_dt: Real,
@@ -143,6 +146,7 @@ impl System {
             wall_impulse: vec![V2::zeros(); walls_len],
             wall_force: vec![V2::zeros(); walls_len],
             last_dt: settings.dt,
+            pair_friction: None,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
             warm: HashMap::new(),
@@ -485,7 +489,10 @@ impl System {
                     let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 1 };
                     support.slots[0] = a_slot;
                     support.weights[0] = 1.0;
-                    (support, b, (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt(), k.x)
+                    let friction = self
+                        .pair_friction
+                        .unwrap_or_else(|| (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt());
+                    (support, b, friction, k.x)
                 }
                 None => {
                     // The grain's surface in the node's column, `x_s = x_node + lo n + a t` (`a`
