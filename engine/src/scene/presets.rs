@@ -101,3 +101,32 @@ pub fn biaxial_benchmark(method: serde_json::Value, k_n: f64, particles: usize, 
         "seed": 3
     })
 }
+
+/// The sources' soft-grain compaction (N 2.1.1; issue 25's full-size study): `grains` disks of
+/// 1.4–2.4 mm (uniform in diameter), E = 10 MPa, ν = 0.45, ρ = 990 kg/m³, grain friction
+/// `friction`, frictionless walls, no gravity, placed at random at Φ ≈ 0.5 in a box 1.5 times
+/// as high as wide, the top wall moving down at 0.1 m/s until Φ = `phi` (or `steps`), method
+/// `mpm` with six cells across the smallest grain and dt = 5e-5 s (the CI compaction's).
+pub fn mpm_compaction(grains: usize, friction: f64, phi: f64, steps: u64, threads: usize) -> serde_json::Value {
+    let (dmin, dmax): (f64, f64) = (1.4e-3, 2.4e-3);
+    // <d²> of a uniform diameter distribution.
+    let mean_square = (dmax.powi(3) - dmin.powi(3)) / (3.0 * (dmax - dmin));
+    let solid = grains as f64 * std::f64::consts::PI / 4.0 * mean_square;
+    let width = (solid / 0.5 / 1.5).sqrt();
+    let law = json!({"law": "linear_elastic", "young_modulus": 1.0e7, "poisson_ratio": 0.45});
+    json!({
+        "name": format!("mpm-compaction-{grains}"),
+        "dimension": 2,
+        "method": {"kind": "mpm", "cells_per_diameter": 6, "time_step": 5e-5, "threads": threads},
+        "materials": {
+            "rubber": {"density": 990.0, "friction": friction, "deformable": law},
+            "wall": {"density": 990.0, "friction": 0.0, "deformable": law}
+        },
+        "particles": [{"material": "rubber", "count": grains, "size": {"kind": "uniform", "min": dmin, "max": dmax}, "placement": {"kind": "random"}}],
+        "container": {"min": [0.0, 0.0], "max": [width, 1.5 * width], "wall_material": "wall",
+                      "walls": {"y_max": {"kind": "velocity", "velocity": [0.0, -0.1]}}},
+        "stop": {"packing_fraction": phi, "steps": steps},
+        "sampling": {"every_steps": 200},
+        "seed": 7
+    })
+}

@@ -1,6 +1,7 @@
 //! `sable bench dem` ([`super::bench_dem`]): throughput of soft-contact DEM on the scenes of the
 //! suite, in particle-steps per second, with memory per particle; `sable bench cd`: contact
-//! dynamics in contact-iterations per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
+//! dynamics in contact-iterations per second; `sable bench mpm`: the material point method on
+//! the soft-grain compaction in material-point-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
 use clap::{Args, Subcommand};
@@ -21,6 +22,9 @@ pub enum BenchCommand {
     Biaxial(BiaxialBenchArgs),
     /// The service: submission latency and throughput, WatchJob fan-out.
     Service(super::bench_service::ServiceBenchArgs),
+    /// The material point method on the sources' soft-grain compaction (material-point-steps
+    /// per second, Newton iterations and contact sweeps per step, memory per point).
+    Mpm(MpmBenchArgs),
 }
 
 /// Runs the chosen benchmark.
@@ -30,7 +34,93 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Cd(a) => bench_cd(a),
         BenchCommand::Biaxial(a) => bench_biaxial(a),
         BenchCommand::Service(a) => super::bench_service::bench(a),
+        BenchCommand::Mpm(a) => bench_mpm(a),
     }
+}
+
+/// Arguments of `sable bench mpm`.
+#[derive(Debug, Args)]
+pub struct MpmBenchArgs {
+    /// Number of grains (300: the sources' compaction).
+    #[arg(long, default_value_t = 300)]
+    pub grains: usize,
+    /// Packing fraction at which the run stops.
+    #[arg(long, default_value_t = 0.95)]
+    pub phi: f64,
+    /// Largest number of steps (the run stops earlier at `phi`).
+    #[arg(long, default_value_t = 1_000_000)]
+    pub steps: u64,
+    /// Grain friction.
+    #[arg(long, default_value_t = 0.0)]
+    pub friction: f64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct MpmBenchResult {
+    method: &'static str,
+    grains: usize,
+    points: usize,
+    threads: usize,
+    steps: u64,
+    /// Steps done again as two halves.
+    split_steps: u64,
+    phi: f64,
+    wall_seconds: f64,
+    /// Material-point-steps per second: the method's natural unit.
+    point_steps_per_second: f64,
+    newton_per_step: f64,
+    sweeps_per_step: f64,
+    bytes_per_point: f64,
+}
+
+/// `sable bench mpm`: the compaction of [`sable_engine::scene::presets::mpm_compaction`] from
+/// its start until `phi` (or `steps`), timed as a whole (building the grains excluded).
+pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
+    let (scene, threads, pool) =
+        prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
+    let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
+    let mut sim = pool.install(|| sable_engine::methods::mpm::sim::Mpm::new(&scene, params))?;
+    let start = std::time::Instant::now();
+    let mut steps = 0u64;
+    pool.install(|| {
+        while steps < a.steps && sim.packing_fraction() < a.phi {
+            sim.step()?;
+            steps += 1;
+        }
+        Ok::<(), sable_engine::EngineError>(())
+    })?;
+    let wall = start.elapsed().as_secs_f64();
+    let (newton, sweeps, split) = sim.cost();
+    let n = steps.max(1) as f64;
+    let r = MpmBenchResult {
+        method: "mpm",
+        grains: sim.particle_count(),
+        points: sim.point_count(),
+        threads,
+        steps,
+        split_steps: split,
+        phi: sim.packing_fraction(),
+        wall_seconds: wall,
+        point_steps_per_second: sim.point_count() as f64 * steps as f64 / wall,
+        newton_per_step: newton as f64 / n,
+        sweeps_per_step: sweeps as f64 / n,
+        bytes_per_point: sim.memory_bytes() as f64 / sim.point_count().max(1) as f64,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "mpm: {} grains ({} points) on {} thread(s): {} steps ({} split) to Φ = {:.4} in {:.1} s, {:.3e} point-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/point",
+            r.grains, r.points, r.threads, r.steps, r.split_steps, r.phi, r.wall_seconds, r.point_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_point
+        );
+    }
+    Ok(())
 }
 
 /// Arguments of `sable bench cd`.

@@ -183,6 +183,16 @@ impl Mpm {
         })
     }
 
+    /// Material points.
+    pub fn point_count(&self) -> usize {
+        self.sys.points.len()
+    }
+
+    /// Newton iterations, contact sweeps and split steps since the start.
+    pub fn cost(&self) -> (u64, u64, u64) {
+        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.substeps)
+    }
+
     /// The step's failure as the engine reports it, with what to change.
     fn unstable(&self, f: StepFailure) -> EngineError {
         let suggestion = match f.cause {
