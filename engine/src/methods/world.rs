@@ -195,6 +195,30 @@ pub(crate) fn wall_faces(walls: &[Wall]) -> Vec<WallFace> {
         .collect()
 }
 
+/// A method's own thread pool of `threads` threads, or `None` for rayon's global pool (0).
+pub(crate) fn own_pool(threads: usize) -> Result<Option<rayon::ThreadPool>, EngineError> {
+    if threads == 0 {
+        return Ok(None);
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map(Some)
+        .map_err(|e| EngineError::Build { field: "method.threads".into(), reason: format!("cannot start {threads} threads: {e}") })
+}
+
+/// The container's walls at its faces, for a method whose walls need no servo gain of their own
+/// (contact dynamics, MPM: the contact solver holds them).
+pub(crate) fn container_walls(c: &crate::scene::Container) -> Vec<Wall> {
+    c.walls
+        .iter()
+        .map(|w| {
+            let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
+            Wall::new(w.face, pos, w.motion, 0.0, 0.0)
+        })
+        .collect()
+}
+
 /// Runs `f` (one step of a method) on the method's own thread pool when it has one, so that
 /// every parallel loop of the step uses it; the pool is taken out of `slot` for the call and
 /// put back.

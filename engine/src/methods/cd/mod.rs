@@ -327,22 +327,8 @@ impl Cd {
                 });
             }
         }
-        let walls: Vec<Wall> = c
-            .walls
-            .iter()
-            .map(|w| {
-                let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
-                Wall::new(w.face, pos, w.motion, 0.0, 0.0)
-            })
-            .collect();
-        let pool = if params.threads > 0 {
-            Some(rayon::ThreadPoolBuilder::new().num_threads(params.threads).build().map_err(|e| EngineError::Build {
-                field: "method.threads".into(),
-                reason: format!("cannot start {} threads: {e}", params.threads),
-            })?)
-        } else {
-            None
-        };
+        let walls: Vec<Wall> = world::container_walls(c);
+        let pool = world::own_pool(params.threads)?;
         let n = p.len();
         let drum = c.drum.map(Drum::new);
         // The walls, the drum, the periodic cell.

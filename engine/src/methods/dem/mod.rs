@@ -235,14 +235,7 @@ impl Dem {
         let n = p.len();
         let len0 = domain.hi - domain.lo;
         let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
-        let pool = if params.threads > 0 {
-            Some(rayon::ThreadPoolBuilder::new().num_threads(params.threads).build().map_err(|e| EngineError::Build {
-                field: "method.threads".into(),
-                reason: format!("cannot start {} threads: {e}", params.threads),
-            })?)
-        } else {
-            None
-        };
+        let pool = world::own_pool(params.threads)?;
         let mut sim = Self {
             dim: scene.dim,
             dt,

@@ -174,6 +174,16 @@ impl GrainContacts {
         self.nodes.is_empty()
     }
 
+    /// The slot of the grain's local node `k`, given one if it has none yet.
+    pub fn slot(&mut self, k: usize) -> u32 {
+        if self.slot_of[k] == u32::MAX {
+            self.slot_of[k] = self.nodes.len() as u32;
+            self.nodes.push(k);
+            self.entries.push(Vec::new());
+        }
+        self.slot_of[k]
+    }
+
     /// The 2x2 block of `A⁻¹` between slots `k` and `l`.
     #[inline(always)]
     pub fn block(&self, k: usize, l: usize) -> nalgebra::Matrix2<Real> {

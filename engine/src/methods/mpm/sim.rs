@@ -111,14 +111,7 @@ impl Mpm {
         let c = &scene.container;
         let grid = Grid::covering(V2::new(c.lo.x, c.lo.y), V2::new(c.hi.x, c.hi.y), h, MARGIN);
         let wall_friction = c.wall_material.and_then(|w| scene.materials.get(w)).map(|m| m.friction);
-        let walls: Vec<Wall> = c
-            .walls
-            .iter()
-            .map(|w| {
-                let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
-                Wall::new(w.face, pos, w.motion, 0.0, 0.0)
-            })
-            .collect();
+        let walls: Vec<Wall> = world::container_walls(c);
         // A grain–wall pair's coefficient is the geometric mean of the grain's and the wall
         // material's (which validation requires when there are walls).
         let planes: Vec<PlaneWall> = walls
@@ -153,14 +146,7 @@ impl Mpm {
         let mean_diameter = 2.0 * particles.radius.iter().sum::<Real>() / particles.len() as Real;
         let grain_material = particles.material.clone();
         let sys = System::new(grid, points, grains, laws, planes, settings);
-        let pool = if params.threads > 0 {
-            Some(rayon::ThreadPoolBuilder::new().num_threads(params.threads).build().map_err(|e| EngineError::Build {
-                field: "method.threads".into(),
-                reason: format!("cannot start {} threads: {e}", params.threads),
-            })?)
-        } else {
-            None
-        };
+        let pool = world::own_pool(params.threads)?;
         let energy0 = sys.kinetic_energy() + sys.strain_energy();
         let len0 = [domain.length(0), domain.length(1)];
         let n = sys.grains.len();
@@ -210,10 +196,10 @@ impl Mpm {
         EngineError::Unstable { step: self.sys.steps, time: self.sys.time, cause: f.cause, suggestion: suggestion.to_string() }
     }
 
-    /// Each grain's momentum now.
-    fn momenta(&self) -> Vec<V2> {
+    /// Grain `g`'s momentum now.
+    fn momentum_of(&self, g: usize) -> V2 {
         let p = &self.sys.points;
-        self.sys.grains.iter().map(|g| g.points.clone().map(|k| p.v[k] * p.mass[k]).sum()).collect()
+        self.sys.grains[g].points.clone().map(|k| p.v[k] * p.mass[k]).sum()
     }
 
     /// The grains as disks of their current area, at their centroids, moving at their mean
@@ -228,14 +214,15 @@ impl Mpm {
     }
 
     fn one_step(&mut self) -> Result<(), EngineError> {
-        let area = |d: &Domain, a: usize| world::wall_area(d, a);
         for (w, plane) in self.walls.iter_mut().zip(self.sys.walls.iter_mut()) {
             let a = w.face.axis;
-            w.servo(area(&self.domain, a), self.domain.length(a));
+            w.servo(world::wall_area(&self.domain, a), self.domain.length(a));
             plane.velocity = v2(&w.velocity);
             plane.point[a] = w.position;
         }
-        self.momentum = self.momenta();
+        for g in 0..self.momentum.len() {
+            self.momentum[g] = self.momentum_of(g);
+        }
         let (mass, com0) = self.sys.center_of_mass();
         let report = self.sys.step().map_err(|f| self.unstable(f))?;
         self.last = report;
@@ -255,9 +242,8 @@ impl Mpm {
             }
         }
         self.work += mass * self.sys.settings.gravity.dot(&(com1 - com0));
-        let now = self.momenta();
-        let n = now.len().max(1) as Real;
-        self.net_force = now.iter().zip(&self.momentum).map(|(a, b)| (a - b).norm() / dt).sum::<Real>() / n;
+        let n = self.momentum.len().max(1) as Real;
+        self.net_force = (0..self.momentum.len()).map(|g| (self.momentum_of(g) - self.momentum[g]).norm() / dt).sum::<Real>() / n;
         Ok(())
     }
 }

@@ -460,15 +460,6 @@ impl System {
             side.slot_of.clear();
             side.slot_of.resize(f.nodes(), u32::MAX);
         }
-        let slot = |sides: &mut [GrainContacts], g: u32, k: u32| -> u32 {
-            let side = &mut sides[g as usize];
-            if side.slot_of[k as usize] == u32::MAX {
-                side.slot_of[k as usize] = side.nodes.len() as u32;
-                side.nodes.push(k as usize);
-                side.entries.push(Vec::new());
-            }
-            side.slot_of[k as usize]
-        };
         self.contacts.clear();
         for (c, k) in cands.iter().enumerate() {
             let gap = lo[c] - hi[c];
@@ -484,8 +475,8 @@ impl System {
             }
             let (support, b, friction, at) = match k.b {
                 Some((gb, kb)) => {
-                    let a_slot = slot(&mut self.sides, k.a, k.ka);
-                    let b = Other::Grain { grain: gb, slot: slot(&mut self.sides, gb, kb) };
+                    let a_slot = self.sides[k.a as usize].slot(k.ka as usize);
+                    let b = Other::Grain { grain: gb, slot: self.sides[gb as usize].slot(kb as usize) };
                     let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 1 };
                     support.slots[0] = a_slot;
                     support.weights[0] = 1.0;
@@ -530,14 +521,8 @@ impl System {
                 if f.mass[k] == 0.0 || wt == 0.0 {
                     continue;
                 }
-                let side = &mut self.sides[g as usize];
-                if side.slot_of[k] == u32::MAX {
-                    side.slot_of[k] = side.nodes.len() as u32;
-                    side.nodes.push(k);
-                    side.entries.push(Vec::new());
-                }
                 let l = support.len as usize;
-                support.slots[l] = side.slot_of[k];
+                support.slots[l] = self.sides[g as usize].slot(k);
                 support.weights[l] = wt;
                 support.len += 1;
                 total += wt;
