@@ -8,6 +8,7 @@
 pub mod drum;
 pub mod granule;
 pub mod metrics;
+pub mod power;
 pub mod results;
 pub mod sample;
 pub mod snapshot;
@@ -16,6 +17,7 @@ pub mod vtk;
 pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
 pub use granule::GranuleResult;
 pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, ShearGeometry, SystemView, WallView};
+pub use power::{power_fit, PowerFit};
 pub use results::{Analysis, ExperimentResult};
 pub use sample::{DeformableSample, Sample, SolverSample, StrainSample, Stress, WallSample};
 pub use snapshot::{Snapshot, WallFace};

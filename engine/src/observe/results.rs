@@ -10,7 +10,9 @@
 //!   Lees-Edwards cell, the upper wall's load between rough walls); for wet grains the
 //!   cohesion index ξ, the Stokes number St and the visco-cohesive inertial number I_m.
 //! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
-//!   and the final packing fraction, stress and strain.
+//!   the final and largest packing fractions, stress and strain, the coordination and the
+//!   wall stress beyond that onset fitted as powers of `Φ − Φ_J` ([`super::power`]), and
+//!   for deformable grains their final mean and largest aspect ratios.
 //! - **Deposition**: the height and packing fraction of the settled deposit (from the final
 //!   particles), the stress on the floor and the time to settle.
 //! - **Granule compression** (N 3.2.3): the stress-strain curve, the plastic strength and the
@@ -23,12 +25,14 @@
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
 //! `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not quasi-static
-//! (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than 1e-4 d).
+//! (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than 1e-4 d;
+//! not for deformable grains, which are meant to deform).
 
 use serde::{Deserialize, Serialize};
 
 use super::drum::{drum_result, DrumResult};
 use super::granule::{granule_result, GranuleResult};
+use super::power::{power_fit, PowerFit};
 use super::sample::Sample;
 use crate::math::Real;
 use crate::particles::Particles;
@@ -135,6 +139,23 @@ pub struct CompactionResult {
     pub wall_stress: f64,
     /// Final strain `|ln(h/h_i)|` of the compacted axis.
     pub strain: f64,
+    /// Largest packing fraction reached.
+    pub phi_max: f64,
+    /// The coordination beyond the onset, `Z − Z_J = a (Φ − Φ_J)^b` over the samples after
+    /// it (`Φ_J`, `Z_J`: those of the onset's sample; Z over all grains). Soft grains: `b ≈ ½`
+    /// (PHYSICS.md §9, N 2.20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coordination_fit: Option<PowerFit>,
+    /// The moving wall's stress beyond the onset, `σ = a (Φ − Φ_J)^b` (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stress_fit: Option<PowerFit>,
+    /// The grains' mean aspect ratio at the end (deformable grains; 1 for disks): how much
+    /// their shape changed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_aspect_ratio: Option<f64>,
+    /// The largest aspect ratio of a grain at the end (deformable grains).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_aspect_ratio: Option<f64>,
 }
 
 /// Results of a deposition under gravity.
@@ -286,6 +307,8 @@ pub struct Analysis {
     grains: Option<(Real, Real)>,
     /// The liquid, when the grains are wet.
     wet: Option<WetScales>,
+    /// The grains deform (method `mpm`): they are meant to be far from the rigid limit.
+    deformable: bool,
 }
 
 impl Analysis {
@@ -310,6 +333,7 @@ impl Analysis {
             deposit: None,
             grains: None,
             wet,
+            deformable: matches!(scene.method, crate::scene::Method::Mpm(_)),
         }
     }
 
@@ -486,9 +510,31 @@ impl Analysis {
                 let wall = format!("{}_max", crate::math::AXES[*axis]);
                 let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
                 let final_stress = stress_of(last);
-                let phi_onset = run.iter().find(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress).map(|s| s.phi);
+                let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
+                let phi_onset = onset.map(|k| run[k].phi);
                 let strain = last.strain.as_ref().and_then(|e| e.axes.get(*axis).copied()).unwrap_or(0.0);
-                r.compaction = Some(CompactionResult { phi_onset, phi_final: last.phi, wall_stress: final_stress, strain });
+                let (coordination_fit, stress_fit) = match onset {
+                    Some(k) => {
+                        let (jammed, beyond) = (run[k], &run[k + 1..]);
+                        (
+                            power_fit(beyond.iter().map(|s| (s.phi - jammed.phi, s.z - jammed.z))),
+                            power_fit(beyond.iter().map(|s| (s.phi - jammed.phi, stress_of(s)))),
+                        )
+                    }
+                    None => (None, None),
+                };
+                let shape = last.deformable.as_ref().map(|d| (d.mean_aspect_ratio, d.max_aspect_ratio));
+                r.compaction = Some(CompactionResult {
+                    phi_onset,
+                    phi_final: last.phi,
+                    wall_stress: final_stress,
+                    strain,
+                    phi_max: run.iter().map(|s| s.phi).fold(last.phi, f64::max),
+                    coordination_fit,
+                    stress_fit,
+                    mean_aspect_ratio: shape.map(|s| s.0),
+                    max_aspect_ratio: shape.map(|s| s.1),
+                });
                 r.stiffness_number = self.stiffness_number(final_stress, mean_diameter);
                 if let CompactionDrive::Velocity { speed, .. } = drive {
                     // Strain rate at the end: speed over the current height.
@@ -511,7 +557,7 @@ impl Analysis {
                 "not quasi-static: inertial number I = {i:.2e} > {QUASI_STATIC_I:e}; lower the strain rate (or the wall speed) for quasi-static results"
             ));
         }
-        if let Some(k) = r.stiffness_number.filter(|&k| k < RIGID_KAPPA * (1.0 - 1e-9)) {
+        if let Some(k) = r.stiffness_number.filter(|&k| !self.deformable && k < RIGID_KAPPA * (1.0 - 1e-9)) {
             r.warnings.push(format!(
                 "not in the rigid limit: stiffness number {k:.2e} < {RIGID_KAPPA:e} (contacts deflect by about {:.1e} of a diameter); stiffen the contacts or lower the stress",
                 1.0 / k
