@@ -23,6 +23,7 @@ fn every_shipped_study_expands_into_valid_runs() {
         vec![
             ("biaxial_dem_cd.json".to_string(), 10),
             ("dem_time_step_limit.json".to_string(), 2),
+            ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),
             ("restitution_dem.json".to_string(), 9),
         ]

@@ -106,6 +106,12 @@ pub struct DeformableSample {
     /// equal steps of a linear ramp; less as steps are finer), besides plasticity, the
     /// inelastic contacts and PIC's velocity averaging.
     pub dissipated_energy: f64,
+    /// The area the grains cover twice or that lies beyond the walls, as a fraction of the
+    /// box's area: how far the point clouds of touching grains interpenetrate (their contacts
+    /// hold at grid nodes, not at every point). `phi` less it is the packing fraction of the
+    /// grains' union inside the box.
+    #[serde(default)]
+    pub interpenetration: f64,
     /// Newton iterations on the step before the sample.
     pub newton_iterations: u32,
     /// Contact-solver sweeps on that step.
@@ -223,7 +229,9 @@ impl Sample {
                 .as_ref()
                 .is_none_or(|v| [v.change, v.violation, v.max_interpenetration, v.mean_interpenetration].iter().all(|x| x.is_finite()))
             && self.deformable.as_ref().is_none_or(|d| {
-                [d.mean_aspect_ratio, d.max_aspect_ratio, d.min_jacobian, d.dissipated_energy].iter().all(|x| x.is_finite())
+                [d.mean_aspect_ratio, d.max_aspect_ratio, d.min_jacobian, d.dissipated_energy, d.interpenetration]
+                    .iter()
+                    .all(|x| x.is_finite())
             })
     }
 }

@@ -123,7 +123,8 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
 
     let any_deformable = sets.iter().any(|s| materials.get(s.material).is_some_and(|m| m.deformable.is_some()));
     let mpm = matches!(method, Method::Mpm(_)) || (auto && any_deformable);
-    check_deformable_fit(&mut c, spec, mpm, method.name(), dim, &materials, &sets, &container);
+    let time_step_given = matches!(&method, Method::Mpm(p) if p.time_step.is_some());
+    check_deformable_fit(&mut c, spec, (mpm, time_step_given), method.name(), dim, &materials, &sets, &container);
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
@@ -451,7 +452,7 @@ fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
 fn check_deformable_fit(
     c: &mut Checker,
     spec: &SceneSpec,
-    mpm: bool,
+    (mpm, time_step_given): (bool, bool),
     method: &str,
     dim: usize,
     materials: &[Material],
@@ -495,18 +496,23 @@ fn check_deformable_fit(
     }
     for w in &container.walls {
         match w.motion {
-            WallMotion::Fixed | WallMotion::Velocity(_) | WallMotion::StrainRate(_) => {}
-            _ => c.fail(
-                format!("container.walls.{}", w.face.name()),
-                "stress-controlled walls are not available with method mpm yet: give it a velocity or a strain rate",
+            WallMotion::Stress { max_speed, .. } if !max_speed.is_finite() && !time_step_given => c.fail(
+                format!("container.walls.{}.max_speed", w.face.name()),
+                "required with method mpm (unless method.time_step is given): the fastest wall sets the time step",
             ),
+            WallMotion::Shearing { .. } => {
+                c.fail(format!("container.walls.{}", w.face.name()), "shearing walls are not available with method mpm")
+            }
+            _ => {}
         }
     }
     if let Some(e) = &spec.experiment {
-        c.fail(
-            "experiment",
-            format!("the {} experiment is not available with method mpm yet: drive the walls of a plain scene instead", e.kind()),
-        );
+        if !matches!(e, ExperimentSpec::Isotropic(_) | ExperimentSpec::Biaxial(_) | ExperimentSpec::Compaction(_)) {
+            c.fail(
+                "experiment.kind",
+                format!("the {} experiment is not available with method mpm: it runs isotropic, biaxial and compaction", e.kind()),
+            );
+        }
     }
 }
 

@@ -3,6 +3,13 @@
 //! ([`crate::loading::Wall`]: fixed, at a velocity or at a strain rate), and the shared metrics
 //! measured on the grains as disks of their current area ([`crate::observe::DeformableView`]).
 //!
+//! A stress-controlled wall ([`Wall::servo`]) gets, unless the scene gives one, the gain
+//! `½ L / (n E' dt)` (m/(s·Pa)): `L` the box's length along its axis, `n` the servo walls on
+//! that axis, `E' = E / (1 − ν²)` the stiffest grain's plane-strain modulus. A packing is no
+//! stiffer than its grains, so one step changes the wall stress by at most half the error:
+//! stable for any packing, and within a few steps of the target once the grains are pressed
+//! together (looser packings answer more slowly, at the wall's `max_speed`).
+//!
 //! Grains are placed as rigid disks are (the scene's sizes and placements), then each disk is
 //! filled with points on a square lattice of spacing `h / points_per_cell`, the grid's cell
 //! `h` being the smallest diameter over `cells_per_diameter`. The grid covers the container
@@ -23,7 +30,7 @@ use crate::nscd::Convergence;
 use crate::observe::{measure, rattler_threshold, DeformableSample, DeformableView, Sample, Snapshot, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
-use crate::scene::{Controls, Material, MpmParams, Scene, StateFile};
+use crate::scene::{Controls, Material, MpmParams, Scene, StateFile, WallMotion};
 
 /// Nodes of margin around the container.
 const MARGIN: usize = 4;
@@ -49,6 +56,8 @@ pub struct Mpm {
     momentum: Vec<V2>,
     /// Mean norm of the grains' net force over the last step, N/m.
     net_force: Real,
+    /// The stiffest grain's plane-strain modulus `E / (1 − ν²)`, Pa (the servo's gain).
+    modulus: Real,
 }
 
 fn v2(v: &Vec3) -> V2 {
@@ -143,6 +152,15 @@ impl Mpm {
             },
         };
         let density = scene.materials.get(particles.material[0] as usize).map_or(1.0, |m| m.density);
+        let modulus = scene
+            .materials
+            .iter()
+            .filter_map(|m| m.deformable.as_ref())
+            .map(|law| {
+                let (e, nu) = law.young_poisson();
+                e / (1.0 - nu * nu)
+            })
+            .fold(0.0, Real::max);
         let mean_diameter = 2.0 * particles.radius.iter().sum::<Real>() / particles.len() as Real;
         let grain_material = particles.material.clone();
         let sys = System::new(grid, points, grains, laws, planes, settings);
@@ -166,6 +184,7 @@ impl Mpm {
             energy0,
             momentum: vec![V2::zeros(); n],
             net_force: 0.0,
+            modulus,
         })
     }
 
@@ -214,8 +233,17 @@ impl Mpm {
     }
 
     fn one_step(&mut self) -> Result<(), EngineError> {
+        let mut servos = [0usize; 2];
+        for w in &self.walls {
+            if w.target_stress().is_some() {
+                servos[w.face.axis] += 1;
+            }
+        }
         for (w, plane) in self.walls.iter_mut().zip(self.sys.walls.iter_mut()) {
             let a = w.face.axis;
+            if let WallMotion::Stress { gain: None, .. } = w.motion {
+                w.gain = 0.5 * self.domain.length(a) / (servos[a].max(1) as Real * self.modulus * self.dt);
+            }
             w.servo(world::wall_area(&self.domain, a), self.domain.length(a));
             plane.velocity = v2(&w.velocity);
             plane.point[a] = w.position;
@@ -314,6 +342,7 @@ impl Simulation for Mpm {
                     max_aspect_ratio: grains.iter().map(|g| g.aspect_ratio).fold(1.0, Real::max),
                     min_jacobian: self.sys.min_jacobian(),
                     dissipated_energy: self.work - (kinetic + strain - self.energy0),
+                    interpenetration: self.sys.interpenetration(v2(&self.domain.lo), v2(&self.domain.hi)) / self.domain.volume(),
                     newton_iterations: self.last.newton,
                     sweeps: self.last.sweeps,
                 },
