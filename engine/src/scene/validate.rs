@@ -1357,6 +1357,43 @@ mod tests {
         assert!(got.contains(&"materials.glass.restitution: required, unless the material is deformable".to_string()), "{got:?}");
     }
 
+    /// Stress walls with `mpm` need the speed that sets the step; the experiments it cannot run
+    /// are named; those it can run pass.
+    #[test]
+    fn mpm_takes_stress_walls_and_its_experiments() {
+        let law = serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.45});
+        let box_with = |walls: serde_json::Value| serde_json::json!({"container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "rubber", "walls": walls}});
+        let unbounded = rules(&soft_scene(
+            serde_json::json!("mpm"),
+            law.clone(),
+            box_with(serde_json::json!({"y_max": {"kind": "stress", "stress": 1e4}})),
+        ));
+        assert_eq!(
+            unbounded,
+            vec!["container.walls.y_max.max_speed: required with method mpm (unless method.time_step is given): the fastest wall sets the time step"]
+        );
+        let bounded = box_with(serde_json::json!({"y_max": {"kind": "stress", "stress": 1e4, "max_speed": 0.1}}));
+        assert!(parse_scene(&soft_scene(serde_json::json!("mpm"), law.clone(), bounded)).is_ok());
+        let stepped = serde_json::json!({"kind": "mpm", "time_step": 1e-4});
+        let unbounded = box_with(serde_json::json!({"y_max": {"kind": "stress", "stress": 1e4}}));
+        assert!(parse_scene(&soft_scene(stepped, law.clone(), unbounded)).is_ok());
+        let mut drum: serde_json::Value =
+            serde_json::from_str(&soft_scene(serde_json::json!("mpm"), law.clone(), serde_json::json!({}))).expect("json");
+        drum.as_object_mut().expect("object").remove("stop");
+        drum["experiment"] = serde_json::json!({"kind": "deposition"});
+        let got = rules(&drum.to_string());
+        assert!(
+            got.iter().any(|g| g.starts_with("experiment.kind: the deposition experiment is not available with method mpm")),
+            "{got:?}"
+        );
+        let mut biaxial: serde_json::Value =
+            serde_json::from_str(&soft_scene(serde_json::json!("mpm"), law, serde_json::json!({}))).expect("json");
+        biaxial.as_object_mut().expect("object").remove("stop");
+        biaxial["experiment"] =
+            serde_json::json!({"kind": "biaxial", "preparation": {"pressure": 1e4}, "strain_rate": 1.0, "axial_strain": 0.05});
+        assert!(parse_scene(&biaxial.to_string()).is_ok(), "{:?}", rules(&biaxial.to_string()));
+    }
+
     /// `auto` takes the material point method for deformable grains, and says why.
     #[test]
     fn auto_takes_mpm_for_deformable_grains() {

@@ -1,6 +1,6 @@
 //! Method `"mpm"` as a [`Simulation`]: a scene's deformable grains as clouds of material points
 //! ([`super::system::System`]), its container's walls driven as for the other methods
-//! ([`crate::loading::Wall`]: fixed, at a velocity or at a strain rate), and the shared metrics
+//! ([`crate::loading::Wall`]: fixed, at a velocity, at a strain rate or at a stress), and the shared metrics
 //! measured on the grains as disks of their current area ([`crate::observe::DeformableView`]).
 //!
 //! A stress-controlled wall ([`Wall::servo`]) gets, unless the scene gives one, the gain
