@@ -10,25 +10,42 @@ fn run(path: &str) -> Vec<Sample> {
 
 /// Runs the scene file at `path` after `edit` changes its JSON.
 fn run_with(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<Sample> {
+    run_scene(path, edit).0
+}
+
+/// Runs the scene file at `path` after `edit` changes its JSON: its samples, and its
+/// experiment's derived results if it has one.
+fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Sample>, Option<sable_engine::observe::ExperimentResult>) {
     let text = std::fs::read_to_string(path).expect("scene file");
     let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
     edit(&mut value);
     let scene = sable_engine::scene::parse_scene(&value.to_string()).expect("valid scene");
     let mut sim = sable_engine::methods::build(&scene).expect("buildable");
     let runner = sable_engine::run::Runner::for_scene(&scene);
+    let mut analysis = sable_engine::observe::Analysis::new(&scene);
     let mut samples = Vec::new();
-    runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone())).expect("stable");
-    samples
+    runner
+        .run(sim.as_mut(), &mut |s, _| {
+            analysis.push(s);
+            samples.push(s.clone());
+        })
+        .expect("stable");
+    let (d, rho) = sim.grain_scales();
+    let result = analysis.finish(d, rho);
+    (samples, result)
 }
 
 /// The CI-sized soft compaction (`scenes/mpm_compaction_2d.json`, N 2.1.1's grains and law):
 /// the top wall compacts twelve disks past Φ = 0.9 without inverting a point; every sample
 /// keeps the grains' mass-weighted stress from the contacts (Love–Weber) and the walls' loads
 /// in agreement (the walls carry what crosses the packing), the grains carry force (Z > 2) and
-/// flatten (aspect ratio > 1), and no energy is created. Measured: Φ 0.9004 (15 s), Love–Weber
-/// σ_yy 3.2% above the top wall's 129 kPa, Z 3.17, aspect ratio 1.018 (max 1.056), smallest J
-/// 0.930, interpenetration 0.060 (the grains' union fills Φ 0.84: the nodal contacts let pressed
-/// grains overlap; it is bounded here so that it cannot grow unseen).
+/// flatten (aspect ratio > 1), and no energy is created. Measured: Φ 0.9008 (15 s), Love–Weber
+/// σ_yy 3.5% above the top wall's 155 kPa, Z 3.17, aspect ratio 1.024 (max 1.072), smallest J
+/// 0.928, interpenetration 0.058 (the grains' union fills Φ 0.84: the nodal contacts let pressed
+/// grains overlap; it is bounded here so that it cannot grow unseen). The top wall's stress
+/// at the last sample moved from 129 to 155 kPa when only the order of a sum changed: one
+/// instant of a dense packing is that sensitive, so the test compares stresses measured at
+/// the same instant, not against a fixed value.
 #[test]
 fn soft_grains_compact_past_phi_0_9() {
     let samples = run(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json"));
@@ -80,27 +97,6 @@ fn soft_grain_results_do_not_depend_on_the_thread_count() {
     assert!(worst < 1e-4, "results depend on the thread count: {worst:.2e}");
 }
 
-/// Runs a scene file with an experiment and returns its samples and derived results.
-fn run_experiment(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Sample>, sable_engine::observe::ExperimentResult) {
-    let text = std::fs::read_to_string(path).expect("scene file");
-    let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
-    edit(&mut value);
-    let scene = sable_engine::scene::parse_scene(&value.to_string()).expect("valid scene");
-    let mut sim = sable_engine::methods::build(&scene).expect("buildable");
-    let runner = sable_engine::run::Runner::for_scene(&scene);
-    let mut analysis = sable_engine::observe::Analysis::new(&scene);
-    let mut samples = Vec::new();
-    runner
-        .run(sim.as_mut(), &mut |s, _| {
-            analysis.push(s);
-            samples.push(s.clone());
-        })
-        .expect("stable");
-    let (d, rho) = sim.grain_scales();
-    let result = analysis.finish(d, rho).expect("experiment results");
-    (samples, result)
-}
-
 /// The biaxial experiment drives soft grains unchanged (`scenes/mpm_biaxial_2d.json`, N 2.2
 /// with deformable grains): the four walls' stress servos press sixteen disks to 20 kPa
 /// until equilibrium, then the top wall moves down at a constant strain rate while the side
@@ -113,7 +109,8 @@ fn run_experiment(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec
 /// interpenetration 0.011 at the preparation's end; about 2 minutes.
 #[test]
 fn soft_grains_go_through_a_biaxial_test() {
-    let (samples, result) = run_experiment(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_biaxial_2d.json"), |_| {});
+    let (samples, result) = run_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_biaxial_2d.json"), |_| {});
+    let result = result.expect("experiment results");
     let prepared = result.prepared.as_ref().expect("prepared state");
     let last = samples.last().expect("samples");
     let loading: Vec<&Sample> = samples.iter().filter(|s| s.stage.as_deref() == Some("loading")).collect();

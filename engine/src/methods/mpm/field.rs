@@ -258,41 +258,29 @@ impl Field {
         let fast = if self.x_fast { self.wx } else { self.wy };
         self.matrix.reset(2 * n, 4 * fast + 5);
         let hth = sc.dt * sc.theta;
+        self.residual_start(sc);
         for i in 0..n {
             let m = self.mass[i];
-            self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
             let d = if m > 0.0 { m } else { 1.0 };
             self.matrix.add_lower(2 * i, 2 * i, d);
             self.matrix.add_lower(2 * i + 1, 2 * i + 1, d);
         }
         let k2 = hth * hth;
         for (k, p) in range.enumerate() {
+            let f = self.add_point(k, p, pts, law, sc)?;
+            let tangent = law.tangent(&f, &pts.history[p]).ok_or(PointFailure::Inverted(p, f.determinant()))?;
             let s = self.stencils[k];
             let nodes = self.stencil_nodes(&s);
-            let fp = pts.f[p];
-            let ft = fp.transpose();
-            let mut inc = Mat2::identity();
+            let ft = pts.f[p].transpose();
             let mut g = [V2::zeros(); 9];
             let mut idx = [0usize; 9];
             for a in 0..3 {
                 for b in 0..3 {
-                    let grad = s.gradient(a, b);
-                    let i = nodes[a][b];
-                    inc += self.displacement(i, sc) * grad.transpose();
-                    g[3 * a + b] = ft * grad;
-                    idx[3 * a + b] = i;
+                    g[3 * a + b] = ft * s.gradient(a, b);
+                    idx[3 * a + b] = nodes[a][b];
                 }
             }
-            let f = inc * fp;
-            let h0 = pts.history[p];
-            let (stress, hist) = law.first_piola(&f, &h0).ok_or(Some(PointFailure::Inverted(p, f.determinant())))?;
-            let tangent = law.tangent(&f, &h0).ok_or(Some(PointFailure::Inverted(p, f.determinant())))?;
-            self.f_new[k] = f;
-            self.history_new[k] = hist;
             let v0 = pts.vol0[p];
-            for q in 0..9 {
-                self.residual[idx[q]] += stress * g[q] * (sc.dt * sc.theta * v0);
-            }
             // T[q][r][c][E] = Σ_B A[rB][cE] g_qB, then the block (q, q') is Σ_E T g_q'E.
             let mut t = [[[0.0; 4]; 2]; 9];
             for q in 0..9 {
@@ -338,33 +326,44 @@ impl Field {
         law: &dyn ConstitutiveLaw,
         sc: &Scheme,
     ) -> Result<(), PointFailure> {
+        self.residual_start(sc);
+        for (k, p) in range.enumerate() {
+            self.add_point(k, p, pts, law, sc)?;
+        }
+        Ok(())
+    }
+
+    /// The residual's nodal part: inertia, gravity and the start-of-step internal forces.
+    fn residual_start(&mut self, sc: &Scheme) {
         for i in 0..self.nodes() {
             let m = self.mass[i];
             self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
         }
-        for (k, p) in range.enumerate() {
-            let s = self.stencils[k];
-            let nodes = self.stencil_nodes(&s);
-            let fp = pts.f[p];
-            let ft = fp.transpose();
-            let mut inc = Mat2::identity();
-            for a in 0..3 {
-                for b in 0..3 {
-                    inc += self.displacement(nodes[a][b], sc) * s.gradient(a, b).transpose();
-                }
-            }
-            let f = inc * fp;
-            let (stress, hist) = law.first_piola(&f, &pts.history[p]).ok_or(PointFailure::Inverted(p, f.determinant()))?;
-            self.f_new[k] = f;
-            self.history_new[k] = hist;
-            let ps = stress * ft * (sc.dt * sc.theta * pts.vol0[p]);
-            for a in 0..3 {
-                for b in 0..3 {
-                    self.residual[nodes[a][b]] += ps * s.gradient(a, b);
-                }
+    }
+
+    /// Point `p` (the `k`-th of the grain) at the current iterate: keeps its `F` and history
+    /// in `f_new`, `history_new`, adds its internal force to the residual, and returns `F`.
+    fn add_point(&mut self, k: usize, p: usize, pts: &Points, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<Mat2, PointFailure> {
+        let s = self.stencils[k];
+        let nodes = self.stencil_nodes(&s);
+        let fp = pts.f[p];
+        let mut inc = Mat2::identity();
+        for a in 0..3 {
+            for b in 0..3 {
+                inc += self.displacement(nodes[a][b], sc) * s.gradient(a, b).transpose();
             }
         }
-        Ok(())
+        let f = inc * fp;
+        let (stress, hist) = law.first_piola(&f, &pts.history[p]).ok_or(PointFailure::Inverted(p, f.determinant()))?;
+        self.f_new[k] = f;
+        self.history_new[k] = hist;
+        let ps = stress * fp.transpose() * (sc.dt * sc.theta * pts.vol0[p]);
+        for a in 0..3 {
+            for b in 0..3 {
+                self.residual[nodes[a][b]] += ps * s.gradient(a, b);
+            }
+        }
+        Ok(f)
     }
 
     /// Solves the factorised Newton matrix for `rhs` (two entries a node) in place.
