@@ -116,22 +116,33 @@ impl Banded {
         Ok(())
     }
 
-    /// Appends `y = L⁻¹ e_r` from its row `r` on (its entries before `r` vanish) to `out`
-    /// (after [`Banded::factorise`]): `n − r` values. With these columns, the entries of
-    /// `A⁻¹ = L⁻ᵀ L⁻¹` between unknowns `r` and `s` are the dot products `yᵣ · yₛ`, at about a
-    /// quarter of the cost of full solves when few unknowns are wanted.
-    pub fn append_forward_unit(&self, r: usize, out: &mut Vec<Real>) {
+    /// Appends `y = L⁻¹ b` from row `r` on to `out` (after [`Banded::factorise`]), for a sparse
+    /// `b` given as `(row, value)` pairs in increasing rows, `r` the first (the entries of `y`
+    /// before it vanish): `n − r` values; returns `r`. With these columns, the entries of
+    /// `A⁻¹` between two such vectors are the dot products `bᵀ A⁻¹ c = y_b · y_c`, at about a
+    /// quarter of the cost of full solves when few are wanted.
+    pub fn append_forward(&self, b: &[(usize, Real)], out: &mut Vec<Real>) -> usize {
         let bw = self.bandwidth;
         let stride = bw + 1;
         let base = out.len();
+        let Some(&(r, _)) = b.first() else {
+            return self.n;
+        };
+        debug_assert!(b.windows(2).all(|w| w[0].0 < w[1].0));
         out.reserve(self.n - r);
+        let mut next = 0;
         for i in r..self.n {
             let ri = i * stride + bw - i;
             let lo = i.saturating_sub(bw).max(r);
             let s: Real = self.data[ri + lo..ri + i].iter().zip(&out[base + lo - r..base + i - r]).map(|(l, v)| l * v).sum();
-            let rhs = if i == r { 1.0 } else { 0.0 };
+            let mut rhs = 0.0;
+            if next < b.len() && b[next].0 == i {
+                rhs = b[next].1;
+                next += 1;
+            }
             out.push((rhs - s) / self.data[ri + i]);
         }
+        r
     }
 
     /// Solves `L Lᵀ x = b` in place (after [`Banded::factorise`]).
@@ -198,18 +209,34 @@ mod tests {
         }
         let inv = dense.try_inverse().expect("invertible");
         a.factorise().expect("positive definite");
-        let rows = [3usize, 4, 17, 29];
+        // Unit vectors and combinations of a few of them (a surface sample's weights).
+        let vectors: Vec<Vec<(usize, Real)>> = vec![
+            vec![(3, 1.0)],
+            vec![(4, 1.0)],
+            vec![(17, 1.0)],
+            vec![(29, 1.0)],
+            vec![(5, 0.25), (9, 0.5), (13, 0.25)],
+            vec![(20, 0.7), (22, 0.3)],
+        ];
+        let dense_of = |b: &[(usize, Real)]| {
+            let mut v = nalgebra::DVector::<Real>::zeros(n);
+            b.iter().for_each(|&(i, x)| v[i] = x);
+            v
+        };
         let mut ys = Vec::new();
         let mut at = Vec::new();
-        for &r in &rows {
+        let mut start = Vec::new();
+        for b in &vectors {
             at.push(ys.len());
-            a.append_forward_unit(r, &mut ys);
+            start.push(a.append_forward(b, &mut ys));
         }
-        for (x, &r) in rows.iter().enumerate() {
-            for (y, &s) in rows.iter().enumerate() {
+        for (x, bx) in vectors.iter().enumerate() {
+            for (y, by) in vectors.iter().enumerate() {
+                let (r, s) = (start[x], start[y]);
                 let m = r.max(s);
                 let dot: Real = (m..n).map(|k| ys[at[x] + k - r] * ys[at[y] + k - s]).sum();
-                assert!((dot - inv[(r, s)]).abs() < 1e-14, "({r}, {s}): {dot} against {}", inv[(r, s)]);
+                let exact = dense_of(bx).dot(&(&inv * dense_of(by)));
+                assert!((dot - exact).abs() < 1e-14, "({x}, {y}): {dot} against {exact}");
             }
         }
     }

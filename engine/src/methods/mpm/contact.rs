@@ -1,6 +1,7 @@
-//! Contact between grains and with walls at the nodes of the grid (the multi-field method of
-//! the sources: the habilitation N 1.2.2; Nezamabadi et al., Comput. Phys. Commun. 237, 17,
-//! 2019), solved by the shared contact solver ([`crate::nscd`]).
+//! Contact between grains and with walls, found at the nodes of the grid (the multi-field
+//! method of the sources: the habilitation N 1.2.2; Nezamabadi et al., Comput. Phys. Commun.
+//! 237, 17, 2019) and acting at the grains' outer material points, solved by the shared
+//! contact solver ([`crate::nscd`]).
 //!
 //! **Candidates.** Every grid node where two grains both have mass is a candidate contact
 //! between them; a node of a grain within two cells and a half of a wall is one between the
@@ -13,34 +14,51 @@
 //! points of each grain in the node's own column (within half a cell across the normal):
 //! each point covers the parallelogram its deformation gradient makes of the square it was
 //! placed as, and the gap is the distance between grain `a`'s nearest extent and grain `b`'s
-//! (or the wall's plane). A contact with a positive gap may close it within the step and no
-//! more: the Signorini condition on the relative normal velocity at the step's end is
-//! `U_n >= −gap / h` (CD's near pairs), and `U_n >= 0` once touching (no restitution: grains
-//! rebound by their elasticity).
+//! (or the wall's plane). Only the node of each column within half a cell of the interface
+//! along the normal is a contact: two grains share three rows of nodes around their interface
+//! (quadratic splines reach a cell and a half), and a contact in every row locks a layer a
+//! cell thick into a rigid punch.
 //!
-//! **Which nodes, which velocity.** Two grains share three rows of nodes around their
-//! interface (quadratic splines reach a cell and a half); constraining all of them locks a
-//! layer a cell thick into a rigid punch. Only the node of each column within half a cell of
-//! the interface along the normal is a contact: between grains, the sources' nodal contact
-//! on the node's velocity. Against a wall the constraint is on the velocity of the grain's
-//! *surface* in that column, `Σ N_k(x_s) v_k` at the sample `x_s` (the column's lowest
-//! extent, where its material is across the normal), and the impulse goes to the nodes by
-//! the same weights ([`Support`]). A constraint on the node's velocity instead lets the
-//! surface lag the wall by the part of the field carried by the nodes inside: measured on a
-//! block squeezed between walls, the force 8.6% low at ten cells (0.25% with the samples),
-//! and the Hertz half-width 9% wide at thirty cells a radius (2% narrow with them). One
-//! sample a column keeps as many constraints as the surface has nodes: a constraint at every
-//! surface point (two a cell) over-constrains it (Hertz peak pressure 64% high, the
-//! compaction test six times longer).
+//! **Where a contact acts.** On each grain, at the centre of the point that sets its extent
+//! (its depth along the normal), placed across the normal where the column's material is (the
+//! mass-weighted mean: a column at a grain's edge holds material on one side of its node
+//! only). The contact's velocity there is `Σ N_k(x_s) v_k` over the grain's nodes and its
+//! impulse goes to them by the same weights ([`Support`]), so that the point that would pass
+//! the other member moves with the constrained velocity. Two other places were tried and
+//! measured on a disk squeezed between walls and on 16 disks pressed to 100 kPa (the grains of
+//! `scenes/mpm_biaxial_2d.json`):
+//! - the node's own velocity (the sources' nodal contact): the point clouds pass through each
+//!   other and the walls while the nodes stay apart; the 16 disks reached Φ = 0.97 at 22 kPa
+//!   with 7% of the box covered twice or beyond a wall;
+//! - the grain's surface in the column (the point's extent, half a point spacing further out):
+//!   exact on a flat face (a squeezed block's force within 0.25%), but on a round grain the
+//!   wall crushes the outer points, which take the constraint through nodes that carry almost
+//!   no mass, instead of pushing the grain (a disk squeezed to 10% pressed back at 3% of the
+//!   force): the same 7%.
 //!
-//! **Delassus operator.** A node's velocity answers an impulse through its grain's Newton
-//! matrix: `v = v_free + A⁻¹ Hᵀ P`. For each grain the columns of `A⁻¹` at its contact nodes
-//! (every node of a surface sample's support) are computed with its factorised matrix, so
-//! that every impulse a contact changes updates
-//! the velocities of all the contact nodes of its grains at once (the exact coupling through
-//! the grain's stiffness, not the node's mass alone). The solver's local problems see the
-//! diagonal of each contact's block in its frame, and its sweeps converge to the solution of
-//! the full coupled problem (each visit reads the velocities the other contacts left).
+//! At the points' centres the 16 disks stop at Φ = 0.838 at 99 kPa with 0.8% interpenetration;
+//! the price is a boundary layer: the wall's traction reaches the outer quarter cell through
+//! the grid (a squeezed block's force 0.8% off at ten cells, 4% for a law that yields).
+//!
+//! **Signorini condition.** On the relative normal velocity at the step's end:
+//! `U_n >= min(0, (−gap + Δe) / h)`, `Δe` how much the two points' half extents along `n`
+//! grew over the step at the Newton iterate (they shrink under compression, and the surfaces
+//! then meet after the centres have closed the gap and that much more). A contact with a
+//! positive gap may close it within the step and no more (CD's near pairs), and no contact
+//! pushes the grains apart (no restitution: grains rebound by their elasticity; no work from
+//! the points' squares turning). The growth is taken at the first iterations of a step and
+//! then kept (`system::GROWTH_ITERATIONS`): a target moving with every iterate kept a dense
+//! packing's Newton iterations from converging. Without it, the lag of the surface behind the
+//! centre made a squeezed block's force 2.1% high.
+//!
+//! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
+//! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
+//! `Hᵀ A⁻¹ H` between its contacts' samples is computed with its factorised matrix, so that
+//! every impulse a contact changes updates the velocities of all the samples of its grains at
+//! once (the exact coupling through the grain's stiffness, not the nodes' mass alone). The
+//! solver's local problems see the diagonal of each contact's block in its frame, and its
+//! sweeps converge to the solution of the full coupled problem (each visit reads the
+//! velocities the other contacts left).
 
 use super::field::Field;
 use super::grid::V2;
@@ -66,24 +84,24 @@ pub struct Wall {
 /// The second member of a contact.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Other {
-    /// Grain `grain` at its contact node `slot`.
+    /// Grain `grain` at its surface sample `slot`.
     Grain {
         /// Grain index.
         grain: u32,
-        /// Index of the node among the grain's contact nodes.
+        /// Index of the sample among the grain's ([`GrainContacts::samples`]).
         slot: u32,
     },
     /// Wall `wall`.
     Wall(u32),
 }
 
-/// The contact nodes of the first grain a contact moves, with their weights: the contact's
-/// velocity is `Σ w_k v_k` and its impulse `P` gives node `k` the impulse `w_k P`. One node of
-/// weight 1 between grains; the stencil of the surface sample against a wall.
+/// A point of a grain's surface where a contact acts, by the nodes of the grain's field that
+/// carry it: its velocity is `Σ w_k v_k` and an impulse `P` there gives node `k` the impulse
+/// `w_k P`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Support {
-    /// Slots (indices among the grain's contact nodes).
-    pub slots: [u32; 9],
+    /// Local nodes of the grain's field, in increasing order.
+    pub nodes: [u32; 9],
     /// Weights, summing to 1.
     pub weights: [Real; 9],
     /// Entries used.
@@ -91,31 +109,48 @@ pub struct Support {
 }
 
 impl Support {
-    /// The slots and weights.
+    /// The nodes and weights.
     #[inline(always)]
     pub fn iter(&self) -> impl Iterator<Item = (usize, Real)> + '_ {
-        self.slots[..self.len as usize].iter().zip(&self.weights[..self.len as usize]).map(|(&s, &w)| (s as usize, w))
+        self.nodes[..self.len as usize].iter().zip(&self.weights[..self.len as usize]).map(|(&s, &w)| (s as usize, w))
     }
+}
+
+/// The point of a grain whose surface is nearest the other member in a contact's column, and
+/// its half extent along the normal at the step's start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct End {
+    /// The point (index in [`Points`]); `u32::MAX` for a wall.
+    pub point: u32,
+    /// Its half extent along the contact's normal at the step's start, m.
+    pub extent: Real,
+}
+
+impl End {
+    /// A wall's end.
+    pub const NONE: End = End { point: u32::MAX, extent: 0.0 };
 }
 
 /// One contact between grain `a` and a grain or a wall.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NodalContact {
-    /// Grid node (linear index `i + nx j`): the shared node between grains, the node of the
-    /// surface's column against a wall.
+    /// Grid node (linear index `i + nx j`) of the contact's column.
     pub node: usize,
-    /// Where it acts, m: the node between grains, the surface sample against a wall.
+    /// Where it acts, m: the surface sample of grain `a` against a wall, midway between the two
+    /// grains' samples between grains.
     pub at: V2,
     /// First grain.
     pub a: u32,
-    /// Its nodes.
-    pub support: Support,
+    /// Its surface sample (index among the grain's [`GrainContacts::samples`]).
+    pub slot: u32,
     /// Second member.
     pub b: Other,
     /// Frame; `n` points from `b` towards `a`.
     pub frame: ContactFrame,
     /// Gap along `n` at the step's start, m (negative: overlapping extents).
     pub gap: Real,
+    /// The points that set the gap, of `a` and of `b`.
+    pub ends: [End; 2],
     /// The law for the step (its `friction` the pair's coefficient).
     pub law: LocalLaw,
     /// Diagonal of the local Delassus block, 1/kg·m.
@@ -144,60 +179,62 @@ impl NodalContact {
     }
 }
 
-/// A grain's side of the contact problem: its contact nodes, the block of `A⁻¹` between them
-/// and their velocities during the solve.
+/// A grain's side of the contact problem: the surface samples where its contacts act, the
+/// block of `A⁻¹` between them and their velocities during the solve.
 #[derive(Debug, Default, Clone)]
 pub struct GrainContacts {
-    /// Local node of each slot.
-    pub nodes: Vec<usize>,
-    /// `A⁻¹` between the slots' unknowns, `(2C)x(2C)`, row-major.
+    /// The samples, one for each contact the grain takes part in.
+    pub samples: Vec<Support>,
+    /// The contact of each sample and the grain's side in it (`true`: the grain is `a`).
+    pub entries: Vec<(u32, bool)>,
+    /// `A⁻¹` between the samples' unknowns, `(2S)x(2S)`, row-major: `(Hᵀ A⁻¹ H)` for the
+    /// samples' weights `H`.
     pub inverse: Vec<Real>,
-    /// Velocities of the slots during the solve, m/s.
+    /// Velocities of the samples during the solve, m/s.
     pub u: Vec<V2>,
-    /// Contacts, sides (`true`: the grain is `a`) and weights at each slot.
-    pub entries: Vec<Vec<(u32, bool, Real)>>,
-    /// Slot of each local node of the grain's field (`u32::MAX`: none), for the step.
-    pub slot_of: Vec<u32>,
     /// Scratch of the grain's size in unknowns, kept between solves (the columns of
     /// [`GrainContacts::invert`], the impulses' right-hand side of a Newton update).
     pub work: Vec<Real>,
-    /// Where each column of [`GrainContacts::invert`] starts in `work`.
-    pub offsets: Vec<usize>,
+    /// Where each column of [`GrainContacts::invert`] starts in `work`, and its first row.
+    pub offsets: Vec<(usize, usize)>,
 }
 
 impl GrainContacts {
-    /// Slots.
+    /// Samples.
     pub fn len(&self) -> usize {
-        self.nodes.len()
+        self.samples.len()
     }
 
-    /// True when the grain has no contact node.
+    /// True when the grain has no contact.
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.samples.is_empty()
     }
 
-    /// The slot of the grain's local node `k`, given one if it has none yet.
-    pub fn slot(&mut self, k: usize) -> u32 {
-        if self.slot_of[k] == u32::MAX {
-            self.slot_of[k] = self.nodes.len() as u32;
-            self.nodes.push(k);
-            self.entries.push(Vec::new());
-        }
-        self.slot_of[k]
+    /// Forgets the step's samples.
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.entries.clear();
     }
 
-    /// The 2x2 block of `A⁻¹` between slots `k` and `l`.
+    /// Adds a sample for contact `contact` (the grain its first member when `is_a`).
+    pub fn push(&mut self, support: Support, contact: u32, is_a: bool) -> u32 {
+        self.samples.push(support);
+        self.entries.push((contact, is_a));
+        self.samples.len() as u32 - 1
+    }
+
+    /// The 2x2 block of `A⁻¹` between samples `k` and `l`.
     #[inline(always)]
     pub fn block(&self, k: usize, l: usize) -> nalgebra::Matrix2<Real> {
-        let n = 2 * self.nodes.len();
+        let n = 2 * self.samples.len();
         let at = |r: usize, c: usize| self.inverse[r * n + c];
         nalgebra::Matrix2::new(at(2 * k, 2 * l), at(2 * k, 2 * l + 1), at(2 * k + 1, 2 * l), at(2 * k + 1, 2 * l + 1))
     }
 
-    /// Adds to the slots' velocities what an impulse `p` at slot `l` does to them.
+    /// Adds to the samples' velocities what an impulse `p` at sample `l` does to them.
     #[inline(always)]
     pub fn apply(&mut self, l: usize, p: &V2) {
-        let n = 2 * self.nodes.len();
+        let n = 2 * self.samples.len();
         let (c0, c1) = (2 * l, 2 * l + 1);
         for (k, u) in self.u.iter_mut().enumerate() {
             let (r0, r1) = (2 * k * n, (2 * k + 1) * n);
@@ -206,29 +243,54 @@ impl GrainContacts {
         }
     }
 
-    /// Computes `inverse` from the grain's factorised matrix `A = L Lᵀ`: for each unknown `r`
-    /// of its contact nodes the column `yᵣ = L⁻¹ eᵣ` (forward substitution from row `r`), then
-    /// `(A⁻¹)ᵣₛ = yᵣ · yₛ`. Measured on a dense 60-grain compaction, the full solves this
-    /// replaces (one per unknown) took 45% of the run.
+    /// The samples' velocities for the nodal velocities `v` plus the correction `dv` (two
+    /// entries a node).
+    pub fn sample_velocities(&mut self, v: &[V2], dv: &[Real]) {
+        self.u.clear();
+        self.u.extend(self.samples.iter().map(|s| s.iter().map(|(k, w)| (v[k] + V2::new(dv[2 * k], dv[2 * k + 1])) * w).sum::<V2>()));
+    }
+
+    /// Adds the step's impulses of the grain's contacts to the nodal right-hand side `rhs` (two
+    /// entries a node), by the samples' weights.
+    pub fn spread_impulses(&self, contacts: &[NodalContact], rhs: &mut [Real]) {
+        for (support, &(c, is_a)) in self.samples.iter().zip(&self.entries) {
+            let ct = &contacts[c as usize];
+            let p = ct.frame.to_global(&ct.r) * if is_a { 1.0 } else { -1.0 };
+            for (k, w) in support.iter() {
+                rhs[2 * k] += w * p.x;
+                rhs[2 * k + 1] += w * p.y;
+            }
+        }
+    }
+
+    /// Computes `inverse` from the grain's factorised matrix `A = L Lᵀ`: for each unknown of
+    /// each sample the column `y = L⁻¹ b`, `b` the sample's weights on that component
+    /// (forward substitution from its first row), then the entries are the dot products
+    /// `y_r · y_s`. Measured on a dense 60-grain compaction, full solves (one per unknown)
+    /// took 45% of the run.
     pub fn invert(&mut self, field: &Field) {
-        let m = 2 * self.nodes.len();
+        let m = 2 * self.samples.len();
         let size = 2 * field.nodes();
         self.inverse.clear();
         self.inverse.resize(m * m, 0.0);
         let (ys, at) = (&mut self.work, &mut self.offsets);
         ys.clear();
         at.clear();
+        let mut b: Vec<(usize, Real)> = Vec::with_capacity(9);
         for col in 0..m {
-            let r = 2 * self.nodes[col / 2] + col % 2;
-            at.push(ys.len());
-            field.matrix.append_forward_unit(r, ys);
+            let (s, d) = (col / 2, col % 2);
+            b.clear();
+            b.extend(self.samples[s].iter().map(|(k, w)| (2 * k + d, w)));
+            let offset = ys.len();
+            let r = field.matrix.append_forward(&b, ys);
+            at.push((offset, r));
         }
         for x in 0..m {
-            let r = 2 * self.nodes[x / 2] + x % 2;
+            let (ox, r) = at[x];
             for y in 0..=x {
-                let s = 2 * self.nodes[y / 2] + y % 2;
+                let (oy, s) = at[y];
                 let from = r.max(s);
-                let (a, b) = (&ys[at[x] + from - r..at[x] + size - r], &ys[at[y] + from - s..at[y] + size - s]);
+                let (a, b) = (&ys[ox + from - r..ox + size - r], &ys[oy + from - s..oy + size - s]);
                 let dot: Real = a.iter().zip(b).map(|(p, q)| p * q).sum();
                 self.inverse[x * m + y] = dot;
                 self.inverse[y * m + x] = dot;
@@ -252,8 +314,7 @@ impl Problem<'_> {
     #[inline(always)]
     fn velocity(&self, c: usize) -> Vec3 {
         let k = &self.contacts[c];
-        let side = &self.grains[k.a as usize];
-        let ua: V2 = k.support.iter().map(|(s, w)| side.u[s] * w).sum();
+        let ua = self.grains[k.a as usize].u[k.slot as usize];
         let ub = match k.b {
             Other::Grain { grain, slot } => self.grains[grain as usize].u[slot as usize],
             Other::Wall(w) => self.walls[w as usize].velocity,
@@ -267,10 +328,7 @@ impl Problem<'_> {
     fn apply(&mut self, c: usize, p: &Vec3) {
         let k = self.contacts[c];
         let p2 = V2::new(p.x, p.y);
-        let side = &mut self.grains[k.a as usize];
-        for (s, w) in k.support.iter() {
-            side.apply(s, &(p2 * w));
-        }
+        self.grains[k.a as usize].apply(k.slot as usize, &p2);
         if let Other::Grain { grain, slot } = k.b {
             self.grains[grain as usize].apply(slot as usize, &(-p2));
         }
@@ -298,7 +356,7 @@ impl ContactProblem for Problem<'_> {
     fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
         let u_now = self.contacts[c].frame.to_local(&self.velocity(c));
         let k = self.contacts[c];
-        let turn = Turn { omega, near: k.gap > 0.0, scale: k.scale, lever: k.lever };
+        let turn = Turn { omega, near: k.law.target < 0.0, scale: k.scale, lever: k.lever };
         let (r, _) = visit_local(u_now, &k.w, &k.law, k.r, turn, sums);
         let dr = r - k.r;
         if dr != Vec3::zeros() {

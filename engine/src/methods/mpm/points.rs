@@ -75,7 +75,11 @@ impl Points {
     /// `F (side0 [-½, ½]²)` projected on `n`, m.
     #[inline(always)]
     pub fn half_extent(&self, p: usize, n: &V2) -> Real {
-        let f = &self.f[p];
+        self.half_extent_of(&self.f[p], p, n)
+    }
+
+    /// The half extent along `n` point `p` would have with deformation gradient `f`, m.
+    pub fn half_extent_of(&self, f: &Mat2, p: usize, n: &V2) -> Real {
         let a = n.x * f[(0, 0)] + n.y * f[(1, 0)];
         let b = n.x * f[(0, 1)] + n.y * f[(1, 1)];
         0.5 * self.side0[p] * (a.abs() + b.abs())

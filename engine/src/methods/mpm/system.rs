@@ -29,7 +29,7 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::contact::{extent, GrainContacts, NodalContact, Other, Problem, Support, Wall};
+use super::contact::{extent, End, GrainContacts, NodalContact, Other, Problem, Support, Wall};
 use super::field::{Field, PointFailure, Scheme};
 use super::grid::{Grid, V2};
 use super::points::{Grain, Points};
@@ -51,6 +51,11 @@ const REFRESH_RATIO: Real = 0.25;
 /// of a dense compaction converged only as fast as the sweeps they added (a ratio of 0.4 an
 /// iteration, twelve iterations a step); with this forcing, 5 to 7.
 const FORCING: Real = 0.01;
+
+/// The Newton iterations of a step that update the contacts' targets with the growth of their
+/// points' extents at the iterate; later ones keep them (a target that moves with every
+/// iterate kept a dense packing's iterations from converging).
+const GROWTH_ITERATIONS: u32 = 2;
 
 /// Settings of the method.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -184,7 +189,11 @@ impl System {
             + self
                 .sides
                 .iter()
-                .map(|s| (s.inverse.capacity() + s.work.capacity() + 2 * s.offsets.capacity() + 3 * s.nodes.capacity()) * 8)
+                .map(|s| {
+                    (s.inverse.capacity() + s.work.capacity() + 2 * s.offsets.capacity() + 2 * s.entries.capacity() + 3 * s.u.capacity())
+                        * 8
+                        + s.samples.capacity() * std::mem::size_of::<Support>()
+                })
                 .sum::<usize>()
             + self.contacts.capacity() * std::mem::size_of::<NodalContact>()
             + self.nlgs.heap_bytes()
@@ -299,7 +308,7 @@ impl System {
         for it in 1..=self.settings.max_newton {
             report.newton = it;
             self.newton_free(&sc, refresh)?;
-            let solved = self.solve_contacts(&sc);
+            let solved = self.solve_contacts(&sc, it <= GROWTH_ITERATIONS);
             report.sweeps += solved.iterations;
             if !solved.converged {
                 let s = self.settings.contact;
@@ -439,10 +448,11 @@ impl System {
         // Gaps from the points of each stencil: per grain, each local node's candidates.
         let mut lo = vec![Real::INFINITY; cands.len()];
         let mut hi = vec![Real::NEG_INFINITY; cands.len()];
-        // Mass-weighted position across the normal of grain `a`'s points in each column, and
-        // their mass: where the column's material is (a column at a grain's edge holds
-        // material on one side of its node only).
-        let mut across_sum = vec![V2::zeros(); cands.len()];
+        // The point that sets each extent (grain `a`'s, then grain `b`'s), and the mass-weighted
+        // place across the normal of each grain's points in the column with their mass (a
+        // column at a grain's edge holds material on one side of its node only).
+        let mut extreme = vec![[u32::MAX; 2]; cands.len()];
+        let mut across_sum = vec![[V2::zeros(); 2]; cands.len()];
         let mut by_grain: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); self.grains.len()];
         for (c, k) in cands.iter().enumerate() {
             by_grain[k.a as usize].push((k.ka, c as u32, true));
@@ -475,78 +485,92 @@ impl System {
                                 continue;
                             }
                             let (l, u) = extent(&self.points, p, &node, &cand.n);
-                            if is_a {
-                                lo[c as usize] = lo[c as usize].min(l);
-                                let m = self.points.mass[p];
-                                across_sum[c as usize] += V2::new(m * across, m);
-                            } else {
-                                hi[c as usize] = hi[c as usize].max(u);
+                            let c = c as usize;
+                            let m = self.points.mass[p];
+                            across_sum[c][usize::from(!is_a)] += V2::new(m * across, m);
+                            if is_a && l < lo[c] {
+                                lo[c] = l;
+                                extreme[c][0] = p as u32;
+                            } else if !is_a && u > hi[c] {
+                                hi[c] = u;
+                                extreme[c][1] = p as u32;
                             }
                         }
                     }
                 }
             }
         }
-        // The contacts within a cell of touching, with each grain's slots.
-        for (side, f) in self.sides.iter_mut().zip(&self.fields) {
-            side.nodes.clear();
-            side.entries.clear();
-            side.slot_of.clear();
-            side.slot_of.resize(f.nodes(), u32::MAX);
+        // The contacts within a cell of touching, with each grain's samples.
+        for side in &mut self.sides {
+            side.clear();
         }
         self.contacts.clear();
         for (c, k) in cands.iter().enumerate() {
             let gap = lo[c] - hi[c];
             // Only the nodes within half a cell of the interface along the normal (one a
-            // column): a constraint on every node the two fields share (three rows with
-            // quadratic splines) would lock a layer a cell thick into a rigid punch.
-            let (middle, surface) = match k.b {
-                Some(_) => (0.5 * (lo[c] + hi[c]), 0.0),
-                None => (lo[c], lo[c]),
+            // column): a constraint in every column of every node the two fields share (three
+            // rows with quadratic splines) would lock a layer a cell thick into a rigid punch.
+            let middle = match k.b {
+                Some(_) => 0.5 * (lo[c] + hi[c]),
+                None => lo[c],
             };
             if gap.is_nan() || gap > h || middle < -0.5 * h || middle >= 0.5 * h {
                 continue;
             }
-            let (support, b, friction, at) = match k.b {
-                Some((gb, kb)) => {
-                    let a_slot = self.sides[k.a as usize].slot(k.ka as usize);
-                    let b = Other::Grain { grain: gb, slot: self.sides[gb as usize].slot(kb as usize) };
-                    let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 1 };
-                    support.slots[0] = a_slot;
-                    support.weights[0] = 1.0;
+            // Each grain's contact in the node's column acts at `x_node + d n + a t`: `d` the
+            // depth of the centre of the point that sets its extent, `a` where the column's
+            // material is across the normal, moving with the velocity the field gives it there
+            // (the nodes of its stencil share the impulse by their weights, those the grain has
+            // no mass at left out). Module documentation of [`super::contact`] for why there.
+            let t = V2::new(-k.n.y, k.n.x);
+            let sample = |side: usize| {
+                let p = extreme[c][side] as usize;
+                let [m, w] = [across_sum[c][side].x, across_sum[c][side].y];
+                k.x + k.n * (self.points.x[p] - k.x).dot(&k.n) + t * (m / w)
+            };
+            let ends = |side: usize| {
+                let p = extreme[c][side] as usize;
+                End { point: p as u32, extent: self.points.half_extent(p, &k.n) }
+            };
+            let at_a = sample(0);
+            let Some(support_a) = self.surface_support(k.a, &at_a) else {
+                continue;
+            };
+            let mut end = [ends(0), End::NONE];
+            let (b, friction, at) = match k.b {
+                Some((gb, _)) => {
+                    end[1] = ends(1);
+                    let at_b = sample(1);
+                    let Some(support_b) = self.surface_support(gb, &at_b) else {
+                        continue;
+                    };
+                    let index = self.contacts.len() as u32;
+                    let slot = self.sides[gb as usize].push(support_b, index, false);
                     let friction = self
                         .pair_friction
                         .unwrap_or_else(|| (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt());
-                    (support, b, friction, k.x)
+                    (Other::Grain { grain: gb, slot }, friction, 0.5 * (at_a + at_b))
                 }
                 None => {
-                    // The grain's surface in the node's column, `x_s = x_node + lo n + a t` (`a`
-                    // where the column's material is across the normal), moving
-                    // with the velocity the field gives it there: the nodes of its stencil share
-                    // the impulse by their weights (those the grain has no mass at left out).
-                    let t = V2::new(-k.n.y, k.n.x);
-                    let across = across_sum[c].x / across_sum[c].y;
-                    let at = k.x + k.n * surface + t * across;
-                    let Some(support) = self.surface_support(k.a, &at) else {
-                        continue;
-                    };
-                    (support, Other::Wall(k.wall), (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt(), at)
+                    let friction = (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt();
+                    (Other::Wall(k.wall), friction, at_a)
                 }
             };
-            self.push_contact(k.node, at, k.a, support, b, k.n, gap, friction, dt);
+            self.push_contact(k.node, at, k.a, support_a, b, k.n, gap, friction, end, dt);
         }
     }
 
     /// The nodes of grain `g` that carry its field at `x`, with their weights renormalised over
-    /// those where it has mass; `None` if there are none.
-    fn surface_support(&mut self, g: u32, x: &V2) -> Option<Support> {
+    /// those where it has mass, in increasing order; `None` if there are none.
+    fn surface_support(&self, g: u32, x: &V2) -> Option<Support> {
         let st = self.grid.stencil(x)?;
-        let mut support = Support { slots: [0; 9], weights: [0.0; 9], len: 0 };
+        let f = &self.fields[g as usize];
+        let mut list: [(u32, Real); 9] = [(0, 0.0); 9];
+        let mut len = 0;
         let mut total = 0.0;
         for a in 0..3 {
             for b in 0..3 {
                 let (i, j) = (st.base[0] + a, st.base[1] + b);
-                let f = &self.fields[g as usize];
                 if i < f.i0 || j < f.j0 || i >= f.i0 + f.wx || j >= f.j0 + f.wy {
                     continue;
                 }
@@ -555,33 +579,52 @@ impl System {
                 if f.mass[k] == 0.0 || wt == 0.0 {
                     continue;
                 }
-                let l = support.len as usize;
-                support.slots[l] = self.sides[g as usize].slot(k);
-                support.weights[l] = wt;
-                support.len += 1;
+                list[len] = (k as u32, wt);
+                len += 1;
                 total += wt;
             }
         }
-        if support.len == 0 {
+        if len == 0 {
             return None;
         }
-        support.weights[..support.len as usize].iter_mut().for_each(|x| *x /= total);
+        list[..len].sort_unstable_by_key(|e| e.0);
+        let mut support = Support { nodes: [0; 9], weights: [0.0; 9], len: len as u8 };
+        for (l, &(k, w)) in list[..len].iter().enumerate() {
+            support.nodes[l] = k;
+            support.weights[l] = w / total;
+        }
         Some(support)
     }
 
-    /// Adds a contact of the step, warm-started, and enters it at its grains' slots.
+    /// Adds a contact of the step, warm-started, and enters it at grain `a` with its sample
+    /// (grain `b`'s, if any, is entered).
     #[allow(clippy::too_many_arguments)]
-    fn push_contact(&mut self, node: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real, dt: Real) {
+    fn push_contact(
+        &mut self,
+        node: usize,
+        at: V2,
+        a: u32,
+        support: Support,
+        b: Other,
+        n: V2,
+        gap: Real,
+        friction: Real,
+        ends: [End; 2],
+        dt: Real,
+    ) {
         let frame = ContactFrame::new(2, Vec3::new(n.x, n.y, 0.0));
-        let law = LocalLaw { target: if gap > 0.0 { -gap / dt } else { 0.0 }, friction, cohesion: 0.0, viscosity: 0.0 };
+        let law = LocalLaw { target: (-gap / dt).min(0.0), friction, cohesion: 0.0, viscosity: 0.0 };
+        let index = self.contacts.len() as u32;
+        let slot = self.sides[a as usize].push(support, index, true);
         let mut contact = NodalContact {
             node,
             at,
             a,
-            support,
+            slot,
             b,
             frame,
             gap,
+            ends,
             law,
             w: Delassus { n: 0.0, t: 0.0 },
             r: Vec3::zeros(),
@@ -589,13 +632,6 @@ impl System {
             lever: self.grains[a as usize].radius,
         };
         contact.r = self.warm.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros);
-        let index = self.contacts.len() as u32;
-        for (s, w) in support.iter() {
-            self.sides[a as usize].entries[s].push((index, true, w));
-        }
-        if let Other::Grain { grain, slot } = b {
-            self.sides[grain as usize].entries[slot as usize].push((index, false, 1.0));
-        }
         self.contacts.push(contact);
     }
 
@@ -621,8 +657,7 @@ impl System {
                     if refresh {
                         side.invert(f);
                     }
-                    side.u.clear();
-                    side.u.extend(side.nodes.iter().map(|&k| f.v[k] + V2::new(dv[2 * k], dv[2 * k + 1])));
+                    side.sample_velocities(&f.v, &dv);
                 }
                 f.correction = dv;
                 Ok(())
@@ -635,18 +670,36 @@ impl System {
     }
 
     /// Sets each contact's Delassus block and impulse scale and solves the contact problem.
-    fn solve_contacts(&mut self, sc: &Scheme) -> NlgsReport {
+    fn solve_contacts(&mut self, sc: &Scheme, update_targets: bool) -> NlgsReport {
         let g = self.settings.gravity.norm() * sc.dt;
-        for c in &mut self.contacts {
-            let sa = &self.sides[c.a as usize];
-            let mut w = nalgebra::Matrix2::zeros();
-            let mut ua = V2::zeros();
-            for (k, wk) in c.support.iter() {
-                ua += sa.u[k] * wk;
-                for (l, wl) in c.support.iter() {
-                    w += sa.block(k, l) * (wk * wl);
-                }
+        let (fields, grains, points) = (&self.fields, &self.grains, &self.points);
+        // How much the half extent along `n` of the point at an end of a contact has grown
+        // over the step at the current iterate.
+        let growth = |end: &End, grain: u32, n: &V2| {
+            if end.point == u32::MAX {
+                return 0.0;
             }
+            let g = grain as usize;
+            let q = end.point as usize - grains[g].points.start;
+            points.half_extent_of(&fields[g].f_new[q], end.point as usize, n) - end.extent
+        };
+        for c in &mut self.contacts {
+            // The surfaces meet at the step's end if the centres close the gap less what the
+            // points' extents grew (a compressed point's surface falls behind its centre): the
+            // approach allowed grows by what they shrank, and the contact never pushes the
+            // grains apart for a point that grew (no work from the points' squares turning).
+            let n = V2::new(c.frame.n.x, c.frame.n.y);
+            let b_grain = match c.b {
+                Other::Grain { grain, .. } => grain,
+                Other::Wall(_) => 0,
+            };
+            if update_targets {
+                let grown = growth(&c.ends[0], c.a, &n) + growth(&c.ends[1], b_grain, &n);
+                c.law.target = ((-c.gap + grown) / sc.dt).min(0.0);
+            }
+            let sa = &self.sides[c.a as usize];
+            let mut w = sa.block(c.slot as usize, c.slot as usize);
+            let ua = sa.u[c.slot as usize];
             let mut speed = ua.norm();
             let ub = match c.b {
                 Other::Grain { grain, slot } => {
@@ -681,15 +734,7 @@ impl System {
                     let mut rhs = std::mem::take(&mut side.work);
                     rhs.clear();
                     rhs.resize(dv.len(), 0.0);
-                    for (s, list) in side.entries.iter().enumerate() {
-                        let k = side.nodes[s];
-                        for &(c, is_a, w) in list {
-                            let ct = &contacts[c as usize];
-                            let p = ct.frame.to_global(&ct.r) * if is_a { w } else { -w };
-                            rhs[2 * k] += p.x;
-                            rhs[2 * k + 1] += p.y;
-                        }
-                    }
+                    side.spread_impulses(contacts, &mut rhs);
                     f.solve(&mut rhs);
                     dv.iter_mut().zip(&rhs).for_each(|(d, r)| *d += r);
                     side.work = rhs;
