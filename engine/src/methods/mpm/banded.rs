@@ -171,20 +171,27 @@ impl Banded {
 mod tests {
     use super::*;
 
-    #[test]
-    fn cholesky_solves_a_banded_system() {
-        let (n, bw) = (40, 5);
+    /// A banded matrix of size `n` and half-bandwidth `bw` with entries `entry(i, j)` in its
+    /// band, and the same matrix dense.
+    fn pair(n: usize, bw: usize, entry: impl Fn(usize, usize) -> Real) -> (Banded, nalgebra::DMatrix<Real>) {
         let mut a = Banded::default();
         a.reset(n, bw);
         let mut dense = nalgebra::DMatrix::<Real>::zeros(n, n);
         for i in 0..n {
             for j in i.saturating_sub(bw)..=i {
-                let v = if i == j { 10.0 + i as Real * 0.1 } else { ((i * 7 + j * 3) % 5) as Real * 0.3 - 0.6 };
+                let v = entry(i, j);
                 a.add_lower(i, j, v);
                 dense[(i, j)] = v;
                 dense[(j, i)] = v;
             }
         }
+        (a, dense)
+    }
+
+    #[test]
+    fn cholesky_solves_a_banded_system() {
+        let n = 40;
+        let (mut a, dense) = pair(n, 5, |i, j| if i == j { 10.0 + i as Real * 0.1 } else { ((i * 7 + j * 3) % 5) as Real * 0.3 - 0.6 });
         let b: Vec<Real> = (0..n).map(|i| (i as Real * 0.37).sin()).collect();
         let mut x = b.clone();
         a.factorise().expect("positive definite");
@@ -195,18 +202,8 @@ mod tests {
 
     #[test]
     fn forward_columns_give_the_inverse() {
-        let (n, bw) = (30, 4);
-        let mut a = Banded::default();
-        a.reset(n, bw);
-        let mut dense = nalgebra::DMatrix::<Real>::zeros(n, n);
-        for i in 0..n {
-            for j in i.saturating_sub(bw)..=i {
-                let v = if i == j { 8.0 + i as Real * 0.2 } else { ((i * 5 + j * 11) % 7) as Real * 0.2 - 0.6 };
-                a.add_lower(i, j, v);
-                dense[(i, j)] = v;
-                dense[(j, i)] = v;
-            }
-        }
+        let n = 30;
+        let (mut a, dense) = pair(n, 4, |i, j| if i == j { 8.0 + i as Real * 0.2 } else { ((i * 5 + j * 11) % 7) as Real * 0.2 - 0.6 });
         let inv = dense.try_inverse().expect("invertible");
         a.factorise().expect("positive definite");
         // Unit vectors and combinations of a few of them (a surface sample's weights).

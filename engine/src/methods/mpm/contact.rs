@@ -276,13 +276,15 @@ impl GrainContacts {
         let (ys, at) = (&mut self.work, &mut self.offsets);
         ys.clear();
         at.clear();
-        let mut b: Vec<(usize, Real)> = Vec::with_capacity(9);
+        let mut b = [(0usize, 0.0 as Real); 9];
         for col in 0..m {
             let (s, d) = (col / 2, col % 2);
-            b.clear();
-            b.extend(self.samples[s].iter().map(|(k, w)| (2 * k + d, w)));
+            let support = &self.samples[s];
+            for (e, (k, w)) in b.iter_mut().zip(support.iter()) {
+                *e = (2 * k + d, w);
+            }
             let offset = ys.len();
-            let r = field.matrix.append_forward(&b, ys);
+            let r = field.matrix.append_forward(&b[..support.len as usize], ys);
             at.push((offset, r));
         }
         for x in 0..m {
