@@ -37,7 +37,8 @@ pub enum InstabilityCause {
     },
     /// The Newton iterations of an implicit step did not converge within their budget.
     NewtonBudget {
-        /// Iterations done (the budget).
+        /// Iterations done: the budget, or fewer when the correction shrank too slowly to reach
+        /// the tolerance within it.
         iterations: u32,
         /// Size of the last velocity correction relative to the velocity scale.
         correction: f64,

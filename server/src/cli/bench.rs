@@ -59,6 +59,10 @@ pub struct MpmBenchArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Every this many steps, print the progress to stderr (step, Φ, seconds, the cost of the
+    /// steps since the last line): where the time goes as the packing densifies.
+    #[arg(long)]
+    pub progress: Option<u64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -68,8 +72,11 @@ struct MpmBenchResult {
     points: usize,
     threads: usize,
     steps: u64,
-    /// Steps done again as two halves.
+    /// Step parts that failed and were done again as two halves.
     split_steps: u64,
+    /// Parts a step was done as, on average (a step is split where the grains are pressed
+    /// hard; `System::step` in the engine).
+    parts_per_step: f64,
     phi: f64,
     wall_seconds: f64,
     /// Material-point-steps per second: the method's natural unit.
@@ -89,14 +96,30 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let mut steps = 0u64;
     pool.install(|| {
+        let mut last = (0.0, (0, 0, 0, 0), 0);
         while steps < a.steps && sim.packing_fraction() < a.phi {
             sim.step()?;
             steps += 1;
+            if a.progress.is_some_and(|every| every > 0 && steps.is_multiple_of(every)) {
+                let t = start.elapsed().as_secs_f64();
+                let cost = sim.cost();
+                let k = (steps - last.2).max(1) as f64;
+                eprintln!(
+                    "step {steps}: Φ {:.4}, {t:.1} s ({:.1} ms/step), {:.2} parts, {:.2} Newton and {:.0} sweeps per step, {} failed parts",
+                    sim.packing_fraction(),
+                    1e3 * (t - last.0) / k,
+                    (cost.3 - last.1 .3) as f64 / k,
+                    (cost.0 - last.1 .0) as f64 / k,
+                    (cost.1 - last.1 .1) as f64 / k,
+                    cost.2 - last.1 .2
+                );
+                last = (t, cost, steps);
+            }
         }
         Ok::<(), sable_engine::EngineError>(())
     })?;
     let wall = start.elapsed().as_secs_f64();
-    let (newton, sweeps, split) = sim.cost();
+    let (newton, sweeps, split, parts) = sim.cost();
     let n = steps.max(1) as f64;
     let r = MpmBenchResult {
         method: "mpm",
@@ -105,6 +128,7 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         threads,
         steps,
         split_steps: split,
+        parts_per_step: parts as f64 / n,
         phi: sim.packing_fraction(),
         wall_seconds: wall,
         point_steps_per_second: sim.point_count() as f64 * steps as f64 / wall,
@@ -116,8 +140,8 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "mpm: {} grains ({} points) on {} thread(s): {} steps ({} split) to Φ = {:.4} in {:.1} s, {:.3e} point-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/point",
-            r.grains, r.points, r.threads, r.steps, r.split_steps, r.phi, r.wall_seconds, r.point_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_point
+            "mpm: {} grains ({} points) on {} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.3e} point-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/point",
+            r.grains, r.points, r.threads, r.steps, r.parts_per_step, r.split_steps, r.phi, r.wall_seconds, r.point_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_point
         );
     }
     Ok(())

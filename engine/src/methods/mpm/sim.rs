@@ -193,9 +193,10 @@ impl Mpm {
         self.sys.points.len()
     }
 
-    /// Newton iterations, contact sweeps and split steps since the start.
-    pub fn cost(&self) -> (u64, u64, u64) {
-        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.substeps)
+    /// Newton iterations, contact sweeps, failed step parts (done again as two halves) and
+    /// step parts done, since the start.
+    pub fn cost(&self) -> (u64, u64, u64, u64) {
+        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.substeps, self.sys.parts)
     }
 
     /// The step's failure as the engine reports it, with what to change.
