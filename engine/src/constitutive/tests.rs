@@ -96,15 +96,28 @@ fn tangents_differentiate_the_stress() {
         build(&LawSpec::NeoHookean { shear_modulus: 1.5e6, lambda: 100e6 }),
         build(&LawSpec::Elastoplastic { young: 10e6, poisson: 0.45, yield_stress: 0.4e6, hardening: 1e6 }),
     ];
-    let f = Mat2::new(0.9, 0.15, -0.05, 1.08);
-    for law in &laws {
-        let h = History::default();
-        let a = law.tangent(&f, &h).expect("defined");
-        let b = central_tangent(|g| law.first_piola(g, &h).map(|(p, _)| p), &f).expect("defined");
-        let scale = law.moduli().p_wave();
-        for i in 0..4 {
-            for j in 0..4 {
-                close(a[i][j], b[i][j], 1e-7, scale, law.name());
+    // A general deformation, the reference state, a rotation, an equal stretch, stretches
+    // equal to 1e-9 and to 1e-5 (the closed forms' limits and quotients), a compression.
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    let cases = [
+        Mat2::new(0.9, 0.15, -0.05, 1.08),
+        Mat2::identity(),
+        Mat2::new(c, -s, s, c),
+        Mat2::new(1.1, 0.0, 0.0, 1.1),
+        Mat2::new(1.0 + 1e-9, 0.0, 0.0, 1.0),
+        Mat2::new(c, -s, s, c) * Mat2::new(0.95 + 1e-5, 0.0, 0.0, 0.95),
+        Mat2::new(0.7, 0.1, 0.05, 0.8),
+    ];
+    for f in &cases {
+        for law in &laws {
+            let h = History::default();
+            let a = law.tangent(f, &h).expect("defined");
+            let b = central_tangent(|g| law.first_piola(g, &h).map(|(p, _)| p), f).expect("defined");
+            let scale = law.moduli().p_wave();
+            for i in 0..4 {
+                for j in 0..4 {
+                    close(a[i][j], b[i][j], 1e-7, scale, law.name());
+                }
             }
         }
     }

@@ -11,6 +11,30 @@
 
 use crate::math::Real;
 
+/// `Σ a_k b_k` over the shorter of the two slices, in four interleaved partial sums: a single
+/// running sum waits on each addition (floating-point sums are not reordered by the compiler),
+/// four let the additions overlap and vectorise. The factorisation, the solves and the contact
+/// blocks spend nearly all their time here (measured: 47% of a dense compaction's run with
+/// one sum).
+#[inline(always)]
+pub fn dot(a: &[Real], b: &[Real]) -> Real {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0 as Real; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = (acc[0] + acc[2]) + (acc[1] + acc[3]);
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
+}
+
 /// A symmetric matrix of size `n` whose entries vanish beyond `bandwidth` from the diagonal,
 /// stored as its lower band row by row: entry `(i, j)`, `i - bandwidth <= j <= i`, at
 /// `i (bandwidth + 1) + j + bandwidth - i`.
@@ -99,9 +123,7 @@ impl Banded {
                 let k0 = lo.max(j.saturating_sub(bw));
                 let ri = i * stride + bw - i;
                 let rj = j * stride + bw - j;
-                let mut s = self.data[ri + j];
-                let (a, b) = (&self.data[ri + k0..ri + j], &self.data[rj + k0..rj + j]);
-                s -= a.iter().zip(b).map(|(x, y)| x * y).sum::<Real>();
+                let s = self.data[ri + j] - dot(&self.data[ri + k0..ri + j], &self.data[rj + k0..rj + j]);
                 if i == j {
                     if s.is_nan() || s <= 0.0 || s.is_infinite() {
                         return Err(i);
@@ -134,7 +156,7 @@ impl Banded {
         for i in r..self.n {
             let ri = i * stride + bw - i;
             let lo = i.saturating_sub(bw).max(r);
-            let s: Real = self.data[ri + lo..ri + i].iter().zip(&out[base + lo - r..base + i - r]).map(|(l, v)| l * v).sum();
+            let s = dot(&self.data[ri + lo..ri + i], &out[base + lo - r..base + i - r]);
             let mut rhs = 0.0;
             if next < b.len() && b[next].0 == i {
                 rhs = b[next].1;
@@ -152,7 +174,7 @@ impl Banded {
         for i in 0..self.n {
             let lo = i.saturating_sub(bw);
             let ri = i * stride + bw - i;
-            let s: Real = self.data[ri + lo..ri + i].iter().zip(&x[lo..i]).map(|(l, v)| l * v).sum();
+            let s = dot(&self.data[ri + lo..ri + i], &x[lo..i]);
             x[i] = (x[i] - s) / self.data[ri + i];
         }
         for i in (0..self.n).rev() {

@@ -60,6 +60,7 @@
 //! sweeps converge to the solution of the full coupled problem (each visit reads the
 //! velocities the other contacts left).
 
+use super::banded::dot;
 use super::field::Field;
 use super::grid::V2;
 use super::points::Points;
@@ -292,8 +293,7 @@ impl GrainContacts {
             for y in 0..=x {
                 let (oy, s) = at[y];
                 let from = r.max(s);
-                let (a, b) = (&ys[ox + from - r..ox + size - r], &ys[oy + from - s..oy + size - s]);
-                let dot: Real = a.iter().zip(b).map(|(p, q)| p * q).sum();
+                let dot = dot(&ys[ox + from - r..ox + size - r], &ys[oy + from - s..oy + size - s]);
                 self.inverse[x * m + y] = dot;
                 self.inverse[y * m + x] = dot;
             }
