@@ -303,11 +303,6 @@ impl System {
         Ok(report)
     }
 
-    /// The level the next step starts at: it is done as `2^depth` equal parts.
-    pub fn depth(&self) -> u32 {
-        self.depth
-    }
-
     /// Advances by `dt`, splitting it on a recoverable failure (`depth` halvings of the step so
     /// far); returns the cost and the deepest level a part needed.
     fn advance(&mut self, dt: Real, depth: u32) -> Result<(StepReport, u32), StepFailure> {
