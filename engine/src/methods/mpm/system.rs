@@ -347,7 +347,7 @@ impl System {
             }
         }
         // 2. The candidate contacts.
-        self.detect(dt);
+        self.detect();
         let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };
         // 3. Newton.
         // The velocity scale: the walls', gravity's over the step, and at least a thousandth of
@@ -453,7 +453,7 @@ impl System {
 
     /// Finds the candidate contacts of the step, their frames, gaps, laws and warm starts, and
     /// each grain's contact nodes.
-    fn detect(&mut self, dt: Real) {
+    fn detect(&mut self) {
         let (grid, h) = (self.grid, self.grid.h);
         // Grid node, grain, local node, for every node with mass.
         let mut at: Vec<(usize, u32, u32)> = Vec::new();
@@ -636,7 +636,7 @@ impl System {
                     (Other::Wall(k.wall), friction, at_a)
                 }
             };
-            self.push_contact(k.node, at, k.a, support_a, b, k.n, gap, friction, end, dt);
+            self.push_contact(k.node, at, k.a, support_a, b, k.n, gap, friction, end);
         }
     }
 
@@ -679,21 +679,10 @@ impl System {
     /// Adds a contact of the step, warm-started, and enters it at grain `a` with its sample
     /// (grain `b`'s, if any, is entered).
     #[allow(clippy::too_many_arguments)]
-    fn push_contact(
-        &mut self,
-        node: usize,
-        at: V2,
-        a: u32,
-        support: Support,
-        b: Other,
-        n: V2,
-        gap: Real,
-        friction: Real,
-        ends: [End; 2],
-        dt: Real,
-    ) {
+    fn push_contact(&mut self, node: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real, ends: [End; 2]) {
         let frame = ContactFrame::new(2, Vec3::new(n.x, n.y, 0.0));
-        let law = LocalLaw { target: (-gap / dt).min(0.0), friction, cohesion: 0.0, viscosity: 0.0 };
+        // The Signorini target is set by the step's first iterations (`solve_contacts`).
+        let law = LocalLaw { target: 0.0, friction, cohesion: 0.0, viscosity: 0.0 };
         let index = self.contacts.len() as u32;
         let slot = self.sides[a as usize].push(support, index, true);
         let mut contact = NodalContact {
@@ -790,7 +779,6 @@ impl System {
                 }
                 Other::Wall(k) => self.walls[k as usize].velocity,
             };
-            let n = V2::new(c.frame.n.x, c.frame.n.y);
             let t = V2::new(c.frame.t1.x, c.frame.t1.y);
             c.w = Delassus { n: n.dot(&(w * n)), t: t.dot(&(w * t)) };
             let u_n = (ua - ub).dot(&n);
