@@ -20,4 +20,4 @@ pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, She
 pub use power::{power_fit, PowerFit};
 pub use results::{Analysis, ExperimentResult};
 pub use sample::{DeformableSample, Sample, SolverSample, StrainSample, Stress, WallSample};
-pub use snapshot::{Snapshot, WallFace};
+pub use snapshot::{MaterialPoints, Snapshot, WallFace};

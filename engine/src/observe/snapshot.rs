@@ -48,6 +48,28 @@ pub struct Snapshot {
     pub walls: Vec<WallFace>,
     /// The rotating drum, if any.
     pub drum: Option<DrumShell>,
+    /// The material points of deformable grains (MPM), if the method has them: the grains'
+    /// shapes, where `position` and `radius` hold only their equivalent disks.
+    pub material_points: Option<MaterialPoints>,
+}
+
+/// The material points of deformable grains at one step, for drawing: each point the
+/// parallelogram its deformation gradient `F` makes of the square it stood for when placed,
+/// so that the points of a grain tile its current shape.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MaterialPoints {
+    /// Grain of each point (index of the particle it belongs to).
+    pub grain: Vec<u32>,
+    /// The four corners of each point's parallelogram, counter-clockwise, m (z = 0).
+    pub corners: Vec<[Vec3; 4]>,
+    /// `det F`: the point's current area over its initial area.
+    pub jacobian: Vec<Real>,
+    /// Pressure `−tr σ / 3` of the Cauchy stress (σ_zz included: plane strain), Pa.
+    pub pressure: Vec<Real>,
+    /// Von Mises equivalent stress `sqrt(3/2 s:s)` of the Cauchy stress, Pa.
+    pub mises: Vec<Real>,
+    /// Velocity, m/s.
+    pub velocity: Vec<Vec3>,
 }
 
 /// Segments of the drum's surface drawn (a polygon of this many sides).

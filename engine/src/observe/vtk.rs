@@ -2,7 +2,8 @@
 //!
 //! For each snapshot `k` a series writes three files: `particles_<k>.vtp` (one vertex per particle
 //! with point arrays `radius`, `velocity`, `omega`, `force`, `coordination`; show them with the
-//! Glyph filter, sphere glyphs scaled by `radius`, scale factor 2), `contacts_<k>.vtp` (one line
+//! Glyph filter, sphere glyphs scaled by `radius`, scale factor 2; for deformable grains one
+//! quad per material point instead, [`material_points_vtp`]), `contacts_<k>.vtp` (one line
 //! per contact from the centre of i to the centre of j's interacting image — lines never cross a
 //! periodic box — with cell arrays `normal_force` (N, positive in compression),
 //! `tangential_force` (N, magnitude), `force` (N, on i), `branch` (m, `r_i - r_j`), `bonded`;
@@ -15,7 +16,7 @@ use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::snapshot::{Snapshot, DRUM_SEGMENTS};
+use super::snapshot::{MaterialPoints, Snapshot, DRUM_SEGMENTS};
 use crate::math::{Real, Vec3};
 
 /// Errors of the snapshot writer.
@@ -90,8 +91,12 @@ fn poly_data(points: &[Vec3], topology: &str, connectivity: &[Vec<usize>], point
     out
 }
 
-/// The particles as vertices with their point arrays.
+/// The particles as vertices with their point arrays; deformable grains as their material
+/// points ([`material_points_vtp`]).
 pub fn particles_vtp(s: &Snapshot) -> String {
+    if let Some(m) = &s.material_points {
+        return material_points_vtp(m);
+    }
     let mut pd = String::new();
     scalar_array(&mut pd, "radius", "Float64", s.radius.iter().map(|&r| sci(r)));
     vec_array(&mut pd, "velocity", s.velocity.iter().copied());
@@ -100,6 +105,23 @@ pub fn particles_vtp(s: &Snapshot) -> String {
     scalar_array(&mut pd, "coordination", "Int32", s.coordination().into_iter());
     let verts: Vec<Vec<usize>> = (0..s.position.len()).map(|k| vec![k]).collect();
     poly_data(&s.position, "Verts", &verts, &pd, "")
+}
+
+/// Deformable grains as their material points: one quad per point (the parallelogram `F`
+/// makes of its initial square) with cell arrays `grain`, `jacobian` (`det F`), `pressure` and
+/// `mises` (Pa) and `velocity` (m/s). Colour by `grain` to see the grains' shapes, by
+/// `pressure` to see the stress; where two grains' quads overlap, their contact let them
+/// interpenetrate.
+pub fn material_points_vtp(m: &MaterialPoints) -> String {
+    let points: Vec<Vec3> = m.corners.iter().flatten().copied().collect();
+    let quads: Vec<Vec<usize>> = (0..m.corners.len()).map(|k| (4 * k..4 * k + 4).collect()).collect();
+    let mut cd = String::new();
+    scalar_array(&mut cd, "grain", "Int32", m.grain.iter());
+    scalar_array(&mut cd, "jacobian", "Float64", m.jacobian.iter().map(|&x| sci(x)));
+    scalar_array(&mut cd, "pressure", "Float64", m.pressure.iter().map(|&x| sci(x)));
+    scalar_array(&mut cd, "mises", "Float64", m.mises.iter().map(|&x| sci(x)));
+    vec_array(&mut cd, "velocity", m.velocity.iter().copied());
+    poly_data(&points, "Polys", &quads, "", &cd)
 }
 
 /// The contact network: one line per particle-particle contact.
@@ -321,6 +343,7 @@ mod tests {
                 WallFace { name: "z_max".into(), axis: 2, position: 0.01, normal: -Vec3::z(), force: Vec3::zeros() },
             ],
             drum: None,
+            material_points: None,
         }
     }
 
@@ -434,5 +457,31 @@ mod tests {
             assert!(dir.join(&name).is_file(), "{name}");
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Deformable grains are drawn as one quad per material point with its cell arrays.
+    #[test]
+    fn material_points_are_quads_with_their_arrays() {
+        let mut s = scene();
+        let sq = |x: f64| [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1e-4, 0.0, 0.0), Vec3::new(x + 1e-4, 1e-4, 0.0), Vec3::new(x, 1e-4, 0.0)];
+        s.material_points = Some(MaterialPoints {
+            grain: vec![0, 1],
+            corners: vec![sq(0.0), sq(2e-4)],
+            jacobian: vec![1.0, 0.98],
+            pressure: vec![0.0, 1.5e4],
+            mises: vec![0.0, 2.0e3],
+            velocity: vec![Vec3::zeros(), Vec3::new(0.1, 0.0, 0.0)],
+        });
+        let text = particles_vtp(&s);
+        let doc = roxmltree::Document::parse(&text).expect("valid XML");
+        let p = piece(&doc);
+        assert_eq!(p.attribute("NumberOfPoints"), Some("8"));
+        assert_eq!(p.attribute("NumberOfPolys"), Some("2"));
+        assert_eq!(p.attribute("NumberOfVerts"), Some("0"));
+        assert_eq!(array(&doc, "grain"), vec![0.0, 1.0]);
+        assert_eq!(array(&doc, "pressure"), vec![0.0, 1.5e4]);
+        assert_eq!(array(&doc, "jacobian"), vec![1.0, 0.98]);
+        assert_eq!(array(&doc, "offsets"), vec![4.0, 8.0]);
+        assert_eq!(array(&doc, "velocity"), vec![0.0, 0.0, 0.0, 0.1, 0.0, 0.0]);
     }
 }

@@ -1170,6 +1170,7 @@ impl Simulation for Cd {
                 let loads = self.contacts.iter().filter(|c| c.j == Side::Boundary(drum)).map(|c| (p.pos[c.i as usize], c.force(self.h)));
                 d.shell(loads)
             }),
+            material_points: None,
         }
     }
 

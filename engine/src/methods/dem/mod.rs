@@ -880,6 +880,7 @@ impl Simulation for Dem {
                 let slot = self.walls.len() as u16;
                 d.shell(self.wall_contacts.iter().filter(|c| c.w == slot).map(|c| (p.pos[c.i as usize], c.force)))
             }),
+            material_points: None,
         }
     }
 }

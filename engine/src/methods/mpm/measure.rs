@@ -6,7 +6,7 @@ use super::contact::Other;
 use super::grid::V2;
 use super::system::System;
 use crate::math::{Real, Vec3};
-use crate::observe::ContactRecord;
+use crate::observe::{ContactRecord, MaterialPoints};
 
 /// One grain now.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,6 +61,39 @@ impl System {
                 GrainState { centroid, velocity, mass: m, area, aspect_ratio }
             })
             .collect()
+    }
+
+    /// The points for drawing ([`MaterialPoints`]): each one's parallelogram, `det F`, the
+    /// pressure and von Mises stress of its Cauchy stress `τ / J` (zero where the law is
+    /// undefined: a snapshot never fails).
+    pub fn material_points(&self) -> MaterialPoints {
+        let pts = &self.points;
+        let mut out = MaterialPoints::default();
+        let v3 = |v: V2| Vec3::new(v.x, v.y, 0.0);
+        for (g, grain) in self.grains.iter().enumerate() {
+            let law = self.laws[grain.law].as_ref();
+            for p in grain.points.clone() {
+                let f = pts.f[p];
+                let half = 0.5 * pts.side0[p];
+                let corner = |a: Real, b: Real| v3(pts.x[p] + f * V2::new(a * half, b * half));
+                out.grain.push(g as u32);
+                out.corners.push([corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]);
+                let j = f.determinant();
+                out.jacobian.push(j);
+                let (pressure, mises) = match law.response(&f, &pts.history[p]) {
+                    Some(r) if j > 0.0 => {
+                        let mean = r.tau.trace() / (3.0 * j);
+                        let dev = (r.tau.norm_squared() / (j * j) - 3.0 * mean * mean).max(0.0);
+                        (-mean, (1.5 * dev).sqrt())
+                    }
+                    _ => (0.0, 0.0),
+                };
+                out.pressure.push(pressure);
+                out.mises.push(mises);
+                out.velocity.push(v3(pts.v[p]));
+            }
+        }
+        out
     }
 
     /// Smallest `det F` over the points (1 without any).

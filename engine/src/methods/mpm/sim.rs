@@ -386,6 +386,7 @@ impl Simulation for Mpm {
             contacts: contacts.into_iter().filter(|c| c.bears_load()).collect(),
             walls: world::wall_faces(&self.walls),
             drum: None,
+            material_points: Some(self.sys.material_points()),
         }
     }
 
