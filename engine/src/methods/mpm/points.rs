@@ -71,8 +71,12 @@ impl Points {
         self.f[p].determinant() * self.vol0[p]
     }
 
-    /// Half the extent of point `p` along the unit direction `n`: the parallelogram
-    /// `F (side0 [-½, ½]²)` projected on `n`, m.
+    /// Half the extent of point `p` along the unit direction `n`, m: that of the ellipse `F`
+    /// makes of the disk inscribed in its initial square, `½ side0 |Fᵀ n|`: a point's stretch
+    /// moves the grain's surface, its rotation does not. (The parallelogram `F` makes of the
+    /// square grows by up to √2 along `n` as the point turns, and the outer points of pressed
+    /// grains turn most; with it the 12-grain CI compaction reached Φ = 0.90 with 4.2% of the
+    /// box covered twice or beyond a wall, with the ellipse 2.6%.)
     #[inline(always)]
     pub fn half_extent(&self, p: usize, n: &V2) -> Real {
         self.half_extent_of(&self.f[p], p, n)
@@ -82,7 +86,7 @@ impl Points {
     pub fn half_extent_of(&self, f: &Mat2, p: usize, n: &V2) -> Real {
         let a = n.x * f[(0, 0)] + n.y * f[(1, 0)];
         let b = n.x * f[(0, 1)] + n.y * f[(1, 1)];
-        0.5 * self.side0[p] * (a.abs() + b.abs())
+        0.5 * self.side0[p] * (a * a + b * b).sqrt()
     }
 
     /// Heap bytes held.

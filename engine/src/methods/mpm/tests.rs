@@ -417,3 +417,61 @@ fn a_squeezed_block_follows_each_law() {
     eprintln!("stored energy against the work of the ramp (linear elastic, neo-Hookean): {energy:?}");
     assert!(energy.iter().all(|&e| e < 2e-2), "stored energy off the work put in: {energy:?}");
 }
+
+/// A point's half extent along a direction is that of the ellipse `F` makes of its inscribed
+/// disk: unchanged by a rotation, scaled by a stretch along the direction, and on a flat face
+/// the square's (half its side).
+#[test]
+fn a_point_extent_follows_its_stretch_not_its_rotation() {
+    let mut points = Points::default();
+    points.push(V2::zeros(), V2::zeros(), 0.2, 1000.0);
+    let n = V2::new(0.6, 0.8);
+    assert!((points.half_extent(0, &n) - 0.1).abs() < 1e-15);
+    for angle in [0.3, 0.785, 1.2, -2.0] {
+        let (c, s) = (Real::cos(angle), Real::sin(angle));
+        points.f[0] = crate::constitutive::Mat2::new(c, -s, s, c);
+        assert!((points.half_extent(0, &n) - 0.1).abs() < 1e-14, "turned by {angle}: {}", points.half_extent(0, &n));
+    }
+    // Stretched by 0.9 along y: along y the extent shrinks by 0.9, along x it keeps.
+    points.f[0] = crate::constitutive::Mat2::new(1.0, 0.0, 0.0, 0.9);
+    assert!((points.half_extent(0, &V2::new(0.0, 1.0)) - 0.09).abs() < 1e-15);
+    assert!((points.half_extent(0, &V2::new(-1.0, 0.0)) - 0.1).abs() < 1e-15);
+}
+
+/// The points drawn in a snapshot: the parallelograms of a block under a homogeneous
+/// deformation tile its current area, and each carries `det F` and the Cauchy pressure and von
+/// Mises stress of the law in closed form (linear elasticity on the logarithmic strain under
+/// `F = diag(1 + ε, 1)`: `τ = λ tr(e) I + 2μ e`, `e = diag(ln(1 + ε), 0, 0)`).
+#[test]
+fn snapshot_points_tile_the_grain_with_its_stress() {
+    let (young, nu, eps) = (1e6, 0.3, -0.02);
+    let mut points = Points::default();
+    let range = points.fill_rectangle(V2::new(0.0, 0.0), V2::new(1.0, 0.5), 0.1, |_| V2::new(0.0, 0.25), 1000.0);
+    let f = crate::constitutive::Mat2::new(1.0 + eps, 0.0, 0.0, 1.0);
+    for p in range.clone() {
+        points.f[p] = f;
+        points.x[p].x *= 1.0 + eps;
+    }
+    let grid = Grid::covering(V2::new(0.0, 0.0), V2::new(1.0, 0.5), 0.2, 4);
+    let grains = vec![Grain { points: range.clone(), law: 0, friction: 0.0, radius: 0.5 }];
+    let sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![], settings(1.0));
+    let drawn = sys.material_points();
+    assert_eq!(drawn.corners.len(), range.len());
+    let area: Real =
+        drawn.corners.iter().map(|c| 0.5 * (0..4).map(|k| c[k].x * c[(k + 1) % 4].y - c[(k + 1) % 4].x * c[k].y).sum::<Real>()).sum();
+    assert!((area - 0.5 * (1.0 + eps)).abs() < 1e-12, "quads cover {area} (counter-clockwise: positive)");
+    let m = crate::constitutive::Lame::from_young(young, nu);
+    let e = (1.0 + eps).ln();
+    let j = 1.0 + eps;
+    let (txx, tyy, tzz) = (m.lambda * e + 2.0 * m.mu * e, m.lambda * e, m.lambda * e);
+    let mean = (txx + tyy + tzz) / (3.0 * j);
+    let dev = ((txx / j - mean).powi(2) + (tyy / j - mean).powi(2) + (tzz / j - mean).powi(2)) * 1.5;
+    for k in 0..drawn.corners.len() {
+        assert!((drawn.jacobian[k] - j).abs() < 1e-15);
+        assert!((drawn.pressure[k] + mean).abs() < 1e-6 * mean.abs(), "pressure {} against {}", drawn.pressure[k], -mean);
+        assert!((drawn.mises[k] - dev.sqrt()).abs() < 1e-6 * dev.sqrt(), "von Mises {} against {}", drawn.mises[k], dev.sqrt());
+        assert_eq!(drawn.grain[k], 0);
+        assert!((drawn.velocity[k].y - 0.25).abs() < 1e-15);
+    }
+    assert!(drawn.pressure[0] > 0.0, "compressed along x: positive pressure");
+}
