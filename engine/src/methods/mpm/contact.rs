@@ -71,9 +71,12 @@
 //! the levels where each grain's interpolated density `Σ N_i m_i / h²` crosses half its
 //! material's (smooth as points move) was tried on the CI compaction and was worse: 3.6% at
 //! Φ 0.90, and 0.8% already at Φ 0.73 where the extents give 0.1% — that level lies inside the
-//! round grains' outer points. Still to try: a gap carried from step to step by the contact's
-//! own kinematics (measured only when the contact is born, and across a column's change of
-//! node), or contacts per outer point instead of per column.
+//! round grains' outer points. So was a gap carried from step to step by the contact's
+//! prediction (measured only when a contact is born): 3.6% at Φ 0.90, 0.3% already at Φ 0.67
+//! — the samples' relative motion is not the surfaces', and the difference accumulates
+//! unseen. Still to try: contacts per outer point (each point of a grain's surface against the
+//! other grain's surface near it) instead of per column, so that no point enters or leaves a
+//! contact's measure while the contact lasts.
 //!
 //! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
 //! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
