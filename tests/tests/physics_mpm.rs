@@ -41,10 +41,10 @@ fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Samp
 /// in agreement (the walls carry what crosses the packing), the grains carry force (Z > 2) and
 /// flatten (aspect ratio > 1), and no energy is created. Measured: Φ 0.9005 (6 s), Love–Weber
 /// σ_yy 1.4% below the top wall's 421 kPa, Z 3.00, aspect ratio 1.071 (max 1.175), smallest J
-/// 0.929, interpenetration 0.026 (the grains' union fills Φ 0.87: grains overlap where the
-/// fast compaction drives them together between the contacts' columns, and the outer points
-/// that turn away from their grain's surface overlap their neighbours' in the measure; it is
-/// bounded here so that it cannot grow unseen). With a point's extent taken from its
+/// 0.929, interpenetration 0.026 (the grains' union fills Φ 0.87: the contacts' gaps, measured
+/// anew each step, jump as points enter and leave their columns, and an overlap once measured
+/// is kept — the ratchet of `methods::mpm::contact`'s documentation; it is bounded here so that
+/// it cannot grow unseen). With a point's extent taken from its
 /// parallelogram instead of its ellipse ([`Points::half_extent`]'s documentation) the same Φ
 /// came at 377 kPa with an interpenetration of 0.042, with the contacts on the nodes'
 /// velocities at 155 kPa and 0.058: the point clouds overlapped instead of deforming. The top
