@@ -74,7 +74,10 @@
 //! round grains' outer points. So was a gap carried from step to step by the contact's
 //! prediction (measured only when a contact is born): 3.6% at Φ 0.90, 0.3% already at Φ 0.67
 //! — the samples' relative motion is not the surfaces', and the difference accumulates
-//! unseen. Still to try: contacts per outer point (each point of a grain's surface against the
+//! unseen. So was a column whose surface is the lower envelope of the points' caps
+//! (`ξ − e + a²/2e` for a point `a` across the column's line, continuous as points move):
+//! 3.9% at Φ 0.90, 0.45% already at Φ 0.67 — a cap is rounder than the point's square, and
+//! the corners between columns overlap. Still to try: contacts per outer point (each point of a grain's surface against the
 //! other grain's surface near it) instead of per column, so that no point enters or leaves a
 //! contact's measure while the contact lasts.
 //!
