@@ -79,9 +79,10 @@
 //! 3.9% at Φ 0.90, 0.45% already at Φ 0.67 — a cap is rounder than the point's square, and
 //! the corners between columns overlap. So were points as ellipses of their own area (`F`
 //! of the disk of radius `side0 / √π`) for the gap — where the column's line crosses them —
-//! and for the interpenetration raster alike: 4.3% at Φ 0.90, 0.3% at Φ 0.67. Still to try: contacts per outer point (each point of a grain's surface against the
-//! other grain's surface near it) instead of per column, so that no point enters or leaves a
-//! contact's measure while the contact lasts.
+//! and for the interpenetration raster alike: 4.3% at Φ 0.90, 0.3% at Φ 0.67. Still to try:
+//! contacts per outer point (each point of a grain's surface against the other grain's
+//! surface near it) instead of per column, so that no point enters or leaves a contact's
+//! measure while the contact lasts.
 //!
 //! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
 //! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
