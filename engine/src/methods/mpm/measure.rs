@@ -74,10 +74,8 @@ impl System {
             let law = self.laws[grain.law].as_ref();
             for p in grain.points.clone() {
                 let f = pts.f[p];
-                let half = 0.5 * pts.side0[p];
-                let corner = |a: Real, b: Real| v3(pts.x[p] + f * V2::new(a * half, b * half));
                 out.grain.push(g as u32);
-                out.corners.push([corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]);
+                out.corners.push(pts.parallelogram(p).map(v3));
                 let j = f.determinant();
                 out.jacobian.push(j);
                 let (pressure, mises) = match law.response(&f, &pts.history[p]) {
@@ -180,17 +178,21 @@ impl System {
                 let f = pts.f[p];
                 let Some(inv) = f.try_inverse() else { continue };
                 let half = 0.5 * pts.side0[p];
-                // The parallelogram's bounding box: half-extents |F| (half, half).
-                let ex = half * (f[(0, 0)].abs() + f[(0, 1)].abs());
-                let ey = half * (f[(1, 0)].abs() + f[(1, 1)].abs());
-                let x = pts.x[p];
+                // The parallelogram's bounding box.
+                let corners = pts.parallelogram(p);
+                let (mut min, mut max) = (corners[0], corners[0]);
+                for corner in &corners[1..] {
+                    min = min.inf(corner);
+                    max = max.sup(corner);
+                }
                 let span = |lo: Real, hi: Real, o: Real, n: usize| {
                     let a = ((lo - o) / c).floor().max(0.0) as usize;
                     let b = (((hi - o) / c).ceil().max(0.0) as usize).min(n);
                     a..b
                 };
-                for j in span(x.y - ey, x.y + ey, m0.y, ny) {
-                    for i in span(x.x - ex, x.x + ex, m0.x, nx) {
+                let x = pts.x[p];
+                for j in span(min.y, max.y, m0.y, ny) {
+                    for i in span(min.x, max.x, m0.x, nx) {
                         let q = inv * (cell(i, j) - x);
                         let k = i + nx * j;
                         if q.x.abs() <= half && q.y.abs() <= half && last[k] != g as u32 {

@@ -71,6 +71,14 @@ impl Points {
         self.f[p].determinant() * self.vol0[p]
     }
 
+    /// The corners of the parallelogram `F` makes of point `p`'s initial square, counter-clockwise
+    /// (m): the area the point covers now (`det F` times its initial area).
+    pub fn parallelogram(&self, p: usize) -> [V2; 4] {
+        let half = 0.5 * self.side0[p];
+        let corner = |a: Real, b: Real| self.x[p] + self.f[p] * V2::new(a * half, b * half);
+        [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]
+    }
+
     /// Half the extent of point `p` along the unit direction `n`, m: that of the ellipse `F`
     /// makes of the disk inscribed in its initial square, `½ side0 |Fᵀ n|`: a point's stretch
     /// moves the grain's surface, its rotation does not. (The parallelogram `F` makes of the
