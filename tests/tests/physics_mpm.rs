@@ -39,20 +39,19 @@ fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Samp
 /// the top wall compacts twelve disks past Φ = 0.9 without inverting a point; every sample
 /// keeps the grains' mass-weighted stress from the contacts (Love–Weber) and the walls' loads
 /// in agreement (the walls carry what crosses the packing), the grains carry force (Z > 2) and
-/// flatten (aspect ratio > 1), and no energy is created. Measured: Φ 0.9005 (6 s), Love–Weber
-/// σ_yy 1.4% below the top wall's 421 kPa, Z 3.00, aspect ratio 1.071 (max 1.175), smallest J
-/// 0.929, interpenetration 0.026 (the grains' union fills Φ 0.87: the contacts' gaps, measured
-/// anew each step, jump as points enter and leave their columns, and an overlap once measured
-/// is kept — the ratchet of `methods::mpm::contact`'s documentation; it is bounded here so that
-/// it cannot grow unseen). With a point's extent taken from its
-/// parallelogram instead of its ellipse ([`Points::half_extent`]'s documentation) the same Φ
-/// came at 377 kPa with an interpenetration of 0.042, with the contacts on the nodes'
-/// velocities at 155 kPa and 0.058: the point clouds overlapped instead of deforming. The top
-/// wall's stress at the last sample moved by 20% when only the order of a sum changed: one
-/// instant of a dense packing is that sensitive, so the test compares stresses measured at the
-/// same instant, not against a fixed value.
-///
-/// [`Points::half_extent`]: sable_engine::methods::mpm::points::Points::half_extent
+/// flatten (aspect ratio > 1), no energy is created, and the grains' outlines cover less than
+/// 0.8% of the box twice. Measured: Φ 0.9001 (7 s), the top wall at 457 kPa, aspect ratio
+/// 1.072, smallest J 0.909, Love–Weber σ_yy within 0.1% of it, interpenetration 0.0038 (the
+/// contacts measure their gaps between the outlines and take the outlines' turning and
+/// sliding within the step into account, the drift of `methods::mpm::contact`'s
+/// documentation). Before, with one contact per node column
+/// and its gap from the points in it, the same Φ came at 421 kPa with 2.6% of the box covered
+/// twice (then counted with the points' parallelograms): the gaps, measured anew each step,
+/// jumped as points entered and left the columns, and every overlap once measured was kept;
+/// with the contacts on the nodes' velocities at 155 kPa and 5.8%: the point clouds overlapped
+/// instead of deforming. The top wall's stress at the last sample moved by 20% when only the
+/// order of a sum changed: one instant of a dense packing is that sensitive, so the test
+/// compares stresses measured at the same instant, not against a fixed value.
 #[test]
 fn soft_grains_compact_past_phi_0_9() {
     let samples = run(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json"));
@@ -71,7 +70,7 @@ fn soft_grains_compact_past_phi_0_9() {
     let rel = (last.stress.yy - top.normal_stress).abs() / top.normal_stress;
     assert!(rel < 0.1, "Love–Weber σ_yy {} against the top wall's {} ({rel:.3})", last.stress.yy, top.normal_stress);
     assert!(d.dissipated_energy > -1e-3 * last.elastic_energy, "energy created: {}", d.dissipated_energy);
-    assert!(d.interpenetration < 0.035, "interpenetration {}", d.interpenetration);
+    assert!(d.interpenetration < 0.008, "interpenetration {}", d.interpenetration);
 }
 
 /// The same compaction on one and on two threads (the grains' fields are assembled, factorised
@@ -108,13 +107,15 @@ fn soft_grain_results_do_not_depend_on_the_thread_count() {
 /// with deformable grains): the four walls' stress servos press sixteen disks to 20 kPa
 /// until equilibrium, then the top wall moves down at a constant strain rate while the side
 /// walls hold 20 kPa. Checked: the prepared state's pressure within 5% of the target (the
-/// equilibrium criterion's default tolerance is 1%); the side walls within 15% of 20 kPa at
-/// every sample of the loading after its first tenth (the servo's lag behind a dilating
-/// sample of grains that resist being pressed into each other: measured 13.2%); the axial
-/// stress above the lateral one
+/// equilibrium criterion's default tolerance is 1%); over the loading after its first tenth,
+/// the side walls within 10% of 20 kPa on average and 20% at every sample (the servo lags by
+/// `n E' dt ε̇_lat` behind the sample's lateral strain rate, at most half the error a step
+/// for the grains' modulus `E'`, and a rearrangement moves the stress faster than it follows:
+/// measured 6.5% on average, 16.6% at the worst sample, one where the packing rearranged;
+/// at a strain rate of 2/s the worst was 18%); the axial stress above the lateral one
 /// (ζ = q/p > 0.1 at the end: frictional grains resist the deviator); Love–Weber p within 10%
-/// of the walls' mean stress; no inverted point. Measured: prepared Φ 0.782 at 19.7 kPa, ζ 0.48
-/// at 3% axial strain; about 2 minutes.
+/// of the walls' mean stress; no inverted point. Measured: prepared Φ 0.791 at 20.0 kPa, ζ 0.48
+/// at 3% axial strain; about half a minute.
 #[test]
 fn soft_grains_go_through_a_biaxial_test() {
     let (samples, result) = run_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_biaxial_2d.json"), |_| {});
@@ -124,15 +125,18 @@ fn soft_grains_go_through_a_biaxial_test() {
     let loading: Vec<&Sample> = samples.iter().filter(|s| s.stage.as_deref() == Some("loading")).collect();
     let side = |s: &Sample| s.walls.iter().find(|w| w.name == "x_max").map(|w| w.normal_stress).expect("x_max");
     let top = |s: &Sample| s.walls.iter().find(|w| w.name == "y_max").map(|w| w.normal_stress).expect("y_max");
-    let worst_side = loading[loading.len() / 10..].iter().map(|s| (side(s) / 2e4 - 1.0).abs()).fold(0.0, f64::max);
+    let after = &loading[loading.len() / 10..];
+    let worst_side = after.iter().map(|s| (side(s) / 2e4 - 1.0).abs()).fold(0.0, f64::max);
+    let mean_side = after.iter().map(|s| (side(s) / 2e4 - 1.0).abs()).sum::<f64>() / after.len() as f64;
     let walls_p = 0.5 * (side(last) + top(last));
     let d = last.deformable.as_ref().expect("deformable sample");
     eprintln!(
-        "prepared Φ {:.4} Z {:.3} p {:.4e}; end: Φ {:.4} ζ {:.3} p {:.4e} (walls {:.4e}), side walls worst {:.3}, J_min {:.3}, {} samples ({} loading), peak {:?}",
+        "prepared Φ {:.4} Z {:.3} p {:.4e}; end: Φ {:.4} ζ {:.3} p {:.4e} (walls {:.4e}), side walls mean {mean_side:.3} worst {:.3}, J_min {:.3}, {} samples ({} loading), peak {:?}",
         prepared.phi, prepared.z, prepared.p, last.phi, last.mu, last.p, walls_p, worst_side, d.min_jacobian, samples.len(), loading.len(), result.peak
     );
     assert!((prepared.p / 2e4 - 1.0).abs() < 0.05, "prepared p {}", prepared.p);
-    assert!(worst_side < 0.15, "side walls off their 20 kPa by {worst_side:.3}");
+    assert!(mean_side < 0.1, "side walls off their 20 kPa by {mean_side:.3} on average");
+    assert!(worst_side < 0.2, "side walls off their 20 kPa by {worst_side:.3}");
     assert!(last.mu > 0.1, "ζ {}", last.mu);
     assert!((last.p / walls_p - 1.0).abs() < 0.1, "Love–Weber p {} against the walls' {}", last.p, walls_p);
     assert!(d.min_jacobian > 0.0);

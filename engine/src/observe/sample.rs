@@ -106,10 +106,9 @@ pub struct DeformableSample {
     /// equal steps of a linear ramp; less as steps are finer), besides plasticity, the
     /// inelastic contacts and PIC's velocity averaging.
     pub dissipated_energy: f64,
-    /// The area the grains cover twice or that lies beyond the walls, as a fraction of the
-    /// box's area: how far the point clouds of touching grains interpenetrate (their contacts
-    /// hold at grid nodes, not at every point). `phi` less it is the packing fraction of the
-    /// grains' union inside the box.
+    /// The area the grains' outlines cover twice or that lies beyond the walls, as a fraction
+    /// of the box's area: how far touching grains interpenetrate. `phi` less it is the packing
+    /// fraction of the grains' union inside the box.
     #[serde(default)]
     pub interpenetration: f64,
     /// Newton iterations on the step before the sample.

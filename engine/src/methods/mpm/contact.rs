@@ -1,88 +1,66 @@
-//! Contact between grains and with walls, found at the nodes of the grid (the multi-field
-//! method of the sources: the habilitation N 1.2.2; Nezamabadi et al., Comput. Phys. Commun.
-//! 237, 17, 2019) and acting at the grains' outer material points, solved by the shared
-//! contact solver ([`crate::nscd`]).
+//! Contact between grains and with walls, measured between the grains' outlines
+//! ([`super::outline`]) and acting through their own nodal fields, solved by the shared
+//! contact solver ([`crate::nscd`]): the multi-field method of the sources (the habilitation
+//! N 1.2.2; Nezamabadi et al., Comput. Phys. Commun. 237, 17, 2019) — each grain its own
+//! field, so that grains touch, slide and part by contact, not through a shared grid.
 //!
-//! **Candidates.** Every grid node where two grains both have mass is a candidate contact
-//! between them; a node of a grain within two cells and a half of a wall is one between the
-//! grain and the wall. The normal, from the second member towards the first, is that of the
-//! two mass fields, `n = (∇m_a − ∇m_b) / |∇m_a − ∇m_b|` (Bardenhagen et al. 2001), or the
-//! wall's.
+//! **Candidates.** Every vertex of a grain's outline within a cell of a wall, and every vertex
+//! of a grain's outline within a cell of the outline of a grain of higher index (the pairs
+//! whose outlines' boxes come within a cell). One side only: between two convex outlines the
+//! other grain's vertices can then cross a segment by at most the sagitta of a chord a cell
+//! long.
 //!
-//! **Gap.** Nodes are shared a cell and a half before the grains touch, so the mass fields
-//! alone would make grains collide early. The gap along `n` at the node is measured from the
-//! points of each grain in the node's own column (within half a cell across the normal):
-//! each point covers the parallelogram its deformation gradient makes of the square it was
-//! placed as, and the gap is the distance between grain `a`'s nearest extent and grain `b`'s
-//! (or the wall's plane). Only the node of each column within half a cell of the interface
-//! along the normal is a contact: two grains share three rows of nodes around their interface
-//! (quadratic splines reach a cell and a half), and a contact in every row locks a layer a
-//! cell thick into a rigid punch.
+//! **Gap and normal.** From the vertex to the nearest segment of the other outline, along that
+//! segment's outward normal (negative inside), or to the wall's plane; the normal points from
+//! the second member towards the first.
 //!
-//! **Where a contact acts.** On each grain, at the centre of the point that sets its extent
-//! (its depth along the normal), placed across the normal where the column's material is (the
-//! mass-weighted mean: a column at a grain's edge holds material on one side of its node
-//! only). The contact's velocity there is `Σ N_k(x_s) v_k` over the grain's nodes and its
-//! impulse goes to them by the same weights ([`Support`]), so that the point that would pass
-//! the other member moves with the constrained velocity. Two other places were tried and
-//! measured on a disk squeezed between walls and on 16 disks pressed to 100 kPa (the grains of
-//! `scenes/mpm_biaxial_2d.json`):
-//! - the node's own velocity (the sources' nodal contact): the point clouds pass through each
-//!   other and the walls while the nodes stay apart; the 16 disks reached Φ = 0.97 at 22 kPa
-//!   with 7% of the box covered twice or beyond a wall;
-//! - the grain's surface in the column (the point's extent, half a point spacing further out):
-//!   exact on a flat face (a squeezed block's force within 0.25%), but on a round grain the
-//!   wall crushes the outer points, which take the constraint through nodes that carry almost
-//!   no mass, instead of pushing the grain (a disk squeezed to 10% pressed back at 3% of the
-//!   force): the same 7%.
+//! **How a contact moves.** A vertex `x_p + F_p o` moves over a step by
+//! `Σ u_i (N_i(x_p) + ∇N_i(x_p) · F_p o)` for the nodal displacements `u_i` — its point's
+//! displacement and the change of its `F`, as the points are moved — so the contact's
+//! velocity is `Σ w_i v_i` with those weights (on the other side the place between the
+//! segment's two vertices, their weights blended), and its impulse reaches the nodes by the
+//! same weights ([`Support`]): the step keeps the gap it predicts, and the contact does no
+//! work its kinematics do not see. The price is the outer layer: the traction reaches the
+//! grid through the outer points' fields extrapolated linearly to the outline, which with
+//! quadratic splines loads the outer nodes a sixteenth more than the splines' values there,
+//! and the outer points take more of the strain than the bulk (a squeezed block's wall force
+//! 4.7% low at 10 cells, 3.2% at 20; an elastic disk's Hertz half-width 2.6% narrow at 20
+//! cells across the radius, settling about 4.5% narrow). Measured before, with the same
+//! solver:
+//! - contacts on the nodes' velocities (the sources' nodal contact): the point clouds pass
+//!   through each other and the walls while the nodes stay apart; 16 disks pressed to 100 kPa
+//!   reached Φ = 0.97 at 22 kPa with 7% of the box covered twice or beyond a wall;
+//! - one contact per node column, acting at the centre of the column's outermost point, its
+//!   gap from the points' extents and their growth over the step as the target: a squeezed
+//!   block within 0.8%, but pressed grains overlapped — 2.6% of the box at Φ 0.90 on the
+//!   12-grain CI compaction, 3.3% at Φ 0.937 on the 300-grain one, most of the densification
+//!   past Φ 0.9 — because the gap, measured anew each step from the points then in the
+//!   column, jumped both ways as points entered and left it, and a bound that never pushes
+//!   apart kept every jump shut (a ratchet; summed over the CI run, 0.054 m shut and 0.072 m
+//!   born overlapping). Smoothed measures of the same columns (a half-density level, the
+//!   envelope of the points' caps, the points as ellipses) gave 3.6 to 4.3%; pushing overlaps
+//!   apart at a fiftieth a step created energy at full size (7 J/m against 23 stored).
 //!
-//! At the points' centres the 16 disks stop at Φ = 0.838 at 99 kPa with 0.8% interpenetration;
-//! the price is a boundary layer: the wall's traction reaches the outer quarter cell through
-//! the grid (a squeezed block's force 0.8% off at ten cells, 4% for a law that yields).
+//! **Drift.** The contact's prediction is linear in the step's displacements. The outlines'
+//! gap at the step's end also holds what is not: the other outline turning and sliding under
+//! the vertex (a grain of the CI compaction spins up to 4,000 rad/s as the packing rearranges,
+//! 0.2 rad a step: the flat faces its neighbours pressed into it come round under their
+//! vertices). At the first `system::DRIFT_ITERATIONS` Newton iterates every outline
+//! is moved where the iterate takes it and each contact's gap measured anew; its difference
+//! from the linear prediction, the drift, joins the contact's target. Measured on the CI
+//! compaction at Φ 0.90: 3.2% of the box covered twice without the drift, 0.38% with it (0.24%
+//! with the drift measured at every iterate, 20% slower). Doing a step again in halves
+//! whenever it left a contact 2% of a cell deeper than allowed also worked there (0.25%), but
+//! split the 300-grain compaction's dense steps down to a sixteenth.
+//! The drift must be second order: with the contacts' impulses and velocities at the outer
+//! points' centres (the outline's offset from them left to the drift, or in the velocity
+//! only), the drift held most of the motion, changed after the iterates it was measured at,
+//! and the CI compaction reached 3.3 to 3.6% overlap.
 //!
 //! **Signorini condition.** On the relative normal velocity at the step's end:
-//! `U_n >= min(0, (−gap + Δe) / h)`, `Δe` how much the two points' half extents along `n`
-//! grew over the step at the Newton iterate (they shrink under compression, and the surfaces
-//! then meet after the centres have closed the gap and that much more). A contact with a
-//! positive gap may close it within the step and no more (CD's near pairs), and no contact
-//! pushes the grains apart (no restitution: grains rebound by their elasticity). The growth is
-//! taken at the first iterations of a step and then kept (`system::GROWTH_ITERATIONS`): a
-//! target moving with every iterate kept a dense packing's Newton iterations from converging.
-//! Without it, the lag of the surface behind the centre made a squeezed block's force 2.1%
-//! high.
-//!
-//! **Where pressed grains still overlap (open, issue 25).** A step keeps its prediction —
-//! measured on the 12-grain CI compaction, the contacts' overlaps at the step's end, predicted
-//! from the converged velocities and the points' final extents, were those at its start to
-//! within 0.5% — but the gap is measured anew at the next step from the points then in the
-//! column: as grains slide and turn, points enter and leave a column and the outermost one
-//! changes, and the measured gap jumps both ways by a fraction of a point spacing. With a
-//! bound that never pushes apart this is a ratchet: a gap that jumps open is closed within the
-//! step, one that jumps shut is kept. Summed over the contacts and the run, the jumps shut came
-//! to 0.054 m and the contacts born already overlapping (a new node takes over a column as the
-//! interface moves) to 0.072 m, against an overlap at the contacts of 0.006 m at the end (177
-//! contacts, 37 µm each, a third of a point spacing). Pushing an overlap beyond a tenth of a
-//! point spacing apart at a fiftieth per step (`cd`'s gap restoration) ended the ratchet on
-//! the CI compaction (Φ 0.90 at 850 kPa with 0.7% of the box covered twice, against 415 kPa
-//! and 2.6%; mean aspect ratio 1.13, against 1.07), but on the 300-grain compaction it turned
-//! the same noise into energy — 7 J/m created against 23 J/m stored at Φ 0.905 — and a Newton
-//! matrix lost its definiteness there after 23 minutes; 0.1 and 0.2 a step inverted points of
-//! the CI compaction. So it was not kept: the measure itself must stop jumping. A gap between
-//! the levels where each grain's interpolated density `Σ N_i m_i / h²` crosses half its
-//! material's (smooth as points move) was tried on the CI compaction and was worse: 3.6% at
-//! Φ 0.90, and 0.8% already at Φ 0.73 where the extents give 0.1% — that level lies inside the
-//! round grains' outer points. So was a gap carried from step to step by the contact's
-//! prediction (measured only when a contact is born): 3.6% at Φ 0.90, 0.3% already at Φ 0.67
-//! — the samples' relative motion is not the surfaces', and the difference accumulates
-//! unseen. So was a column whose surface is the lower envelope of the points' caps
-//! (`ξ − e + a²/2e` for a point `a` across the column's line, continuous as points move):
-//! 3.9% at Φ 0.90, 0.45% already at Φ 0.67 — a cap is rounder than the point's square, and
-//! the corners between columns overlap. So were points as ellipses of their own area (`F`
-//! of the disk of radius `side0 / √π`) for the gap — where the column's line crosses them —
-//! and for the interpenetration raster alike: 4.3% at Φ 0.90, 0.3% at Φ 0.67. Still to try:
-//! contacts per outer point (each point of a grain's surface against the other grain's
-//! surface near it) instead of per column, so that no point enters or leaves a contact's
-//! measure while the contact lasts.
+//! `U_n >= (−max(gap, 0) − drift) / h`: a contact with a positive gap may close it within the
+//! step and no more, one that overlaps may not overlap more, and none pushes the grains apart
+//! (no restitution: grains rebound by their elasticity).
 //!
 //! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
 //! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
@@ -96,7 +74,7 @@
 use super::banded::dot;
 use super::field::Field;
 use super::grid::V2;
-use super::points::Points;
+
 use crate::math::{Real, Vec3};
 use crate::nscd::local::{Delassus, LocalLaw};
 use crate::nscd::nlgs::{carry_local, visit_local, ContactProblem, Sums, Turn};
@@ -129,15 +107,19 @@ pub enum Other {
     Wall(u32),
 }
 
+/// Most nodes a [`Support`] holds: a place between two vertices whose points' 3x3 stencils
+/// are at most a cell apart.
+pub const SUPPORT_NODES: usize = 16;
+
 /// A point of a grain's surface where a contact acts, by the nodes of the grain's field that
 /// carry it: its velocity is `Σ w_k v_k` and an impulse `P` there gives node `k` the impulse
 /// `w_k P`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Support {
     /// Local nodes of the grain's field, in increasing order.
-    pub nodes: [u32; 9],
-    /// Weights, summing to 1.
-    pub weights: [Real; 9],
+    pub nodes: [u32; SUPPORT_NODES],
+    /// Weights, summing to 1 (some may be negative).
+    pub weights: [Real; SUPPORT_NODES],
     /// Entries used.
     pub len: u8,
 }
@@ -148,30 +130,36 @@ impl Support {
     pub fn iter(&self) -> impl Iterator<Item = (usize, Real)> + '_ {
         self.nodes[..self.len as usize].iter().zip(&self.weights[..self.len as usize]).map(|(&s, &w)| (s as usize, w))
     }
-}
 
-/// The point of a grain whose surface is nearest the other member in a contact's column, and
-/// its half extent along the normal at the step's start.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct End {
-    /// The point (index in [`Points`]); `u32::MAX` for a wall.
-    pub point: u32,
-    /// Its half extent along the contact's normal at the step's start, m.
-    pub extent: Real,
-}
-
-impl End {
-    /// A wall's end.
-    pub const NONE: End = End { point: u32::MAX, extent: 0.0 };
+    /// A support from `(node, weight)` entries, merging repeated nodes; `None` with more than
+    /// [`SUPPORT_NODES`] nodes.
+    pub fn from_entries(entries: &mut [(u32, Real)]) -> Option<Self> {
+        entries.sort_unstable_by_key(|e| e.0);
+        let mut s = Support { nodes: [0; SUPPORT_NODES], weights: [0.0; SUPPORT_NODES], len: 0 };
+        for &(k, w) in entries.iter() {
+            let n = s.len as usize;
+            if n > 0 && s.nodes[n - 1] == k {
+                s.weights[n - 1] += w;
+            } else {
+                if n == SUPPORT_NODES {
+                    return None;
+                }
+                s.nodes[n] = k;
+                s.weights[n] = w;
+                s.len += 1;
+            }
+        }
+        Some(s)
+    }
 }
 
 /// One contact between grain `a` and a grain or a wall.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NodalContact {
-    /// Grid node (linear index `i + nx j`) of the contact's column.
-    pub node: usize,
-    /// Where it acts, m: the surface sample of grain `a` against a wall, midway between the two
-    /// grains' samples between grains.
+pub struct VertexContact {
+    /// The vertex of grain `a`'s outline the contact is measured from.
+    pub vertex: usize,
+    /// Where it is, m: midway between the vertex and its projection on the other outline or
+    /// the wall (the contact point of the metrics).
     pub at: V2,
     /// First grain.
     pub a: u32,
@@ -181,10 +169,13 @@ pub struct NodalContact {
     pub b: Other,
     /// Frame; `n` points from `b` towards `a`.
     pub frame: ContactFrame,
-    /// Gap along `n` at the step's start, m (negative: overlapping extents).
+    /// Gap along `n` at the step's start, m (negative: overlapping outlines).
     pub gap: Real,
-    /// The points that set the gap, of `a` and of `b`.
-    pub ends: [End; 2],
+    /// How much more the gap will be at the step's end than the contact's linear prediction
+    /// says (m): measured at the step's first Newton iterates, the outlines moved where the
+    /// iterate takes them and the gap measured anew between them (the vertex's own stretch
+    /// and turn, the other outline turning and sliding under it).
+    pub drift: Real,
     /// The law for the step (its `friction` the pair's coefficient).
     pub law: LocalLaw,
     /// Diagonal of the local Delassus block, 1/kg·m.
@@ -197,14 +188,14 @@ pub struct NodalContact {
     pub lever: Real,
 }
 
-impl NodalContact {
-    /// Key of the contact across steps (node, grains or wall), for the warm start.
+impl VertexContact {
+    /// Key of the contact across steps (vertex, grains or wall), for the warm start.
     pub fn key(&self) -> (usize, u32, i64) {
         let other = match self.b {
             Other::Grain { grain, .. } => grain as i64,
             Other::Wall(w) => -1 - w as i64,
         };
-        (self.node, self.a, other)
+        (self.vertex, self.a, other)
     }
 
     /// Whether the contact carries a compressive impulse.
@@ -286,7 +277,7 @@ impl GrainContacts {
 
     /// Adds the step's impulses of the grain's contacts to the nodal right-hand side `rhs` (two
     /// entries a node), by the samples' weights.
-    pub fn spread_impulses(&self, contacts: &[NodalContact], rhs: &mut [Real]) {
+    pub fn spread_impulses(&self, contacts: &[VertexContact], rhs: &mut [Real]) {
         for (support, &(c, is_a)) in self.samples.iter().zip(&self.entries) {
             let ct = &contacts[c as usize];
             let p = ct.frame.to_global(&ct.r) * if is_a { 1.0 } else { -1.0 };
@@ -310,7 +301,7 @@ impl GrainContacts {
         let (ys, at) = (&mut self.work, &mut self.offsets);
         ys.clear();
         at.clear();
-        let mut b = [(0usize, 0.0 as Real); 9];
+        let mut b = [(0usize, 0.0 as Real); SUPPORT_NODES];
         for col in 0..m {
             let (s, d) = (col / 2, col % 2);
             let support = &self.samples[s];
@@ -337,7 +328,7 @@ impl GrainContacts {
 /// The contact problem of a Newton iteration, as the shared solver sweeps it.
 pub struct Problem<'a> {
     /// The contacts.
-    pub contacts: &'a mut [NodalContact],
+    pub contacts: &'a mut [VertexContact],
     /// Each grain's side.
     pub grains: &'a mut [GrainContacts],
     /// The walls.
@@ -407,13 +398,4 @@ impl ContactProblem for Problem<'_> {
             self.contacts[c].r = y;
         }
     }
-}
-
-/// The extents of the points of a stencil along a direction: the least `ξ − e` of grain `a`'s
-/// points and the largest `ξ + e` of grain `b`'s, `ξ = (x_p − x_node)·n`, `e` the point's half
-/// extent along `n`.
-pub fn extent(points: &Points, p: usize, node: &V2, n: &V2) -> (Real, Real) {
-    let xi = (points.x[p] - node).dot(n);
-    let e = points.half_extent(p, n);
-    (xi - e, xi + e)
 }

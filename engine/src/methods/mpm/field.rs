@@ -65,9 +65,6 @@ pub struct Field {
     pub v0: Vec<V2>,
     /// Nodal velocities of the current iterate, m/s.
     pub v: Vec<V2>,
-    /// Gradients of the mass field at the nodes, `−Σ m_p ∇N_i(x_p)`, kg/m², pointing into the
-    /// grain (the contact normals).
-    pub mass_gradient: Vec<V2>,
     /// Internal forces at the step's start, N/m.
     force0: Vec<V2>,
     /// Each point's stencil at its start-of-step position.
@@ -127,8 +124,7 @@ impl Field {
     pub fn heap_bytes(&self) -> usize {
         let v2 = std::mem::size_of::<V2>();
         self.mass.capacity() * 8
-            + (self.v0.capacity() + self.v.capacity() + self.mass_gradient.capacity() + self.force0.capacity() + self.residual.capacity())
-                * v2
+            + (self.v0.capacity() + self.v.capacity() + self.force0.capacity() + self.residual.capacity()) * v2
             + self.stencils.capacity() * std::mem::size_of::<Stencil>()
             + self.f_new.capacity() * std::mem::size_of::<Mat2>()
             + self.history_new.capacity() * std::mem::size_of::<History>()
@@ -167,7 +163,7 @@ impl Field {
         let n = self.nodes();
         self.mass.clear();
         self.mass.resize(n, 0.0);
-        for buf in [&mut self.v0, &mut self.v, &mut self.mass_gradient, &mut self.force0, &mut self.residual] {
+        for buf in [&mut self.v0, &mut self.v, &mut self.force0, &mut self.residual] {
             buf.clear();
             buf.resize(n, V2::zeros());
         }
@@ -185,9 +181,6 @@ impl Field {
                     let i = nodes[a][b];
                     self.mass[i] += w * m;
                     self.v0[i] += pts.v[p] * (w * m);
-                    // The mass field's gradient at the node: ∂/∂x_i of Σ m_p N(x_p − x_i),
-                    // which points into the grain.
-                    self.mass_gradient[i] -= grad * m;
                     self.force0[i] -= vp * grad;
                 }
             }

@@ -110,9 +110,9 @@ impl System {
     }
 
     /// The contacts of the last step as the metrics count them (forces in N/m): one record per
-    /// pair of grains that share a contact node, the sum of their nodal forces, with the
-    /// branch between their centroids (each nodal force acts at one node on both grains, so
-    /// the sum of `f ⊗ (x_a − x_b)` is exactly the Love–Weber sum over the nodes); one per
+    /// pair of grains in contact, the sum of their contacts' forces, with the branch between
+    /// their centroids (each contact's force acts on both grains, equal and opposite, so the
+    /// sum of `f ⊗ (x_a − x_b)` is exactly the Love–Weber sum over the contacts); one per
     /// grain and wall, its branch from the force-weighted contact point to the centroid.
     /// `grains` from [`System::grain_states`].
     pub fn contact_records(&self, grains: &[GrainState]) -> Vec<ContactRecord> {
@@ -150,55 +150,54 @@ impl System {
             .collect()
     }
 
-    /// The area the grains cover twice (two grains' points over the same place) or outside the
-    /// box `[lo, hi]`, m² per metre: what the contacts, enforced at grid nodes, let the point
-    /// clouds of touching grains and walls interpenetrate. Each point covers the
-    /// parallelogram `F` makes of its initial square; the area is counted on a raster of a
-    /// quarter of the smallest initial point spacing (a cell covered by `k` grains counts
-    /// `k − 1` times). `Φ` less this over the box area is the packing fraction of the grains'
-    /// union inside the box.
+    /// The area the grains cover twice (two grains' outlines over the same place) or outside
+    /// the box `[lo, hi]`, m² per metre: what the contacts let the grains interpenetrate. It
+    /// is counted on a raster of a quarter of the smallest initial point spacing (a cell inside
+    /// `k` outlines counts `k − 1` times). `Φ` less this over the box area is the packing
+    /// fraction of the grains' union inside the box.
     pub fn interpenetration(&self, lo: V2, hi: V2) -> Real {
-        let pts = &self.points;
-        let side = pts.side0.iter().copied().fold(Real::INFINITY, Real::min);
+        let side = self.points.side0.iter().copied().fold(Real::INFINITY, Real::min);
         if !side.is_finite() || side <= 0.0 || hi.x <= lo.x || hi.y <= lo.y {
             return 0.0;
         }
         let c = side / RASTER_PER_SIDE;
-        // The raster covers the box and a margin the grains cannot pass without leaving the grid.
         let margin = V2::new(4.0 * side, 4.0 * side);
         let (m0, m1) = (lo - margin, hi + margin);
         let nx = ((m1.x - m0.x) / c).ceil() as usize;
         let ny = ((m1.y - m0.y) / c).ceil() as usize;
-        // Last grain over each cell, and how many grains.
-        let mut last = vec![u32::MAX; nx * ny];
         let mut count = vec![0u16; nx * ny];
         let cell = |i: usize, j: usize| V2::new(m0.x + (i as Real + 0.5) * c, m0.y + (j as Real + 0.5) * c);
-        for (g, grain) in self.grains.iter().enumerate() {
-            for p in grain.points.clone() {
-                let f = pts.f[p];
-                let Some(inv) = f.try_inverse() else { continue };
-                let half = 0.5 * pts.side0[p];
-                // The parallelogram's bounding box.
-                let corners = pts.parallelogram(p);
-                let (mut min, mut max) = (corners[0], corners[0]);
-                for corner in &corners[1..] {
-                    min = min.inf(corner);
-                    max = max.sup(corner);
+        for g in &self.grains {
+            let x = g.outline.positions(&self.points);
+            if x.is_empty() {
+                continue;
+            }
+            let (mut min, mut max) = (x[0], x[0]);
+            for p in &x {
+                min = min.inf(p);
+                max = max.sup(p);
+            }
+            let j0 = ((min.y - m0.y) / c).floor().max(0.0) as usize;
+            let j1 = (((max.y - m0.y) / c).ceil().max(0.0) as usize).min(ny);
+            // Row by row, the cells whose centres lie between the outline's crossings of the
+            // row (even-odd, as `Outline::contains`).
+            let mut crossings = Vec::new();
+            for j in j0..j1 {
+                let y = m0.y + (j as Real + 0.5) * c;
+                crossings.clear();
+                for k in 0..x.len() {
+                    let (a, b) = (x[k], x[(k + 1) % x.len()]);
+                    if (a.y > y) != (b.y > y) {
+                        crossings.push(a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x));
+                    }
                 }
-                let span = |lo: Real, hi: Real, o: Real, n: usize| {
-                    let a = ((lo - o) / c).floor().max(0.0) as usize;
-                    let b = (((hi - o) / c).ceil().max(0.0) as usize).min(n);
-                    a..b
-                };
-                let x = pts.x[p];
-                for j in span(min.y, max.y, m0.y, ny) {
-                    for i in span(min.x, max.x, m0.x, nx) {
-                        let q = inv * (cell(i, j) - x);
-                        let k = i + nx * j;
-                        if q.x.abs() <= half && q.y.abs() <= half && last[k] != g as u32 {
-                            last[k] = g as u32;
-                            count[k] = count[k].saturating_add(1);
-                        }
+                crossings.sort_unstable_by(Real::total_cmp);
+                for pair in crossings.chunks_exact(2) {
+                    // Cells with pair[0] <= centre < pair[1].
+                    let first = ((pair[0] - m0.x) / c - 0.5).ceil().max(0.0) as usize;
+                    let end = (((pair[1] - m0.x) / c - 0.5).ceil().max(0.0) as usize).min(nx);
+                    for i in first..end {
+                        count[i + nx * j] = count[i + nx * j].saturating_add(1);
                     }
                 }
             }

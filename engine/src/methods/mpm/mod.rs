@@ -4,9 +4,10 @@
 //!
 //! - [`grid`]: the background grid and its quadratic B-spline shape functions;
 //! - [`points`]: the material points of the grains;
+//! - [`outline`]: each grain's outline, a polygon riding on its outer points;
 //! - [`field`]: one grain's nodal field, its θ-method residual and Newton matrix;
 //! - [`banded`]: the banded Cholesky factorisation of that matrix;
-//! - [`contact`]: the nodal contacts between grains and with walls, as a problem of the
+//! - [`contact`]: the contacts between grains' outlines and with walls, as a problem of the
 //!   shared contact solver ([`crate::nscd`]);
 //! - [`system`]: the step;
 //! - [`measure`]: the grains' centroids, areas, shapes and contacts as the metrics see them;
@@ -20,6 +21,7 @@ pub mod contact;
 pub mod field;
 pub mod grid;
 pub mod measure;
+pub mod outline;
 pub mod points;
 pub mod sim;
 pub mod system;

@@ -5,6 +5,7 @@
 use std::ops::Range;
 
 use super::grid::V2;
+use super::outline::Outline;
 use crate::constitutive::{History, Mat2};
 use crate::math::Real;
 
@@ -21,6 +22,8 @@ pub struct Grain {
     /// Radius of the disk it was cut from, m (the length the contact criterion measures
     /// violations against; the grain's size in the metrics).
     pub radius: Real,
+    /// Its outline, where its contacts are measured (none: the grain touches nothing).
+    pub outline: Outline,
 }
 
 /// The points of every grain (struct of arrays; a grain's points are contiguous).
@@ -31,7 +34,7 @@ pub struct Points {
     /// Reference (initial) area, m² (volume per metre of thickness).
     pub vol0: Vec<Real>,
     /// Side of the square the point stood for when placed, m: with `F` it gives the
-    /// parallelogram the point covers now (its extent towards a contact).
+    /// parallelogram the point covers now (as drawn in snapshots).
     pub side0: Vec<Real>,
     /// Position, m.
     pub x: Vec<V2>,
@@ -77,24 +80,6 @@ impl Points {
         let half = 0.5 * self.side0[p];
         let corner = |a: Real, b: Real| self.x[p] + self.f[p] * V2::new(a * half, b * half);
         [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]
-    }
-
-    /// Half the extent of point `p` along the unit direction `n`, m: that of the ellipse `F`
-    /// makes of the disk inscribed in its initial square, `½ side0 |Fᵀ n|`: a point's stretch
-    /// moves the grain's surface, its rotation does not. (The parallelogram `F` makes of the
-    /// square grows by up to √2 along `n` as the point turns, and the outer points of pressed
-    /// grains turn most; with it the 12-grain CI compaction reached Φ = 0.90 with 4.2% of the
-    /// box covered twice or beyond a wall, with the ellipse 2.6%.)
-    #[inline(always)]
-    pub fn half_extent(&self, p: usize, n: &V2) -> Real {
-        self.half_extent_of(&self.f[p], p, n)
-    }
-
-    /// The half extent along `n` point `p` would have with deformation gradient `f`, m.
-    pub fn half_extent_of(&self, f: &Mat2, p: usize, n: &V2) -> Real {
-        let a = n.x * f[(0, 0)] + n.y * f[(1, 0)];
-        let b = n.x * f[(0, 1)] + n.y * f[(1, 1)];
-        0.5 * self.side0[p] * (a * a + b * b).sqrt()
     }
 
     /// Heap bytes held.

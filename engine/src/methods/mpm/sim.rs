@@ -18,6 +18,7 @@
 use super::contact::Wall as PlaneWall;
 use super::grid::{Grid, V2};
 use super::measure::GrainState;
+use super::outline::Outline;
 use super::points::{Grain, Points};
 use super::system::{Settings, StepFailure, StepReport, System};
 use crate::constitutive::{build, ConstitutiveLaw};
@@ -105,7 +106,8 @@ impl Mpm {
                     reason: format!("grain {k} holds {} material point(s); refine the grid so that every grain holds several", range.len()),
                 });
             }
-            grains.push(Grain { points: range, law, friction: mat.friction, radius: particles.radius[k] });
+            let outline = Outline::disk(&points, range.clone(), V2::new(c.x, c.y), particles.radius[k], h);
+            grains.push(Grain { points: range, law, friction: mat.friction, radius: particles.radius[k], outline });
         }
         const MAX_POINTS: usize = 20_000_000;
         if points.len() > MAX_POINTS {

@@ -5,11 +5,11 @@
 //! A step:
 //! 1. each grain projects its points on its nodes (mass, velocity, mass gradient, internal
 //!    force at the start);
-//! 2. the candidate contacts are found at the nodes two grains share and near the walls,
-//!    with their normals and gaps;
+//! 2. the contacts are found between the grains' outlines and with the walls, with their
+//!    normals and gaps;
 //! 3. Newton iterations on the nodal velocities of every grain at once: each grain assembles
 //!    its residual and matrix and solves for its free correction (no contact impulse); the
-//!    contact problem, with each grain's `A⁻¹` between its contact nodes, is solved by the
+//!    contact problem, with each grain's `A⁻¹` between its contacts' samples, is solved by the
 //!    non-linear Gauss-Seidel sweeps of [`crate::nscd`] for the step's total impulses
 //!    (warm-started from the previous iteration and step); each grain then takes its
 //!    correction with the impulses. The iterations stop when the correction is below
@@ -38,9 +38,10 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::contact::{extent, End, GrainContacts, NodalContact, Other, Problem, Support, Wall};
+use super::contact::{GrainContacts, Other, Problem, Support, VertexContact, Wall, SUPPORT_NODES};
 use super::field::{Field, PointFailure, Scheme};
 use super::grid::{Grid, V2};
+use super::outline::nearest;
 use super::points::{Grain, Points};
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
@@ -61,10 +62,10 @@ const REFRESH_RATIO: Real = 0.25;
 /// iteration, twelve iterations a step); with this forcing, 5 to 7.
 const FORCING: Real = 0.01;
 
-/// The Newton iterations of a step that update the contacts' targets with the growth of their
-/// points' extents at the iterate; later ones keep them (a target that moves with every
-/// iterate kept a dense packing's iterations from converging).
-const GROWTH_ITERATIONS: u32 = 2;
+/// The Newton iterations of a step that measure the contacts' drifts at their iterate; later
+/// ones keep them (a target that moves with every iterate kept a dense packing's iterations
+/// from converging).
+const DRIFT_ITERATIONS: u32 = 2;
 
 /// The deepest a step is split: into `2^MAX_DEPTH` parts.
 const MAX_DEPTH: u32 = 4;
@@ -109,7 +110,7 @@ pub struct StepReport {
     pub newton: u32,
     /// Contact-solver sweeps, over all iterations.
     pub sweeps: u32,
-    /// Candidate nodal contacts.
+    /// Contacts (a vertex within a cell of another outline or a wall).
     pub contacts: usize,
 }
 
@@ -134,8 +135,8 @@ pub struct System {
     pub walls: Vec<Wall>,
     /// Settings.
     pub settings: Settings,
-    /// The nodal contacts of the last step, with their impulses.
-    pub contacts: Vec<NodalContact>,
+    /// The contacts of the last step, with their impulses.
+    pub contacts: Vec<VertexContact>,
     /// Steps done.
     pub steps: u64,
     /// Time, s.
@@ -229,7 +230,7 @@ impl System {
                         + s.samples.capacity() * std::mem::size_of::<Support>()
                 })
                 .sum::<usize>()
-            + self.contacts.capacity() * std::mem::size_of::<NodalContact>()
+            + self.contacts.capacity() * std::mem::size_of::<VertexContact>()
             + self.nlgs.heap_bytes()
     }
 
@@ -376,7 +377,10 @@ impl System {
             report.newton = it;
             fresh_in_a_row = if refresh { fresh_in_a_row + 1 } else { 0 };
             self.newton_free(&sc, refresh)?;
-            let solved = self.solve_contacts(&sc, it <= GROWTH_ITERATIONS);
+            if it <= DRIFT_ITERATIONS {
+                self.measure_drifts(&sc);
+            }
+            let solved = self.solve_contacts(&sc);
             report.sweeps += solved.iterations;
             if !solved.converged {
                 let s = self.settings.contact;
@@ -451,249 +455,178 @@ impl System {
         Ok(report)
     }
 
-    /// Finds the candidate contacts of the step, their frames, gaps, laws and warm starts, and
-    /// each grain's contact nodes.
+    /// Finds the contacts of the step, their frames, gaps, laws and warm starts, and each
+    /// grain's samples: every vertex of a grain's outline within a cell of a wall, and of a
+    /// grain's outline within a cell of a grain of higher index's (module documentation of
+    /// [`super::contact`]).
     fn detect(&mut self) {
-        let (grid, h) = (self.grid, self.grid.h);
-        // Grid node, grain, local node, for every node with mass.
-        let mut at: Vec<(usize, u32, u32)> = Vec::new();
-        for (g, f) in self.fields.iter().enumerate() {
-            for k in 0..f.nodes() {
-                if f.mass[k] > 0.0 {
-                    let (i, j) = f.grid_node(k);
-                    at.push((i + grid.nx * j, g as u32, k as u32));
+        let h = self.grid.h;
+        let shapes: Vec<Vec<V2>> = self.grains.iter().map(|g| g.outline.positions(&self.points)).collect();
+        let boxes: Vec<(V2, V2)> = shapes
+            .iter()
+            .map(|x| x.iter().fold((V2::repeat(Real::INFINITY), V2::repeat(Real::NEG_INFINITY)), |(lo, hi), p| (lo.inf(p), hi.sup(p))))
+            .collect();
+        // The pairs whose boxes come within a cell, by a sweep along x.
+        let mut order: Vec<usize> = (0..shapes.len()).filter(|&g| !shapes[g].is_empty()).collect();
+        order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x).then(a.cmp(&b)));
+        let mut pairs = Vec::new();
+        for (i, &a) in order.iter().enumerate() {
+            for &b in &order[i + 1..] {
+                if boxes[b].0.x > boxes[a].1.x + h {
+                    break;
+                }
+                if boxes[b].0.y <= boxes[a].1.y + h && boxes[a].0.y <= boxes[b].1.y + h {
+                    pairs.push((a.min(b), a.max(b)));
                 }
             }
         }
-        at.sort_unstable();
-        struct Candidate {
-            node: usize,
-            a: u32,
-            ka: u32,
-            b: Option<(u32, u32)>,
-            wall: u32,
-            n: V2,
-            x: V2,
-        }
-        let mut cands: Vec<Candidate> = Vec::new();
-        let mut s = 0;
-        while s < at.len() {
-            let mut e = s + 1;
-            while e < at.len() && at[e].0 == at[s].0 {
-                e += 1;
-            }
-            for x in s..e {
-                for y in x + 1..e {
-                    let (node, ga, ka) = at[x];
-                    let (_, gb, kb) = at[y];
-                    let d = self.fields[ga as usize].mass_gradient[ka as usize] - self.fields[gb as usize].mass_gradient[kb as usize];
-                    let len = d.norm();
-                    if len > 0.0 && len.is_finite() {
-                        cands.push(Candidate {
-                            node,
-                            a: ga,
-                            ka,
-                            b: Some((gb, kb)),
-                            wall: 0,
-                            n: d / len,
-                            x: grid.node_position(node % grid.nx, node / grid.nx),
-                        });
-                    }
-                }
-            }
-            s = e;
-        }
-        for (g, f) in self.fields.iter().enumerate() {
-            for k in 0..f.nodes() {
-                if f.mass[k] == 0.0 {
-                    continue;
-                }
-                let (i, j) = f.grid_node(k);
-                let x = grid.node_position(i, j);
-                for (w, wall) in self.walls.iter().enumerate() {
-                    if (x - wall.point).dot(&wall.normal) < 2.5 * h {
-                        cands.push(Candidate {
-                            node: i + grid.nx * j,
-                            a: g as u32,
-                            ka: k as u32,
-                            b: None,
-                            wall: w as u32,
-                            n: wall.normal,
-                            x,
-                        });
-                    }
-                }
-            }
-        }
-        // Gaps from the points of each stencil: per grain, each local node's candidates.
-        let mut lo = vec![Real::INFINITY; cands.len()];
-        let mut hi = vec![Real::NEG_INFINITY; cands.len()];
-        // The point that sets each extent (grain `a`'s, then grain `b`'s), and the mass-weighted
-        // place across the normal of each grain's points in the column with their mass (a
-        // column at a grain's edge holds material on one side of its node only).
-        let mut extreme = vec![[u32::MAX; 2]; cands.len()];
-        let mut across_sum = vec![[V2::zeros(); 2]; cands.len()];
-        let mut by_grain: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); self.grains.len()];
-        for (c, k) in cands.iter().enumerate() {
-            by_grain[k.a as usize].push((k.ka, c as u32, true));
-            match k.b {
-                Some((gb, kb)) => by_grain[gb as usize].push((kb, c as u32, false)),
-                None => hi[c] = (self.walls[k.wall as usize].point - k.x).dot(&k.n),
-            }
-        }
-        for (g, list) in by_grain.iter_mut().enumerate() {
-            if list.is_empty() {
-                continue;
-            }
-            list.sort_unstable();
-            let f = &self.fields[g];
-            let grain = &self.grains[g];
-            for (q, p) in grain.points.clone().enumerate() {
-                let st = f.stencils[q];
-                for a in 0..3 {
-                    for b in 0..3 {
-                        let k = f.local(st.base[0] + a, st.base[1] + b) as u32;
-                        let first = list.partition_point(|e| e.0 < k);
-                        for &(_, c, is_a) in list[first..].iter().take_while(|e| e.0 == k) {
-                            let cand = &cands[c as usize];
-                            let node = cand.x;
-                            // Only the points in the node's own column along the normal
-                            // (within half a cell across it): the gap at the node's place,
-                            // not the nearest one over the stencil's three cells.
-                            let across = (self.points.x[p] - node).dot(&V2::new(-cand.n.y, cand.n.x));
-                            if across.abs() > 0.5 * h {
-                                continue;
-                            }
-                            let (l, u) = extent(&self.points, p, &node, &cand.n);
-                            let c = c as usize;
-                            let m = self.points.mass[p];
-                            across_sum[c][usize::from(!is_a)] += V2::new(m * across, m);
-                            if is_a && l < lo[c] {
-                                lo[c] = l;
-                                extreme[c][0] = p as u32;
-                            } else if !is_a && u > hi[c] {
-                                hi[c] = u;
-                                extreme[c][1] = p as u32;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        // The contacts within a cell of touching, with each grain's samples.
+        pairs.sort_unstable();
         for side in &mut self.sides {
             side.clear();
         }
         self.contacts.clear();
-        for (c, k) in cands.iter().enumerate() {
-            let gap = lo[c] - hi[c];
-            // Only the nodes within half a cell of the interface along the normal (one a
-            // column): a constraint in every column of every node the two fields share (three
-            // rows with quadratic splines) would lock a layer a cell thick into a rigid punch.
-            let middle = match k.b {
-                Some(_) => 0.5 * (lo[c] + hi[c]),
-                None => lo[c],
-            };
-            if gap.is_nan() || gap > h || middle < -0.5 * h || middle >= 0.5 * h {
-                continue;
+        let mut entries = Vec::with_capacity(2 * 9);
+        for (a, b) in pairs {
+            let (lo, hi) = (boxes[b].0 - V2::repeat(h), boxes[b].1 + V2::repeat(h));
+            for (k, x) in shapes[a].iter().enumerate() {
+                if x.x < lo.x || x.y < lo.y || x.x > hi.x || x.y > hi.y {
+                    continue;
+                }
+                let Some(near) = nearest(&shapes[b], x) else { continue };
+                if near.gap.is_nan() || near.gap > h {
+                    continue;
+                }
+                // Each side moves as its vertices do over the step (module documentation of
+                // [`super::contact`]): grain `b`'s place between its segment's two.
+                let next = (near.segment + 1) % shapes[b].len();
+                let support_a = self.vertex_support(a, &[(k, 1.0)], &mut entries);
+                let support_b = self.vertex_support(b, &[(near.segment, 1.0 - near.t), (next, near.t)], &mut entries);
+                let index = self.contacts.len() as u32;
+                let slot = self.sides[b].push(support_b, index, false);
+                let friction = self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt());
+                let at = x - near.normal * (0.5 * near.gap);
+                self.push_contact(k, at, a as u32, support_a, Other::Grain { grain: b as u32, slot }, near.normal, near.gap, friction);
             }
-            // Each grain's contact in the node's column acts at `x_node + d n + a t`: `d` the
-            // depth of the centre of the point that sets its extent, `a` where the column's
-            // material is across the normal, moving with the velocity the field gives it there
-            // (the nodes of its stencil share the impulse by their weights, those the grain has
-            // no mass at left out). Module documentation of [`super::contact`] for why there.
-            let t = V2::new(-k.n.y, k.n.x);
-            let sample = |side: usize| {
-                let p = extreme[c][side] as usize;
-                let [m, w] = [across_sum[c][side].x, across_sum[c][side].y];
-                k.x + k.n * (self.points.x[p] - k.x).dot(&k.n) + t * (m / w)
-            };
-            let ends = |side: usize| {
-                let p = extreme[c][side] as usize;
-                End { point: p as u32, extent: self.points.half_extent(p, &k.n) }
-            };
-            let at_a = sample(0);
-            let Some(support_a) = self.surface_support(k.a, &at_a) else {
-                continue;
-            };
-            let mut end = [ends(0), End::NONE];
-            let (b, friction, at) = match k.b {
-                Some((gb, _)) => {
-                    end[1] = ends(1);
-                    let at_b = sample(1);
-                    let Some(support_b) = self.surface_support(gb, &at_b) else {
+        }
+        for (g, x) in shapes.iter().enumerate() {
+            for (k, x) in x.iter().enumerate() {
+                for w in 0..self.walls.len() {
+                    let wall = self.walls[w];
+                    let gap = (x - wall.point).dot(&wall.normal);
+                    if gap.is_nan() || gap > h {
                         continue;
-                    };
-                    let index = self.contacts.len() as u32;
-                    let slot = self.sides[gb as usize].push(support_b, index, false);
-                    let friction = self
-                        .pair_friction
-                        .unwrap_or_else(|| (self.grains[k.a as usize].friction * self.grains[gb as usize].friction).sqrt());
-                    (Other::Grain { grain: gb, slot }, friction, 0.5 * (at_a + at_b))
+                    }
+                    let support = self.vertex_support(g, &[(k, 1.0)], &mut entries);
+                    let friction = (self.grains[g].friction * wall.friction).sqrt();
+                    self.push_contact(k, x - wall.normal * gap, g as u32, support, Other::Wall(w as u32), wall.normal, gap, friction);
                 }
-                None => {
-                    let friction = (self.grains[k.a as usize].friction * self.walls[k.wall as usize].friction).sqrt();
-                    (Other::Wall(k.wall), friction, at_a)
-                }
-            };
-            self.push_contact(k.node, at, k.a, support_a, b, k.n, gap, friction, end);
+            }
         }
     }
 
-    /// The nodes of grain `g` that carry its field at `x`, with their weights renormalised over
-    /// those where it has mass, in increasing order; `None` if there are none.
-    fn surface_support(&self, g: u32, x: &V2) -> Option<Support> {
-        let st = self.grid.stencil(x)?;
-        let f = &self.fields[g as usize];
-        let mut list: [(u32, Real); 9] = [(0, 0.0); 9];
-        let mut len = 0;
-        let mut total = 0.0;
+    /// Sets each contact's drift ([`VertexContact::drift`]) at the current iterate: every
+    /// outline moved as the iterate moves its vertices, and the gap measured anew, against
+    /// the gap the contact's supports predict.
+    fn measure_drifts(&mut self, sc: &Scheme) {
+        let mut moved: Vec<Vec<V2>> = Vec::with_capacity(self.grains.len());
+        let mut entries = Vec::with_capacity(9);
+        for (g, grain) in self.grains.iter().enumerate() {
+            let f = &self.fields[g];
+            let at = grain.outline.positions(&self.points);
+            moved.push(
+                at.iter()
+                    .enumerate()
+                    .map(|(k, x)| {
+                        entries.clear();
+                        self.vertex_weights(g, k, 1.0, &mut entries);
+                        x + entries.iter().map(|&(i, w)| f.displacement(i as usize, sc) * w).sum::<V2>()
+                    })
+                    .collect(),
+            );
+        }
+        let displacement = |g: usize, s: &Support| s.iter().map(|(i, w)| self.fields[g].displacement(i, sc) * w).sum::<V2>();
+        let mut drifts = Vec::with_capacity(self.contacts.len());
+        for c in &self.contacts {
+            let n = V2::new(c.frame.n.x, c.frame.n.y);
+            let x = moved[c.a as usize][c.vertex];
+            let ua = displacement(c.a as usize, &self.sides[c.a as usize].samples[c.slot as usize]);
+            let (ub, now) = match c.b {
+                Other::Grain { grain, slot } => {
+                    let ub = displacement(grain as usize, &self.sides[grain as usize].samples[slot as usize]);
+                    (ub, nearest(&moved[grain as usize], &x).map_or(c.gap, |near| near.gap))
+                }
+                Other::Wall(w) => {
+                    let wall = &self.walls[w as usize];
+                    let ub = wall.velocity * sc.dt;
+                    (ub, (x - wall.point - ub).dot(&wall.normal))
+                }
+            };
+            drifts.push(now - (c.gap + (ua - ub).dot(&n)));
+        }
+        for (c, d) in self.contacts.iter_mut().zip(drifts) {
+            c.drift = d;
+        }
+    }
+
+    /// The support of the place `Σ t_k x_k` between vertices `(k, t_k)` of grain `g`'s outline
+    /// (`entries` scratch). Two vertices more than a cell and a half apart (a grain stretched
+    /// that much) may move more nodes than a support holds: the place then moves with the
+    /// nearer vertex.
+    fn vertex_support(&self, g: usize, at: &[(usize, Real)], entries: &mut Vec<(u32, Real)>) -> Support {
+        entries.clear();
+        for &(k, t) in at {
+            self.vertex_weights(g, k, t, entries);
+        }
+        if let Some(s) = Support::from_entries(entries) {
+            return s;
+        }
+        let k = at.iter().fold((0, Real::NEG_INFINITY), |best, &(k, t)| if t > best.1 { (k, t) } else { best }).0;
+        entries.clear();
+        self.vertex_weights(g, k, 1.0, entries);
+        // One vertex moves the nine nodes of its point's stencil at most.
+        Support::from_entries(entries).unwrap_or(Support { nodes: [0; SUPPORT_NODES], weights: [0.0; SUPPORT_NODES], len: 0 })
+    }
+
+    /// Appends to `out` the nodes of grain `g`'s field that move vertex `k` of its outline,
+    /// each weight times `scale`: over a step the vertex, `x_p + F_p o`, moves by
+    /// `Σ_i u_i (N_i(x_p) + ∇N_i(x_p) · F_p o)` for the nodal displacements `u_i` (the point's
+    /// own displacement and the change of its `F`), so these weights give its velocity
+    /// exactly, and an impulse on it reaches the nodes by them.
+    fn vertex_weights(&self, g: usize, k: usize, scale: Real, out: &mut Vec<(u32, Real)>) {
+        let v = self.grains[g].outline.vertices[k];
+        let p = v.point as usize;
+        let f = &self.fields[g];
+        let fo = self.points.f[p] * v.offset;
+        let st = f.stencils[p - self.grains[g].points.start];
+        let nodes = f.stencil_nodes(&st);
         for a in 0..3 {
             for b in 0..3 {
-                let (i, j) = (st.base[0] + a, st.base[1] + b);
-                if i < f.i0 || j < f.j0 || i >= f.i0 + f.wx || j >= f.j0 + f.wy {
-                    continue;
+                let i = nodes[a][b];
+                if f.mass[i] > 0.0 {
+                    out.push((i as u32, scale * (st.weight(a, b) + st.gradient(a, b).dot(&fo))));
                 }
-                let k = f.local(i, j);
-                let wt = st.weight(a, b);
-                if f.mass[k] == 0.0 || wt == 0.0 {
-                    continue;
-                }
-                list[len] = (k as u32, wt);
-                len += 1;
-                total += wt;
             }
         }
-        if len == 0 {
-            return None;
-        }
-        list[..len].sort_unstable_by_key(|e| e.0);
-        let mut support = Support { nodes: [0; 9], weights: [0.0; 9], len: len as u8 };
-        for (l, &(k, w)) in list[..len].iter().enumerate() {
-            support.nodes[l] = k;
-            support.weights[l] = w / total;
-        }
-        Some(support)
     }
 
     /// Adds a contact of the step, warm-started, and enters it at grain `a` with its sample
     /// (grain `b`'s, if any, is entered).
     #[allow(clippy::too_many_arguments)]
-    fn push_contact(&mut self, node: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real, ends: [End; 2]) {
+    fn push_contact(&mut self, vertex: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real) {
         let frame = ContactFrame::new(2, Vec3::new(n.x, n.y, 0.0));
         // The Signorini target is set by the step's first iterations (`solve_contacts`).
         let law = LocalLaw { target: 0.0, friction, cohesion: 0.0, viscosity: 0.0 };
         let index = self.contacts.len() as u32;
         let slot = self.sides[a as usize].push(support, index, true);
-        let mut contact = NodalContact {
-            node,
+        let mut contact = VertexContact {
+            vertex,
             at,
             a,
             slot,
             b,
             frame,
             gap,
-            ends,
+            drift: 0.0,
             law,
             w: Delassus { n: 0.0, t: 0.0 },
             r: Vec3::zeros(),
@@ -739,33 +672,14 @@ impl System {
     }
 
     /// Sets each contact's Delassus block and impulse scale and solves the contact problem.
-    fn solve_contacts(&mut self, sc: &Scheme, update_targets: bool) -> NlgsReport {
+    fn solve_contacts(&mut self, sc: &Scheme) -> NlgsReport {
         let g = self.settings.gravity.norm() * sc.dt;
-        let (fields, grains, points) = (&self.fields, &self.grains, &self.points);
-        // How much the half extent along `n` of the point at an end of a contact has grown
-        // over the step at the current iterate.
-        let growth = |end: &End, grain: u32, n: &V2| {
-            if end.point == u32::MAX {
-                return 0.0;
-            }
-            let g = grain as usize;
-            let q = end.point as usize - grains[g].points.start;
-            points.half_extent_of(&fields[g].f_new[q], end.point as usize, n) - end.extent
-        };
         for c in &mut self.contacts {
-            // The surfaces meet at the step's end if the centres close the gap less what the
-            // points' extents grew (a compressed point's surface falls behind its centre): the
-            // approach allowed grows by what they shrank, and the contact never pushes the
-            // grains apart for a point that grew (no work from the points' squares turning).
+            // A contact with a positive gap may close it within the step and no more, one
+            // that overlaps may not overlap more, beyond the contact's linear prediction by its
+            // drift; none pushes the grains apart otherwise.
             let n = V2::new(c.frame.n.x, c.frame.n.y);
-            let b_grain = match c.b {
-                Other::Grain { grain, .. } => grain,
-                Other::Wall(_) => 0,
-            };
-            if update_targets {
-                let grown = growth(&c.ends[0], c.a, &n) + growth(&c.ends[1], b_grain, &n);
-                c.law.target = ((-c.gap + grown) / sc.dt).min(0.0);
-            }
+            c.law.target = (-c.gap.max(0.0) - c.drift) / sc.dt;
             let sa = &self.sides[c.a as usize];
             let mut w = sa.block(c.slot as usize, c.slot as usize);
             let ua = sa.u[c.slot as usize];
