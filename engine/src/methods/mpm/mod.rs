@@ -4,6 +4,7 @@
 //!
 //! - [`grid`]: the background grid and its quadratic B-spline shape functions;
 //! - [`points`]: the material points of the grains;
+//! - [`grain`]: a grain: its points, law, friction, size and outline;
 //! - [`outline`]: each grain's outline, a polygon riding on its outer points;
 //! - [`field`]: one grain's nodal field, its θ-method residual and Newton matrix;
 //! - [`banded`]: the banded Cholesky factorisation of that matrix;
@@ -19,6 +20,7 @@
 pub mod banded;
 pub mod contact;
 pub mod field;
+pub mod grain;
 pub mod grid;
 pub mod measure;
 pub mod outline;

@@ -1,30 +1,12 @@
 //! The material points of deformable grains, struct of arrays, grouped by grain: each point's
 //! mass, reference volume, position, velocity, deformation gradient and history (the state
-//! the constitutive law needs between steps), and each grain's range of points and law.
+//! the constitutive law needs between steps).
 
 use std::ops::Range;
 
 use super::grid::V2;
-use super::outline::Outline;
 use crate::constitutive::{History, Mat2};
 use crate::math::Real;
-
-/// One deformable grain: a cloud of points with one constitutive law.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Grain {
-    /// Its points in [`Points`].
-    pub points: Range<usize>,
-    /// Index of its constitutive law in the method's table.
-    pub law: usize,
-    /// Coulomb friction coefficient of its surface (a pair of grains, or a grain and a wall,
-    /// takes the geometric mean of the two).
-    pub friction: Real,
-    /// Radius of the disk it was cut from, m (the length the contact criterion measures
-    /// violations against; the grain's size in the metrics).
-    pub radius: Real,
-    /// Its outline, where its contacts are measured (none: the grain touches nothing).
-    pub outline: Outline,
-}
 
 /// The points of every grain (struct of arrays; a grain's points are contiguous).
 #[derive(Debug, Clone, Default)]

@@ -16,10 +16,11 @@
 //! with a margin of four cells.
 
 use super::contact::Wall as PlaneWall;
+use super::grain::Grain;
 use super::grid::{Grid, V2};
 use super::measure::GrainState;
 use super::outline::Outline;
-use super::points::{Grain, Points};
+use super::points::Points;
 use super::system::{Settings, StepFailure, StepReport, System};
 use crate::constitutive::{build, ConstitutiveLaw};
 use crate::error::{EngineError, InstabilityCause};

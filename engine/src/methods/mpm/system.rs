@@ -40,9 +40,10 @@ use rayon::prelude::*;
 
 use super::contact::{GrainContacts, Other, Problem, Support, VertexContact, Wall, SUPPORT_NODES};
 use super::field::{Field, PointFailure, Scheme};
+use super::grain::Grain;
 use super::grid::{Grid, V2};
 use super::outline::nearest;
-use super::points::{Grain, Points};
+use super::points::Points;
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
 use crate::math::{Real, Vec3};

@@ -1,9 +1,10 @@
 //! Verification of the method on problems with known answers (REFERENCES.md §G).
 
 use super::contact::Wall;
+use super::grain::Grain;
 use super::grid::{Grid, V2};
 use super::outline::Outline;
-use super::points::{Grain, Points};
+use super::points::Points;
 use super::system::{Settings, System};
 use crate::constitutive::{build, LawSpec};
 use crate::math::Real;
