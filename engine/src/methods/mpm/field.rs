@@ -134,7 +134,7 @@ impl Field {
     }
 
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
-    /// velocities (momentum over mass), mass gradients and the internal forces at the start.
+    /// velocities (momentum over mass) and the internal forces at the start.
     pub fn begin(
         &mut self,
         grid: &Grid,

@@ -3,8 +3,8 @@
 //! touching at nodes ([`super::contact`]) through the shared contact solver.
 //!
 //! A step:
-//! 1. each grain projects its points on its nodes (mass, velocity, mass gradient, internal
-//!    force at the start);
+//! 1. each grain projects its points on its nodes (mass, velocity, internal force at the
+//!    start);
 //! 2. the contacts are found between the grains' outlines and with the walls, with their
 //!    normals and gaps;
 //! 3. Newton iterations on the nodal velocities of every grain at once: each grain assembles
