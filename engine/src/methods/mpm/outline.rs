@@ -91,7 +91,15 @@ impl Outline {
 
     /// Every vertex's position now, m.
     pub fn positions(&self, points: &Points) -> Vec<V2> {
-        (0..self.len()).map(|k| self.position(points, k)).collect()
+        let mut out = Vec::with_capacity(self.len());
+        self.positions_into(points, &mut out);
+        out
+    }
+
+    /// Every vertex's position now into `out` (cleared first), m.
+    pub fn positions_into(&self, points: &Points, out: &mut Vec<V2>) {
+        out.clear();
+        out.extend((0..self.len()).map(|k| self.position(points, k)));
     }
 
     /// Area enclosed, m² (shoelace).

@@ -169,6 +169,10 @@ pub struct System {
     sides: Vec<GrainContacts>,
     warm: HashMap<(usize, u32, i64), Vec3>,
     nlgs: Nlgs,
+    /// Each grain's outline at the step's start, and where an iterate moves it (scratch kept
+    /// between steps).
+    outlines: Vec<Vec<V2>>,
+    moved: Vec<Vec<V2>>,
 }
 
 fn fail(cause: InstabilityCause) -> StepFailure {
@@ -210,6 +214,8 @@ impl System {
             sides: vec![GrainContacts::default(); n],
             warm: HashMap::new(),
             nlgs: Nlgs::new(settings.contact),
+            outlines: vec![Vec::new(); n],
+            moved: vec![Vec::new(); n],
         }
     }
 
@@ -233,6 +239,8 @@ impl System {
                 .sum::<usize>()
             + self.contacts.capacity() * std::mem::size_of::<VertexContact>()
             + self.nlgs.heap_bytes()
+            + self.grains.iter().map(|g| g.outline.vertices.capacity() * std::mem::size_of::<super::outline::Vertex>()).sum::<usize>()
+            + self.outlines.iter().chain(&self.moved).map(|v| v.capacity() * std::mem::size_of::<V2>()).sum::<usize>()
     }
 
     /// Kinetic energy of the points, J/m (per metre of thickness).
@@ -462,7 +470,10 @@ impl System {
     /// [`super::contact`]).
     fn detect(&mut self) {
         let h = self.grid.h;
-        let shapes: Vec<Vec<V2>> = self.grains.iter().map(|g| g.outline.positions(&self.points)).collect();
+        let mut shapes = std::mem::take(&mut self.outlines);
+        for (g, at) in shapes.iter_mut().enumerate() {
+            self.grains[g].outline.positions_into(&self.points, at);
+        }
         let boxes: Vec<(V2, V2)> = shapes
             .iter()
             .map(|x| x.iter().fold((V2::repeat(Real::INFINITY), V2::repeat(Real::NEG_INFINITY)), |(lo, hi), p| (lo.inf(p), hi.sup(p))))
@@ -523,50 +534,44 @@ impl System {
                 }
             }
         }
+        self.outlines = shapes;
     }
 
     /// Sets each contact's drift ([`VertexContact::drift`]) at the current iterate: every
     /// outline moved as the iterate moves its vertices, and the gap measured anew, against
     /// the gap the contact's supports predict.
     fn measure_drifts(&mut self, sc: &Scheme) {
-        let mut moved: Vec<Vec<V2>> = Vec::with_capacity(self.grains.len());
+        let mut moved = std::mem::take(&mut self.moved);
         let mut entries = Vec::with_capacity(9);
-        for (g, grain) in self.grains.iter().enumerate() {
+        for (g, (to, from)) in moved.iter_mut().zip(&self.outlines).enumerate() {
             let f = &self.fields[g];
-            let at = grain.outline.positions(&self.points);
-            moved.push(
-                at.iter()
-                    .enumerate()
-                    .map(|(k, x)| {
-                        entries.clear();
-                        self.vertex_weights(g, k, 1.0, &mut entries);
-                        x + entries.iter().map(|&(i, w)| f.displacement(i as usize, sc) * w).sum::<V2>()
-                    })
-                    .collect(),
-            );
+            to.clear();
+            to.extend(from.iter().enumerate().map(|(k, x)| {
+                entries.clear();
+                self.vertex_weights(g, k, 1.0, &mut entries);
+                x + entries.iter().map(|&(i, w)| f.displacement(i as usize, sc) * w).sum::<V2>()
+            }));
         }
-        let displacement = |g: usize, s: &Support| s.iter().map(|(i, w)| self.fields[g].displacement(i, sc) * w).sum::<V2>();
-        let mut drifts = Vec::with_capacity(self.contacts.len());
-        for c in &self.contacts {
+        let (fields, sides, walls) = (&self.fields, &self.sides, &self.walls);
+        let displacement = |g: usize, s: &Support| s.iter().map(|(i, w)| fields[g].displacement(i, sc) * w).sum::<V2>();
+        for c in &mut self.contacts {
             let n = V2::new(c.frame.n.x, c.frame.n.y);
             let x = moved[c.a as usize][c.vertex];
-            let ua = displacement(c.a as usize, &self.sides[c.a as usize].samples[c.slot as usize]);
+            let ua = displacement(c.a as usize, &sides[c.a as usize].samples[c.slot as usize]);
             let (ub, now) = match c.b {
                 Other::Grain { grain, slot } => {
-                    let ub = displacement(grain as usize, &self.sides[grain as usize].samples[slot as usize]);
+                    let ub = displacement(grain as usize, &sides[grain as usize].samples[slot as usize]);
                     (ub, nearest(&moved[grain as usize], &x).map_or(c.gap, |near| near.gap))
                 }
                 Other::Wall(w) => {
-                    let wall = &self.walls[w as usize];
+                    let wall = &walls[w as usize];
                     let ub = wall.velocity * sc.dt;
                     (ub, (x - wall.point - ub).dot(&wall.normal))
                 }
             };
-            drifts.push(now - (c.gap + (ua - ub).dot(&n)));
+            c.drift = now - (c.gap + (ua - ub).dot(&n));
         }
-        for (c, d) in self.contacts.iter_mut().zip(drifts) {
-            c.drift = d;
-        }
+        self.moved = moved;
     }
 
     /// The support of the place `Σ t_k x_k` between vertices `(k, t_k)` of grain `g`'s outline
