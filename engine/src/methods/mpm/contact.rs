@@ -48,11 +48,13 @@
 //! vertices). At the first `system::DRIFT_ITERATIONS` Newton iterates every outline
 //! is moved where the iterate takes it and each contact's gap measured anew; its difference
 //! from the linear prediction, the drift, joins the contact's target. Measured on the CI
-//! compaction at Φ 0.90: 3.2% of the box covered twice without the drift, 0.38% with it (0.24%
-//! with the drift measured at every iterate, 20% slower). Doing a step again in halves
-//! whenever it left a contact 2% of a cell deeper than allowed also worked there (0.25%), but
-//! split the 300-grain compaction's dense steps down to a sixteenth.
-//! The drift must be second order: with the contacts' impulses and velocities at the outer
+//! compaction at Φ 0.90: 3.2% of the box covered twice without the drift, 0.38% with it; on the
+//! 300-grain compaction 1.2% at Φ 0.93 (0.66% at Φ 0.88). Measured at every iterate instead,
+//! the drift gave 0.24% on the CI compaction and 0.12% on the 300-grain one at Φ 0.88, but its
+//! Newton iterations slowed (28 to 84 a step) and failed their budget there at a sixteenth of
+//! the step (step 4,513). Doing a step again in halves whenever it left a contact 2% of a cell
+//! deeper than allowed gave 0.25% on the CI compaction, but split the 300-grain compaction's
+//! dense steps down to a sixteenth (Φ 0.84 after 11 minutes). The drift must be second order: with the contacts' impulses and velocities at the outer
 //! points' centres (the outline's offset from them left to the drift, or in the velocity
 //! only), the drift held most of the motion, changed after the iterates it was measured at,
 //! and the CI compaction reached 3.3 to 3.6% overlap.
