@@ -546,6 +546,10 @@ impl System {
         for (g, (to, from)) in moved.iter_mut().zip(&self.outlines).enumerate() {
             let f = &self.fields[g];
             to.clear();
+            // A grain without a contact has no sample: no contact reads its outline.
+            if self.sides[g].is_empty() {
+                continue;
+            }
             to.extend(from.iter().enumerate().map(|(k, x)| {
                 entries.clear();
                 self.vertex_weights(g, k, 1.0, &mut entries);
@@ -575,9 +579,10 @@ impl System {
     }
 
     /// The support of the place `Σ t_k x_k` between vertices `(k, t_k)` of grain `g`'s outline
-    /// (`entries` scratch). Two vertices more than a cell and a half apart (a grain stretched
-    /// that much) may move more nodes than a support holds: the place then moves with the
-    /// nearer vertex.
+    /// (`entries` scratch). The two vertices' points' stencils together hold at most
+    /// [`SUPPORT_NODES`] nodes while the points are less than about a cell apart along each
+    /// axis; farther apart (a grain stretched that much) the place moves with the nearer
+    /// vertex.
     fn vertex_support(&self, g: usize, at: &[(usize, Real)], entries: &mut Vec<(u32, Real)>) -> Support {
         entries.clear();
         for &(k, t) in at {
