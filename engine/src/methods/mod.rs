@@ -3,6 +3,7 @@
 
 pub mod cd;
 pub mod dem;
+pub mod fem;
 pub mod mpm;
 pub(crate) mod world;
 

@@ -1,0 +1,363 @@
+//! One finite-element grain (or block): its mesh, lumped masses, nodal displacements and
+//! velocities, the state of its elements, and its Newton system for a step.
+//!
+//! Time integration is the θ-method of contact dynamics on the nodal velocities, as for the
+//! material point method ([`crate::methods::mpm::field`]): with `v0` the velocities at the
+//! step's start and `v` at its end, the displacement over the step is
+//! `Δu = h (θ v + (1 − θ) v0)` and the residual
+//! `G(v) = M (v − v0) + h [(1 − θ) f(u) + θ f(u + Δu)] − h M g − Hᵀ P`,
+//! `f` the internal forces ([`super::element`]), `P` the contact impulses. Newton on `v` uses
+//! the matrix `M + (θh)² K`, `K = ∂f/∂u`, factorised by [`super::sparse`]. θ = ½ is the
+//! trapezoidal rule (a linear grain keeps its energy), θ = 1 backward Euler.
+//!
+//! A prescribed velocity (a node held or driven) takes its value before the iterations; its row
+//! and column of the matrix are the node's mass alone and its residual zero, so its correction
+//! is zero.
+
+use nalgebra::Vector2;
+
+use super::element::{self, ElementFailure, Geometry, State};
+use super::mesh::Mesh;
+use super::sparse::{SparseError, SparseSpd};
+use crate::constitutive::{ConstitutiveLaw, History, Mat2};
+use crate::math::Real;
+use crate::methods::mpm::field::Scheme;
+
+type V2 = Vector2<Real>;
+
+/// Why a body could not be built or stepped.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum BodyFailure {
+    /// An element of the mesh is degenerate or inverted at its reference positions.
+    #[error("element {element} of the mesh is degenerate or inverted")]
+    BadMesh {
+        /// The element.
+        element: usize,
+    },
+    /// An element is inverted at the iterate (`det F <= 0` at a Gauss point or its centre).
+    #[error("element {element} is inverted (det F = {jacobian:.3e})")]
+    Inverted {
+        /// The element.
+        element: usize,
+        /// The smallest `det F` found.
+        jacobian: Real,
+    },
+    /// The Newton matrix is not positive definite.
+    #[error("the Newton matrix is not positive definite")]
+    NotPositiveDefinite,
+    /// Newton did not converge within its budget.
+    #[error("Newton did not converge in {iterations} iterations (last correction {correction:.2e} relative)")]
+    NewtonBudget {
+        /// Iterations done.
+        iterations: u32,
+        /// The last correction, relative to its scale.
+        correction: Real,
+    },
+}
+
+/// A meshed body (module documentation).
+#[derive(Debug)]
+pub struct Body {
+    /// The mesh at the reference configuration.
+    pub mesh: Mesh,
+    /// Each element's reference geometry.
+    pub geometry: Vec<Geometry>,
+    /// The F-bar element (else the plain one).
+    pub fbar: bool,
+    /// Lumped nodal masses, kg/m.
+    pub mass: Vec<Real>,
+    /// Nodal displacements from the reference positions, m.
+    pub u: Vec<V2>,
+    /// Nodal velocities, m/s (during a step: the iterate).
+    pub v: Vec<V2>,
+    /// The elements' state at `u`.
+    pub states: Vec<State>,
+    /// Prescribed velocities of the step: `(unknown, value)`, the unknown `2 node + axis`, m/s.
+    pub fixed: Vec<(usize, Real)>,
+    /// Nodal velocities at the step's start, m/s.
+    pub v0: Vec<V2>,
+    /// Internal forces at the step's start, N/m.
+    force0: Vec<V2>,
+    /// The elements' state at the iterate.
+    trial: Vec<State>,
+    /// Newton residual at the iterate, two entries a node, N·s/m.
+    pub residual: Vec<Real>,
+    /// The Newton matrix (factorised after [`Body::iterate`] with `refresh`).
+    pub matrix: SparseSpd,
+    /// Where each element's 8×8 block goes in the matrix (`usize::MAX`: the upper triangle,
+    /// added through its mirror).
+    slots: Vec<[usize; 64]>,
+}
+
+impl Body {
+    /// A body at rest of density `density` (kg/m³) on `mesh`.
+    pub fn new(mesh: Mesh, density: Real, fbar: bool) -> Result<Self, BodyFailure> {
+        let n = mesh.nodes.len();
+        let mut geometry = Vec::with_capacity(mesh.quads.len());
+        let mut mass = vec![0.0; n];
+        for (e, q) in mesh.quads.iter().enumerate() {
+            let x = q.map(|k| mesh.nodes[k as usize]);
+            let geo = Geometry::new(&x).ok_or(BodyFailure::BadMesh { element: e })?;
+            for a in 0..4 {
+                mass[q[a] as usize] += density * geo.share[a];
+            }
+            geometry.push(geo);
+        }
+        let dof = |q: &[u32; 4], r: usize| 2 * q[r / 2] as usize + r % 2;
+        let pairs = mesh.quads.iter().flat_map(|q| (0..64).map(move |rc| (dof(q, rc / 8), dof(q, rc % 8))));
+        let matrix = SparseSpd::new(2 * n, pairs).map_err(|_| BodyFailure::BadMesh { element: 0 })?;
+        let slots = mesh
+            .quads
+            .iter()
+            .map(|q| {
+                let mut s = [usize::MAX; 64];
+                for (rc, slot) in s.iter_mut().enumerate() {
+                    let (r, c) = (dof(q, rc / 8), dof(q, rc % 8));
+                    if r >= c {
+                        *slot = matrix.slot(r, c).unwrap_or(usize::MAX);
+                    }
+                }
+                s
+            })
+            .collect();
+        let rest = State { force: [V2::zeros(); 4], f: [Mat2::identity(); 4], history: [History::default(); 4] };
+        let e = mesh.quads.len();
+        Ok(Self {
+            mesh,
+            geometry,
+            fbar,
+            mass,
+            u: vec![V2::zeros(); n],
+            v: vec![V2::zeros(); n],
+            states: vec![rest; e],
+            fixed: Vec::new(),
+            v0: vec![V2::zeros(); n],
+            force0: vec![V2::zeros(); n],
+            trial: vec![rest; e],
+            residual: vec![0.0; 2 * n],
+            matrix,
+            slots,
+        })
+    }
+
+    /// Nodes.
+    pub fn nodes(&self) -> usize {
+        self.mesh.nodes.len()
+    }
+
+    /// Current position of node `k`, m.
+    pub fn position(&self, k: usize) -> V2 {
+        self.mesh.nodes[k] + self.u[k]
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let v2 = std::mem::size_of::<V2>();
+        self.mesh.nodes.capacity() * v2
+            + self.mesh.quads.capacity() * 16
+            + self.mesh.boundary.capacity() * 4
+            + self.geometry.capacity() * std::mem::size_of::<Geometry>()
+            + (self.mass.capacity() + self.residual.capacity()) * 8
+            + (self.u.capacity() + self.v.capacity() + self.v0.capacity() + self.force0.capacity()) * v2
+            + (self.states.capacity() + self.trial.capacity()) * std::mem::size_of::<State>()
+            + self.slots.capacity() * 64 * 8
+            + self.matrix.heap_bytes()
+    }
+
+    /// Kinetic energy, J/m.
+    pub fn kinetic_energy(&self) -> Real {
+        self.mass.iter().zip(&self.v).map(|(m, v)| 0.5 * m * v.norm_squared()).sum()
+    }
+
+    /// Energy stored in the elements at `u`, J/m.
+    pub fn strain_energy(&self, law: &dyn ConstitutiveLaw) -> Real {
+        self.geometry.iter().zip(&self.states).map(|(g, s)| element::stored_energy(g, s, law)).sum()
+    }
+
+    /// Total internal force on each node at `u` (the sum of the elements'), N/m.
+    pub fn internal_forces(&self) -> Vec<V2> {
+        let mut f = vec![V2::zeros(); self.nodes()];
+        for (q, s) in self.mesh.quads.iter().zip(&self.states) {
+            for a in 0..4 {
+                f[q[a] as usize] += s.force[a];
+            }
+        }
+        f
+    }
+
+    /// The elements' states at the displacements `total` (from the accepted histories) into
+    /// `trial`, and — when `stiffness` is given — their stiffness times it added to the
+    /// matrix.
+    fn evaluate(&mut self, law: &dyn ConstitutiveLaw, total: &[V2], stiffness: Option<Real>) -> Result<(), BodyFailure> {
+        for (e, q) in self.mesh.quads.iter().enumerate() {
+            let u = q.map(|k| total[k as usize]);
+            let geo = &self.geometry[e];
+            let h = &self.states[e].history;
+            let fail = |ElementFailure::Inverted { jacobian }| BodyFailure::Inverted { element: e, jacobian };
+            self.trial[e] = element::state(geo, &u, h, law, self.fbar).map_err(fail)?;
+            if let Some(scale) = stiffness {
+                let k = element::stiffness(geo, &u, h, law, self.fbar).map_err(fail)?;
+                for (rc, &slot) in self.slots[e].iter().enumerate() {
+                    if slot != usize::MAX {
+                        self.matrix.add_at(slot, scale * k[rc / 8][rc % 8]);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Starts a step: the velocities and internal forces at its start.
+    pub fn begin(&mut self) {
+        self.v0.clone_from(&self.v);
+        self.force0 = self.internal_forces();
+        for &(d, value) in &self.fixed {
+            self.v[d / 2][d % 2] = value;
+        }
+    }
+
+    /// The displacement over the step of node `k` at the current iterate, m.
+    pub fn increment(&self, k: usize, sc: &Scheme) -> V2 {
+        (self.v[k] * sc.theta + self.v0[k] * (1.0 - sc.theta)) * sc.dt
+    }
+
+    /// Evaluates the residual at the current iterate and — when `refresh` — assembles and
+    /// factorises the matrix (module documentation).
+    pub fn iterate(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme, refresh: bool) -> Result<(), BodyFailure> {
+        let total: Vec<V2> = (0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)).collect();
+        if refresh {
+            self.matrix.clear();
+        }
+        let c = sc.theta * sc.dt;
+        self.evaluate(law, &total, refresh.then_some(c * c))?;
+        let mut f = vec![V2::zeros(); self.nodes()];
+        for (q, s) in self.mesh.quads.iter().zip(&self.trial) {
+            for a in 0..4 {
+                f[q[a] as usize] += s.force[a];
+            }
+        }
+        for k in 0..self.nodes() {
+            let m = self.mass[k];
+            let g = (self.v[k] - self.v0[k]) * m + (self.force0[k] * (1.0 - sc.theta) + f[k] * sc.theta - sc.gravity * m) * sc.dt;
+            self.residual[2 * k] = g.x;
+            self.residual[2 * k + 1] = g.y;
+            if refresh {
+                for i in 0..2 {
+                    if let Some(s) = self.matrix.slot(2 * k + i, 2 * k + i) {
+                        self.matrix.add_at(s, m);
+                    }
+                }
+            }
+        }
+        for &(d, _) in &self.fixed {
+            self.residual[d] = 0.0;
+            if refresh {
+                self.matrix.isolate(d, self.mass[d / 2]);
+            }
+        }
+        if refresh {
+            self.matrix.factorise().map_err(|e| match e {
+                SparseError::NotPositiveDefinite | SparseError::Pattern(_) => BodyFailure::NotPositiveDefinite,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Ends the step at the converged iterate: the displacements move on and the elements'
+    /// states are those at the new displacements.
+    pub fn finish(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<(), BodyFailure> {
+        let total: Vec<V2> = (0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)).collect();
+        self.evaluate(law, &total, None)?;
+        self.u = total;
+        std::mem::swap(&mut self.states, &mut self.trial);
+        Ok(())
+    }
+
+    /// A step of `sc.dt` without contact: Newton on the velocities to a correction below
+    /// `tolerance` times the velocity scale (the largest nodal speed, at least `floor`), at most
+    /// `max_newton` iterations; returns the iterations.
+    pub fn step_free(
+        &mut self,
+        law: &dyn ConstitutiveLaw,
+        sc: &Scheme,
+        tolerance: Real,
+        max_newton: u32,
+        floor: Real,
+    ) -> Result<u32, BodyFailure> {
+        self.begin();
+        let mut last = Real::INFINITY;
+        for it in 1..=max_newton {
+            self.iterate(law, sc, true)?;
+            let mut dv: Vec<Real> = self.residual.iter().map(|r| -r).collect();
+            self.matrix.solve(&mut dv);
+            let scale = self.v.iter().map(|v| v.norm()).fold(floor, Real::max);
+            let mut biggest: Real = 0.0;
+            for k in 0..self.nodes() {
+                let d = V2::new(dv[2 * k], dv[2 * k + 1]);
+                self.v[k] += d;
+                biggest = biggest.max(d.norm());
+            }
+            last = biggest / scale;
+            if last <= tolerance {
+                self.finish(law, sc)?;
+                return Ok(it);
+            }
+        }
+        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last })
+    }
+
+    /// Static equilibrium under the nodal loads `load` (N/m) with the displacements
+    /// `prescribed` (`(unknown, value)`, m): Newton on `f(u) = load` to a correction below
+    /// `tolerance` times the largest displacement; returns the iterations.
+    pub fn solve_static(
+        &mut self,
+        law: &dyn ConstitutiveLaw,
+        load: &[V2],
+        prescribed: &[(usize, Real)],
+        tolerance: Real,
+        max_newton: u32,
+    ) -> Result<u32, BodyFailure> {
+        for &(d, value) in prescribed {
+            self.u[d / 2][d % 2] = value;
+        }
+        let mut last = Real::INFINITY;
+        for it in 1..=max_newton {
+            self.matrix.clear();
+            let total = self.u.clone();
+            self.evaluate(law, &total, Some(1.0))?;
+            let mut r = vec![0.0; 2 * self.nodes()];
+            for (q, s) in self.mesh.quads.iter().zip(&self.trial) {
+                for a in 0..4 {
+                    let k = q[a] as usize;
+                    r[2 * k] -= s.force[a].x;
+                    r[2 * k + 1] -= s.force[a].y;
+                }
+            }
+            for (k, l) in load.iter().enumerate() {
+                r[2 * k] += l.x;
+                r[2 * k + 1] += l.y;
+            }
+            for &(d, _) in prescribed {
+                r[d] = 0.0;
+                self.matrix.isolate(d, 1.0);
+            }
+            self.matrix.factorise().map_err(|_| BodyFailure::NotPositiveDefinite)?;
+            self.matrix.solve(&mut r);
+            let scale = self.u.iter().map(|u| u.norm()).fold(Real::MIN_POSITIVE, Real::max);
+            let mut biggest: Real = 0.0;
+            for k in 0..self.nodes() {
+                let d = V2::new(r[2 * k], r[2 * k + 1]);
+                self.u[k] += d;
+                biggest = biggest.max(d.norm());
+            }
+            last = biggest / scale;
+            if last <= tolerance {
+                let total = self.u.clone();
+                self.evaluate(law, &total, None)?;
+                std::mem::swap(&mut self.states, &mut self.trial);
+                return Ok(it);
+            }
+        }
+        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last })
+    }
+}

@@ -1,0 +1,24 @@
+//! Deformable grains by the finite element method with contact dynamics (FEM-CD; PHYSICS.md
+//! §6, the habilitation N 1.2.3, as LMGC90 does it), in 2D plane strain: each grain meshed
+//! with quadrilaterals, integrated implicitly, its law one of the shared
+//! [`crate::constitutive`] laws.
+//!
+//! - [`mesh`]: the grains' meshes (a disk's O-grid, a rectangle);
+//! - [`element`]: the four-node F-bar quadrilateral at finite strain, its forces and tangent;
+//! - [`sparse`]: a grain's Newton matrix and its sparse Cholesky factor (faer);
+//! - [`body`]: one meshed body, its θ-method step and its static equilibrium.
+//!
+//! Contact between grains and the method on scenes come next (issue 26): the bodies already
+//! expose what the shared contact layer needs (their boundary loops, their factorised
+//! matrices, their iterates).
+
+// The kernels index small fixed arrays (2x2 blocks, 8x8 element matrices) by their axes.
+#![allow(clippy::needless_range_loop)]
+
+pub mod body;
+pub mod element;
+pub mod mesh;
+pub mod sparse;
+
+#[cfg(test)]
+mod tests;
