@@ -55,6 +55,16 @@ pub enum InstabilityCause {
         /// `det F` reached.
         jacobian: f64,
     },
+    /// An element of a meshed grain turned inside out (`det F <= 0` at one of its integration
+    /// points or its centre) or left the domain its constitutive law is defined on.
+    InvertedElement {
+        /// Grain index.
+        grain: usize,
+        /// Element index within the grain's mesh.
+        element: usize,
+        /// `det F` reached.
+        jacobian: f64,
+    },
     /// A material point left the background grid.
     LeftGrid {
         /// Grain index.
@@ -101,6 +111,9 @@ impl std::fmt::Display for InstabilityCause {
             ),
             Self::Inverted { grain, point, jacobian } => {
                 write!(f, "material point {point} of grain {grain} inverted (det F = {jacobian:.3e})")
+            }
+            Self::InvertedElement { grain, element, jacobian } => {
+                write!(f, "element {element} of grain {grain} inverted (det F = {jacobian:.3e})")
             }
             Self::LeftGrid { grain, point } => write!(f, "material point {point} of grain {grain} left the background grid"),
             Self::NotPositiveDefinite { grain } => {

@@ -39,6 +39,7 @@ pub fn apply_thread_budget(scene: &mut Scene, budget: usize) -> usize {
         Method::Dem(p) => &mut p.threads,
         Method::Cd(p) => &mut p.threads,
         Method::Mpm(p) => &mut p.threads,
+        Method::Fem(p) => &mut p.threads,
     };
     let n = if *threads == 0 { budget } else { (*threads).min(budget) };
     *threads = 0;

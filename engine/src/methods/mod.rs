@@ -5,6 +5,7 @@ pub mod cd;
 pub mod dem;
 pub mod fem;
 pub mod mpm;
+pub mod soft;
 pub(crate) mod world;
 
 use crate::error::EngineError;
@@ -16,6 +17,7 @@ pub fn build(scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
     match &scene.method {
         Method::Dem(params) => Ok(Box::new(dem::Dem::new(scene, params)?)),
         Method::Cd(params) => Ok(Box::new(cd::Cd::new(scene, params)?)),
-        Method::Mpm(params) => Ok(Box::new(mpm::sim::Mpm::new(scene, params)?)),
+        Method::Mpm(params) => Ok(Box::new(mpm::sim::mpm(scene, params)?)),
+        Method::Fem(params) => Ok(Box::new(fem::sim::fem(scene, params)?)),
     }
 }

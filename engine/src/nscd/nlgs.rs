@@ -582,6 +582,21 @@ pub struct NlgsReport {
     pub contacts: usize,
 }
 
+impl NlgsReport {
+    /// The failure of a solve that ran out of its budget under `settings`.
+    pub fn budget_failure(&self, settings: &Convergence) -> crate::error::InstabilityCause {
+        crate::error::InstabilityCause::SolverBudget {
+            iterations: self.iterations,
+            change: self.last.change,
+            violation: self.last.violation,
+            tolerance: settings.tolerance,
+            violation_tolerance: settings.violation_tolerance,
+            worst: self.last.worst,
+            worst_tolerance: settings.worst_tolerance,
+        }
+    }
+}
+
 /// The non-linear Gauss-Seidel solver, with the residual history of its last solve.
 #[derive(Debug)]
 pub struct Nlgs {

@@ -333,7 +333,7 @@ impl Analysis {
             deposit: None,
             grains: None,
             wet,
-            deformable: matches!(scene.method, crate::scene::Method::Mpm(_)),
+            deformable: matches!(scene.method, crate::scene::Method::Mpm(_) | crate::scene::Method::Fem(_)),
         }
     }
 

@@ -60,6 +60,9 @@ pub enum Method {
     /// Implicit material point method with contact dynamics, for deformable grains
     /// (PHYSICS.md §5).
     Mpm(MpmParams),
+    /// Implicit finite element method with contact dynamics, for deformable grains
+    /// (PHYSICS.md §6).
+    Fem(FemParams),
 }
 
 impl Method {
@@ -69,6 +72,7 @@ impl Method {
             Self::Dem(_) => "dem",
             Self::Cd(_) => "cd",
             Self::Mpm(_) => "mpm",
+            Self::Fem(_) => "fem",
         }
     }
 }
@@ -232,6 +236,56 @@ impl Default for MpmParams {
             violation_tolerance: 1e-6,
             max_iterations: 20_000,
             acceleration: 0.9,
+            threads: 0,
+        }
+    }
+}
+
+/// Parameters of the implicit finite element method ([`crate::methods::fem`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FemParams {
+    /// Time step, s; `None`: the fastest imposed motion covers `max_displacement` of an element
+    /// in one step.
+    pub time_step: Option<Real>,
+    /// Largest expected displacement per step / element size (default time step).
+    pub max_displacement: Real,
+    /// Boundary elements across the smallest grain diameter (the element size is that diameter
+    /// over this).
+    pub elements_per_diameter: Real,
+    /// θ of the time integration, in [½, 1].
+    pub theta: Real,
+    /// Newton's tolerance on the velocity correction, relative.
+    pub newton_tolerance: Real,
+    /// Newton iterations allowed per step.
+    pub max_newton: u32,
+    /// Contact solver: tolerance on the relative change of the impulses over a sweep.
+    pub tolerance: Real,
+    /// Contact solver: tolerance on the mean violation.
+    pub violation_tolerance: Real,
+    /// Contact solver: sweeps allowed per Newton iteration.
+    pub max_iterations: u32,
+    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1).
+    pub acceleration: Real,
+    /// Threads; 0 = rayon's global pool.
+    pub threads: usize,
+}
+
+impl Default for FemParams {
+    /// Those of the material point method ([`MpmParams::default`]) where they are shared, and
+    /// eight boundary elements across the smallest grain.
+    fn default() -> Self {
+        let m = MpmParams::default();
+        Self {
+            time_step: None,
+            max_displacement: m.max_displacement,
+            elements_per_diameter: 8.0,
+            theta: m.theta,
+            newton_tolerance: m.newton_tolerance,
+            max_newton: m.max_newton,
+            tolerance: m.tolerance,
+            violation_tolerance: m.violation_tolerance,
+            max_iterations: m.max_iterations,
+            acceleration: m.acceleration,
             threads: 0,
         }
     }

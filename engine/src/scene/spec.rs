@@ -579,6 +579,50 @@ pub struct MpmParamsSpec {
     pub threads: Option<usize>,
 }
 
+/// Parameters of the implicit finite element method with contact dynamics (all optional).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FemParamsSpec {
+    /// Always `"fem"`.
+    #[serde(default)]
+    pub kind: String,
+    /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of an
+    /// element in one step.
+    #[serde(default)]
+    pub time_step: Option<f64>,
+    /// Largest expected displacement per step / element size (default time step). Default 0.05.
+    #[serde(default)]
+    pub max_displacement: Option<f64>,
+    /// Boundary elements across the smallest grain diameter (>= 2). Default 8.
+    #[serde(default)]
+    pub elements_per_diameter: Option<f64>,
+    /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
+    #[serde(default)]
+    pub theta: Option<f64>,
+    /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
+    #[serde(default)]
+    pub newton_tolerance: Option<f64>,
+    /// Newton iterations allowed per step. Default 25.
+    #[serde(default)]
+    pub max_newton: Option<u32>,
+    /// Contact solver: tolerance on the relative change of the impulses. Default 1e-6.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
+    /// Default 1e-6.
+    #[serde(default)]
+    pub violation_tolerance: Option<f64>,
+    /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
+    #[serde(default)]
+    pub max_iterations: Option<u32>,
+    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
+    #[serde(default)]
+    pub acceleration: Option<f64>,
+    /// Threads; 0 = rayon's global pool. Default 0.
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
 /// A standard experiment (`docs/scene-format.md` §13).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

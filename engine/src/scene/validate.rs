@@ -11,7 +11,7 @@ use crate::math::{vec_from_slice, Real, Vec3, AXES};
 /// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
 pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
 /// Methods this version can run (`auto` picks among them).
-pub const AVAILABLE_METHODS: [&str; 4] = ["dem", "cd", "mpm", "auto"];
+pub const AVAILABLE_METHODS: [&str; 5] = ["dem", "cd", "mpm", "fem", "auto"];
 
 /// Parses scene JSON text and validates it.
 ///
@@ -122,9 +122,18 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         .collect();
 
     let any_deformable = sets.iter().any(|s| materials.get(s.material).is_some_and(|m| m.deformable.is_some()));
-    let mpm = matches!(method, Method::Mpm(_)) || (auto && any_deformable);
-    let time_step_given = matches!(&method, Method::Mpm(p) if p.time_step.is_some());
-    check_deformable_fit(&mut c, spec, (mpm, time_step_given), method.name(), dim, &materials, &sets, &container);
+    // The soft-grain method the scene runs (or `auto` will pick), if any.
+    let soft = match &method {
+        Method::Mpm(_) | Method::Fem(_) => Some(method.name()),
+        _ if auto && any_deformable => Some("mpm"),
+        _ => None,
+    };
+    let time_step_given = match &method {
+        Method::Mpm(p) => p.time_step.is_some(),
+        Method::Fem(p) => p.time_step.is_some(),
+        _ => false,
+    };
+    check_deformable_fit(&mut c, spec, (soft, time_step_given), method.name(), dim, &materials, &sets, &container);
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
@@ -347,9 +356,16 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool
             let Some(s) = params::<MpmParamsSpec>(c, object) else { return fallback };
             (Method::Mpm(check_mpm_params(c, &s)), "chosen by the scene".to_string(), false)
         }
+        "fem" => {
+            let Some(s) = params::<FemParamsSpec>(c, object) else { return fallback };
+            (Method::Fem(check_fem_params(c, &s)), "chosen by the scene".to_string(), false)
+        }
         "auto" => {
             for key in object.and_then(|o| o.as_object()).into_iter().flat_map(|m| m.keys()).filter(|k| *k != "kind") {
-                c.fail(format!("method.{key}"), "auto chooses the method and its parameters; name the method (dem, cd or mpm) to set them");
+                c.fail(
+                    format!("method.{key}"),
+                    "auto chooses the method and its parameters; name the method (dem, cd, mpm or fem) to set them",
+                );
             }
             (Method::Dem(DemParams::default()), String::new(), true)
         }
@@ -358,6 +374,50 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool
             (Method::Dem(check_dem_params(c, &s)), "chosen by the scene".to_string(), false)
         }
     }
+}
+
+/// The finite element method's parameters: the knobs it shares with the material point method
+/// are checked by [`check_mpm_params`] under the same names.
+fn check_fem_params(c: &mut Checker, s: &FemParamsSpec) -> FemParams {
+    let shared = MpmParamsSpec {
+        kind: s.kind.clone(),
+        time_step: s.time_step,
+        max_displacement: s.max_displacement,
+        theta: s.theta,
+        newton_tolerance: s.newton_tolerance,
+        max_newton: s.max_newton,
+        tolerance: s.tolerance,
+        violation_tolerance: s.violation_tolerance,
+        max_iterations: s.max_iterations,
+        acceleration: s.acceleration,
+        threads: s.threads,
+        ..MpmParamsSpec::default()
+    };
+    let m = check_mpm_params(c, &shared);
+    let mut p = FemParams {
+        time_step: m.time_step,
+        max_displacement: m.max_displacement,
+        theta: m.theta,
+        newton_tolerance: m.newton_tolerance,
+        max_newton: m.max_newton,
+        tolerance: m.tolerance,
+        violation_tolerance: m.violation_tolerance,
+        max_iterations: m.max_iterations,
+        acceleration: m.acceleration,
+        threads: m.threads,
+        ..FemParams::default()
+    };
+    if let Some(n) = s.elements_per_diameter {
+        if !(n.is_finite() && n >= 2.0) {
+            c.fail(
+                "method.elements_per_diameter",
+                format!("must be >= 2 (an element larger than half the smallest grain cannot tell its shape), got {n}"),
+            );
+        } else {
+            p.elements_per_diameter = n;
+        }
+    }
+    p
 }
 
 fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
@@ -446,62 +506,63 @@ fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
     p
 }
 
-/// What method `mpm` cannot run, and deformable grains with a method for rigid ones: every
-/// such field named. `mpm`: the method is (or `auto` will pick) the material point method.
+/// What the soft-grain methods cannot run, and deformable grains with a method for rigid ones:
+/// every such field named. `soft`: the soft-grain method the scene runs (or `auto` will pick).
 #[allow(clippy::too_many_arguments)]
 fn check_deformable_fit(
     c: &mut Checker,
     spec: &SceneSpec,
-    (mpm, time_step_given): (bool, bool),
+    (soft, time_step_given): (Option<&str>, bool),
     method: &str,
     dim: usize,
     materials: &[Material],
     sets: &[ParticleSet],
     container: &Container,
 ) {
+    let name = soft.unwrap_or("mpm");
     for (i, set) in sets.iter().enumerate() {
         let Some(m) = materials.get(set.material) else { continue };
-        match (mpm, m.deformable.is_some()) {
+        match (soft.is_some(), m.deformable.is_some()) {
             (true, false) => c.fail(
                 format!("particles[{i}].material"),
-                format!("method mpm needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
+                format!("method {name} needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
             ),
             (false, true) => c.fail(
                 format!("particles[{i}].material"),
-                format!("'{}' is deformable: its grains need method mpm (method {method} moves rigid grains)", m.name),
+                format!("'{}' is deformable: its grains need method mpm or fem (method {method} moves rigid grains)", m.name),
             ),
             _ => {}
         }
-        if mpm && set.wet_fraction > 0.0 {
-            c.fail(format!("particles[{i}].wet_fraction"), "not with method mpm (no capillary law between deformable grains)");
+        if soft.is_some() && set.wet_fraction > 0.0 {
+            c.fail(format!("particles[{i}].wet_fraction"), format!("not with method {name} (no capillary law between deformable grains)"));
         }
     }
-    if !mpm {
+    if soft.is_none() {
         return;
     }
     if dim != 2 {
-        c.fail("dimension", "method mpm is 2D (plane strain) in this version");
+        c.fail("dimension", format!("method {name} is 2D (plane strain) in this version"));
     }
     if spec.start_from.is_some() {
-        c.fail("start_from", "not with method mpm: a saved state holds rigid grains, not material points");
+        c.fail("start_from", format!("not with method {name}: a saved state holds rigid grains, not deformable ones"));
     }
     if container.periodic.iter().any(|&p| p) {
-        c.fail("container.periodic", "not with method mpm: its grains meet walls only");
+        c.fail("container.periodic", format!("not with method {name}: its grains meet walls only"));
     }
     if spec.container.lees_edwards.is_some() {
-        c.fail("container.lees_edwards", "not with method mpm (it needs walls all round)");
+        c.fail("container.lees_edwards", format!("not with method {name} (it needs walls all round)"));
     }
     if spec.container.deformation.is_some() {
-        c.fail("container.deformation", "not with method mpm (it needs walls all round)");
+        c.fail("container.deformation", format!("not with method {name} (it needs walls all round)"));
     }
     for w in &container.walls {
         match w.motion {
             WallMotion::Stress { max_speed, .. } if !max_speed.is_finite() && !time_step_given => c.fail(
                 format!("container.walls.{}.max_speed", w.face.name()),
-                "required with method mpm (unless method.time_step is given): the fastest wall sets the time step",
+                format!("required with method {name} (unless method.time_step is given): the fastest wall sets the time step"),
             ),
             WallMotion::Shearing { .. } => {
-                c.fail(format!("container.walls.{}", w.face.name()), "shearing walls are not available with method mpm")
+                c.fail(format!("container.walls.{}", w.face.name()), format!("shearing walls are not available with method {name}"))
             }
             _ => {}
         }
@@ -510,7 +571,7 @@ fn check_deformable_fit(
         if !matches!(e, ExperimentSpec::Isotropic(_) | ExperimentSpec::Biaxial(_) | ExperimentSpec::Compaction(_)) {
             c.fail(
                 "experiment.kind",
-                format!("the {} experiment is not available with method mpm: it runs isotropic, biaxial and compaction", e.kind()),
+                format!("the {} experiment is not available with method {name}: it runs isotropic, biaxial and compaction", e.kind()),
             );
         }
     }
@@ -1322,13 +1383,46 @@ mod tests {
         assert!(few.iter().any(|g| g.starts_with("method.points_per_cell: gives 1 point(s) across the smallest grain")), "{few:?}");
     }
 
+    /// Method `fem`: its own knob named with its rule, the knobs it shares with `mpm` under the
+    /// same names and rules, and the same fit rules named for `fem`; a sound scene passes.
+    #[test]
+    fn fem_params_and_fit_are_checked() {
+        let law = serde_json::json!({"law": "neo_hookean", "shear_modulus": 1.5e5, "lambda": 1.5e7});
+        let got = rules(&soft_scene(
+            serde_json::json!({"kind": "fem", "elements_per_diameter": 1.5, "theta": 0.2, "max_newton": 0}),
+            law.clone(),
+            serde_json::json!({"dimension": 3, "container": {"min": [0, 0, 0], "max": [0.01, 0.01, 0.01], "wall_material": "rubber"}}),
+        ));
+        for want in [
+            "method.elements_per_diameter: must be >= 2 (an element larger than half the smallest grain cannot tell its shape), got 1.5",
+            "method.theta: must be",
+            "method.max_newton: must be >= 1",
+            "dimension: method fem is 2D",
+        ] {
+            assert!(got.iter().any(|g| g.starts_with(want)), "missing {want:?} in {got:#?}");
+        }
+        let grid = rules(&soft_scene(serde_json::json!({"kind": "fem", "points_per_cell": 2}), law.clone(), serde_json::json!({})));
+        assert!(grid.iter().any(|g| g.starts_with("method.points_per_cell: unknown field")), "{grid:?}");
+        let rigid = rules(&scene_with(serde_json::json!("fem"), 0.5));
+        assert!(rigid.iter().any(|g| g.starts_with("particles[0].material: method fem needs deformable grains")), "{rigid:?}");
+        let scene = parse_scene(&soft_scene(serde_json::json!({"kind": "fem", "elements_per_diameter": 6}), law, serde_json::json!({})))
+            .expect("valid");
+        match scene.method {
+            Method::Fem(p) => assert_eq!((p.elements_per_diameter, p.theta), (6.0, 1.0)),
+            other => panic!("method {}", other.name()),
+        }
+    }
+
     /// Deformable grains need mpm, mpm needs deformable grains in a 2D box with walls; a contact
     /// law or restitution on a deformable material is refused.
     #[test]
     fn deformable_grains_and_methods_must_fit() {
         let law = serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.45});
         let dem = rules(&soft_scene(serde_json::json!("dem"), law.clone(), serde_json::json!({})));
-        assert_eq!(dem, vec!["particles[0].material: 'rubber' is deformable: its grains need method mpm (method dem moves rigid grains)"]);
+        assert_eq!(
+            dem,
+            vec!["particles[0].material: 'rubber' is deformable: its grains need method mpm or fem (method dem moves rigid grains)"]
+        );
         let periodic = rules(&soft_scene(
             serde_json::json!("mpm"),
             law.clone(),

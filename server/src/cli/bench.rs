@@ -92,7 +92,7 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
     let (scene, threads, pool) =
         prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
     let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
-    let mut sim = pool.install(|| sable_engine::methods::mpm::sim::Mpm::new(&scene, params))?;
+    let mut sim = pool.install(|| sable_engine::methods::mpm::sim::mpm(&scene, params))?;
     let start = std::time::Instant::now();
     let mut steps = 0u64;
     pool.install(|| {

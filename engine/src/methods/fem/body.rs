@@ -21,7 +21,7 @@ use super::mesh::Mesh;
 use super::sparse::{SparseError, SparseSpd};
 use crate::constitutive::{ConstitutiveLaw, History, Mat2};
 use crate::math::Real;
-use crate::methods::mpm::field::Scheme;
+use crate::methods::soft::Scheme;
 
 type V2 = Vector2<Real>;
 
@@ -263,14 +263,21 @@ impl Body {
         Ok(())
     }
 
-    /// Ends the step at the converged iterate: the displacements move on and the elements'
-    /// states are those at the new displacements.
-    pub fn finish(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<(), BodyFailure> {
+    /// Evaluates the elements at the displacements the converged iterate reaches (nothing moves
+    /// yet: [`Body::commit`] does).
+    pub fn settle(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<(), BodyFailure> {
         let total: Vec<V2> = (0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)).collect();
-        self.evaluate(law, &total, None)?;
-        self.u = total;
+        self.evaluate(law, &total, None)
+    }
+
+    /// Ends the step after [`Body::settle`]: the displacements move on and the elements' states
+    /// are those at the new displacements.
+    pub fn commit(&mut self, sc: &Scheme) {
+        for k in 0..self.nodes() {
+            let d = self.increment(k, sc);
+            self.u[k] += d;
+        }
         std::mem::swap(&mut self.states, &mut self.trial);
-        Ok(())
     }
 
     /// A step of `sc.dt` without contact: Newton on the velocities to a correction below
@@ -299,7 +306,8 @@ impl Body {
             }
             last = biggest / scale;
             if last <= tolerance {
-                self.finish(law, sc)?;
+                self.settle(law, sc)?;
+                self.commit(sc);
                 return Ok(it);
             }
         }

@@ -18,7 +18,9 @@
 pub mod body;
 pub mod element;
 pub mod mesh;
+pub mod sim;
 pub mod sparse;
+pub mod system;
 
 #[cfg(test)]
 mod tests;

@@ -5,11 +5,14 @@ use nalgebra::Vector2;
 
 use super::body::Body;
 use super::mesh::Mesh;
+use super::system::{Grain, Settings, System};
 use crate::constitutive::linear_elastic::LinearElastic;
 use crate::constitutive::neo_hookean::NeoHookean;
-use crate::constitutive::{ConstitutiveLaw, History, Mat2};
+use crate::constitutive::{build, ConstitutiveLaw, History, LawSpec, Mat2};
 use crate::math::Real;
-use crate::methods::mpm::field::Scheme;
+use crate::methods::soft::contact::Wall;
+use crate::methods::soft::Scheme;
+use crate::nscd::Convergence;
 
 type V2 = Vector2<Real>;
 
@@ -202,4 +205,109 @@ fn a_free_vibrating_grain_keeps_its_energy() {
     );
     assert!(high / e0 - 1.0 < 0.01 && 1.0 - low / e0 < 0.01, "energy between {low} and {high}, from {e0}");
     assert!(momentum.norm() < 1e-9 * scale, "momentum {momentum}");
+}
+
+fn settings(dt: Real, theta: Real) -> Settings {
+    Settings {
+        dt,
+        theta,
+        gravity: V2::zeros(),
+        newton_tolerance: 1e-6,
+        max_newton: 20,
+        contact: Convergence {
+            tolerance: 1e-6,
+            violation_tolerance: 1e-7,
+            worst_tolerance: 1e-5,
+            max_iterations: 20_000,
+            relaxation: 1.0,
+            acceleration: 0.0,
+        },
+    }
+}
+
+fn disk_grain(c: V2, r: Real, size: Real, rho: Real, v: V2) -> Grain {
+    let mut body = Body::new(Mesh::disk(c, r, size), rho, true).expect("mesh");
+    body.v.iter_mut().for_each(|x| *x = v);
+    Grain { body, law: 0, friction: 0.0, radius: r }
+}
+
+/// Two elastic disks meet head-on along the diagonal (REFERENCES §G 21: Sulsky's disks of radius
+/// 0.2 m, E = 1000 Pa, ν = 0.3, ρ = 1000 kg/m³, ±(0.1, 0.1) m/s) and part again: momentum is
+/// conserved at every step to round-off, the energy never grows (trapezoidal rule), and they
+/// separate with a good part of their approach speed (measured: 0.87 of it, 3.4% of the energy
+/// left in the grains' vibration; the material point method's disks part at 0.76).
+#[test]
+fn two_meshed_disks_collide_and_part() {
+    let (r, rho) = (0.2, 1000.0);
+    let size = 0.05;
+    let grains = vec![
+        disk_grain(V2::new(0.2, 0.2), r, size, rho, V2::new(0.1, 0.1)),
+        disk_grain(V2::new(0.8, 0.8), r, size, rho, V2::new(-0.1, -0.1)),
+    ];
+    let law = build(&LawSpec::LinearElastic { young: 1000.0, poisson: 0.3 });
+    let mut sys = System::new(grains, vec![law], Vec::<Wall>::new(), settings(0.01, 0.5));
+    let mass: Real = sys.grains.iter().flat_map(|g| g.body.mass.iter()).sum();
+    let centre_velocity = |g: &Grain| g.body.mass.iter().zip(&g.body.v).map(|(m, v)| v * *m).sum::<V2>() / g.body.mass.iter().sum::<Real>();
+    let approach = |s: &System| (centre_velocity(&s.grains[0]) - centre_velocity(&s.grains[1])).dot(&V2::new(1.0, 1.0).normalize());
+    let before = approach(&sys);
+    let e0 = sys.kinetic_energy() + sys.strain_energy();
+    let (mut most, mut touched) = (e0, false);
+    for _ in 0..400 {
+        let rep = sys.step().expect("stable");
+        if rep.sweeps > 1000 {
+            eprintln!("step {}: {} Newton, {} sweeps, {} contacts", sys.steps, rep.newton, rep.sweeps, rep.contacts);
+        }
+        touched |= sys.contacts.iter().any(|c| c.active());
+        most = most.max(sys.kinetic_energy() + sys.strain_energy());
+        let p = sys.momentum();
+        assert!(p.norm() < 1e-12 * mass * 0.1, "momentum {p} at step {} ({} Newton iterations)", sys.steps, rep.newton);
+    }
+    let after = approach(&sys);
+    let energy = sys.kinetic_energy() + sys.strain_energy();
+    eprintln!(
+        "meshed disks: approach {before:.4} before, {after:.4} after; energy {e0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps, {} split)",
+        sys.totals.newton, sys.totals.sweeps, sys.substeps
+    );
+    assert!(touched, "the disks never touched");
+    assert!(most <= e0 * (1.0 + 1e-6), "energy grew to {most} from {e0}");
+    assert!(after < -0.2 * before, "the disks did not part: {after} after, {before} before");
+}
+
+/// An elastic meshed disk (R = 1 m, E = 1 MPa, ν = 0.3) pressed on a rigid plane by its weight
+/// for a Hertz half-width `a_want` (m), loaded quasi-statically (backward Euler), elements
+/// `size` (m) along the boundary; returns (a from the Hertz fit of the wall forces, Hertz's a,
+/// wall force, load).
+fn meshed_disk_on_plane(size: Real, a_want: Real) -> (Real, Real, Real, Real) {
+    let (r, young, nu, rho) = (1.0, 1e6, 0.3, 1000.0);
+    let e_star = young / (1.0 - nu * nu);
+    let load = std::f64::consts::PI * e_star * a_want * a_want / (4.0 * r);
+    let grain = disk_grain(V2::new(0.0, r), r, size, rho, V2::zeros());
+    let mass: Real = grain.body.mass.iter().sum();
+    let g = load / mass;
+    let floor = Wall { point: V2::zeros(), normal: V2::new(0.0, 1.0), velocity: V2::zeros(), friction: 0.0 };
+    let law = build(&LawSpec::LinearElastic { young, poisson: nu });
+    let mut sys = System::new(vec![grain], vec![law], vec![floor], settings(0.1, 1.0));
+    for k in 1..=30 {
+        sys.settings.gravity = V2::new(0.0, -g * (k as Real / 10.0).min(1.0));
+        sys.step().expect("stable");
+    }
+    let mut at: Vec<(Real, Real)> = sys.contacts.iter().map(|c| (c.at.x, c.r.x / sys.last_dt())).collect();
+    let (a, f, _) = crate::methods::soft::hertz::fit(&mut at);
+    let load = mass * g;
+    (a, (4.0 * load * r / (std::f64::consts::PI * e_star)).sqrt(), f, load)
+}
+
+/// The meshed disk on a plane against Hertz's line contact (REFERENCES §G 19, Johnson 1985 §4,
+/// `a = sqrt(4 P' R / π E*)`) at a / R = 0.08, elements of R/25: the half-width within 3%
+/// (measured 1.9% narrow; 2.4% at R/50) and the wall force equal to the load within 0.1%.
+/// Hertz's is the small-strain limit: the contact strains are about a / 2R, and the half-width
+/// the method converges to departs from Hertz's in proportion (measured at R/25 and R/50:
+/// 4.4% and 4.6% narrow at a / R = 0.16 — what the material point method settles to on the
+/// same disk, [`crate::methods::mpm`]'s Hertz test — and 2.4% at 0.08).
+#[test]
+fn a_meshed_disk_on_a_plane_matches_hertz() {
+    let (a, a_h, f, load) = meshed_disk_on_plane(0.04, 0.08);
+    eprintln!("meshed disk on a plane: a {a:.5} (Hertz {a_h:.5}, {:+.2}%), force {f:.5e} (load {load:.5e})", 100.0 * (a / a_h - 1.0));
+    assert!((f - load).abs() < 1e-3 * load, "wall force {f} against the load {load}");
+    assert!((a / a_h - 1.0).abs() < 0.03, "half-width {a} against Hertz's {a_h}");
 }

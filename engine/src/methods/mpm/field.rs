@@ -35,16 +35,7 @@ pub enum PointFailure {
     Inverted(usize, Real),
 }
 
-/// The integration settings a field needs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scheme {
-    /// Time step, s.
-    pub dt: Real,
-    /// θ of the θ-method, in [½, 1].
-    pub theta: Real,
-    /// Gravity, m/s².
-    pub gravity: V2,
-}
+pub use crate::methods::soft::Scheme;
 
 /// One grain's nodal field (module documentation).
 #[derive(Debug, Default)]

@@ -102,64 +102,18 @@ impl Outline {
         out.extend((0..self.len()).map(|k| self.position(points, k)));
     }
 
-    /// Area enclosed, m² (shoelace).
+    /// Area enclosed, m² ([`crate::methods::soft::polygon::area`]).
     pub fn area(positions: &[V2]) -> Real {
-        let n = positions.len();
-        0.5 * (0..n).map(|k| positions[k].perp(&positions[(k + 1) % n])).sum::<Real>()
+        crate::methods::soft::polygon::area(positions)
     }
 
-    /// Whether `x` is inside the polygon `positions` (even-odd rule).
+    /// Whether `x` is inside the polygon `positions` ([`crate::methods::soft::polygon::contains`]).
     pub fn contains(positions: &[V2], x: &V2) -> bool {
-        let n = positions.len();
-        let mut inside = false;
-        for k in 0..n {
-            let (a, b) = (positions[k], positions[(k + 1) % n]);
-            if (a.y > x.y) != (b.y > x.y) {
-                let cross = a.x + (x.y - a.y) / (b.y - a.y) * (b.x - a.x);
-                if x.x < cross {
-                    inside = !inside;
-                }
-            }
-        }
-        inside
+        crate::methods::soft::polygon::contains(positions, x)
     }
 }
 
-/// The segment of a polygon nearest a place, and the place's signed distance from it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Nearest {
-    /// The segment: from vertex `segment` to the next.
-    pub segment: usize,
-    /// Where along it the place projects, in [0, 1].
-    pub t: Real,
-    /// Outward unit normal of the segment.
-    pub normal: V2,
-    /// Distance along the normal from the segment's line, m (negative inside).
-    pub gap: Real,
-}
-
-/// The segment of the counter-clockwise polygon `positions` nearest `x` (by distance to the
-/// segment), with `x`'s distance along its outward normal; `None` for a degenerate polygon.
-pub fn nearest(positions: &[V2], x: &V2) -> Option<Nearest> {
-    let n = positions.len();
-    let mut best: Option<(Real, Nearest)> = None;
-    for k in 0..n {
-        let (a, b) = (positions[k], positions[(k + 1) % n]);
-        let d = b - a;
-        let len2 = d.norm_squared();
-        if len2 <= 0.0 {
-            continue;
-        }
-        let t = ((x - a).dot(&d) / len2).clamp(0.0, 1.0);
-        let dist2 = (x - (a + d * t)).norm_squared();
-        if best.as_ref().is_none_or(|(b2, _)| dist2 < *b2) {
-            let len = len2.sqrt();
-            let normal = V2::new(d.y / len, -d.x / len);
-            best = Some((dist2, Nearest { segment: k, t, normal, gap: (x - a).dot(&normal) }));
-        }
-    }
-    best.map(|(_, n)| n)
-}
+pub use crate::methods::soft::polygon::{nearest, Nearest};
 
 #[cfg(test)]
 mod tests {

@@ -34,34 +34,24 @@
 //! Momentum is conserved exactly by every iteration (the internal forces of a grain sum to
 //! zero and the contact impulses are equal and opposite), whatever the convergence.
 
-use std::collections::HashMap;
-
 use rayon::prelude::*;
 
-use super::contact::{GrainContacts, Other, Problem, Support, VertexContact, Wall, SUPPORT_NODES};
+use super::contact::{
+    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Support, VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
+};
 use super::field::{Field, PointFailure, Scheme};
 use super::grain::Grain;
 use super::grid::{Grid, V2};
-use super::outline::nearest;
 use super::points::Points;
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
-use crate::math::{Real, Vec3};
-use crate::nscd::local::{Delassus, LocalLaw};
-use crate::nscd::{ContactFrame, Convergence, Nlgs, NlgsReport};
+use crate::math::Real;
+use crate::nscd::{Convergence, Nlgs, NlgsReport};
 
 /// A Newton iteration that reduces the correction by less than this factor makes the next one
 /// assemble and factorise the matrix anew; otherwise the next one keeps it (module
 /// documentation).
 const REFRESH_RATIO: Real = 0.25;
-
-/// The contact solve of a Newton iteration stops at a relative change of the impulses below
-/// this fraction of the last iteration's relative correction (or below the settings'
-/// tolerance, if smaller). Gauss-Seidel's last change understates its error when it converges
-/// slowly, as it does on a dense packing: with the settings' 1e-6 alone, the Newton iterations
-/// of a dense compaction converged only as fast as the sweeps they added (a ratio of 0.4 an
-/// iteration, twelve iterations a step); with this forcing, 5 to 7.
-const FORCING: Real = 0.01;
 
 /// The Newton iterations of a step that measure the contacts' drifts at their iterate; later
 /// ones keep them (a target that moves with every iterate kept a dense packing's iterations
@@ -167,7 +157,7 @@ pub struct System {
     calm: u32,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
-    warm: HashMap<(usize, u32, i64), Vec3>,
+    warm: Warm,
     nlgs: Nlgs,
     /// Each grain's outline at the step's start, and where an iterate moves it (scratch kept
     /// between steps).
@@ -212,7 +202,7 @@ impl System {
             pair_friction: None,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
-            warm: HashMap::new(),
+            warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
             outlines: vec![Vec::new(); n],
             moved: vec![Vec::new(); n],
@@ -392,16 +382,7 @@ impl System {
             let solved = self.solve_contacts(&sc);
             report.sweeps += solved.iterations;
             if !solved.converged {
-                let s = self.settings.contact;
-                return Err(fail(InstabilityCause::SolverBudget {
-                    iterations: solved.iterations,
-                    change: solved.last.change,
-                    violation: solved.last.violation,
-                    tolerance: s.tolerance,
-                    violation_tolerance: s.violation_tolerance,
-                    worst: solved.last.worst,
-                    worst_tolerance: s.worst_tolerance,
-                }));
+                return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
             let (dv2, m) = self.newton_update();
             let correction = (dv2 / m.max(Real::MIN_POSITIVE)).sqrt();
@@ -445,21 +426,15 @@ impl System {
         for w in &mut self.walls {
             w.point += w.velocity * sc.dt;
         }
-        self.wall_force.iter_mut().for_each(|p| *p = V2::zeros());
         self.last_dt = sc.dt;
-        for c in &self.contacts {
-            if let Other::Wall(k) = c.b {
-                let p = c.frame.to_global(&c.r);
-                self.wall_impulse[k as usize] -= V2::new(p.x, p.y);
-                self.wall_force[k as usize] -= V2::new(p.x, p.y) / sc.dt;
-            }
+        let mut part = std::mem::take(&mut self.wall_force);
+        contact::wall_impulses(&self.contacts, &mut part);
+        for (impulse, p) in self.wall_impulse.iter_mut().zip(part.iter_mut()) {
+            *impulse += *p;
+            *p /= sc.dt;
         }
-        self.warm.clear();
-        for c in &self.contacts {
-            if c.r != Vec3::zeros() {
-                self.warm.insert(c.key(), c.r);
-            }
-        }
+        self.wall_force = part;
+        self.warm.remember(&self.contacts);
         self.time += sc.dt;
         Ok(report)
     }
@@ -474,65 +449,47 @@ impl System {
         for (g, at) in shapes.iter_mut().enumerate() {
             self.grains[g].outline.positions_into(&self.points, at);
         }
-        let boxes: Vec<(V2, V2)> = shapes
-            .iter()
-            .map(|x| x.iter().fold((V2::repeat(Real::INFINITY), V2::repeat(Real::NEG_INFINITY)), |(lo, hi), p| (lo.inf(p), hi.sup(p))))
-            .collect();
-        // The pairs whose boxes come within a cell, by a sweep along x.
-        let mut order: Vec<usize> = (0..shapes.len()).filter(|&g| !shapes[g].is_empty()).collect();
-        order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x).then(a.cmp(&b)));
-        let mut pairs = Vec::new();
-        for (i, &a) in order.iter().enumerate() {
-            for &b in &order[i + 1..] {
-                if boxes[b].0.x > boxes[a].1.x + h {
-                    break;
-                }
-                if boxes[b].0.y <= boxes[a].1.y + h && boxes[a].0.y <= boxes[b].1.y + h {
-                    pairs.push((a.min(b), a.max(b)));
-                }
-            }
-        }
-        pairs.sort_unstable();
         for side in &mut self.sides {
             side.clear();
         }
         self.contacts.clear();
         let mut entries = Vec::with_capacity(2 * 9);
-        for (a, b) in pairs {
-            let (lo, hi) = (boxes[b].0 - V2::repeat(h), boxes[b].1 + V2::repeat(h));
-            for (k, x) in shapes[a].iter().enumerate() {
-                if x.x < lo.x || x.y < lo.y || x.x > hi.x || x.y > hi.y {
-                    continue;
-                }
-                let Some(near) = nearest(&shapes[b], x) else { continue };
-                if near.gap.is_nan() || near.gap > h {
-                    continue;
-                }
-                // Each side moves as its vertices do over the step (module documentation of
-                // [`super::contact`]): grain `b`'s place between its segment's two.
-                let next = (near.segment + 1) % shapes[b].len();
-                let support_a = self.vertex_support(a, &[(k, 1.0)], &mut entries);
-                let support_b = self.vertex_support(b, &[(near.segment, 1.0 - near.t), (next, near.t)], &mut entries);
-                let index = self.contacts.len() as u32;
-                let slot = self.sides[b].push(support_b, index, false);
-                let friction = self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt());
-                let at = x - near.normal * (0.5 * near.gap);
-                self.push_contact(k, at, a as u32, support_a, Other::Grain { grain: b as u32, slot }, near.normal, near.gap, friction);
-            }
-        }
-        for (g, x) in shapes.iter().enumerate() {
-            for (k, x) in x.iter().enumerate() {
-                for w in 0..self.walls.len() {
-                    let wall = self.walls[w];
-                    let gap = (x - wall.point).dot(&wall.normal);
-                    if gap.is_nan() || gap > h {
-                        continue;
+        for candidate in candidates(&shapes, &self.walls, h) {
+            let e = match candidate {
+                Candidate::Grain { a, k, b, near } => {
+                    // Each side moves as its vertices do over the step (module documentation of
+                    // [`super::contact`]): grain `b`'s place between its segment's two.
+                    let next = (near.segment + 1) % shapes[b].len();
+                    let support = self.vertex_support(a, &[(k, 1.0)], &mut entries);
+                    let on_b = self.vertex_support(b, &[(near.segment, 1.0 - near.t), (next, near.t)], &mut entries);
+                    Entry {
+                        vertex: k,
+                        at: shapes[a][k] - near.normal * (0.5 * near.gap),
+                        a: a as u32,
+                        support,
+                        b: Against::Grain { grain: b as u32, support: on_b },
+                        normal: near.normal,
+                        gap: near.gap,
+                        friction: self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt()),
+                        lever: self.grains[a].radius,
                     }
-                    let support = self.vertex_support(g, &[(k, 1.0)], &mut entries);
-                    let friction = (self.grains[g].friction * wall.friction).sqrt();
-                    self.push_contact(k, x - wall.normal * gap, g as u32, support, Other::Wall(w as u32), wall.normal, gap, friction);
                 }
-            }
+                Candidate::Wall { g, k, w, gap } => {
+                    let wall = self.walls[w];
+                    Entry {
+                        vertex: k,
+                        at: shapes[g][k] - wall.normal * gap,
+                        a: g as u32,
+                        support: self.vertex_support(g, &[(k, 1.0)], &mut entries),
+                        b: Against::Wall(w as u32),
+                        normal: wall.normal,
+                        gap,
+                        friction: (self.grains[g].friction * wall.friction).sqrt(),
+                        lever: self.grains[g].radius,
+                    }
+                }
+            };
+            enter(&mut self.contacts, &mut self.sides, &self.warm, e);
         }
         self.outlines = shapes;
     }
@@ -556,25 +513,9 @@ impl System {
                 x + entries.iter().map(|&(i, w)| f.displacement(i as usize, sc) * w).sum::<V2>()
             }));
         }
-        let (fields, sides, walls) = (&self.fields, &self.sides, &self.walls);
+        let fields = &self.fields;
         let displacement = |g: usize, s: &Support| s.iter().map(|(i, w)| fields[g].displacement(i, sc) * w).sum::<V2>();
-        for c in &mut self.contacts {
-            let n = V2::new(c.frame.n.x, c.frame.n.y);
-            let x = moved[c.a as usize][c.vertex];
-            let ua = displacement(c.a as usize, &sides[c.a as usize].samples[c.slot as usize]);
-            let (ub, now) = match c.b {
-                Other::Grain { grain, slot } => {
-                    let ub = displacement(grain as usize, &sides[grain as usize].samples[slot as usize]);
-                    (ub, nearest(&moved[grain as usize], &x).map_or(c.gap, |near| near.gap))
-                }
-                Other::Wall(w) => {
-                    let wall = &walls[w as usize];
-                    let ub = wall.velocity * sc.dt;
-                    (ub, (x - wall.point - ub).dot(&wall.normal))
-                }
-            };
-            c.drift = now - (c.gap + (ua - ub).dot(&n));
-        }
+        contact::measure_drifts(&mut self.contacts, &self.sides, &self.walls, &moved, sc.dt, displacement);
         self.moved = moved;
     }
 
@@ -620,34 +561,6 @@ impl System {
         }
     }
 
-    /// Adds a contact of the step, warm-started, and enters it at grain `a` with its sample
-    /// (grain `b`'s, if any, is entered).
-    #[allow(clippy::too_many_arguments)]
-    fn push_contact(&mut self, vertex: usize, at: V2, a: u32, support: Support, b: Other, n: V2, gap: Real, friction: Real) {
-        let frame = ContactFrame::new(2, Vec3::new(n.x, n.y, 0.0));
-        // The Signorini target is set by the step's first iterations (`solve_contacts`).
-        let law = LocalLaw { target: 0.0, friction, cohesion: 0.0, viscosity: 0.0 };
-        let index = self.contacts.len() as u32;
-        let slot = self.sides[a as usize].push(support, index, true);
-        let mut contact = VertexContact {
-            vertex,
-            at,
-            a,
-            slot,
-            b,
-            frame,
-            gap,
-            drift: 0.0,
-            law,
-            w: Delassus { n: 0.0, t: 0.0 },
-            r: Vec3::zeros(),
-            scale: 0.0,
-            lever: self.grains[a as usize].radius,
-        };
-        contact.r = self.warm.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros);
-        self.contacts.push(contact);
-    }
-
     /// Assembles every grain's Newton residual at the current iterate — and, when `refresh`,
     /// its matrix, factorised — solves for its free correction (into `Field::correction`), and
     /// prepares its side of the contact problem (the block of `A⁻¹` only with a new matrix).
@@ -668,7 +581,7 @@ impl System {
                 f.solve(&mut dv);
                 if !side.is_empty() {
                     if refresh {
-                        side.invert(f);
+                        super::contact::invert(side, f);
                     }
                     side.sample_velocities(&f.v, &dv);
                 }
@@ -684,34 +597,8 @@ impl System {
 
     /// Sets each contact's Delassus block and impulse scale and solves the contact problem.
     fn solve_contacts(&mut self, sc: &Scheme) -> NlgsReport {
-        let g = self.settings.gravity.norm() * sc.dt;
-        for c in &mut self.contacts {
-            // A contact with a positive gap may close it within the step and no more, one
-            // that overlaps may not overlap more, beyond the contact's linear prediction by its
-            // drift; none pushes the grains apart otherwise.
-            let n = V2::new(c.frame.n.x, c.frame.n.y);
-            c.law.target = (-c.gap.max(0.0) - c.drift) / sc.dt;
-            let sa = &self.sides[c.a as usize];
-            let mut w = sa.block(c.slot as usize, c.slot as usize);
-            let ua = sa.u[c.slot as usize];
-            let mut speed = ua.norm();
-            let ub = match c.b {
-                Other::Grain { grain, slot } => {
-                    let sb = &self.sides[grain as usize];
-                    w += sb.block(slot as usize, slot as usize);
-                    speed += sb.u[slot as usize].norm();
-                    sb.u[slot as usize]
-                }
-                Other::Wall(k) => self.walls[k as usize].velocity,
-            };
-            let t = V2::new(c.frame.t1.x, c.frame.t1.y);
-            c.w = Delassus { n: n.dot(&(w * n)), t: t.dot(&(w * t)) };
-            let u_n = (ua - ub).dot(&n);
-            c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
-        }
         let d = self.mean_diameter();
-        let mut problem = Problem { contacts: &mut self.contacts, grains: &mut self.sides, walls: &self.walls };
-        self.nlgs.solve_problem(&mut problem, sc.dt, d)
+        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d)
     }
 
     /// Adds each grain's correction with the contact impulses to its iterate; returns the

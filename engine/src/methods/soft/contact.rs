@@ -1,0 +1,595 @@
+//! Contacts between soft grains' outlines and with walls, each grain acting through its own
+//! nodes (the multi-field method of the sources, the habilitation N 1.2.2–1.2.3), solved by the
+//! shared contact solver ([`crate::nscd`]). How a method finds its contacts and which of its
+//! nodes carry each one ([`Support`]) is its own ([`crate::methods::mpm::contact`],
+//! [`crate::methods::fem`]); what they are once found is here.
+//!
+//! **Signorini condition.** On the relative normal velocity at the step's end:
+//! `U_n >= (−max(gap, 0) − drift) / h`: a contact with a positive gap may close it within the
+//! step and no more, one that overlaps may not overlap more, and none pushes the grains apart
+//! (no restitution: grains rebound by their elasticity).
+//!
+//! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
+//! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
+//! `Hᵀ A⁻¹ H` between its contacts' samples is computed with its factorised matrix, so that
+//! every impulse a contact changes updates the velocities of all the samples of its grains at
+//! once (the exact coupling through the grain's stiffness, not the nodes' mass alone). The
+//! solver's local problems see the diagonal of each contact's block in its frame, and its
+//! sweeps converge to the solution of the full coupled problem (each visit reads the
+//! velocities the other contacts left).
+
+use std::collections::HashMap;
+
+use nalgebra::Vector2;
+
+use super::polygon::{bounding_box, nearest, Nearest};
+use super::Scheme;
+use crate::math::{Real, Vec3};
+use crate::nscd::local::{Delassus, LocalLaw};
+use crate::nscd::nlgs::{carry_local, visit_local, ContactProblem, Sums, Turn};
+use crate::nscd::{ContactFrame, Nlgs, NlgsReport};
+
+type V2 = Vector2<Real>;
+
+/// The contact solve of a Newton iteration stops at a relative change of the impulses below
+/// this fraction of the last iteration's relative correction (or below the settings'
+/// tolerance, if smaller). Gauss-Seidel's last change understates its error when it converges
+/// slowly, as it does on a dense packing: with the settings' 1e-6 alone, the Newton iterations
+/// of a dense compaction converged only as fast as the sweeps they added (a ratio of 0.4 an
+/// iteration, twelve iterations a step); with this forcing, 5 to 7.
+pub const FORCING: Real = 0.01;
+
+/// A plane rigid wall: the points `x` with `(x − point)·normal >= 0` are on the grains' side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wall {
+    /// A point of the plane, m.
+    pub point: V2,
+    /// Unit normal towards the grains.
+    pub normal: V2,
+    /// Velocity, m/s (imposed).
+    pub velocity: V2,
+    /// Friction coefficient with any grain.
+    pub friction: Real,
+}
+
+/// The second member of a contact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Other {
+    /// Grain `grain` at its surface sample `slot`.
+    Grain {
+        /// Grain index.
+        grain: u32,
+        /// Index of the sample among the grain's ([`GrainContacts::samples`]).
+        slot: u32,
+    },
+    /// Wall `wall`.
+    Wall(u32),
+}
+
+/// Most nodes a [`Support`] holds: a place between two vertices whose points' 3x3 stencils
+/// are at most a cell apart.
+pub const SUPPORT_NODES: usize = 16;
+
+/// A point of a grain's surface where a contact acts, by the nodes of the grain's field that
+/// carry it: its velocity is `Σ w_k v_k` and an impulse `P` there gives node `k` the impulse
+/// `w_k P`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Support {
+    /// Local nodes of the grain's field, in increasing order.
+    pub nodes: [u32; SUPPORT_NODES],
+    /// Weights, summing to 1 (some may be negative).
+    pub weights: [Real; SUPPORT_NODES],
+    /// Entries used.
+    pub len: u8,
+}
+
+impl Support {
+    /// The nodes and weights.
+    #[inline(always)]
+    pub fn iter(&self) -> impl Iterator<Item = (usize, Real)> + '_ {
+        self.nodes[..self.len as usize].iter().zip(&self.weights[..self.len as usize]).map(|(&s, &w)| (s as usize, w))
+    }
+
+    /// A support from `(node, weight)` entries, merging repeated nodes; `None` with more than
+    /// [`SUPPORT_NODES`] nodes.
+    pub fn from_entries(entries: &mut [(u32, Real)]) -> Option<Self> {
+        entries.sort_unstable_by_key(|e| e.0);
+        let mut s = Support { nodes: [0; SUPPORT_NODES], weights: [0.0; SUPPORT_NODES], len: 0 };
+        for &(k, w) in entries.iter() {
+            let n = s.len as usize;
+            if n > 0 && s.nodes[n - 1] == k {
+                s.weights[n - 1] += w;
+            } else {
+                if n == SUPPORT_NODES {
+                    return None;
+                }
+                s.nodes[n] = k;
+                s.weights[n] = w;
+                s.len += 1;
+            }
+        }
+        Some(s)
+    }
+}
+
+/// One contact between grain `a` and a grain or a wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexContact {
+    /// The vertex of grain `a`'s outline the contact is measured from.
+    pub vertex: usize,
+    /// Where it is, m: midway between the vertex and its projection on the other outline or
+    /// the wall (the contact point of the metrics).
+    pub at: V2,
+    /// First grain.
+    pub a: u32,
+    /// Its surface sample (index among the grain's [`GrainContacts::samples`]).
+    pub slot: u32,
+    /// Second member.
+    pub b: Other,
+    /// Frame; `n` points from `b` towards `a`.
+    pub frame: ContactFrame,
+    /// Gap along `n` at the step's start, m (negative: overlapping outlines).
+    pub gap: Real,
+    /// How much more the gap will be at the step's end than the contact's linear prediction
+    /// says (m): measured at the step's first Newton iterates, the outlines moved where the
+    /// iterate takes them and the gap measured anew between them (the vertex's own stretch
+    /// and turn, the other outline turning and sliding under it).
+    pub drift: Real,
+    /// The law for the step (its `friction` the pair's coefficient).
+    pub law: LocalLaw,
+    /// Diagonal of the local Delassus block, 1/kg·m.
+    pub w: Delassus,
+    /// Impulse (local components), N·s/m.
+    pub r: Vec3,
+    /// Impulse scale of the criterion, N·s/m.
+    pub scale: Real,
+    /// Radius of grain `a`, m (the largest violation's unit).
+    pub lever: Real,
+}
+
+impl VertexContact {
+    /// Key of the contact across steps (vertex, grains or wall), for the warm start.
+    pub fn key(&self) -> (usize, u32, i64) {
+        let other = match self.b {
+            Other::Grain { grain, .. } => grain as i64,
+            Other::Wall(w) => -1 - w as i64,
+        };
+        (self.vertex, self.a, other)
+    }
+
+    /// Whether the contact carries a compressive impulse.
+    pub fn active(&self) -> bool {
+        self.r.x > 0.0
+    }
+}
+
+/// A grain's side of the contact problem: the surface samples where its contacts act, the
+/// block of `A⁻¹` between them and their velocities during the solve.
+#[derive(Debug, Default, Clone)]
+pub struct GrainContacts {
+    /// The samples, one for each contact the grain takes part in.
+    pub samples: Vec<Support>,
+    /// The contact of each sample and the grain's side in it (`true`: the grain is `a`).
+    pub entries: Vec<(u32, bool)>,
+    /// `A⁻¹` between the samples' unknowns, `(2S)x(2S)`, row-major: `(Hᵀ A⁻¹ H)` for the
+    /// samples' weights `H`.
+    pub inverse: Vec<Real>,
+    /// Velocities of the samples during the solve, m/s.
+    pub u: Vec<V2>,
+    /// Scratch of the grain's size in unknowns, kept between solves (the columns of
+    /// [`GrainContacts::invert`], the impulses' right-hand side of a Newton update).
+    pub work: Vec<Real>,
+    /// Where each column of [`GrainContacts::invert`] starts in `work`, and its first row.
+    pub offsets: Vec<(usize, usize)>,
+}
+
+impl GrainContacts {
+    /// Samples.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// True when the grain has no contact.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// Forgets the step's samples.
+    pub fn clear(&mut self) {
+        self.samples.clear();
+        self.entries.clear();
+    }
+
+    /// Adds a sample for contact `contact` (the grain its first member when `is_a`).
+    pub fn push(&mut self, support: Support, contact: u32, is_a: bool) -> u32 {
+        self.samples.push(support);
+        self.entries.push((contact, is_a));
+        self.samples.len() as u32 - 1
+    }
+
+    /// The 2x2 block of `A⁻¹` between samples `k` and `l`.
+    #[inline(always)]
+    pub fn block(&self, k: usize, l: usize) -> nalgebra::Matrix2<Real> {
+        let n = 2 * self.samples.len();
+        let at = |r: usize, c: usize| self.inverse[r * n + c];
+        nalgebra::Matrix2::new(at(2 * k, 2 * l), at(2 * k, 2 * l + 1), at(2 * k + 1, 2 * l), at(2 * k + 1, 2 * l + 1))
+    }
+
+    /// Adds to the samples' velocities what an impulse `p` at sample `l` does to them.
+    #[inline(always)]
+    pub fn apply(&mut self, l: usize, p: &V2) {
+        let n = 2 * self.samples.len();
+        let (c0, c1) = (2 * l, 2 * l + 1);
+        for (k, u) in self.u.iter_mut().enumerate() {
+            let (r0, r1) = (2 * k * n, (2 * k + 1) * n);
+            u.x += self.inverse[r0 + c0] * p.x + self.inverse[r0 + c1] * p.y;
+            u.y += self.inverse[r1 + c0] * p.x + self.inverse[r1 + c1] * p.y;
+        }
+    }
+
+    /// The samples' velocities for the nodal velocities `v` plus the correction `dv` (two
+    /// entries a node).
+    pub fn sample_velocities(&mut self, v: &[V2], dv: &[Real]) {
+        self.u.clear();
+        self.u.extend(self.samples.iter().map(|s| s.iter().map(|(k, w)| (v[k] + V2::new(dv[2 * k], dv[2 * k + 1])) * w).sum::<V2>()));
+    }
+
+    /// Computes `inverse` with a solver of the grain's matrix for many right-hand sides at once
+    /// (`unknowns` the grain's size, two a node; `solve` overwrites the columns, stored one
+    /// after the other, with `A⁻¹` times them): one column per unknown of each sample, its
+    /// weights, then `Hᵀ` of the solutions.
+    pub fn invert_by_solves(&mut self, unknowns: usize, solve: impl FnOnce(&mut [Real])) {
+        let m = 2 * self.samples.len();
+        let cols = &mut self.work;
+        cols.clear();
+        cols.resize(m * unknowns, 0.0);
+        for col in 0..m {
+            let (s, d) = (col / 2, col % 2);
+            for (k, w) in self.samples[s].iter() {
+                cols[col * unknowns + 2 * k + d] += w;
+            }
+        }
+        solve(cols);
+        self.inverse.clear();
+        self.inverse.resize(m * m, 0.0);
+        for x in 0..m {
+            let (s, d) = (x / 2, x % 2);
+            for y in 0..m {
+                self.inverse[x * m + y] = self.samples[s].iter().map(|(k, w)| w * cols[y * unknowns + 2 * k + d]).sum();
+            }
+        }
+    }
+
+    /// Adds the step's impulses of the grain's contacts to the nodal right-hand side `rhs` (two
+    /// entries a node), by the samples' weights.
+    pub fn spread_impulses(&self, contacts: &[VertexContact], rhs: &mut [Real]) {
+        for (support, &(c, is_a)) in self.samples.iter().zip(&self.entries) {
+            let ct = &contacts[c as usize];
+            let p = ct.frame.to_global(&ct.r) * if is_a { 1.0 } else { -1.0 };
+            for (k, w) in support.iter() {
+                rhs[2 * k] += w * p.x;
+                rhs[2 * k + 1] += w * p.y;
+            }
+        }
+    }
+}
+
+/// The contact problem of a Newton iteration, as the shared solver sweeps it.
+pub struct Problem<'a> {
+    /// The contacts.
+    pub contacts: &'a mut [VertexContact],
+    /// Each grain's side.
+    pub grains: &'a mut [GrainContacts],
+    /// The walls.
+    pub walls: &'a [Wall],
+}
+
+impl Problem<'_> {
+    /// Relative velocity of contact `c` (global), m/s.
+    #[inline(always)]
+    fn velocity(&self, c: usize) -> Vec3 {
+        let k = &self.contacts[c];
+        let ua = self.grains[k.a as usize].u[k.slot as usize];
+        let ub = match k.b {
+            Other::Grain { grain, slot } => self.grains[grain as usize].u[slot as usize],
+            Other::Wall(w) => self.walls[w as usize].velocity,
+        };
+        let d = ua - ub;
+        Vec3::new(d.x, d.y, 0.0)
+    }
+
+    /// Applies the global impulse `p` (on `a`, `−p` on `b`).
+    #[inline(always)]
+    fn apply(&mut self, c: usize, p: &Vec3) {
+        let k = self.contacts[c];
+        let p2 = V2::new(p.x, p.y);
+        self.grains[k.a as usize].apply(k.slot as usize, &p2);
+        if let Other::Grain { grain, slot } = k.b {
+            self.grains[grain as usize].apply(slot as usize, &(-p2));
+        }
+    }
+}
+
+impl ContactProblem for Problem<'_> {
+    fn len(&self) -> usize {
+        self.contacts.len()
+    }
+
+    fn impulse(&self, c: usize) -> Vec3 {
+        self.contacts[c].r
+    }
+
+    fn warm_start(&mut self) {
+        for c in 0..self.contacts.len() {
+            let k = self.contacts[c];
+            if k.r != Vec3::zeros() {
+                self.apply(c, &k.frame.to_global(&k.r));
+            }
+        }
+    }
+
+    fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
+        let u_now = self.contacts[c].frame.to_local(&self.velocity(c));
+        let k = self.contacts[c];
+        let turn = Turn { omega, near: k.law.target < 0.0, scale: k.scale, lever: k.lever };
+        let (r, _) = visit_local(u_now, &k.w, &k.law, k.r, turn, sums);
+        let dr = r - k.r;
+        if dr != Vec3::zeros() {
+            self.apply(c, &k.frame.to_global(&dr));
+        }
+        self.contacts[c].r = r;
+    }
+
+    fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real) {
+        let k = self.contacts[c];
+        if let Some(y) = carry_local(k.r, last, beta, &k.law, || 0.0) {
+            self.apply(c, &k.frame.to_global(&(y - k.r)));
+            self.contacts[c].r = y;
+        }
+    }
+}
+
+/// Solves the contact problem of a Newton iteration: sets each contact's Signorini target from
+/// its gap and drift (a contact with a positive gap may close it within the step and no more,
+/// one that overlaps may not overlap more, beyond the contact's linear prediction by its drift;
+/// none pushes the grains apart otherwise), its Delassus diagonal and impulse scale from its
+/// grains' blocks and sample velocities, then sweeps ([`Nlgs::solve_problem`], `mean_diameter`
+/// in m the violations' unit).
+pub fn solve(
+    contacts: &mut [VertexContact],
+    sides: &mut [GrainContacts],
+    walls: &[Wall],
+    nlgs: &mut Nlgs,
+    sc: &Scheme,
+    mean_diameter: Real,
+) -> NlgsReport {
+    let g = sc.gravity.norm() * sc.dt;
+    for c in contacts.iter_mut() {
+        let n = V2::new(c.frame.n.x, c.frame.n.y);
+        c.law.target = (-c.gap.max(0.0) - c.drift) / sc.dt;
+        let sa = &sides[c.a as usize];
+        let mut w = sa.block(c.slot as usize, c.slot as usize);
+        let ua = sa.u[c.slot as usize];
+        let mut speed = ua.norm();
+        let ub = match c.b {
+            Other::Grain { grain, slot } => {
+                let sb = &sides[grain as usize];
+                w += sb.block(slot as usize, slot as usize);
+                speed += sb.u[slot as usize].norm();
+                sb.u[slot as usize]
+            }
+            Other::Wall(k) => walls[k as usize].velocity,
+        };
+        let t = V2::new(c.frame.t1.x, c.frame.t1.y);
+        c.w = Delassus { n: n.dot(&(w * n)), t: t.dot(&(w * t)) };
+        let u_n = (ua - ub).dot(&n);
+        c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
+    }
+    let mut problem = Problem { contacts, grains: sides, walls };
+    nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
+}
+
+/// Where a contact may act at the start of a step (found by [`candidates`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Candidate {
+    /// Vertex `k` of grain `a`'s outline near the outline of grain `b` (`b > a`).
+    Grain {
+        /// The vertex's grain.
+        a: usize,
+        /// The vertex.
+        k: usize,
+        /// The other grain.
+        b: usize,
+        /// The segment of `b`'s outline nearest the vertex, and the gap.
+        near: Nearest,
+    },
+    /// Vertex `k` of grain `g`'s outline near wall `w`.
+    Wall {
+        /// The grain.
+        g: usize,
+        /// The vertex.
+        k: usize,
+        /// The wall.
+        w: usize,
+        /// Gap along the wall's normal, m.
+        gap: Real,
+    },
+}
+
+/// The step's candidates, in a fixed order: every vertex of an outline within `reach` (m) of the
+/// outline of a grain of higher index (the nearest segment; pairs whose boxes come within
+/// `reach`, by a sweep along x), then every vertex within `reach` of a wall. One side only
+/// between grains: between two convex outlines the other grain's vertices can cross a segment
+/// by at most the sagitta of the segment's chord.
+pub fn candidates(shapes: &[Vec<V2>], walls: &[Wall], reach: Real) -> Vec<Candidate> {
+    let boxes: Vec<(V2, V2)> = shapes.iter().map(|x| bounding_box(x)).collect();
+    let mut order: Vec<usize> = (0..shapes.len()).filter(|&g| !shapes[g].is_empty()).collect();
+    order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x).then(a.cmp(&b)));
+    let mut pairs = Vec::new();
+    for (i, &a) in order.iter().enumerate() {
+        for &b in &order[i + 1..] {
+            if boxes[b].0.x > boxes[a].1.x + reach {
+                break;
+            }
+            if boxes[b].0.y <= boxes[a].1.y + reach && boxes[a].0.y <= boxes[b].1.y + reach {
+                pairs.push((a.min(b), a.max(b)));
+            }
+        }
+    }
+    pairs.sort_unstable();
+    let mut out = Vec::new();
+    for (a, b) in pairs {
+        let (lo, hi) = (boxes[b].0 - V2::repeat(reach), boxes[b].1 + V2::repeat(reach));
+        for (k, x) in shapes[a].iter().enumerate() {
+            if x.x < lo.x || x.y < lo.y || x.x > hi.x || x.y > hi.y {
+                continue;
+            }
+            let Some(near) = nearest(&shapes[b], x) else { continue };
+            if near.gap.is_nan() || near.gap > reach {
+                continue;
+            }
+            out.push(Candidate::Grain { a, k, b, near });
+        }
+    }
+    for (g, x) in shapes.iter().enumerate() {
+        for (k, x) in x.iter().enumerate() {
+            for (w, wall) in walls.iter().enumerate() {
+                let gap = (x - wall.point).dot(&wall.normal);
+                if gap.is_nan() || gap > reach {
+                    continue;
+                }
+                out.push(Candidate::Wall { g, k, w, gap });
+            }
+        }
+    }
+    out
+}
+
+/// The impulses of the last solve kept for the next step's warm start, by contact key.
+#[derive(Debug, Clone, Default)]
+pub struct Warm(HashMap<(usize, u32, i64), Vec3>);
+
+impl Warm {
+    /// Keeps the impulses of `contacts` (those not zero), forgetting the others.
+    pub fn remember(&mut self, contacts: &[VertexContact]) {
+        self.0.clear();
+        for c in contacts {
+            if c.r != Vec3::zeros() {
+                self.0.insert(c.key(), c.r);
+            }
+        }
+    }
+
+    /// The impulse kept for `contact`'s key, or zero.
+    pub fn start(&self, contact: &VertexContact) -> Vec3 {
+        self.0.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros)
+    }
+}
+
+/// The second member of a contact being entered: a grain with the support its place has on
+/// it, or a wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Against {
+    /// Grain `grain`, its place carried by `support`.
+    Grain {
+        /// Grain index.
+        grain: u32,
+        /// The place on its outline.
+        support: Support,
+    },
+    /// Wall index.
+    Wall(u32),
+}
+
+/// A contact of the step to enter ([`enter`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Entry {
+    /// The vertex of grain `a`'s outline it is measured from.
+    pub vertex: usize,
+    /// The contact point, m.
+    pub at: V2,
+    /// First grain.
+    pub a: u32,
+    /// The vertex's support on grain `a`.
+    pub support: Support,
+    /// Second member.
+    pub b: Against,
+    /// Unit normal from `b` towards `a`.
+    pub normal: V2,
+    /// Gap along it, m.
+    pub gap: Real,
+    /// Friction coefficient of the pair.
+    pub friction: Real,
+    /// Radius of grain `a`, m.
+    pub lever: Real,
+}
+
+/// Adds a contact of the step, warm-started, with its samples on its grains' sides.
+pub fn enter(contacts: &mut Vec<VertexContact>, sides: &mut [GrainContacts], warm: &Warm, e: Entry) {
+    let index = contacts.len() as u32;
+    let b = match e.b {
+        Against::Grain { grain, support } => Other::Grain { grain, slot: sides[grain as usize].push(support, index, false) },
+        Against::Wall(w) => Other::Wall(w),
+    };
+    let slot = sides[e.a as usize].push(e.support, index, true);
+    let mut contact = VertexContact {
+        vertex: e.vertex,
+        at: e.at,
+        a: e.a,
+        slot,
+        b,
+        frame: ContactFrame::new(2, Vec3::new(e.normal.x, e.normal.y, 0.0)),
+        gap: e.gap,
+        drift: 0.0,
+        // The Signorini target is set by each solve ([`solve`]).
+        law: LocalLaw { target: 0.0, friction: e.friction, cohesion: 0.0, viscosity: 0.0 },
+        w: Delassus { n: 0.0, t: 0.0 },
+        r: Vec3::zeros(),
+        scale: 0.0,
+        lever: e.lever,
+    };
+    contact.r = warm.start(&contact);
+    contacts.push(contact);
+}
+
+/// Sets each contact's drift ([`VertexContact::drift`]) at the current iterate: `moved` each
+/// grain's outline where the iterate takes it (empty for a grain without a contact),
+/// `displacement(grain, support)` the iterate's displacement of a place over the step (m), the
+/// walls moving at their velocity over `dt` (s).
+pub fn measure_drifts(
+    contacts: &mut [VertexContact],
+    sides: &[GrainContacts],
+    walls: &[Wall],
+    moved: &[Vec<V2>],
+    dt: Real,
+    displacement: impl Fn(usize, &Support) -> V2,
+) {
+    for c in contacts {
+        let n = V2::new(c.frame.n.x, c.frame.n.y);
+        let x = moved[c.a as usize][c.vertex];
+        let ua = displacement(c.a as usize, &sides[c.a as usize].samples[c.slot as usize]);
+        let (ub, now) = match c.b {
+            Other::Grain { grain, slot } => {
+                let ub = displacement(grain as usize, &sides[grain as usize].samples[slot as usize]);
+                (ub, nearest(&moved[grain as usize], &x).map_or(c.gap, |near| near.gap))
+            }
+            Other::Wall(w) => {
+                let wall = &walls[w as usize];
+                let ub = wall.velocity * dt;
+                (ub, (x - wall.point - ub).dot(&wall.normal))
+            }
+        };
+        c.drift = now - (c.gap + (ua - ub).dot(&n));
+    }
+}
+
+/// The impulse the grains gave each wall through `contacts` (N·s/m), into `out` (one a wall).
+pub fn wall_impulses(contacts: &[VertexContact], out: &mut [V2]) {
+    out.iter_mut().for_each(|p| *p = V2::zeros());
+    for c in contacts {
+        if let Other::Wall(k) = c.b {
+            let p = c.frame.to_global(&c.r);
+            out[k as usize] -= V2::new(p.x, p.y);
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! What the soft-grain methods — the material point method ([`super::mpm`]) and the finite
+//! element method ([`super::fem`]), both with contact dynamics — share:
+//!
+//! - [`Scheme`]: the θ-method's settings for a step;
+//! - [`polygon`]: the geometry of a grain's outline (area, inside, nearest segment);
+//! - [`measure`]: the grains and their contacts as the shared metrics see them;
+//! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
+//!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]).
+
+pub mod contact;
+#[cfg(test)]
+pub mod hertz;
+pub mod measure;
+pub mod polygon;
+pub mod sim;
+
+use nalgebra::Vector2;
+
+use crate::math::Real;
+
+/// The θ-method's settings for a step (the nodal residuals of [`crate::methods::mpm::field`] and
+/// [`crate::methods::fem::body`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scheme {
+    /// Time step, s.
+    pub dt: Real,
+    /// θ of the θ-method, in [½, 1].
+    pub theta: Real,
+    /// Gravity, m/s².
+    pub gravity: Vector2<Real>,
+}

@@ -1,0 +1,75 @@
+//! Meshed deformable grains through the whole engine (method `fem`): a scene file parsed,
+//! validated, built and run by the same runner as the other methods, against the physics the
+//! samples must obey and against the material point method on the same scene.
+
+use sable_engine::observe::Sample;
+
+fn run(path: &str) -> Vec<Sample> {
+    let text = std::fs::read_to_string(path).expect("scene file");
+    let scene = sable_engine::scene::parse_scene(&text).expect("valid scene");
+    let mut sim = sable_engine::methods::build(&scene).expect("buildable");
+    let runner = sable_engine::run::Runner::for_scene(&scene);
+    let mut samples = Vec::new();
+    runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone())).expect("stable");
+    samples
+}
+
+fn top(s: &Sample) -> f64 {
+    s.walls.iter().find(|w| w.name == "y_max").expect("top wall").normal_stress
+}
+
+/// Mean top-wall stress over the samples with Φ from 0.78 to 0.91 (Pa): one instant of a dense
+/// packing moves by 20% when only the order of a sum changes (`physics_mpm`), a mean over the
+/// compaction's dense part much less.
+fn dense_stress(samples: &[Sample]) -> f64 {
+    let dense: Vec<f64> = samples.iter().filter(|s| (0.78..0.91).contains(&s.phi)).map(top).collect();
+    assert!(dense.len() >= 3, "{} dense samples", dense.len());
+    dense.iter().sum::<f64>() / dense.len() as f64
+}
+
+/// The CI-sized soft compaction with meshed grains (`scenes/fem_compaction_2d.json`: the twelve
+/// disks of `scenes/mpm_compaction_2d.json`, eight boundary elements across the smallest): the
+/// top wall compacts them past Φ = 0.9 without inverting an element; the grains carry force
+/// (Z > 2) and flatten (aspect ratio > 1.01); the Love–Weber stress from the contacts agrees with
+/// the top wall's within 10%; the outlines cover less than 1.5% of the box twice. Measured
+/// (release build, 2 min 10 s): Φ 0.9004 at 594 kPa, Love–Weber 590 kPa, Z 3.33, aspect 1.088,
+/// smallest J 0.909, interpenetration 0.94%, 48 Newton iterations a step at the end.
+///
+/// The same scene by the material point method reaches Φ 0.9001 at 457 kPa (Z 3.0, aspect 1.072,
+/// smallest J 0.909, interpenetration 0.38%); over the dense part (Φ 0.78 to 0.91) the mean top
+/// wall stress is 365 kPa by FEM and 304 kPa by MPM (FEM 20% stiffer; checked within a factor
+/// 1.5 either way: the meshes and the grid resolve a grain with 8 and 6 elements or cells
+/// across, and the study of issue 26 is where the two are to agree within 2%).
+///
+/// Not asserted, a known defect (issue 26): the energy balance. The dissipated energy (work in
+/// less the energy stored and moving) dipped to −0.14 J/m at Φ 0.78 before rising to +0.72
+/// J/m: some step created energy as the packing rearranged.
+#[test]
+fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
+    let fem = run(&format!("{root}fem_compaction_2d.json"));
+    let last = fem.last().expect("samples");
+    let d = last.deformable.as_ref().expect("deformable sample");
+    eprintln!(
+        "fem: Φ {:.4} Z {:.3} σ_yy {:.4e} top wall {:.4e} Pa, aspect {:.3}, J_min {:.3}, dissipated {:.3e} J/m, interpenetration {:.4}",
+        last.phi,
+        last.z,
+        last.stress.yy,
+        top(last),
+        d.mean_aspect_ratio,
+        d.min_jacobian,
+        d.dissipated_energy,
+        d.interpenetration
+    );
+    assert!(last.phi >= 0.9, "Φ {}", last.phi);
+    assert!(d.min_jacobian > 0.0);
+    assert!(last.z > 2.0, "Z {}", last.z);
+    assert!(d.mean_aspect_ratio > 1.01, "the grains did not flatten: {}", d.mean_aspect_ratio);
+    let rel = (last.stress.yy - top(last)).abs() / top(last);
+    assert!(rel < 0.1, "Love–Weber σ_yy {} against the top wall's {} ({rel:.3})", last.stress.yy, top(last));
+    assert!(d.interpenetration < 0.015, "interpenetration {}", d.interpenetration);
+    let mpm = run(&format!("{root}mpm_compaction_2d.json"));
+    let (f, m) = (dense_stress(&fem), dense_stress(&mpm));
+    eprintln!("mean top-wall stress for Φ 0.78 to 0.91: fem {f:.4e} Pa, mpm {m:.4e} Pa (fem/mpm {:.3})", f / m);
+    assert!((f / m).ln().abs() < 1.5f64.ln(), "fem {f} against mpm {m}");
+}
