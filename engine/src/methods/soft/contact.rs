@@ -66,8 +66,8 @@ pub enum Other {
     Wall(u32),
 }
 
-/// Most nodes a [`Support`] holds: a place between two vertices whose points' 3x3 stencils
-/// are at most a cell apart.
+/// Most nodes a [`Support`] holds: the material point method's place between two outline
+/// vertices whose points' 3x3 stencils are at most a cell apart (a meshed grain's needs two).
 pub const SUPPORT_NODES: usize = 16;
 
 /// A point of a grain's surface where a contact acts, by the nodes of the grain's field that
