@@ -55,6 +55,29 @@ pub enum BodyFailure {
     },
 }
 
+/// The nodal sums of the elements' internal forces `states` on `quads`, into `out` (N/m).
+fn sum_forces(quads: &[[u32; 4]], states: &[State], nodes: usize, out: &mut Vec<V2>) {
+    out.clear();
+    out.resize(nodes, V2::zeros());
+    for (q, s) in quads.iter().zip(states) {
+        for a in 0..4 {
+            out[q[a] as usize] += s.force[a];
+        }
+    }
+}
+
+/// Adds the correction `d` (two entries a node) to the nodal values `x`; returns the largest
+/// nodal correction.
+pub fn add_correction(x: &mut [V2], d: &[Real]) -> Real {
+    let mut biggest: Real = 0.0;
+    for (k, x) in x.iter_mut().enumerate() {
+        let c = V2::new(d[2 * k], d[2 * k + 1]);
+        *x += c;
+        biggest = biggest.max(c.norm());
+    }
+    biggest
+}
+
 /// A meshed body (module documentation).
 #[derive(Debug)]
 pub struct Body {
@@ -87,6 +110,9 @@ pub struct Body {
     /// Where each element's 8×8 block goes in the matrix (`usize::MAX`: the upper triangle,
     /// added through its mirror).
     slots: Vec<[usize; 64]>,
+    /// Scratch kept between iterations: the displacements at the iterate, the nodal forces.
+    total: Vec<V2>,
+    force: Vec<V2>,
 }
 
 impl Body {
@@ -137,6 +163,8 @@ impl Body {
             residual: vec![0.0; 2 * n],
             matrix,
             slots,
+            total: Vec::with_capacity(n),
+            force: Vec::with_capacity(n),
         })
     }
 
@@ -161,6 +189,7 @@ impl Body {
             + (self.u.capacity() + self.v.capacity() + self.v0.capacity() + self.force0.capacity()) * v2
             + (self.states.capacity() + self.trial.capacity()) * std::mem::size_of::<State>()
             + self.slots.capacity() * 64 * 8
+            + (self.total.capacity() + self.force.capacity()) * v2
             + self.matrix.heap_bytes()
     }
 
@@ -176,13 +205,17 @@ impl Body {
 
     /// Total internal force on each node at `u` (the sum of the elements'), N/m.
     pub fn internal_forces(&self) -> Vec<V2> {
-        let mut f = vec![V2::zeros(); self.nodes()];
-        for (q, s) in self.mesh.quads.iter().zip(&self.states) {
-            for a in 0..4 {
-                f[q[a] as usize] += s.force[a];
-            }
-        }
+        let mut f = Vec::new();
+        sum_forces(&self.mesh.quads, &self.states, self.nodes(), &mut f);
         f
+    }
+
+    /// The displacements the current iterate reaches at the step's end, into `total`.
+    fn fill_total(&mut self, sc: &Scheme) {
+        let mut total = std::mem::take(&mut self.total);
+        total.clear();
+        total.extend((0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)));
+        self.total = total;
     }
 
     /// The elements' states at the displacements `total` (from the accepted histories) into
@@ -210,7 +243,7 @@ impl Body {
     /// Starts a step: the velocities and internal forces at its start.
     pub fn begin(&mut self) {
         self.v0.clone_from(&self.v);
-        self.force0 = self.internal_forces();
+        sum_forces(&self.mesh.quads, &self.states, self.nodes(), &mut self.force0);
         for &(d, value) in &self.fixed {
             self.v[d / 2][d % 2] = value;
         }
@@ -224,18 +257,17 @@ impl Body {
     /// Evaluates the residual at the current iterate and — when `refresh` — assembles and
     /// factorises the matrix (module documentation).
     pub fn iterate(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme, refresh: bool) -> Result<(), BodyFailure> {
-        let total: Vec<V2> = (0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)).collect();
+        self.fill_total(sc);
         if refresh {
             self.matrix.clear();
         }
         let c = sc.theta * sc.dt;
-        self.evaluate(law, &total, refresh.then_some(c * c))?;
-        let mut f = vec![V2::zeros(); self.nodes()];
-        for (q, s) in self.mesh.quads.iter().zip(&self.trial) {
-            for a in 0..4 {
-                f[q[a] as usize] += s.force[a];
-            }
-        }
+        let total = std::mem::take(&mut self.total);
+        let evaluated = self.evaluate(law, &total, refresh.then_some(c * c));
+        self.total = total;
+        evaluated?;
+        sum_forces(&self.mesh.quads, &self.trial, self.nodes(), &mut self.force);
+        let f = &self.force;
         for k in 0..self.nodes() {
             let m = self.mass[k];
             let g = (self.v[k] - self.v0[k]) * m + (self.force0[k] * (1.0 - sc.theta) + f[k] * sc.theta - sc.gravity * m) * sc.dt;
@@ -266,8 +298,11 @@ impl Body {
     /// Evaluates the elements at the displacements the converged iterate reaches (nothing moves
     /// yet: [`Body::commit`] does).
     pub fn settle(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<(), BodyFailure> {
-        let total: Vec<V2> = (0..self.nodes()).map(|k| self.u[k] + self.increment(k, sc)).collect();
-        self.evaluate(law, &total, None)
+        self.fill_total(sc);
+        let total = std::mem::take(&mut self.total);
+        let evaluated = self.evaluate(law, &total, None);
+        self.total = total;
+        evaluated
     }
 
     /// Ends the step after [`Body::settle`]: the displacements move on and the elements' states
@@ -298,13 +333,7 @@ impl Body {
             let mut dv: Vec<Real> = self.residual.iter().map(|r| -r).collect();
             self.matrix.solve(&mut dv);
             let scale = self.v.iter().map(|v| v.norm()).fold(floor, Real::max);
-            let mut biggest: Real = 0.0;
-            for k in 0..self.nodes() {
-                let d = V2::new(dv[2 * k], dv[2 * k + 1]);
-                self.v[k] += d;
-                biggest = biggest.max(d.norm());
-            }
-            last = biggest / scale;
+            last = add_correction(&mut self.v, &dv) / scale;
             if last <= tolerance {
                 self.settle(law, sc)?;
                 self.commit(sc);
@@ -333,18 +362,8 @@ impl Body {
             self.matrix.clear();
             let total = self.u.clone();
             self.evaluate(law, &total, Some(1.0))?;
-            let mut r = vec![0.0; 2 * self.nodes()];
-            for (q, s) in self.mesh.quads.iter().zip(&self.trial) {
-                for a in 0..4 {
-                    let k = q[a] as usize;
-                    r[2 * k] -= s.force[a].x;
-                    r[2 * k + 1] -= s.force[a].y;
-                }
-            }
-            for (k, l) in load.iter().enumerate() {
-                r[2 * k] += l.x;
-                r[2 * k + 1] += l.y;
-            }
+            sum_forces(&self.mesh.quads, &self.trial, self.nodes(), &mut self.force);
+            let mut r: Vec<Real> = load.iter().zip(&self.force).flat_map(|(l, f)| [l.x - f.x, l.y - f.y]).collect();
             for &(d, _) in prescribed {
                 r[d] = 0.0;
                 self.matrix.isolate(d, 1.0);
@@ -352,13 +371,7 @@ impl Body {
             self.matrix.factorise().map_err(|_| BodyFailure::NotPositiveDefinite)?;
             self.matrix.solve(&mut r);
             let scale = self.u.iter().map(|u| u.norm()).fold(Real::MIN_POSITIVE, Real::max);
-            let mut biggest: Real = 0.0;
-            for k in 0..self.nodes() {
-                let d = V2::new(r[2 * k], r[2 * k + 1]);
-                self.u[k] += d;
-                biggest = biggest.max(d.norm());
-            }
-            last = biggest / scale;
+            last = add_correction(&mut self.u, &r) / scale;
             if last <= tolerance {
                 let total = self.u.clone();
                 self.evaluate(law, &total, None)?;

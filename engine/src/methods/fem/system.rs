@@ -31,7 +31,7 @@
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
-use super::body::{Body, BodyFailure};
+use super::body::{add_correction, Body, BodyFailure};
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
 use crate::math::Real;
@@ -428,13 +428,7 @@ impl System {
                     dv.iter_mut().zip(&rhs).for_each(|(d, r)| *d += r);
                     side.work = rhs;
                 }
-                let mut biggest: Real = 0.0;
-                for k in 0..body.nodes() {
-                    let d = V2::new(dv[2 * k], dv[2 * k + 1]);
-                    body.v[k] += d;
-                    biggest = biggest.max(d.norm());
-                }
-                biggest
+                add_correction(&mut body.v, dv)
             })
             .reduce(|| 0.0, Real::max)
     }
