@@ -12,7 +12,6 @@ use crate::constitutive::{build, ConstitutiveLaw, History, LawSpec, Mat2};
 use crate::math::Real;
 use crate::methods::soft::contact::Wall;
 use crate::methods::soft::Scheme;
-use crate::nscd::Convergence;
 
 type V2 = Vector2<Real>;
 
@@ -208,21 +207,7 @@ fn a_free_vibrating_grain_keeps_its_energy() {
 }
 
 fn settings(dt: Real, theta: Real) -> Settings {
-    Settings {
-        dt,
-        theta,
-        gravity: V2::zeros(),
-        newton_tolerance: 1e-6,
-        max_newton: 20,
-        contact: Convergence {
-            tolerance: 1e-6,
-            violation_tolerance: 1e-7,
-            worst_tolerance: 1e-5,
-            max_iterations: 20_000,
-            relaxation: 1.0,
-            acceleration: 0.0,
-        },
-    }
+    Settings { dt, theta, gravity: V2::zeros(), newton_tolerance: 1e-6, max_newton: 20, contact: crate::methods::soft::tests_convergence() }
 }
 
 fn disk_grain(c: V2, r: Real, size: Real, rho: Real, v: V2) -> Grain {

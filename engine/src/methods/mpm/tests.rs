@@ -8,7 +8,6 @@ use super::points::Points;
 use super::system::{Settings, System};
 use crate::constitutive::{build, LawSpec};
 use crate::math::Real;
-use crate::nscd::Convergence;
 
 fn settings(dt: Real) -> Settings {
     Settings {
@@ -18,14 +17,7 @@ fn settings(dt: Real) -> Settings {
         gravity: V2::zeros(),
         newton_tolerance: 1e-6,
         max_newton: 20,
-        contact: Convergence {
-            tolerance: 1e-6,
-            violation_tolerance: 1e-7,
-            worst_tolerance: 1e-5,
-            max_iterations: 20_000,
-            relaxation: 1.0,
-            acceleration: 0.0,
-        },
+        contact: crate::methods::soft::tests_convergence(),
     }
 }
 
@@ -293,7 +285,7 @@ fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, 
     s.theta = 1.0;
     s.flip = 0.0;
     s.newton_tolerance = 1e-5;
-    s.contact = Convergence {
+    s.contact = crate::nscd::Convergence {
         tolerance: 1e-6,
         violation_tolerance: 1e-6,
         worst_tolerance: 1e-4,

@@ -29,3 +29,17 @@ pub struct Scheme {
     /// Gravity, m/s².
     pub gravity: Vector2<Real>,
 }
+
+/// The contact solver's settings of the soft-grain methods' tests: tight tolerances, plain
+/// Gauss-Seidel.
+#[cfg(test)]
+pub fn tests_convergence() -> crate::nscd::Convergence {
+    crate::nscd::Convergence {
+        tolerance: 1e-6,
+        violation_tolerance: 1e-7,
+        worst_tolerance: 1e-5,
+        max_iterations: 20_000,
+        relaxation: 1.0,
+        acceleration: 0.0,
+    }
+}
