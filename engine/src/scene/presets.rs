@@ -130,3 +130,36 @@ pub fn mpm_compaction(grains: usize, friction: f64, phi: f64, steps: u64, thread
         "seed": 7
     })
 }
+
+/// The sources' FEM compaction (N 2.1.2; issue 26's full-size scene): `grains` neo-Hookean disks
+/// of 10–15 mm (uniform in diameter), shear modulus 0.15 MPa, ν = 0.495 (λ = 2μν/(1 − 2ν) =
+/// 14.85 MPa), ρ = 1180 kg/m³, grain friction `friction`, frictionless walls, no gravity, placed
+/// at random at Φ ≈ 0.5 in a box 1.5 times as high as wide; the top wall moves down at
+/// 0.05 m/s (a quarter of a percent of the shear wave speed, 11 m/s: quasi-static, as the
+/// sources' imposed displacement) until Φ = `phi` (or `steps`); method `fem` with
+/// `elements_per_diameter` boundary elements across the smallest grain and dt = 2e-4 s (the
+/// wall moves a thousandth of the mean diameter a step).
+pub fn fem_compaction(grains: usize, friction: f64, phi: f64, steps: u64, elements_per_diameter: f64, threads: usize) -> serde_json::Value {
+    let (dmin, dmax): (f64, f64) = (10e-3, 15e-3);
+    // <d²> of a uniform diameter distribution.
+    let mean_square = (dmax.powi(3) - dmin.powi(3)) / (3.0 * (dmax - dmin));
+    let solid = grains as f64 * std::f64::consts::PI / 4.0 * mean_square;
+    let width = (solid / 0.5 / 1.5).sqrt();
+    let (mu, nu) = (0.15e6, 0.495);
+    let law = json!({"law": "neo_hookean", "shear_modulus": mu, "lambda": 2.0 * mu * nu / (1.0 - 2.0 * nu)});
+    json!({
+        "name": format!("fem-compaction-{grains}"),
+        "dimension": 2,
+        "method": {"kind": "fem", "elements_per_diameter": elements_per_diameter, "time_step": 2e-4, "threads": threads},
+        "materials": {
+            "silicone": {"density": 1180.0, "friction": friction, "deformable": law},
+            "wall": {"density": 1180.0, "friction": 0.0, "deformable": law}
+        },
+        "particles": [{"material": "silicone", "count": grains, "size": {"kind": "uniform", "min": dmin, "max": dmax}, "placement": {"kind": "random"}}],
+        "container": {"min": [0.0, 0.0], "max": [width, 1.5 * width], "wall_material": "wall",
+                      "walls": {"y_max": {"kind": "velocity", "velocity": [0.0, -0.05]}}},
+        "stop": {"packing_fraction": phi, "steps": steps},
+        "sampling": {"every_steps": 200},
+        "seed": 7
+    })
+}

@@ -1,7 +1,8 @@
 //! `sable bench dem` ([`super::bench_dem`]): throughput of soft-contact DEM on the scenes of the
 //! suite, in particle-steps per second, with memory per particle; `sable bench cd`: contact
 //! dynamics in contact-iterations per second; `sable bench mpm`: the material point method on
-//! the soft-grain compaction in material-point-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
+//! the soft-grain compaction in material-point-steps per second; `sable bench fem`: meshed
+//! grains on the sources' FEM compaction in element-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
 use clap::{Args, Subcommand};
@@ -25,6 +26,9 @@ pub enum BenchCommand {
     /// The material point method on the sources' soft-grain compaction (material-point-steps
     /// per second, Newton iterations and contact sweeps per step, memory per point).
     Mpm(MpmBenchArgs),
+    /// Meshed grains (FEM) on the sources' FEM compaction, N 2.1.2 (element-steps per second,
+    /// Newton iterations and contact sweeps per step, memory per node).
+    Fem(FemBenchArgs),
 }
 
 /// Runs the chosen benchmark.
@@ -35,6 +39,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Biaxial(a) => bench_biaxial(a),
         BenchCommand::Service(a) => super::bench_service::bench(a),
         BenchCommand::Mpm(a) => bench_mpm(a),
+        BenchCommand::Fem(a) => bench_fem(a),
     }
 }
 
@@ -93,32 +98,7 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
     let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
     let mut sim = pool.install(|| sable_engine::methods::mpm::sim::mpm(&scene, params))?;
-    let start = std::time::Instant::now();
-    let mut steps = 0u64;
-    pool.install(|| {
-        let mut last = (0.0, (0, 0, 0, 0), 0);
-        while steps < a.steps && sim.packing_fraction() < a.phi {
-            sim.step()?;
-            steps += 1;
-            if a.progress.is_some_and(|every| every > 0 && steps.is_multiple_of(every)) {
-                let t = start.elapsed().as_secs_f64();
-                let cost = sim.cost();
-                let k = (steps - last.2).max(1) as f64;
-                eprintln!(
-                    "step {steps}: Φ {:.4}, {t:.1} s ({:.1} ms/step), {:.2} parts, {:.2} Newton and {:.0} sweeps per step, {} failed parts",
-                    sim.packing_fraction(),
-                    1e3 * (t - last.0) / k,
-                    (cost.3 - last.1 .3) as f64 / k,
-                    (cost.0 - last.1 .0) as f64 / k,
-                    (cost.1 - last.1 .1) as f64 / k,
-                    cost.2 - last.1 .2
-                );
-                last = (t, cost, steps);
-            }
-        }
-        Ok::<(), sable_engine::EngineError>(())
-    })?;
-    let wall = start.elapsed().as_secs_f64();
+    let (steps, wall) = drive_soft(&mut sim, &pool, a.steps, a.phi, a.progress, |s| s.cost())?;
     let (newton, sweeps, split, parts) = sim.cost();
     let n = steps.max(1) as f64;
     let r = MpmBenchResult {
@@ -142,6 +122,137 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         println!(
             "mpm: {} grains ({} points) on {} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.3e} point-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/point",
             r.grains, r.points, r.threads, r.steps, r.parts_per_step, r.split_steps, r.phi, r.wall_seconds, r.point_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_point
+        );
+    }
+    Ok(())
+}
+
+/// Steps a soft-grain simulation until `phi` or `steps` inside `pool`, printing every
+/// `progress` steps to stderr where the time goes (`cost`: Newton iterations, contact sweeps,
+/// failed step parts and step parts since the start); returns the steps done and the seconds.
+fn drive_soft<S: Simulation>(
+    sim: &mut S,
+    pool: &rayon::ThreadPool,
+    max_steps: u64,
+    phi: f64,
+    progress: Option<u64>,
+    cost: impl Fn(&S) -> (u64, u64, u64, u64) + Sync,
+) -> anyhow::Result<(u64, f64)> {
+    let start = std::time::Instant::now();
+    let mut steps = 0u64;
+    pool.install(|| {
+        let mut last = (0.0, (0, 0, 0, 0), 0);
+        while steps < max_steps && sim.packing_fraction() < phi {
+            sim.step()?;
+            steps += 1;
+            if progress.is_some_and(|every| every > 0 && steps.is_multiple_of(every)) {
+                let t = start.elapsed().as_secs_f64();
+                let c = cost(sim);
+                let k = (steps - last.2).max(1) as f64;
+                eprintln!(
+                    "step {steps}: Φ {:.4}, {t:.1} s ({:.1} ms/step), {:.2} parts, {:.2} Newton and {:.0} sweeps per step, {} failed parts",
+                    sim.packing_fraction(),
+                    1e3 * (t - last.0) / k,
+                    (c.3 - last.1 .3) as f64 / k,
+                    (c.0 - last.1 .0) as f64 / k,
+                    (c.1 - last.1 .1) as f64 / k,
+                    c.2 - last.1 .2
+                );
+                last = (t, c, steps);
+            }
+        }
+        Ok::<(), sable_engine::EngineError>(())
+    })?;
+    Ok((steps, start.elapsed().as_secs_f64()))
+}
+
+/// Arguments of `sable bench fem`.
+#[derive(Debug, Args)]
+pub struct FemBenchArgs {
+    /// Number of grains (400: the sources' FEM compaction).
+    #[arg(long, default_value_t = 400)]
+    pub grains: usize,
+    /// Packing fraction at which the run stops (0.93: the sources' largest).
+    #[arg(long, default_value_t = 0.93)]
+    pub phi: f64,
+    /// Largest number of steps (the run stops earlier at `phi`).
+    #[arg(long, default_value_t = 1_000_000)]
+    pub steps: u64,
+    /// Grain friction (the sources: 0 to 0.8).
+    #[arg(long, default_value_t = 0.0)]
+    pub friction: f64,
+    /// Boundary elements across the smallest grain (the method's `elements_per_diameter`).
+    #[arg(long, default_value_t = 8.0)]
+    pub elements_per_diameter: f64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Every this many steps, print the progress to stderr (as `sable bench mpm --progress`).
+    #[arg(long)]
+    pub progress: Option<u64>,
+}
+
+#[derive(Debug, Serialize)]
+struct FemBenchResult {
+    method: &'static str,
+    grains: usize,
+    elements: usize,
+    nodes: usize,
+    threads: usize,
+    steps: u64,
+    /// Step parts that failed and were done again as two halves.
+    split_steps: u64,
+    /// Parts a step was done as, on average.
+    parts_per_step: f64,
+    phi: f64,
+    wall_seconds: f64,
+    /// Element-steps per second: the method's natural unit.
+    element_steps_per_second: f64,
+    newton_per_step: f64,
+    sweeps_per_step: f64,
+    bytes_per_node: f64,
+}
+
+/// `sable bench fem`: the compaction of [`sable_engine::scene::presets::fem_compaction`] from its
+/// start until `phi` (or `steps`), timed as a whole (meshing the grains excluded).
+pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
+    let (scene, threads, pool) = prepare(a.threads, |t| {
+        sable_engine::scene::presets::fem_compaction(a.grains, a.friction, a.phi, a.steps, a.elements_per_diameter, t)
+    })?;
+    let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
+    let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;
+    // A failed part is replaced by two: the parts are the steps plus the failures.
+    let (steps, wall) = drive_soft(&mut sim, &pool, a.steps, a.phi, a.progress, |s| {
+        let (newton, sweeps, split) = s.cost();
+        (newton, sweeps, split, s.steps_done() + split)
+    })?;
+    let (newton, sweeps, split) = sim.cost();
+    let n = steps.max(1) as f64;
+    let r = FemBenchResult {
+        method: "fem",
+        grains: sim.particle_count(),
+        elements: sim.element_count(),
+        nodes: sim.node_count(),
+        threads,
+        steps,
+        split_steps: split,
+        parts_per_step: (steps + split) as f64 / n,
+        phi: sim.packing_fraction(),
+        wall_seconds: wall,
+        element_steps_per_second: sim.element_count() as f64 * steps as f64 / wall,
+        newton_per_step: newton as f64 / n,
+        sweeps_per_step: sweeps as f64 / n,
+        bytes_per_node: sim.memory_bytes() as f64 / sim.node_count().max(1) as f64,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "fem: {} grains ({} elements, {} nodes) on {} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.3e} element-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/node",
+            r.grains, r.elements, r.nodes, r.threads, r.steps, r.parts_per_step, r.split_steps, r.phi, r.wall_seconds, r.element_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_node
         );
     }
     Ok(())
