@@ -2,18 +2,13 @@
 //! validated, built and run by the same runner as the other methods, against the physics the
 //! samples must obey and against the material point method on the same scene.
 
+mod common;
+
 use sable_engine::observe::Sample;
 
 fn run(path: &str) -> Vec<Sample> {
-    run_with(path, |_| {})
-}
-
-/// Runs the scene file at `path` after `edit` changes its JSON.
-fn run_with(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<Sample> {
     let text = std::fs::read_to_string(path).expect("scene file");
-    let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
-    edit(&mut value);
-    let scene = sable_engine::scene::parse_scene(&value.to_string()).expect("valid scene");
+    let scene = sable_engine::scene::parse_scene(&text).expect("valid scene");
     let mut sim = sable_engine::methods::build(&scene).expect("buildable");
     let runner = sable_engine::run::Runner::for_scene(&scene);
     let mut samples = Vec::new();
@@ -87,26 +82,7 @@ fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
 /// identical to the last bit, Φ 0.7516 and σ_yy 75.5 kPa at step 850; 53 s for both runs).
 #[test]
 fn meshed_grain_results_do_not_depend_on_the_thread_count() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/fem_compaction_2d.json");
-    let on = |threads: usize| {
-        run_with(path, |v| {
-            v["method"]["threads"] = serde_json::json!(threads);
-            v["stop"] = serde_json::json!({"steps": 850});
-        })
-    };
-    let (one, two) = (on(1), on(2));
-    assert_eq!(one.len(), two.len());
-    let mut worst: f64 = 0.0;
-    for (a, b) in one.iter().zip(&two) {
-        let scale = a.stress.yy.abs().max(1.0);
-        worst = worst.max((a.phi - b.phi).abs() / a.phi).max((a.stress.yy - b.stress.yy).abs() / scale);
-        assert_eq!(a.z, b.z, "Z at step {}", a.step);
-    }
-    let last = one.last().expect("samples");
-    eprintln!(
-        "threads 1 and 2: largest relative difference {worst:.2e} (Φ {:.4}, σ_yy {:.4e} Pa at step {})",
-        last.phi, last.stress.yy, last.step
-    );
+    let (worst, last) = common::thread_count_difference("scenes/fem_compaction_2d.json", 850);
     assert!(last.stress.yy > 1e4, "hardly loaded yet at step {}: {} Pa", last.step, last.stress.yy);
     assert!(worst < 1e-4, "results depend on the thread count: {worst:.2e}");
 }

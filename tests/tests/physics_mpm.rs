@@ -2,6 +2,8 @@
 //! built and run by the same runner as rigid grains, and its samples checked against the
 //! physics they must obey.
 
+mod common;
+
 use sable_engine::observe::Sample;
 
 fn run(path: &str) -> Vec<Sample> {
@@ -79,26 +81,7 @@ fn soft_grains_compact_past_phi_0_9() {
 /// past the first contacts).
 #[test]
 fn soft_grain_results_do_not_depend_on_the_thread_count() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json");
-    let on = |threads: usize| {
-        run_with(path, |v| {
-            v["method"]["threads"] = serde_json::json!(threads);
-            v["stop"] = serde_json::json!({"steps": 800});
-        })
-    };
-    let (one, two) = (on(1), on(2));
-    assert_eq!(one.len(), two.len());
-    let mut worst: f64 = 0.0;
-    for (a, b) in one.iter().zip(&two) {
-        let scale = a.stress.yy.abs().max(1.0);
-        worst = worst.max((a.phi - b.phi).abs() / a.phi).max((a.stress.yy - b.stress.yy).abs() / scale);
-        assert_eq!(a.z, b.z, "Z at step {}", a.step);
-    }
-    let last = one.last().expect("samples");
-    eprintln!(
-        "threads 1 and 2: largest relative difference {worst:.2e} (Φ {:.4}, σ_yy {:.4e} Pa at step {})",
-        last.phi, last.stress.yy, last.step
-    );
+    let (worst, last) = common::thread_count_difference("scenes/mpm_compaction_2d.json", 800);
     assert!(last.stress.yy > 0.0, "no load yet at step {}", last.step);
     assert!(worst < 1e-4, "results depend on the thread count: {worst:.2e}");
 }

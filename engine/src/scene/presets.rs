@@ -135,7 +135,7 @@ pub fn mpm_compaction(grains: usize, friction: f64, phi: f64, steps: u64, thread
 /// of 10–15 mm (uniform in diameter), shear modulus 0.15 MPa, ν = 0.495 (λ = 2μν/(1 − 2ν) =
 /// 14.85 MPa), ρ = 1180 kg/m³, grain friction `friction`, frictionless walls, no gravity, placed
 /// at random at Φ ≈ 0.5 in a box 1.5 times as high as wide; the top wall moves down at
-/// 0.05 m/s (a quarter of a percent of the shear wave speed, 11 m/s: quasi-static, as the
+/// 0.05 m/s (half a percent of the shear wave speed, 11 m/s: quasi-static, as the
 /// sources' imposed displacement) until Φ = `phi` (or `steps`); method `fem` with
 /// `elements_per_diameter` boundary elements across the smallest grain and dt = 2e-4 s (the
 /// wall moves a thousandth of the mean diameter a step).

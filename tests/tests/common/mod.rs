@@ -122,3 +122,44 @@ pub fn bound_pair() -> serde_json::Value {
         "sampling": {"every_steps": 4000}
     })
 }
+
+/// Runs the scene file at `path` (relative to the repository) after `edit` changes its JSON:
+/// its samples.
+pub fn run_file_with(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<sable_engine::observe::Sample> {
+    let full = format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&full).expect("scene file");
+    let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
+    edit(&mut value);
+    let s = scene(value);
+    let mut sim = sable_engine::methods::build(&s).expect("buildable");
+    let runner = sable_engine::run::Runner::for_scene(&s);
+    let mut samples = Vec::new();
+    runner.run(sim.as_mut(), &mut |x, _| samples.push(x.clone())).expect("stable");
+    samples
+}
+
+/// The scene file at `path` run to `steps` on one and on two threads: the largest relative
+/// difference of Φ and σ_yy between the two runs' samples (Z must be equal), and the last
+/// sample of the one-thread run.
+pub fn thread_count_difference(path: &str, steps: u64) -> (f64, sable_engine::observe::Sample) {
+    let on = |threads: usize| {
+        run_file_with(path, |v| {
+            v["method"]["threads"] = serde_json::json!(threads);
+            v["stop"] = serde_json::json!({ "steps": steps });
+        })
+    };
+    let (one, two) = (on(1), on(2));
+    assert_eq!(one.len(), two.len());
+    let mut worst: f64 = 0.0;
+    for (a, b) in one.iter().zip(&two) {
+        let scale = a.stress.yy.abs().max(1.0);
+        worst = worst.max((a.phi - b.phi).abs() / a.phi).max((a.stress.yy - b.stress.yy).abs() / scale);
+        assert_eq!(a.z, b.z, "Z at step {}", a.step);
+    }
+    let last = one.last().expect("samples").clone();
+    eprintln!(
+        "threads 1 and 2: largest relative difference {worst:.2e} (Φ {:.4}, σ_yy {:.4e} Pa at step {})",
+        last.phi, last.stress.yy, last.step
+    );
+    (worst, last)
+}
