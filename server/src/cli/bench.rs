@@ -75,6 +75,16 @@ struct MpmBenchResult {
     method: &'static str,
     grains: usize,
     points: usize,
+    #[serde(flatten)]
+    run: SoftRun,
+    /// Material-point-steps per second: the method's natural unit.
+    point_steps_per_second: f64,
+    bytes_per_point: f64,
+}
+
+/// What a soft-grain benchmark run cost, whatever the method.
+#[derive(Debug, Serialize)]
+struct SoftRun {
     threads: usize,
     steps: u64,
     /// Step parts that failed and were done again as two halves.
@@ -84,11 +94,18 @@ struct MpmBenchResult {
     parts_per_step: f64,
     phi: f64,
     wall_seconds: f64,
-    /// Material-point-steps per second: the method's natural unit.
-    point_steps_per_second: f64,
     newton_per_step: f64,
     sweeps_per_step: f64,
-    bytes_per_point: f64,
+}
+
+impl std::fmt::Display for SoftRun {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.2} Newton iterations and {:.1} sweeps per step",
+            self.threads, self.steps, self.parts_per_step, self.split_steps, self.phi, self.wall_seconds, self.newton_per_step, self.sweeps_per_step
+        )
+    }
 }
 
 /// `sable bench mpm`: the compaction of [`sable_engine::scene::presets::mpm_compaction`] from
@@ -98,46 +115,38 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
     let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
     let mut sim = pool.install(|| sable_engine::methods::mpm::sim::mpm(&scene, params))?;
-    let (steps, wall) = drive_soft(&mut sim, &pool, a.steps, a.phi, a.progress, |s| s.cost())?;
-    let (newton, sweeps, split, parts) = sim.cost();
-    let n = steps.max(1) as f64;
+    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost())?;
     let r = MpmBenchResult {
         method: "mpm",
         grains: sim.particle_count(),
         points: sim.point_count(),
-        threads,
-        steps,
-        split_steps: split,
-        parts_per_step: parts as f64 / n,
-        phi: sim.packing_fraction(),
-        wall_seconds: wall,
-        point_steps_per_second: sim.point_count() as f64 * steps as f64 / wall,
-        newton_per_step: newton as f64 / n,
-        sweeps_per_step: sweeps as f64 / n,
+        point_steps_per_second: sim.point_count() as f64 * run.steps as f64 / run.wall_seconds,
         bytes_per_point: sim.memory_bytes() as f64 / sim.point_count().max(1) as f64,
+        run,
     };
     if a.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "mpm: {} grains ({} points) on {} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.3e} point-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/point",
-            r.grains, r.points, r.threads, r.steps, r.parts_per_step, r.split_steps, r.phi, r.wall_seconds, r.point_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_point
+            "mpm: {} grains ({} points) on {}, {:.3e} point-steps/s, {:.0} bytes/point",
+            r.grains, r.points, r.run, r.point_steps_per_second, r.bytes_per_point
         );
     }
     Ok(())
 }
 
-/// Steps a soft-grain simulation until `phi` or `steps` inside `pool`, printing every
-/// `progress` steps to stderr where the time goes (`cost`: Newton iterations, contact sweeps,
-/// failed step parts and step parts since the start); returns the steps done and the seconds.
+/// Steps a soft-grain simulation until `phi` or `steps` inside `pool` (of `threads`), printing
+/// every `progress` steps to stderr where the time goes (`cost`: Newton iterations, contact
+/// sweeps, failed step parts and step parts since the start); returns what the run cost.
 fn drive_soft<S: Simulation>(
     sim: &mut S,
     pool: &rayon::ThreadPool,
+    threads: usize,
     max_steps: u64,
     phi: f64,
     progress: Option<u64>,
     cost: impl Fn(&S) -> (u64, u64, u64, u64) + Sync,
-) -> anyhow::Result<(u64, f64)> {
+) -> anyhow::Result<SoftRun> {
     let start = std::time::Instant::now();
     let mut steps = 0u64;
     pool.install(|| {
@@ -163,7 +172,19 @@ fn drive_soft<S: Simulation>(
         }
         Ok::<(), sable_engine::EngineError>(())
     })?;
-    Ok((steps, start.elapsed().as_secs_f64()))
+    let wall_seconds = start.elapsed().as_secs_f64();
+    let (newton, sweeps, split, parts) = cost(sim);
+    let n = steps.max(1) as f64;
+    Ok(SoftRun {
+        threads,
+        steps,
+        split_steps: split,
+        parts_per_step: parts as f64 / n,
+        phi: sim.packing_fraction(),
+        wall_seconds,
+        newton_per_step: newton as f64 / n,
+        sweeps_per_step: sweeps as f64 / n,
+    })
 }
 
 /// Arguments of `sable bench fem`.
@@ -201,18 +222,10 @@ struct FemBenchResult {
     grains: usize,
     elements: usize,
     nodes: usize,
-    threads: usize,
-    steps: u64,
-    /// Step parts that failed and were done again as two halves.
-    split_steps: u64,
-    /// Parts a step was done as, on average.
-    parts_per_step: f64,
-    phi: f64,
-    wall_seconds: f64,
+    #[serde(flatten)]
+    run: SoftRun,
     /// Element-steps per second: the method's natural unit.
     element_steps_per_second: f64,
-    newton_per_step: f64,
-    sweeps_per_step: f64,
     bytes_per_node: f64,
 }
 
@@ -225,34 +238,25 @@ pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
     let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
     let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;
     // A failed part is replaced by two: the parts are the steps plus the failures.
-    let (steps, wall) = drive_soft(&mut sim, &pool, a.steps, a.phi, a.progress, |s| {
+    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| {
         let (newton, sweeps, split) = s.cost();
         (newton, sweeps, split, s.steps_done() + split)
     })?;
-    let (newton, sweeps, split) = sim.cost();
-    let n = steps.max(1) as f64;
     let r = FemBenchResult {
         method: "fem",
         grains: sim.particle_count(),
         elements: sim.element_count(),
         nodes: sim.node_count(),
-        threads,
-        steps,
-        split_steps: split,
-        parts_per_step: (steps + split) as f64 / n,
-        phi: sim.packing_fraction(),
-        wall_seconds: wall,
-        element_steps_per_second: sim.element_count() as f64 * steps as f64 / wall,
-        newton_per_step: newton as f64 / n,
-        sweeps_per_step: sweeps as f64 / n,
+        element_steps_per_second: sim.element_count() as f64 * run.steps as f64 / run.wall_seconds,
         bytes_per_node: sim.memory_bytes() as f64 / sim.node_count().max(1) as f64,
+        run,
     };
     if a.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "fem: {} grains ({} elements, {} nodes) on {} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.3e} element-steps/s, {:.2} Newton iterations and {:.1} sweeps per step, {:.0} bytes/node",
-            r.grains, r.elements, r.nodes, r.threads, r.steps, r.parts_per_step, r.split_steps, r.phi, r.wall_seconds, r.element_steps_per_second, r.newton_per_step, r.sweeps_per_step, r.bytes_per_node
+            "fem: {} grains ({} elements, {} nodes) on {}, {:.3e} element-steps/s, {:.0} bytes/node",
+            r.grains, r.elements, r.nodes, r.run, r.element_steps_per_second, r.bytes_per_node
         );
     }
     Ok(())
