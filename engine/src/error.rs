@@ -78,6 +78,15 @@ pub enum InstabilityCause {
         /// Grain index.
         grain: usize,
     },
+    /// The contacts between soft grains moved over a step farther than their linearisation
+    /// follows: at the iterate Newton converged to, the gaps measured anew between the moved
+    /// outlines differ from those the contacts were solved with by more than the limit.
+    ContactDrift {
+        /// Largest difference found, m.
+        drift: f64,
+        /// The limit, m.
+        limit: f64,
+    },
     /// Mechanical energy grew more than the work put in by walls and gravity allows.
     EnergyGrowth {
         /// Energy gained beyond the work put in, J.
@@ -119,6 +128,10 @@ impl std::fmt::Display for InstabilityCause {
             Self::NotPositiveDefinite { grain } => {
                 write!(f, "the Newton matrix of grain {grain} is not positive definite (its geometric stiffness outweighs its mass at this step)")
             }
+            Self::ContactDrift { drift, limit } => write!(
+                f,
+                "the contacts' geometry moved over the step {drift:.2e} m beyond their linearisation (limit {limit:.2e} m)"
+            ),
             Self::EnergyGrowth { excess, scale, part, part_gain } => write!(
                 f,
                 "mechanical energy grew by {excess:.3e} J beyond the work put in (energy scale {scale:.3e} J); the {part} energy grew the most, by {part_gain:.3e} J"

@@ -237,11 +237,7 @@ pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
     })?;
     let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
     let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;
-    // A failed part is replaced by two: the parts are the steps plus the failures.
-    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| {
-        let (newton, sweeps, split) = s.cost();
-        (newton, sweeps, split, s.steps_done() + split)
-    })?;
+    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost())?;
     let r = FemBenchResult {
         method: "fem",
         grains: sim.particle_count(),

@@ -20,7 +20,7 @@ use super::element::{self, ElementFailure, Geometry, State};
 use super::mesh::Mesh;
 use super::sparse::{SparseError, SparseSpd};
 use crate::constitutive::{ConstitutiveLaw, History, Mat2};
-use crate::math::Real;
+use crate::math::{positive_part, Real};
 use crate::methods::soft::Scheme;
 
 type V2 = Vector2<Real>;
@@ -220,8 +220,8 @@ impl Body {
 
     /// The elements' states at the displacements `total` (from the accepted histories) into
     /// `trial`, and — when `stiffness` is given — their stiffness times it added to the
-    /// matrix.
-    fn evaluate(&mut self, law: &dyn ConstitutiveLaw, total: &[V2], stiffness: Option<Real>) -> Result<(), BodyFailure> {
+    /// matrix (each element's replaced by its positive part when `positive`).
+    fn evaluate(&mut self, law: &dyn ConstitutiveLaw, total: &[V2], stiffness: Option<Real>, positive: bool) -> Result<(), BodyFailure> {
         for (e, q) in self.mesh.quads.iter().enumerate() {
             let u = q.map(|k| total[k as usize]);
             let geo = &self.geometry[e];
@@ -229,7 +229,11 @@ impl Body {
             let fail = |ElementFailure::Inverted { jacobian }| BodyFailure::Inverted { element: e, jacobian };
             self.trial[e] = element::state(geo, &u, h, law, self.fbar).map_err(fail)?;
             if let Some(scale) = stiffness {
-                let k = element::stiffness(geo, &u, h, law, self.fbar).map_err(fail)?;
+                let mut k = element::stiffness(geo, &u, h, law, self.fbar).map_err(fail)?;
+                if positive {
+                    let p = positive_part(&nalgebra::SMatrix::<Real, 8, 8>::from_fn(|i, j| k[i][j]));
+                    k = std::array::from_fn(|i| std::array::from_fn(|j| p[(i, j)]));
+                }
                 for (rc, &slot) in self.slots[e].iter().enumerate() {
                     if slot != usize::MAX {
                         self.matrix.add_at(slot, scale * k[rc / 8][rc % 8]);
@@ -256,14 +260,41 @@ impl Body {
 
     /// Evaluates the residual at the current iterate and — when `refresh` — assembles and
     /// factorises the matrix (module documentation).
+    ///
+    /// Under compression the elements' geometric stiffness is negative, and over a long step it
+    /// can outweigh the mass along a few modes of a squeezed grain (its rotation stretches it at
+    /// second order, which its stress favours): the matrix is then not positive definite. It is
+    /// then assembled again with each element's stiffness replaced by its positive part
+    /// ([`crate::math::positive_part`]), which makes it definite; Newton's fixed point does not
+    /// depend on the matrix, only its rate. It spares the step a split, as for the material
+    /// point method's grains; on `scenes/fem_compaction_2d.json` the parts the contacts need
+    /// ([`super::system`]) are short enough that it does not come into play.
     pub fn iterate(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme, refresh: bool) -> Result<(), BodyFailure> {
         self.fill_total(sc);
+        if !refresh {
+            return self.assemble(law, sc, None);
+        }
+        for positive in [false, true] {
+            self.assemble(law, sc, Some(positive))?;
+            match self.matrix.factorise() {
+                Ok(()) => return Ok(()),
+                Err(SparseError::NotPositiveDefinite) if !positive => {}
+                Err(SparseError::NotPositiveDefinite | SparseError::Pattern(_)) => return Err(BodyFailure::NotPositiveDefinite),
+            }
+        }
+        Err(BodyFailure::NotPositiveDefinite)
+    }
+
+    /// The residual at the displacements in `total` and — when `matrix` says whether with the
+    /// elements' positive parts — the unfactorised matrix.
+    fn assemble(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme, matrix: Option<bool>) -> Result<(), BodyFailure> {
+        let refresh = matrix.is_some();
         if refresh {
             self.matrix.clear();
         }
         let c = sc.theta * sc.dt;
         let total = std::mem::take(&mut self.total);
-        let evaluated = self.evaluate(law, &total, refresh.then_some(c * c));
+        let evaluated = self.evaluate(law, &total, refresh.then_some(c * c), matrix.unwrap_or(false));
         self.total = total;
         evaluated?;
         sum_forces(&self.mesh.quads, &self.trial, self.nodes(), &mut self.force);
@@ -287,11 +318,6 @@ impl Body {
                 self.matrix.isolate(d, self.mass[d / 2]);
             }
         }
-        if refresh {
-            self.matrix.factorise().map_err(|e| match e {
-                SparseError::NotPositiveDefinite | SparseError::Pattern(_) => BodyFailure::NotPositiveDefinite,
-            })?;
-        }
         Ok(())
     }
 
@@ -300,7 +326,7 @@ impl Body {
     pub fn settle(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme) -> Result<(), BodyFailure> {
         self.fill_total(sc);
         let total = std::mem::take(&mut self.total);
-        let evaluated = self.evaluate(law, &total, None);
+        let evaluated = self.evaluate(law, &total, None, false);
         self.total = total;
         evaluated
     }
@@ -361,7 +387,7 @@ impl Body {
         for it in 1..=max_newton {
             self.matrix.clear();
             let total = self.u.clone();
-            self.evaluate(law, &total, Some(1.0))?;
+            self.evaluate(law, &total, Some(1.0), false)?;
             sum_forces(&self.mesh.quads, &self.trial, self.nodes(), &mut self.force);
             let mut r: Vec<Real> = load.iter().zip(&self.force).flat_map(|(l, f)| [l.x - f.x, l.y - f.y]).collect();
             for &(d, _) in prescribed {
@@ -374,7 +400,7 @@ impl Body {
             last = add_correction(&mut self.u, &r) / scale;
             if last <= tolerance {
                 let total = self.u.clone();
-                self.evaluate(law, &total, None)?;
+                self.evaluate(law, &total, None, false)?;
                 std::mem::swap(&mut self.states, &mut self.trial);
                 return Ok(it);
             }

@@ -270,9 +270,9 @@ impl Fem {
         self.sys.grains.iter().map(|g| g.body.nodes()).sum()
     }
 
-    /// Newton iterations, contact sweeps and failed step parts (done again as two halves),
-    /// since the start.
-    pub fn cost(&self) -> (u64, u64, u64) {
-        (u64::from(self.sys.totals.newton), u64::from(self.sys.totals.sweeps), self.sys.substeps)
+    /// Newton iterations, contact sweeps, failed step parts (done again as two halves) and
+    /// step parts done, since the start.
+    pub fn cost(&self) -> (u64, u64, u64, u64) {
+        (u64::from(self.sys.totals.newton), u64::from(self.sys.totals.sweeps), self.sys.splitting.substeps, self.sys.splitting.parts)
     }
 }

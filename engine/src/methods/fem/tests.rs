@@ -251,7 +251,7 @@ fn two_meshed_disks_collide_and_part() {
     let energy = sys.kinetic_energy() + sys.strain_energy();
     eprintln!(
         "meshed disks: approach {before:.4} before, {after:.4} after; energy {e0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps, {} split)",
-        sys.totals.newton, sys.totals.sweeps, sys.substeps
+        sys.totals.newton, sys.totals.sweeps, sys.splitting.substeps
     );
     assert!(touched, "the disks never touched");
     assert!(most <= e0 * (1.0 + 1e-6), "energy grew to {most} from {e0}");

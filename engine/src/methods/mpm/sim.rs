@@ -212,6 +212,6 @@ impl Mpm {
     /// Newton iterations, contact sweeps, failed step parts (done again as two halves) and
     /// step parts done, since the start.
     pub fn cost(&self) -> (u64, u64, u64, u64) {
-        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.substeps, self.sys.parts)
+        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.splitting.substeps, self.sys.splitting.parts)
     }
 }

@@ -24,12 +24,11 @@
 //!
 //! A step that fails (Newton or the contact solve over budget, a matrix that stays
 //! indefinite, an inverted point) is done again in halves, and the steps after it keep parts
-//! that short until ten in a row converge ([`System::step`]). In a dense packing the grains'
-//! stress makes the geometric stiffness of their rotation outweigh their inertia over a long
-//! step ([`super::field`]); the damped matrix then converges slowly (measured on a 60-grain
-//! compaction past Φ 0.85: the correction shrinking by 0.88 an iteration, the budget of 25
-//! spent), and trying every step whole first cost a 300-grain compaction more than half its
-//! time.
+//! that short until ten in a row converge ([`crate::methods::soft::parts`]). In a dense packing
+//! the grains' stress makes the geometric stiffness of their rotation outweigh their inertia
+//! over a long step ([`super::field`]); the damped matrix then converges slowly (measured on a
+//! 60-grain compaction past Φ 0.85: the correction shrinking by 0.88 an iteration, the budget
+//! of 25 spent).
 //!
 //! Momentum is conserved exactly by every iteration (the internal forces of a grain sum to
 //! zero and the contact impulses are equal and opposite), whatever the convergence.
@@ -46,6 +45,8 @@ use super::points::Points;
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
 use crate::math::Real;
+use crate::methods::soft::parts::{fail, Splitting, StepParts};
+pub use crate::methods::soft::parts::{StepFailure, StepReport};
 use crate::nscd::{Convergence, Nlgs, NlgsReport};
 
 /// A Newton iteration that reduces the correction by less than this factor makes the next one
@@ -57,12 +58,6 @@ const REFRESH_RATIO: Real = 0.25;
 /// ones keep them (a target that moves with every iterate kept a dense packing's iterations
 /// from converging).
 const DRIFT_ITERATIONS: u32 = 2;
-
-/// The deepest a step is split: into `2^MAX_DEPTH` parts.
-const MAX_DEPTH: u32 = 4;
-
-/// Steps in a row without a failure after which the next one tries parts twice as long.
-const CALM_STEPS: u32 = 10;
 
 /// A Newton iteration from this one on that contracts the correction by less than
 /// [`STALL_RATIO`], with the matrix assembled at its own iterate and the one before, ends the
@@ -94,24 +89,6 @@ pub struct Settings {
     pub contact: Convergence,
 }
 
-/// What a step cost.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StepReport {
-    /// Newton iterations.
-    pub newton: u32,
-    /// Contact-solver sweeps, over all iterations.
-    pub sweeps: u32,
-    /// Contacts (a vertex within a cell of another outline or a wall).
-    pub contacts: usize,
-}
-
-/// Why a step failed (the method turns it into an [`crate::EngineError::Unstable`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct StepFailure {
-    /// What happened.
-    pub cause: InstabilityCause,
-}
-
 /// The whole state of the method (module documentation).
 pub struct System {
     /// Background grid.
@@ -134,10 +111,8 @@ pub struct System {
     pub time: Real,
     /// Newton iterations and contact sweeps since the start.
     pub totals: StepReport,
-    /// Step parts that failed and were done again as two halves, since the start.
-    pub substeps: u64,
-    /// Step parts done since the start (a step is one part unless it was split).
-    pub parts: u64,
+    /// The level the steps are split at, and the parts done and failed since the start.
+    pub splitting: Splitting,
     /// The impulse the grains gave each wall over the last step (all its parts when it was
     /// split), N·s/m: the wall's mean force over the step times the step.
     pub wall_impulse: Vec<V2>,
@@ -151,10 +126,6 @@ pub struct System {
     /// Duration of the last part of the last step, s (the step, or its last half when split):
     /// the contacts' impulses are over it.
     last_dt: Real,
-    /// The level the next step starts at ([`System::step`]).
-    depth: u32,
-    /// Steps since the last failure at `depth`.
-    calm: u32,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
     warm: Warm,
@@ -165,8 +136,10 @@ pub struct System {
     moved: Vec<Vec<V2>>,
 }
 
-fn fail(cause: InstabilityCause) -> StepFailure {
-    StepFailure { cause }
+impl StepParts for System {
+    fn try_part(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
+        self.try_step(dt, !last_chance)
+    }
 }
 
 impl System {
@@ -192,13 +165,10 @@ impl System {
             steps: 0,
             time: 0.0,
             totals: StepReport::default(),
-            substeps: 0,
-            parts: 0,
+            splitting: Splitting::default(),
             wall_impulse: vec![V2::zeros(); walls_len],
             wall_force: vec![V2::zeros(); walls_len],
             last_dt: settings.dt,
-            depth: 0,
-            calm: 0,
             pair_friction: None,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
@@ -263,71 +233,20 @@ impl System {
         }
     }
 
-    /// Advances one step of `settings.dt` (module documentation), as `2^depth` equal parts,
-    /// `depth` the level the last steps needed. A part whose Newton iterations or contact solve
-    /// do not converge, or whose matrix stays indefinite, is done again as two halves, down to
-    /// a sixteenth of the step (nothing has moved when they fail: the points move only once the
-    /// iterations converged); past that the failure is returned. The next steps start at the
-    /// deepest level this one reached, and go one level coarser after [`CALM_STEPS`] steps
-    /// without a failure: the grains of a dense packing are pressed hard enough that a step
-    /// can be longer than the time their rotation takes to run away (the geometric stiffness
-    /// of a squeezed grain outweighs its inertia, module documentation of
-    /// [`super::field`]), and a failed attempt costs its whole Newton budget.
+    /// Advances one step of `settings.dt` (module documentation), in parts where it fails
+    /// ([`Splitting`]): nothing has moved when a part fails (the points move only once the
+    /// iterations converged).
     pub fn step(&mut self) -> Result<StepReport, StepFailure> {
         self.wall_impulse.iter_mut().for_each(|p| *p = V2::zeros());
-        let start = self.depth;
-        let parts = 1u32 << start;
-        let mut report = StepReport::default();
-        let mut deepest = start;
-        for _ in 0..parts {
-            let (part, depth) = self.advance(self.settings.dt / Real::from(parts), start)?;
-            report.newton += part.newton;
-            report.sweeps += part.sweeps;
-            report.contacts = part.contacts;
-            deepest = deepest.max(depth);
-        }
-        if deepest > start {
-            self.depth = deepest;
-            self.calm = 0;
-        } else {
-            self.calm += 1;
-            if self.calm >= CALM_STEPS && self.depth > 0 {
-                self.depth -= 1;
-                self.calm = 0;
-            }
-        }
+        let mut splitting = std::mem::take(&mut self.splitting);
+        let done = splitting.step(self, self.settings.dt);
+        self.splitting = splitting;
+        let report = done?;
         self.steps += 1;
         self.totals.newton += report.newton;
         self.totals.sweeps += report.sweeps;
         self.totals.contacts = report.contacts;
         Ok(report)
-    }
-
-    /// Advances by `dt`, splitting it on a recoverable failure (`depth` halvings of the step so
-    /// far); returns the cost and the deepest level a part needed.
-    fn advance(&mut self, dt: Real, depth: u32) -> Result<(StepReport, u32), StepFailure> {
-        match self.try_step(dt, depth < MAX_DEPTH) {
-            Err(f)
-                if depth < MAX_DEPTH
-                    && matches!(
-                        f.cause,
-                        InstabilityCause::NewtonBudget { .. }
-                            | InstabilityCause::NotPositiveDefinite { .. }
-                            | InstabilityCause::SolverBudget { .. }
-                            | InstabilityCause::Inverted { .. }
-                    ) =>
-            {
-                self.substeps += 1;
-                let (a, da) = self.advance(0.5 * dt, depth + 1)?;
-                let (b, db) = self.advance(0.5 * dt, depth + 1)?;
-                Ok((StepReport { newton: a.newton + b.newton, sweeps: a.sweeps + b.sweeps, contacts: b.contacts }, da.max(db)))
-            }
-            Err(f) => Err(f),
-            Ok(r) => {
-                self.parts += 1;
-                Ok((r, depth))
-            }
-        }
     }
 
     /// One step of `dt` without splitting; `stall_check`: the Newton iterations may end early
@@ -456,7 +375,7 @@ impl System {
         let mut entries = Vec::with_capacity(2 * 9);
         for candidate in candidates(&shapes, &self.walls, h) {
             let e = match candidate {
-                Candidate::Grain { a, k, b, near } => {
+                Candidate::Grain { a, k, b, near, line } => {
                     // Each side moves as its vertices do over the step (module documentation of
                     // [`super::contact`]): grain `b`'s place between its segment's two.
                     let next = (near.segment + 1) % shapes[b].len();
@@ -472,6 +391,7 @@ impl System {
                         gap: near.gap,
                         friction: self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt()),
                         lever: self.grains[a].radius,
+                        line: line.then_some(near.segment as u32),
                     }
                 }
                 Candidate::Wall { g, k, w, gap } => {
@@ -486,6 +406,7 @@ impl System {
                         gap,
                         friction: (self.grains[g].friction * wall.friction).sqrt(),
                         lever: self.grains[g].radius,
+                        line: None,
                     }
                 }
             };

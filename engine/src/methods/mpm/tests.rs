@@ -370,7 +370,7 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
         sys.laws[0].name(),
         sys.totals.newton,
         sys.totals.sweeps,
-        sys.substeps
+        sys.splitting.substeps
     );
     (worst, (stored - trapezoid).abs() / trapezoid)
 }

@@ -5,12 +5,14 @@
 //! - [`polygon`]: the geometry of a grain's outline (area, inside, nearest segment);
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
-//!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]).
+//!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
+//! - [`parts`]: a step done in parts, split where it fails.
 
 pub mod contact;
 #[cfg(test)]
 pub mod hertz;
 pub mod measure;
+pub mod parts;
 pub mod polygon;
 pub mod sim;
 
