@@ -43,10 +43,10 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// The same scene by the material point method reaches Φ 0.9003 at 487 kPa (Z 2.83, aspect
 /// 1.076, smallest J 0.864, interpenetration 0.30%); over the dense part (Φ 0.78 to 0.91) the
 /// mean top-wall stress is 565 kPa by FEM and 314 kPa by MPM: FEM 1.8 times stiffer, checked
-/// within a factor 2 either way. The material point method's contacts do not yet check their
-/// gaps where Newton converged, and its outlines overlap six times more; the two resolve a
-/// grain with 8 elements and 6 cells across; the study of issue 26 is where the two are to
-/// agree within 2%.
+/// within a factor 2 either way. The gap is the grid's coarseness: the scene's 6 cells across
+/// the smallest grain leave MPM far from converged (its top wall at Φ 0.90: 487 kPa with 6
+/// cells, 663 kPa with 10, 819 kPa with 14; with half the time step 499 kPa), where FEM uses 8
+/// elements across. The study of issue 26 is where the two are to agree within 2%.
 ///
 /// Not asserted, a known defect (issue 26): the energy balance. The dissipated energy (work in
 /// less the energy stored and moving) has dipped below zero as the packing rearranged in

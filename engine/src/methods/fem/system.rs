@@ -140,6 +140,8 @@ pub struct System {
     warm: Warm,
     nlgs: Nlgs,
     outlines: Vec<Vec<V2>>,
+    /// The contacts' drifts before they are measured again (scratch kept between steps).
+    drifts: Vec<Real>,
 }
 
 impl StepParts for System {
@@ -189,6 +191,7 @@ impl System {
             warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
             outlines: vec![Vec::new(); n],
+            drifts: Vec::new(),
         }
     }
 
@@ -406,9 +409,13 @@ impl System {
 
     /// Measures the contacts' drifts anew at the current iterate; returns the largest change, m.
     fn remeasure_drifts(&mut self, sc: &Scheme) -> Real {
-        let before: Vec<Real> = self.contacts.iter().map(|c| c.drift).collect();
+        let mut before = std::mem::take(&mut self.drifts);
+        before.clear();
+        before.extend(self.contacts.iter().map(|c| c.drift));
         self.measure_drifts(sc);
-        self.contacts.iter().zip(&before).map(|(c, d)| (c.drift - d).abs()).fold(0.0, Real::max)
+        let moved = self.contacts.iter().zip(&before).map(|(c, d)| (c.drift - d).abs()).fold(0.0, Real::max);
+        self.drifts = before;
+        moved
     }
 
     /// Adds each grain's correction with the contact impulses to its iterate; returns the
