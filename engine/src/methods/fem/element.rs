@@ -13,11 +13,15 @@
 //! `P = P(F̄)` the first Piola-Kirchhoff stress, `G_a` and `G₀_a` the reference gradients of
 //! `N_a` at the point and at the centre. A uniform `F` gives `F̄ = F` (the patch test holds).
 //!
-//! The element's tangent `∂f/∂u` is the central difference of these forces (one step of a
-//! millionth of the element's size on each of its eight displacements), made symmetric: it is
-//! then the tangent of the algorithm itself — the law's return mapping and the F-bar
-//! projection included — to about 1e-9 relative, at the cost of sixteen force evaluations
-//! (the closed form of the F-bar tangent holds third derivatives of `F̄`).
+//! The element's tangent `∂f/∂u` is in closed form from the law's tangent `A = ∂P/∂F̄`
+//! ([`ConstitutiveLaw::tangent`], itself the algorithmic one). With `δF = e_i ⊗ G_a` for the
+//! displacement `u_a·e_i`, `s = tr(F₀⁻¹δF₀) − tr(F⁻¹δF)` and `δF̄ = r (δF + ½ s F)`, the
+//! second variation of `w ψ(F̄)` is `w [(A : δF̄_d) : δF̄_c + P : Δ_d δF̄_c]`, with
+//! `P : Δ_d δF̄_c = ½ r [s_d P:δF_c + s_c P:δF_d + ½ s_c s_d P:F + Δ_d s_c P:F]` and
+//! `Δ_d s_c = tr(F⁻¹δF_d F⁻¹δF_c) − tr(F₀⁻¹δF₀_d F₀⁻¹δF₀_c)` — first derivatives of the
+//! law only. It agrees with central differences of the forces to 1e-6 relative (tests) at a
+//! sixteenth of their cost: four law tangents an element instead of sixty-four stress
+//! updates.
 
 use nalgebra::Vector2;
 
@@ -152,8 +156,85 @@ pub fn state(geo: &Geometry, u: &[V2; 4], h: &[History; 4], law: &dyn Constituti
 }
 
 /// The element's stiffness `∂f/∂u` at `u` (8×8, row `2a + i` the force on node `a` along `i`),
-/// by central differences of [`state`], made symmetric (module documentation).
+/// in closed form (module documentation), made symmetric.
 pub fn stiffness(
+    geo: &Geometry,
+    u: &[V2; 4],
+    h: &[History; 4],
+    law: &dyn ConstitutiveLaw,
+    fbar: bool,
+) -> Result<[[Real; 8]; 8], ElementFailure> {
+    let f0 = geo.deformation(4, u);
+    let j0 = f0.determinant();
+    let mut k = [[0.0; 8]; 8];
+    for g in 0..4 {
+        let f = geo.deformation(g, u);
+        let j = f.determinant();
+        let inverted = || ElementFailure::Inverted { jacobian: j.min(j0) };
+        if j.is_nan() || j <= 0.0 || (fbar && (j0.is_nan() || j0 <= 0.0)) {
+            return Err(inverted());
+        }
+        // The dof d = 2b + i moves node b along i: δF = e_i ⊗ G_b.
+        let unit = |grad: &V2, d: usize| {
+            let mut m = Mat2::zeros();
+            m[(d % 2, 0)] = grad.x;
+            m[(d % 2, 1)] = grad.y;
+            m
+        };
+        let df: [Mat2; 8] = std::array::from_fn(|d| unit(&geo.grad[g][d / 2], d));
+        let (r, fb, s, inv, inv0) = if fbar {
+            let (Some(inv), Some(inv0)) = (f.try_inverse(), f0.try_inverse()) else {
+                return Err(inverted());
+            };
+            let df0: [Mat2; 8] = std::array::from_fn(|d| unit(&geo.grad[4][d / 2], d));
+            let s: [Real; 8] = std::array::from_fn(|d| (inv0 * df0[d]).trace() - (inv * df[d]).trace());
+            // F⁻¹δF and F₀⁻¹δF₀ for the second variation of s.
+            let a: [Mat2; 8] = std::array::from_fn(|d| inv * df[d]);
+            let a0: [Mat2; 8] = std::array::from_fn(|d| inv0 * df0[d]);
+            let r = (j0 / j).sqrt();
+            (r, f * r, s, Some(a), Some(a0))
+        } else {
+            (1.0, f, [0.0; 8], None, None)
+        };
+        let (p, _) = law.first_piola(&fb, &h[g]).ok_or_else(inverted)?;
+        let a = law.tangent(&fb, &h[g]).ok_or_else(inverted)?;
+        let dfb: [Mat2; 8] = std::array::from_fn(|d| (df[d] + f * (0.5 * s[d])) * r);
+        // A : δF̄_d.
+        let adf: [Mat2; 8] =
+            std::array::from_fn(|d| Mat2::from_fn(|x, y| (0..4).map(|ce| a[2 * x + y][ce] * dfb[d][(ce / 2, ce % 2)]).sum()));
+        let pdf: [Real; 8] = std::array::from_fn(|d| p.component_mul(&df[d]).sum());
+        let pf = p.component_mul(&f).sum();
+        let w = geo.weight[g];
+        for c in 0..8 {
+            for d in 0..8 {
+                let mut v = adf[d].component_mul(&dfb[c]).sum();
+                if let (Some(a), Some(a0)) = (&inv, &inv0) {
+                    let dds = (a[d] * a[c]).trace() - (a0[d] * a0[c]).trace();
+                    v += 0.5 * r * (s[d] * pdf[c] + s[c] * pdf[d] + (0.5 * s[c] * s[d] + dds) * pf);
+                }
+                k[c][d] += w * v;
+            }
+        }
+    }
+    symmetrise(&mut k);
+    Ok(k)
+}
+
+/// Replaces `k` by its symmetric part.
+fn symmetrise(k: &mut [[Real; 8]; 8]) {
+    for r in 0..8 {
+        for c in 0..r {
+            let m = 0.5 * (k[r][c] + k[c][r]);
+            k[r][c] = m;
+            k[c][r] = m;
+        }
+    }
+}
+
+/// The element's stiffness by central differences of [`state`] (one step of a millionth of
+/// the element's size on each displacement), made symmetric: the check of [`stiffness`].
+#[cfg(test)]
+pub fn stiffness_by_differences(
     geo: &Geometry,
     u: &[V2; 4],
     h: &[History; 4],
@@ -175,13 +256,7 @@ pub fn stiffness(
             }
         }
     }
-    for r in 0..8 {
-        for c in 0..r {
-            let m = 0.5 * (k[r][c] + k[c][r]);
-            k[r][c] = m;
-            k[c][r] = m;
-        }
-    }
+    symmetrise(&mut k);
     Ok(k)
 }
 

@@ -1,5 +1,5 @@
-//! The FEM body against closed forms: the patch test, a nearly incompressible block, the
-//! cantilever, and a free grain's energy.
+//! The FEM body against closed forms: the element's tangent, the patch test, a nearly
+//! incompressible block, the cantilever, and a free grain's energy.
 
 use nalgebra::Vector2;
 
@@ -25,6 +25,46 @@ fn distorted_block() -> Mesh {
         mesh.nodes[k] += V2::new(0.07 * s, 0.06 * c);
     }
     mesh
+}
+
+/// The element's closed-form stiffness is the derivative of its forces: against central
+/// differences of the forces, for each law (the elastoplastic one yielding: the return mapping's
+/// tangent), the plain and the F-bar element, on a distorted element at a finite deformation.
+/// Central differences with a step of 1e-6 of the element's size are good to about 1e-8 of the
+/// largest entry (round-off over the step; the tangent of the elastoplastic law is itself by
+/// differences, 1e-9): 1e-6 leaves a margin of a hundred and still catches a wrong term, whose
+/// size is that of the stress over the modulus (≥ 1e-3 here).
+#[test]
+fn the_element_stiffness_is_the_derivative_of_its_forces() {
+    use super::element::{state, stiffness, stiffness_by_differences, Geometry};
+    let x = [V2::new(0.0, 0.0), V2::new(1.1e-3, 0.1e-3), V2::new(1.2e-3, 0.9e-3), V2::new(-0.1e-3, 1.0e-3)];
+    let geo = Geometry::new(&x).expect("a valid element");
+    let u = [V2::new(0.0, 0.0), V2::new(-0.12e-3, 0.05e-3), V2::new(-0.2e-3, -0.25e-3), V2::new(0.04e-3, -0.18e-3)];
+    let laws = [
+        LawSpec::LinearElastic { young: 10e6, poisson: 0.45 },
+        LawSpec::NeoHookean { shear_modulus: 0.15e6, lambda: 14.8e6 },
+        LawSpec::Elastoplastic { young: 10e6, poisson: 0.45, yield_stress: 0.4e6, hardening: 1e6 },
+        LawSpec::Elastoplastic { young: 10e6, poisson: 0.45, yield_stress: 0.4e6, hardening: 0.0 },
+    ];
+    let h = [History::default(); 4];
+    for spec in &laws {
+        let law = build(spec);
+        for fbar in [false, true] {
+            let st = state(&geo, &u, &h, law.as_ref(), fbar).expect("not inverted");
+            if matches!(spec, LawSpec::Elastoplastic { .. }) {
+                assert!(st.history.iter().all(|h| h.alpha > 0.0), "{spec:?}: every point yields");
+            }
+            let k = stiffness(&geo, &u, &h, law.as_ref(), fbar).expect("not inverted");
+            let want = stiffness_by_differences(&geo, &u, &h, law.as_ref(), fbar).expect("not inverted");
+            let big = want.iter().flatten().fold(0.0 as Real, |m, v| m.max(v.abs()));
+            for r in 0..8 {
+                for c in 0..8 {
+                    let err = (k[r][c] - want[r][c]).abs() / big;
+                    assert!(err < 1e-6, "{spec:?} fbar {fbar}: K[{r}][{c}] = {} against {} ({err:.1e})", k[r][c], want[r][c]);
+                }
+            }
+        }
+    }
 }
 
 /// A uniform finite deformation imposed on the boundary is reproduced inside, exactly, by the
