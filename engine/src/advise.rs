@@ -26,7 +26,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
-use crate::scene::{CdParams, CompactionDrive, Deformation, DemParams, Experiment, Method, MpmParams, Placement, Scene, WallMotion};
+use crate::scene::{
+    CdParams, CompactionDrive, Deformation, DemParams, Experiment, FemParams, Method, MpmParams, Placement, Scene, WallMotion,
+};
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
@@ -39,6 +41,11 @@ pub const RIGID_STIFFNESS: Real = 1e4;
 pub const DEFORMABLE_DEFLECTION: Real = 0.05;
 /// Below this fraction of random close packing a scene starts as a dilute gas.
 pub const DILUTE_FRACTION: Real = 0.5;
+/// The error (relative to a study's reference) within which a stored study's run is good
+/// enough for `auto` to take its method and parameters: the cheapest such run wins
+/// ([`Advice::learn`]). A percent is below the agreement the soft-grain methods are asked for
+/// (2% on Φ at a wall stress) and above the scatter of a converged run.
+pub const LEARNED_ACCURACY: Real = 0.01;
 
 /// A scene's scales and dimensionless numbers, as estimated before running.
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -104,7 +111,7 @@ impl Regime {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Advice {
-    /// The method chosen (`dem`, `cd` or `mpm`).
+    /// The method chosen (`dem`, `cd`, `mpm` or `fem`).
     pub method: String,
     /// The method the scene asked for (`auto`, or a name).
     pub requested: String,
@@ -132,6 +139,9 @@ pub struct Advice {
 pub struct ExpectedCost {
     /// The study.
     pub study_id: i64,
+    /// The run's job (its scene holds the method and parameters).
+    #[serde(default)]
+    pub job_id: i64,
     /// Its series and the run's swept values.
     pub series: String,
     /// The swept values.
@@ -152,8 +162,63 @@ impl Advice {
         match self.method.as_str() {
             "cd" => Method::Cd(CdParams::default()),
             "mpm" => Method::Mpm(MpmParams::default()),
+            "fem" => Method::Fem(FemParams::default()),
             _ => Method::Dem(DemParams::default()),
         }
+    }
+
+    /// The cheapest of [`Advice::expected_cost`]'s runs whose error is within `accuracy`
+    /// (relative to its study's reference), if one is.
+    pub fn cheapest_within(&self, accuracy: Real) -> Option<&ExpectedCost> {
+        self.expected_cost
+            .iter()
+            .filter(|c| c.error.is_some_and(|e| e <= accuracy) && !c.method.is_empty())
+            .min_by(|a, b| a.cpu_seconds.total_cmp(&b.cpu_seconds))
+    }
+
+    /// Learns from the stored studies of the scene ([`Advice::expected_cost`]): takes the
+    /// method of the cheapest run within [`LEARNED_ACCURACY`], with the reason first, and
+    /// returns that run (its job's scene holds the parameters to run with). Nothing changes
+    /// when no run is that accurate.
+    pub fn learn(&mut self) -> Option<ExpectedCost> {
+        let run = self.cheapest_within(LEARNED_ACCURACY)?.clone();
+        let others: Vec<String> = {
+            let mut methods: Vec<&str> = self.expected_cost.iter().map(|c| c.method.as_str()).filter(|m| *m != run.method).collect();
+            methods.sort_unstable();
+            methods.dedup();
+            methods
+                .iter()
+                .map(|m| {
+                    let best = self
+                        .expected_cost
+                        .iter()
+                        .filter(|c| c.method == *m && c.error.is_some_and(|e| e <= LEARNED_ACCURACY))
+                        .map(|c| c.cpu_seconds)
+                        .fold(Real::INFINITY, Real::min);
+                    if best.is_finite() {
+                        format!("{m} needed {best:.1} s")
+                    } else {
+                        format!("no {m} run was that close")
+                    }
+                })
+                .collect()
+        };
+        let mut why = format!(
+            "study {} measured {} ({} {}) within {:.2}% of its reference in {:.1} s of CPU: the cheapest run within {}%",
+            run.study_id,
+            run.method,
+            run.series,
+            run.label,
+            100.0 * run.error.unwrap_or(0.0),
+            run.cpu_seconds,
+            100.0 * LEARNED_ACCURACY
+        );
+        if !others.is_empty() {
+            why.push_str(&format!(" ({})", others.join(", ")));
+        }
+        self.reasons.insert(0, why);
+        self.method = run.method.clone();
+        Some(run)
     }
 
     /// One line for a job's `method_reason`: the choice, each reason, what was dropped.
@@ -707,5 +772,39 @@ mod tests {
         assert_eq!(n.stiffness_number, Some(1e7 / 1000.0));
         assert_eq!(a.regime, Regime::QuasiStatic);
         assert_eq!(a.method, "cd", "{a:?}");
+    }
+
+    /// `auto` learns from a stored study: the cheapest run within a percent of the reference
+    /// wins, whatever its method; runs without an error or beyond a percent never do.
+    #[test]
+    fn the_cheapest_run_within_a_percent_sets_the_method() {
+        let run = |job_id: i64, method: &str, cpu_seconds: Real, error: Option<Real>| ExpectedCost {
+            study_id: 4,
+            job_id,
+            series: method.to_uppercase(),
+            label: format!("run {job_id}"),
+            method: method.into(),
+            cpu_seconds,
+            wall_seconds: cpu_seconds,
+            error,
+        };
+        let mut a = advise(&scene(serde_json::json!({})));
+        let before = a.method.clone();
+        a.expected_cost = vec![
+            run(1, "mpm", 11.0, Some(0.03)),
+            run(2, "mpm", 76.0, Some(0.004)),
+            run(3, "fem", 40.0, Some(0.008)),
+            run(4, "fem", 5.0, None),
+        ];
+        assert_eq!(a.cheapest_within(0.01).map(|c| c.job_id), Some(3));
+        assert_eq!(a.cheapest_within(0.05).map(|c| c.job_id), Some(1));
+        assert_eq!(a.cheapest_within(0.001), None);
+        let taken = a.learn().expect("a run within a percent");
+        assert_eq!((taken.job_id, a.method.as_str()), (3, "fem"));
+        assert!(a.reasons[0].starts_with("study 4 measured fem (FEM run 3) within 0.80% of its reference in 40.0 s"), "{}", a.reasons[0]);
+        assert!(a.reasons[0].ends_with("(mpm needed 76.0 s)"), "{}", a.reasons[0]);
+        let mut b = advise(&scene(serde_json::json!({})));
+        b.expected_cost = vec![run(1, "mpm", 11.0, Some(0.03))];
+        assert_eq!((b.learn(), b.method), (None, before));
     }
 }

@@ -289,6 +289,7 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     }
     let text = serde_json::to_string(&s.scene).map_err(|e| ApiError::Internal(e.to_string()))?;
     let scene = check_scene(store, limits, &s.scene, &text, s.scene_path, violations).await?;
+    let (scene, text) = learned(store, limits, &s.scene, scene, text, s.scene_path).await?;
     let new = NewJob {
         priority: s.priority.unwrap_or(0),
         max_attempts: s.max_attempts.unwrap_or(DEFAULT_ATTEMPTS),
@@ -297,6 +298,35 @@ pub async fn submit(store: &JobStore, limits: &Limits, s: Submission) -> Result<
     };
     let (row, created) = store.submit(new).await?;
     Ok((row.into(), created))
+}
+
+/// A scene whose method is `auto`, with what the stored studies of the same scene taught
+/// ([`sable_engine::advise::Advice::learn`]): when one of their runs came within
+/// [`sable_engine::advise::LEARNED_ACCURACY`] of its reference, the cheapest such run's method
+/// and parameters replace `auto` in the scene that is stored (`text`), and the job's method
+/// reason says which study and run. Otherwise the scene and its text are returned unchanged.
+async fn learned(
+    store: &JobStore,
+    limits: &Limits,
+    value: &serde_json::Value,
+    scene: sable_engine::scene::Scene,
+    text: String,
+    scene_path: &str,
+) -> Result<(sable_engine::scene::Scene, String), ApiError> {
+    let Some(mut advice) = scene.advice.clone() else { return Ok((scene, text)) };
+    advice.expected_cost = crate::studies::expected_cost(store, value).await?;
+    let Some(run) = advice.learn() else { return Ok((scene, text)) };
+    let method =
+        store.get(run.job_id).await.ok().and_then(|j| serde_json::from_str::<serde_json::Value>(&j.scene).ok()?.get("method").cloned());
+    let (Some(method), Some(fields)) = (method, value.as_object()) else { return Ok((scene, text)) };
+    let mut fields = fields.clone();
+    fields.insert("method".into(), method);
+    let value = serde_json::Value::Object(fields);
+    let text = serde_json::to_string(&value).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let mut chosen = check_scene(store, limits, &value, &text, scene_path, Vec::new()).await?;
+    chosen.method_reason = advice.summary();
+    chosen.advice = Some(advice);
+    Ok((chosen, text))
 }
 
 /// The job of a checked scene (`text` its JSON), named `name` or after the scene, with the
@@ -418,6 +448,7 @@ pub async fn advise(
     let checked = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
     let mut advice = sable_engine::advise::advice_for(&checked);
     advice.expected_cost = crate::studies::expected_cost(store, scene).await?;
+    advice.learn();
     Ok(advice)
 }
 

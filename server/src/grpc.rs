@@ -185,6 +185,7 @@ impl pb::simulations_server::Simulations for SimulationsService {
                 .into_iter()
                 .map(|c| pb::ExpectedCost {
                     study_id: c.study_id,
+                    job_id: c.job_id,
                     series: c.series,
                     label: c.label,
                     method: c.method,

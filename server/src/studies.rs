@@ -169,13 +169,15 @@ pub async fn list(store: &JobStore, limit: i64) -> Result<Vec<StudyView>, ApiErr
 }
 
 /// The runs on the Pareto front of the stored studies of this scene (the same scene whatever
-/// its method): what the advice quotes as the expected cost.
+/// its method, name, sampling and snapshots, which do not change what is simulated): what the
+/// advice quotes as the expected cost.
 pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Result<Vec<ExpectedCost>, ApiError> {
     let strip = |s: &serde_json::Value| {
         let mut s = s.clone();
         if let Some(m) = s.as_object_mut() {
-            m.remove("method");
-            m.remove("name");
+            for field in ["method", "name", "sampling", "snapshots"] {
+                m.remove(field);
+            }
         }
         s
     };
@@ -191,6 +193,7 @@ pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Resul
             let method = store.get(p.job_id).await.map(|j| j.method).unwrap_or_default();
             out.push(ExpectedCost {
                 study_id: row.id,
+                job_id: p.job_id,
                 series: p.series.clone(),
                 label: p.label.clone(),
                 method,

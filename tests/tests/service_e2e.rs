@@ -905,7 +905,26 @@ async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
     for (q, p) in quoted.iter().zip(&front) {
         assert_eq!((&q["study_id"], &q["label"], q["method"].as_str()), (&done["id"], &p["label"], Some("dem")));
         assert_eq!((&q["cpu_seconds"], &q["error"]), (&p["cost"]["cpu_seconds"], &p["relative_error"]));
+        assert_eq!(q["job_id"], p["job_id"]);
     }
+    // `auto` takes the method and parameters of the cheapest run within a percent of the
+    // reference (every run is on the front or beaten by one that is), and says so.
+    let within = points
+        .iter()
+        .filter(|p| p["relative_error"].as_f64().is_some_and(|e| e <= 0.01))
+        .min_by(|a, b| a["cost"]["cpu_seconds"].as_f64().unwrap_or(0.0).total_cmp(&b["cost"]["cpu_seconds"].as_f64().unwrap_or(0.0)))
+        .expect("the finest run is within a percent");
+    let mut auto = collision(0.02);
+    auto["method"] = json!("auto");
+    let (status, job) = h.post("/v1/jobs", &auto, None).await;
+    assert_eq!(status, 201, "{job}");
+    let learned = h.get(&format!("/v1/jobs/{}", within["job_id"])).await.1;
+    assert_eq!(job["scene"]["method"], learned["scene"]["method"], "{job}");
+    let reason = job["method_reason"].as_str().unwrap_or_default();
+    assert!(
+        reason.starts_with(&format!("auto chose dem: study {} measured dem (DEM {})", done["id"], within["label"].as_str().unwrap_or("?"))),
+        "{reason}"
+    );
     // A bad study writes nothing.
     let before = h.jobs_in_db().await;
     let mut bad = study.clone();

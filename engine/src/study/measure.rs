@@ -1,5 +1,6 @@
 //! What a study measures on each of its runs: a sample field at the end, its mean over a
-//! window (the steady state), its peak or its least value; a field of the experiment's
+//! window (the steady state), its peak or its least value, or its value where another field
+//! first reaches a level (the packing fraction at a wall stress); a field of the experiment's
 //! results; or a derived quantity (the restitution of a collision).
 
 use serde::{Deserialize, Serialize};
@@ -30,6 +31,31 @@ pub enum Derived {
     Restitution,
 }
 
+/// Which upward crossing of a level [`When`] reads at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Crossing {
+    /// The first time the field reaches the level.
+    #[default]
+    First,
+    /// The last time it rises through the level: past a transient peak (a column of grains
+    /// that carries the wall, then buckles), the branch the run ends on.
+    Last,
+}
+
+/// Where a sample field is read: where another sample field reaches a level from below.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct When {
+    /// The other field, by path (`walls.y_max.normal_stress`).
+    pub sample: String,
+    /// The level, in that field's units.
+    pub reaches: f64,
+    /// The first (default) or the last upward crossing.
+    #[serde(default)]
+    pub crossing: Crossing,
+}
+
 /// The measured quantity, as a study file writes it: exactly one of `sample`, `result`,
 /// `derived`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -48,6 +74,11 @@ pub struct MeasureSpec {
     /// `mean` (the second half: the steady state), 0 for `peak` and `min`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from: Option<f64>,
+    /// Instead of `at`: the sample field where another one first reaches a level, interpolated
+    /// linearly between the two samples around the crossing (`phi` where
+    /// `walls.y_max.normal_stress` reaches 1e5 Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub when: Option<When>,
     /// A field of the experiment's results, by path (`peak.zeta`, `steady.mu`, `shear.mu`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub result: Option<String>,
@@ -64,8 +95,19 @@ impl MeasureSpec {
         if given != 1 {
             out.push((String::new(), "give exactly one of sample, result, derived".into()));
         }
-        if self.sample.is_none() && (self.at.is_some() || self.stage.is_some() || self.from.is_some()) {
-            out.push(("at".into(), "at, stage and from apply to a sample field only".into()));
+        if self.sample.is_none() && (self.at.is_some() || self.stage.is_some() || self.from.is_some() || self.when.is_some()) {
+            out.push(("at".into(), "at, when, stage and from apply to a sample field only".into()));
+        }
+        if let Some(w) = &self.when {
+            if self.at.is_some() || self.from.is_some() {
+                out.push(("when".into(), "give either when or at/from, not both".into()));
+            }
+            if !w.reaches.is_finite() {
+                out.push(("when.reaches".into(), format!("must be a finite number, got {}", w.reaches)));
+            }
+            if w.sample.is_empty() {
+                out.push(("when.sample".into(), "must name a sample field".into()));
+            }
         }
         if let Some(f) = self.from {
             if !(f.is_finite() && (0.0..1.0).contains(&f)) {
@@ -77,7 +119,14 @@ impl MeasureSpec {
 
     /// A short description for charts and reports (`mu (mean from 0.5, stage shear)`).
     pub fn describe(&self) -> String {
-        if let Some(f) = &self.sample {
+        if let (Some(f), Some(w)) = (&self.sample, &self.when) {
+            let last = if w.crossing == Crossing::Last { " last" } else { "" };
+            let mut s = format!("{f} where {}{last} reaches {}", w.sample, w.reaches);
+            if let Some(st) = &self.stage {
+                s.push_str(&format!(" ({st})"));
+            }
+            s
+        } else if let Some(f) = &self.sample {
             let at = self.at.unwrap_or(Reduce::End);
             let mut s = match at {
                 Reduce::End => format!("{f} at the end"),
@@ -125,6 +174,34 @@ impl MeasureSpec {
                 None => "the run has no samples".into(),
             });
         }
+        let doc = |s: &Sample| serde_json::to_value(s).map_err(|e| e.to_string());
+        let number = |doc: &serde_json::Value, path: &str| -> Result<f64, String> {
+            super::paths::get(doc, path).and_then(|v| v.as_f64()).ok_or_else(|| format!("the samples have no number at '{path}'"))
+        };
+        if let Some(w) = &self.when {
+            // Each upward crossing: a sample at or above the level after one below it (or the
+            // first sample, already there), interpolated between the two.
+            let mut found = None;
+            let mut before: Option<(f64, f64)> = None;
+            let mut most = f64::NEG_INFINITY;
+            for s in &chosen {
+                let d = doc(s)?;
+                let (x, y) = (number(&d, &w.sample)?, number(&d, field)?);
+                most = most.max(x);
+                let below = before.is_none_or(|(x0, _)| x0 < w.reaches);
+                if x >= w.reaches && below {
+                    found = Some(match before {
+                        Some((x0, y0)) => y0 + (y - y0) * (w.reaches - x0) / (x - x0),
+                        None => y,
+                    });
+                    if w.crossing == Crossing::First {
+                        break;
+                    }
+                }
+                before = Some((x, y));
+            }
+            return found.ok_or_else(|| format!("'{}' never reaches {} (at most {most})", w.sample, w.reaches));
+        }
         let at = self.at.unwrap_or(Reduce::End);
         let start = if at == Reduce::End {
             chosen.len() - 1
@@ -133,11 +210,7 @@ impl MeasureSpec {
         };
         let mut values = Vec::with_capacity(chosen.len() - start);
         for s in &chosen[start..] {
-            let doc = serde_json::to_value(s).map_err(|e| e.to_string())?;
-            let v = super::paths::get(&doc, field)
-                .and_then(|v| v.as_f64())
-                .ok_or_else(|| format!("the samples have no number at '{field}'"))?;
-            values.push(v);
+            values.push(number(&doc(s)?, field)?);
         }
         let n = values.len() as f64;
         Ok(match at {
@@ -196,5 +269,21 @@ mod tests {
         assert!(m(serde_json::json!({"result": "peak.zeta"})).evaluate(&s, None).is_err());
         assert_eq!(m(serde_json::json!({"sample": "mu", "derived": "restitution"})).check().len(), 1);
         assert_eq!(m(serde_json::json!({"result": "x", "at": "mean"})).check()[0].0, "at");
+        // mu = k, stress.xy = 2k: mu is 3.5 where stress.xy first reaches 7 (between samples 3
+        // and 4), and the first sample's where the level is already reached.
+        assert_eq!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 7.0}})), Ok(3.5));
+        assert_eq!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": -1.0}})), Ok(0.0));
+        assert!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 40.0}}))
+            .is_err_and(|e| e.contains("never reaches 40 (at most 18)")));
+        assert_eq!(m(serde_json::json!({"sample": "mu", "at": "end", "when": {"sample": "p", "reaches": 1.0}})).check()[0].0, "when");
+        // A level crossed upwards twice: stress.xy = 2k except a drop to 1 at sample 5.
+        let mut t = s.clone();
+        t[5].stress.xy = 1.0;
+        let at = |which: &str| {
+            m(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 7.0, "crossing": which}})).evaluate(&t, None)
+        };
+        assert_eq!(at("first"), Ok(3.5));
+        // From sample 5 (xy 1) to 6 (xy 12): 7 is 6/11 of the way, mu 5 + 6/11.
+        assert_eq!(at("last"), Ok(5.0 + 6.0 / 11.0));
     }
 }

@@ -75,13 +75,17 @@ pub fn set(scene: &mut Value, path: &str, value: Value) -> Result<(), String> {
     Ok(())
 }
 
-/// The value at `path` in a JSON document, if there is one.
+/// The value at `path` in a JSON document, if there is one. A field name applied to an array
+/// picks its item whose `name` is that name (`walls.y_max.normal_stress` in a sample).
 pub fn get<'a>(doc: &'a Value, path: &str) -> Option<&'a Value> {
     let mut here = doc;
     for key in parse(path)? {
-        here = match key {
-            Key::Field(f) => here.get(f)?,
-            Key::Index(i) => here.get(i)?,
+        here = match (key, here) {
+            (Key::Field(f), Value::Array(items)) => {
+                items.iter().find(|item| item.get("name").and_then(Value::as_str) == Some(f.as_str()))?
+            }
+            (Key::Field(f), _) => here.get(f)?,
+            (Key::Index(i), _) => here.get(i)?,
         };
     }
     Some(here)
@@ -105,5 +109,9 @@ mod tests {
         assert!(set(&mut s, "materials.glass.contact.k_n.x", json!(1)).expect_err("rejected").contains("not an object"));
         assert!(set(&mut s, "a..b", json!(1)).is_err());
         assert_eq!(get(&s, "materials.none"), None);
+        let sample = json!({"walls": [{"name": "y_min", "normal_stress": 1.0}, {"name": "y_max", "normal_stress": 2.0}]});
+        assert_eq!(get(&sample, "walls.y_max.normal_stress"), Some(&json!(2.0)));
+        assert_eq!(get(&sample, "walls[0].normal_stress"), Some(&json!(1.0)));
+        assert_eq!(get(&sample, "walls.x_max.normal_stress"), None);
     }
 }
