@@ -198,7 +198,7 @@ impl Advice {
                     if best.is_finite() {
                         format!("{m} needed {best:.1} s")
                     } else {
-                        format!("no {m} run was that close")
+                        format!("no {m} run on the study's Pareto front was that close")
                     }
                 })
                 .collect()
