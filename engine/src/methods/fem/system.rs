@@ -22,7 +22,9 @@
 //! iterate, its free correction, the contact problem with each grain's `A⁻¹` between its
 //! contacts' samples (by multi-column solves of its sparse factor), the drift of each gap at the
 //! first two iterates (the other boundary turning and sliding under the node), then each grain
-//! takes its correction with the impulses. Where Newton converged the drifts are measured once
+//! takes its correction with the impulses. As for the material point method, an iteration
+//! keeps the last matrices, their factors and their contact blocks while the correction falls
+//! by four or more an iteration ([`REFRESH_RATIO`]). Where Newton converged the drifts are measured once
 //! more: a contact whose drift moved since the first iterates by more than [`DRIFT_TOLERANCE`]
 //! times the longest boundary segment had its gap predicted from a geometry the step left
 //! behind, and the part fails ([`InstabilityCause::ContactDrift`]; measured on the CI
@@ -49,7 +51,7 @@ use crate::methods::soft::contact::{
 };
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
-use crate::methods::soft::Scheme;
+use crate::methods::soft::{Scheme, REFRESH_RATIO};
 use crate::nscd::{Convergence, Nlgs};
 
 type V2 = Vector2<Real>;
@@ -266,9 +268,10 @@ impl System {
         let tolerance = self.settings.newton_tolerance;
         self.nlgs.settings.tolerance = self.settings.contact.tolerance;
         let mut last = Real::INFINITY;
+        let mut refresh = true;
         for it in 1..=self.settings.max_newton {
             report.newton = it;
-            self.newton_free(&sc)?;
+            self.newton_free(&sc, refresh)?;
             if it <= DRIFT_ITERATIONS {
                 self.measure_drifts(&sc);
             }
@@ -292,6 +295,8 @@ impl System {
                 }
                 return self.finish(&sc).map(|()| report);
             }
+            // The matrices are kept while they contract the correction fast enough.
+            refresh = relative > REFRESH_RATIO * last;
             // The next contact solve is made a hundred times more accurate than this
             // correction (inexact Newton's forcing term, as for the material point method).
             self.nlgs.settings.tolerance = (contact::FORCING * relative).clamp(1e-12, self.settings.contact.tolerance);
@@ -355,19 +360,23 @@ impl System {
         self.outlines = shapes;
     }
 
-    /// Every grain's residual and (factorised) matrix at the iterate, its free correction, and
-    /// its side of the contact problem.
-    fn newton_free(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
+    /// Every grain's residual at the iterate and — when `refresh` — its matrix, factorised, its
+    /// free correction, and its side of the contact problem (the block of the inverse only with
+    /// a new matrix; otherwise the last one's, [`REFRESH_RATIO`]).
+    fn newton_free(&mut self, sc: &Scheme, refresh: bool) -> Result<(), StepFailure> {
         let laws = &self.laws;
         let tolerance = self.settings.newton_tolerance;
         self.grains.par_iter_mut().zip(self.sides.par_iter_mut()).zip(self.corrections.par_iter_mut()).enumerate().try_for_each(
             |(g, ((grain, side), dv))| {
                 let body = &mut grain.body;
-                body.iterate(laws[grain.law].as_ref(), sc, true).map_err(|f| body_failure(g, f, tolerance))?;
+                body.iterate(laws[grain.law].as_ref(), sc, refresh).map_err(|f| body_failure(g, f, tolerance))?;
                 dv.clear();
                 dv.extend(body.residual.iter().map(|r| -r));
                 body.matrix.solve(dv);
-                if !side.is_empty() {
+                if side.is_empty() {
+                    return Ok(());
+                }
+                if refresh {
                     let n = 2 * body.nodes();
                     let fixed = &body.fixed;
                     let matrix = &mut body.matrix;
@@ -379,8 +388,8 @@ impl System {
                         }
                         matrix.solve(cols);
                     });
-                    side.sample_velocities(&body.v, dv);
                 }
+                side.sample_velocities(&body.v, dv);
                 Ok(())
             },
         )

@@ -47,12 +47,8 @@ use crate::error::InstabilityCause;
 use crate::math::Real;
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
+use crate::methods::soft::REFRESH_RATIO;
 use crate::nscd::{Convergence, Nlgs, NlgsReport};
-
-/// A Newton iteration that reduces the correction by less than this factor makes the next one
-/// assemble and factorise the matrix anew; otherwise the next one keeps it (module
-/// documentation).
-const REFRESH_RATIO: Real = 0.25;
 
 /// The Newton iterations of a step that measure the contacts' drifts at their iterate; later
 /// ones keep them (a target that moves with every iterate kept a dense packing's iterations

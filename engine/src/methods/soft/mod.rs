@@ -20,6 +20,12 @@ use nalgebra::Vector2;
 
 use crate::math::Real;
 
+/// A Newton iteration that reduces the correction by less than this factor makes the next one
+/// assemble and factorise the matrices anew; otherwise the next one keeps them and their
+/// contact blocks (a modified Newton iteration: a factorisation and the solves of the contacts'
+/// Delassus blocks saved for each kept matrix; the fixed point does not depend on the matrix).
+pub const REFRESH_RATIO: Real = 0.25;
+
 /// The θ-method's settings for a step (the nodal residuals of [`crate::methods::mpm::field`] and
 /// [`crate::methods::fem::body`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
