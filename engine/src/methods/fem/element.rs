@@ -118,6 +118,18 @@ pub struct State {
     pub history: [History; 4],
 }
 
+/// The deformation gradient `F` at Gauss point `g`, its determinant and the F-bar ratio
+/// `r = (J₀/J)^{1/2}` (1 for the plain element; `j0` the determinant at the centre), or the
+/// failure where the point, or for the F-bar element the centre, is inverted.
+fn at_point(geo: &Geometry, u: &[V2; 4], g: usize, j0: Real, fbar: bool) -> Result<(Mat2, Real, Real), ElementFailure> {
+    let f = geo.deformation(g, u);
+    let j = f.determinant();
+    if j.is_nan() || j <= 0.0 || (fbar && (j0.is_nan() || j0 <= 0.0)) {
+        return Err(ElementFailure::Inverted { jacobian: j.min(j0) });
+    }
+    Ok((f, j, if fbar { (j0 / j).sqrt() } else { 1.0 }))
+}
+
 /// The element's internal forces at nodal displacements `u` from the points' histories `h` at
 /// the step's start (module documentation); `fbar`: the F-bar element, else the plain one.
 pub fn state(geo: &Geometry, u: &[V2; 4], h: &[History; 4], law: &dyn ConstitutiveLaw, fbar: bool) -> Result<State, ElementFailure> {
@@ -126,13 +138,8 @@ pub fn state(geo: &Geometry, u: &[V2; 4], h: &[History; 4], law: &dyn Constituti
     let f0_inv_t = f0.try_inverse().map(|m| m.transpose());
     let mut out = State { force: [V2::zeros(); 4], f: [Mat2::identity(); 4], history: *h };
     for g in 0..4 {
-        let f = geo.deformation(g, u);
-        let j = f.determinant();
+        let (f, j, r) = at_point(geo, u, g, j0, fbar)?;
         let inverted = || ElementFailure::Inverted { jacobian: j.min(j0) };
-        if j.is_nan() || j <= 0.0 || (fbar && (j0.is_nan() || j0 <= 0.0)) {
-            return Err(inverted());
-        }
-        let r = if fbar { (j0 / j).sqrt() } else { 1.0 };
         let fb = f * r;
         let (p, hist) = law.first_piola(&fb, &h[g]).ok_or_else(inverted)?;
         let w = geo.weight[g] * r;
@@ -168,12 +175,8 @@ pub fn stiffness(
     let j0 = f0.determinant();
     let mut k = [[0.0; 8]; 8];
     for g in 0..4 {
-        let f = geo.deformation(g, u);
-        let j = f.determinant();
+        let (f, j, r) = at_point(geo, u, g, j0, fbar)?;
         let inverted = || ElementFailure::Inverted { jacobian: j.min(j0) };
-        if j.is_nan() || j <= 0.0 || (fbar && (j0.is_nan() || j0 <= 0.0)) {
-            return Err(inverted());
-        }
         // The dof d = 2b + i moves node b along i: δF = e_i ⊗ G_b.
         let unit = |grad: &V2, d: usize| {
             let mut m = Mat2::zeros();
@@ -182,7 +185,7 @@ pub fn stiffness(
             m
         };
         let df: [Mat2; 8] = std::array::from_fn(|d| unit(&geo.grad[g][d / 2], d));
-        let (r, fb, s, inv, inv0) = if fbar {
+        let (fb, s, inv, inv0) = if fbar {
             let (Some(inv), Some(inv0)) = (f.try_inverse(), f0.try_inverse()) else {
                 return Err(inverted());
             };
@@ -191,10 +194,9 @@ pub fn stiffness(
             // F⁻¹δF and F₀⁻¹δF₀ for the second variation of s.
             let a: [Mat2; 8] = std::array::from_fn(|d| inv * df[d]);
             let a0: [Mat2; 8] = std::array::from_fn(|d| inv0 * df0[d]);
-            let r = (j0 / j).sqrt();
-            (r, f * r, s, Some(a), Some(a0))
+            (f * r, s, Some(a), Some(a0))
         } else {
-            (1.0, f, [0.0; 8], None, None)
+            (f, [0.0; 8], None, None)
         };
         let (p, _) = law.first_piola(&fb, &h[g]).ok_or_else(inverted)?;
         let a = law.tangent(&fb, &h[g]).ok_or_else(inverted)?;
