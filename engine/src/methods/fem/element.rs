@@ -189,11 +189,10 @@ pub fn stiffness(
             let (Some(inv), Some(inv0)) = (f.try_inverse(), f0.try_inverse()) else {
                 return Err(inverted());
             };
-            let df0: [Mat2; 8] = std::array::from_fn(|d| unit(&geo.grad[4][d / 2], d));
-            let s: [Real; 8] = std::array::from_fn(|d| (inv0 * df0[d]).trace() - (inv * df[d]).trace());
-            // F⁻¹δF and F₀⁻¹δF₀ for the second variation of s.
+            // F⁻¹δF and F₀⁻¹δF₀: their traces make s, their products its second variation.
             let a: [Mat2; 8] = std::array::from_fn(|d| inv * df[d]);
-            let a0: [Mat2; 8] = std::array::from_fn(|d| inv0 * df0[d]);
+            let a0: [Mat2; 8] = std::array::from_fn(|d| inv0 * unit(&geo.grad[4][d / 2], d));
+            let s: [Real; 8] = std::array::from_fn(|d| a0[d].trace() - a[d].trace());
             (f * r, s, Some(a), Some(a0))
         } else {
             (f, [0.0; 8], None, None)
