@@ -20,7 +20,7 @@
 //! **A step** ([`System::step`]) is that of the material point method
 //! ([`crate::methods::mpm::system`]) on meshed grains: each grain's residual and matrix at the
 //! iterate, its free correction, the contact problem with each grain's `A⁻¹` between its
-//! contacts' samples (by multi-column solves of its sparse factor), the drift of each gap at the
+//! contacts' samples (dot products of forward halves of its sparse factor's solves), the drift of each gap at the
 //! first two iterates (the other boundary turning and sliding under the node), then each grain
 //! takes its correction with the impulses. As for the material point method, an iteration
 //! keeps the last matrices, their factors and their contact blocks while the correction falls
@@ -380,13 +380,13 @@ impl System {
                     let n = 2 * body.nodes();
                     let fixed = &body.fixed;
                     let matrix = &mut body.matrix;
-                    side.invert_by_solves(n, |cols| {
+                    side.invert_by_forward(n, |cols| {
                         for c in 0..cols.len() / n.max(1) {
                             for &(d, _) in fixed {
                                 cols[c * n + d] = 0.0;
                             }
                         }
-                        matrix.solve(cols);
+                        matrix.forward(cols);
                     });
                 }
                 side.sample_velocities(&body.v, dv);

@@ -240,11 +240,13 @@ impl GrainContacts {
         self.u.extend(self.samples.iter().map(|s| s.iter().map(|(k, w)| (v[k] + V2::new(dv[2 * k], dv[2 * k + 1])) * w).sum::<V2>()));
     }
 
-    /// Computes `inverse` with a solver of the grain's matrix for many right-hand sides at once
-    /// (`unknowns` the grain's size, two a node; `solve` overwrites the columns, stored one
-    /// after the other, with `A⁻¹` times them): one column per unknown of each sample, its
-    /// weights, then `Hᵀ` of the solutions.
-    pub fn invert_by_solves(&mut self, unknowns: usize, solve: impl FnOnce(&mut [Real])) {
+    /// [`GrainContacts::inverse`] from halves of solves: `forward(cols)` replaces the columns
+    /// `b` (each `unknowns` long, a sample's weights on one component) by `y = L⁻¹ Pᵀ b` for a
+    /// factorisation `A = P L Lᵀ Pᵀ`; the entries are then the dot products `y_r · y_s`
+    /// (`b_rᵀ A⁻¹ b_s`), the product `Yᵀ Y`. Measured on the
+    /// dense part of a 60-grain finite-element compaction, full solves for `A⁻¹ b` were 35% of
+    /// the run.
+    pub fn invert_by_forward(&mut self, unknowns: usize, forward: impl FnOnce(&mut [Real])) {
         let m = 2 * self.samples.len();
         let cols = &mut self.work;
         cols.clear();
@@ -255,13 +257,31 @@ impl GrainContacts {
                 cols[col * unknowns + 2 * k + d] += w;
             }
         }
-        solve(cols);
+        forward(cols);
         self.inverse.clear();
         self.inverse.resize(m * m, 0.0);
+        // Yᵀ Y row by row of Y, over the columns not zero on the row: the halves are sparse
+        // (a column of the lower factor reaches only the rows below it on its elimination
+        // path), and a loop of whole dot products took as long as the halves themselves.
+        // (faer's dense product was tried: once it had run, the whole program ran 2.5 times
+        // slower, the steps without a contact too — measured, the cause not found.)
+        let mut nz: Vec<(usize, Real)> = Vec::with_capacity(m);
+        for k in 0..unknowns {
+            nz.clear();
+            nz.extend((0..m).filter_map(|x| {
+                let v = cols[x * unknowns + k];
+                (v != 0.0).then_some((x, v))
+            }));
+            for (i, &(x, vx)) in nz.iter().enumerate() {
+                let row = &mut self.inverse[x * m..(x + 1) * m];
+                for &(y, vy) in &nz[..=i] {
+                    row[y] += vx * vy;
+                }
+            }
+        }
         for x in 0..m {
-            let (s, d) = (x / 2, x % 2);
-            for y in 0..m {
-                self.inverse[x * m + y] = self.samples[s].iter().map(|(k, w)| w * cols[y * unknowns + 2 * k + d]).sum();
+            for y in 0..x {
+                self.inverse[y * m + x] = self.inverse[x * m + y];
             }
         }
     }
