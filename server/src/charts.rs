@@ -118,13 +118,31 @@ pub fn study(name: &str, report: &StudyReport, format: Format) -> Result<Vec<u8>
     render(&Study(name, report), format)
 }
 
-/// A title and up to two lines under it, centred at the top of the chart.
+/// Font size of a chart's title, and of the lines under it (px).
+const TITLE_SIZE: f64 = 22.0;
+const LINE_SIZE: f64 = 13.0;
+
+/// `text` cut at a word so that it and `reserve` more characters fit across the chart in a
+/// sans-serif font of `size` px (a character taken as 0.55 of the size, a little wider than
+/// the mean), with "…" where it was cut: study names run long and were clipped at both sides.
+fn fit(text: &str, size: f64, reserve: usize) -> String {
+    let room = ((f64::from(SIZE.0) - 40.0) / (0.55 * size)) as usize;
+    let room = room.saturating_sub(reserve).max(8);
+    if text.chars().count() <= room {
+        return text.to_string();
+    }
+    let cut: String = text.chars().take(room - 1).collect();
+    let at = cut.rfind(' ').filter(|&i| i > cut.len() / 2).unwrap_or(cut.len());
+    format!("{}…", cut[..at].trim_end_matches([' ', ',', ':', ';', '(']))
+}
+
+/// A title and up to two lines under it, centred at the top of the chart (each cut to fit).
 fn titles<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &[String]) -> Result<(), String> {
     let centre = |size: f64| TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Center, VPos::Top));
     let x = SIZE.0 as i32 / 2;
-    root.draw(&Text::new(title.to_string(), (x, 10), centre(22.0))).map_err(err)?;
+    root.draw(&Text::new(fit(title, TITLE_SIZE, 0), (x, 10), centre(TITLE_SIZE))).map_err(err)?;
     for (k, line) in lines.iter().take(2).enumerate() {
-        root.draw(&Text::new(line.clone(), (x, 38 + 18 * k as i32), centre(13.0))).map_err(err)?;
+        root.draw(&Text::new(fit(line, LINE_SIZE, 0), (x, 38 + 18 * k as i32), centre(LINE_SIZE))).map_err(err)?;
     }
     Ok(())
 }
@@ -146,7 +164,8 @@ fn sweep_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, re
         None if !refs.is_empty() => format!("reference: {}", report.reference_source),
         None => format!("reference not known yet ({})", report.reference_source),
     };
-    let caption = format!("{name}: error against cost");
+    let suffix = ": error against cost";
+    let caption = format!("{}{suffix}", fit(name, TITLE_SIZE, suffix.len()));
     let mut chart = ChartBuilder::on(root)
         .margin(18)
         .margin_top(80)
@@ -365,7 +384,7 @@ fn lines_chart<DB: DrawingBackend>(
     let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 0.5 * y0.abs().max(1e-12) };
     (y0, y1) = (y0 - pad, y1 + pad);
     let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 22))
+        .caption(fit(title, TITLE_SIZE, 0), ("sans-serif", TITLE_SIZE))
         .margin(18)
         .x_label_area_size(56)
         .y_label_area_size(90)
@@ -382,4 +401,22 @@ fn lines_chart<DB: DrawingBackend>(
     }
     chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(err)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Short titles are kept; long ones are cut at a word, with "…", to what fits across the
+    /// chart, leaving room for a suffix.
+    #[test]
+    fn long_titles_are_cut_at_a_word_to_fit() {
+        assert_eq!(fit("restitution_dem", TITLE_SIZE, 0), "restitution_dem");
+        let name = "Soft-grain compaction (N 2.1.1, 300 grains to Phi 0.95): the exponent of Z - Z_J against Phi - Phi_J for each law";
+        let room = ((f64::from(SIZE.0) - 40.0) / (0.55 * TITLE_SIZE)) as usize;
+        let cut = fit(name, TITLE_SIZE, 20);
+        assert!(cut.ends_with('…') && cut.chars().count() <= room - 20, "{cut}");
+        let kept = cut.trim_end_matches('…');
+        assert!(name.starts_with(kept) && name[kept.len()..].starts_with(' '), "not cut at a word: {cut}");
+    }
 }
