@@ -34,8 +34,9 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// top wall compacts them past Φ = 0.9 without inverting an element; the grains carry force
 /// (Z > 2) and flatten (aspect ratio > 1.01); the Love–Weber stress from the contacts agrees with
 /// the top wall's within 10%; the outlines cover less than 0.3% of the box twice. Measured
-/// (release build, one thread, 47 s of CPU): Φ 0.9001 at 729 kPa, Love–Weber 729 kPa, Z 3.50,
-/// aspect 1.102, smallest J 0.928, interpenetration 0.08%. The twelve grains stand in columns
+/// (release build, one thread, 48 s of CPU, with each grain's contact blocks from forward
+/// halves of its solves): Φ 0.9001 at 729 kPa, Love–Weber 728 kPa, Z 3.33, aspect 1.103,
+/// smallest J 0.929, interpenetration 0.07% (before the forward halves: 729 kPa, Z 3.50). The twelve grains stand in columns
 /// that carry the wall and buckle at a moment round-off decides: with a new matrix at every
 /// Newton iteration (before the matrices were kept, `methods::soft::REFRESH_RATIO`) the same
 /// run ended at 1.11 MPa (0.05%; 1.15 MPa at half the step), and the 30 random grains of
@@ -45,7 +46,7 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// The same scene by the material point method reaches Φ 0.9003 at 487 kPa (Z 2.83, aspect
 /// 1.076, smallest J 0.864, interpenetration 0.30%); over the dense part (Φ 0.78 to 0.91) the
-/// mean top-wall stress is 457 kPa by FEM and 314 kPa by MPM: FEM 1.45 times stiffer (1.8 with
+/// mean top-wall stress is 451 kPa by FEM and 314 kPa by MPM: FEM 1.43 times stiffer (1.8 with
 /// the full Newton iterations), checked within a factor 2 either way. The gap is the grid's
 /// coarseness: the scene's 6 cells across the smallest grain leave MPM far from converged (its
 /// top wall at Φ 0.90: 487 kPa with 6 cells, 663 kPa with 10, 819 kPa with 14; with half the
@@ -54,7 +55,7 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// Not asserted, a known defect (issue 26): the energy balance. The dissipated energy (work in
 /// less the energy stored and moving) dips below zero as the packing rearranges: not in this
-/// run (it ends at +0.97 J/m, most of it from a buckling between Φ 0.85 and 0.89), but to
+/// run (it ends at +0.89 J/m, most of it from a buckling between Φ 0.85 and 0.89), but to
 /// −0.14 J/m at Φ 0.87 on the study's 30 grains.
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
