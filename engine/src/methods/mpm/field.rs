@@ -235,19 +235,6 @@ impl Field {
         Err(None)
     }
 
-    /// The residual and the matrix of [`Field::assemble`], left unfactorised (the tests' check
-    /// of the matrix against differences of the residual).
-    #[cfg(test)]
-    pub(super) fn assemble_unfactorised(
-        &mut self,
-        pts: &Points,
-        range: std::ops::Range<usize>,
-        law: &dyn ConstitutiveLaw,
-        sc: &Scheme,
-    ) -> Result<(), Option<PointFailure>> {
-        self.assemble_matrix(pts, range, law, sc, false)
-    }
-
     /// Factorises the assembled matrix, then with its diagonal scaled by `1 + ε` for growing
     /// ε ([`Field::assemble`]); whether one of them is positive definite.
     fn factorise_damped(&mut self) -> bool {
@@ -266,8 +253,8 @@ impl Field {
 
     /// The residual and the matrix of [`Field::assemble`], the matrix also kept unfactorised
     /// in `assembled` for the damped attempts; `positive`: each point's tangent replaced by
-    /// its positive part.
-    fn assemble_matrix(
+    /// its positive part. (The tests check the matrix against differences of the residual.)
+    pub(super) fn assemble_matrix(
         &mut self,
         pts: &Points,
         range: std::ops::Range<usize>,

@@ -512,7 +512,7 @@ fn the_newton_matrix_is_the_derivative_of_the_residual() {
             let x = i as Real;
             field.v[i] = V2::new(1e-2 * (0.7 * x).sin(), 1e-2 * (1.3 * x).cos());
         }
-        field.assemble_unfactorised(&points, range.clone(), law.as_ref(), &sc).expect("not inverted");
+        field.assemble_matrix(&points, range.clone(), law.as_ref(), &sc, false).expect("not inverted");
         let yielded = field.history_new.iter().zip(range.clone()).filter(|(h, p)| h.alpha > points.history[*p].alpha).count();
         let entry = |r: usize, c: usize| if c <= r { field.matrix.get(r, c) } else { field.matrix.get(c, r) };
         let matrix: Vec<Vec<Real>> = (0..2 * n).map(|r| (0..2 * n).map(|c| entry(r, c)).collect()).collect();
