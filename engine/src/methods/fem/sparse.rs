@@ -183,9 +183,7 @@ impl SparseSpd {
         let rhs = MatMut::from_column_major_slice_mut(b, self.n, columns);
         LltRef::new(&self.symbolic, &self.factor).solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.scratch));
     }
-}
 
-impl SparseSpd {
     /// `y = L⁻¹ Pᵀ b` in place for the `b.len() / size` columns of `b` stored one after the
     /// other, with the last factorisation `A = P L Lᵀ Pᵀ`: for two columns `b`, `c`,
     /// `bᵀ A⁻¹ c = y_b · y_c`. Half a solve, and less: a simplicial factor's columns are visited

@@ -20,9 +20,9 @@
 //! **A step** ([`System::step`]) is that of the material point method
 //! ([`crate::methods::mpm::system`]) on meshed grains: each grain's residual and matrix at the
 //! iterate, its free correction, the contact problem with each grain's `A⁻¹` between its
-//! contacts' samples (dot products of forward halves of its sparse factor's solves), the drift of each gap at the
-//! first two iterates (the other boundary turning and sliding under the node), then each grain
-//! takes its correction with the impulses. As for the material point method, an iteration
+//! contacts' samples (dot products of forward halves of its sparse factor's solves), the drift
+//! of each gap at the first two iterates (the other boundary turning and sliding under the
+//! node), then each grain takes its correction with the impulses. As for the material point method, an iteration
 //! keeps the last matrices, their factors and their contact blocks while the correction falls
 //! by four or more an iteration ([`REFRESH_RATIO`]). Where Newton converged the drifts are measured once
 //! more: a contact whose drift moved since the first iterates by more than [`DRIFT_TOLERANCE`]
