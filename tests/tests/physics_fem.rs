@@ -39,28 +39,31 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// top wall compacts them past Φ = 0.9 without inverting an element; the grains carry force
 /// (Z > 2) and flatten (aspect ratio > 1.01); the Love–Weber stress from the contacts agrees with
 /// the top wall's within 10%; the outlines cover less than 0.3% of the box twice. Measured
-/// (release build, one thread, 72 s of CPU sharing the machine with another run, with the
-/// matrices kept from one step to the next, `methods::fem::system`): Φ 0.9000 at 1.09 MPa,
-/// Love–Weber 1.09 MPa, Z 3.17, aspect 1.145, smallest J 0.903, interpenetration 0.06%. The
-/// twelve grains stand in columns that carry the wall and buckle at a moment round-off decides:
-/// with each step's matrices new it ended at 729 kPa (Z 3.33, 0.07%), with a new matrix at
+/// (release build, one thread, 74 s of CPU sharing the machine with another run, with each
+/// grain's matrix kept from one step to the next, `methods::fem::system`): Φ 0.9000 at
+/// 1.35 MPa, Love–Weber 1.35 MPa, Z 3.67, aspect 1.206, smallest J 0.899, interpenetration
+/// 0.08%. The twelve grains stand in columns that carry the wall and buckle at a moment
+/// round-off decides: with each step's matrices new it ended at 729 kPa (Z 3.33, 0.07%), with
+/// the matrices kept on a decision for all grains together at 1.09 MPa, with a new matrix at
 /// every Newton iteration at 1.11 MPa (1.15 MPa at half the step), and the 30 random grains of
-/// `scenes/studies/soft_compaction_mpm_fem.json` tell the two apart by 0.1% in Φ at 300 kPa.
+/// `scenes/studies/soft_compaction_mpm_fem.json` tell such variants apart by 0.1% in Φ at
+/// 300 kPa.
 /// Before a part whose contacts outran their linearisation was split (`methods::fem::system`),
 /// the run ended at 594 kPa with 0.94% of the box covered twice.
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six, reaches Φ 0.9002 at 663 kPa (Z 3.17, aspect 1.074, smallest J
 /// 0.878, interpenetration 0.15%, 59 s); over the dense part (Φ 0.78 to 0.91) the mean top-wall
-/// stress is 616 kPa by FEM and 418 kPa by MPM: FEM 1.47 times stiffer, checked within a factor
-/// 2 either way. The gap is MPM's grid: its top wall at Φ 0.90 was 487 kPa with 6 cells,
-/// 663 kPa with 10 and 819 kPa with 14 (dense mean 314, 418 and 418 kPa): with the scene's six
-/// cells FEM was 1.96 times stiffer, too near the bound for a check. On 30 random grains, at 14
-/// cells and 8 elements, the two agree within 0.5% on Φ at 300 kPa (the study above).
+/// stress is 756 kPa by FEM and 418 kPa by MPM: FEM 1.81 times stiffer (1.47 and 1.43 for the
+/// variants above that ended at 1.09 MPa and 729 kPa), checked within a factor 2 either way.
+/// MPM's grid accounts for much of the gap: its top wall at Φ 0.90 was 487 kPa with 6 cells,
+/// 663 kPa with 10 and 819 kPa with 14 (dense mean 314, 418 and 418 kPa): against the scene's
+/// six cells this FEM run would be 2.4 times stiffer. On 30 random grains, at 14 cells and 8
+/// elements, the two agree within 0.5% on Φ at 300 kPa (the study above).
 ///
 /// Not asserted, a known defect (issue 26): the energy balance. The dissipated energy (work in
 /// less the energy stored and moving) dips below zero as the packing rearranges: not in this
-/// run (it ends at +0.26 J/m), but to −0.14 J/m at Φ 0.87 on the study's 30 grains.
+/// run (it ends at +0.21 J/m), but to −0.14 J/m at Φ 0.87 on the study's 30 grains.
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
