@@ -40,8 +40,8 @@
 //! grain deciding for itself and 56.3 s leaving the converged free grains alone (3.25–3.63).
 //! On 100 grains (`--grains 100 --steps 600 --threads 1`): 34.6, 15.2, 12.1 and 11.0 s.
 //!
-//! Where Newton converged the drifts are measured once more: a contact whose drift moved since the first iterates by more than [`DRIFT_TOLERANCE`]
-//! times the longest boundary segment had its gap predicted from a geometry the step left
+//! Where Newton converged the drifts are measured once more: a contact whose drift moved since
+//! the first iterates by more than [`DRIFT_TOLERANCE`] times the longest boundary segment had its gap predicted from a geometry the step left
 //! behind, and the part fails ([`InstabilityCause::ContactDrift`]; measured on the CI
 //! compaction, where rearranging grains moved up to 40 µm a step: without this check the
 //! outlines covered 0.94% of the box twice at Φ 0.90 and the top wall bore 594 kPa, with it
@@ -342,8 +342,7 @@ impl System {
                 return Ok(report);
             }
             // A grain keeps its matrix while it contracts its correction fast enough, or once
-            // its correction is within Newton's tolerance.
-            // A grain without contacts is done once its correction is.
+            // its correction is within Newton's tolerance; one without contacts is then done.
             let converged = tolerance * scale;
             for (p, side) in self.pace.iter_mut().zip(&self.sides) {
                 p.done = side.is_empty() && p.correction <= converged;
