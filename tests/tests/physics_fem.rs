@@ -6,21 +6,6 @@ mod common;
 
 use sable_engine::observe::Sample;
 
-/// The samples of the scene file at `path`, its method's fields overridden by `method`.
-fn run(path: &str, method: &[(&str, f64)]) -> Vec<Sample> {
-    let text = std::fs::read_to_string(path).expect("scene file");
-    let mut json: serde_json::Value = serde_json::from_str(&text).expect("JSON scene");
-    for &(key, value) in method {
-        json["method"][key] = value.into();
-    }
-    let scene = sable_engine::scene::parse_scene(&json.to_string()).expect("valid scene");
-    let mut sim = sable_engine::methods::build(&scene).expect("buildable");
-    let runner = sable_engine::run::Runner::for_scene(&scene);
-    let mut samples = Vec::new();
-    runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone())).expect("stable");
-    samples
-}
-
 fn top(s: &Sample) -> f64 {
     s.walls.iter().find(|w| w.name == "y_max").expect("top wall").normal_stress
 }
@@ -54,7 +39,7 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six, reaches Φ 0.9002 at 663 kPa (Z 3.17, aspect 1.074, smallest J
 /// 0.878, interpenetration 0.15%, 59 s); over the dense part (Φ 0.78 to 0.91) the mean top-wall
-/// stress is 756 kPa by FEM and 418 kPa by MPM: FEM 1.81 times stiffer (1.47 and 1.43 for the
+/// stress is 756 kPa by FEM and 418 kPa by MPM: FEM 1.81 times stiffer (1.47 and 1.08 for the
 /// variants above that ended at 1.09 MPa and 729 kPa), checked within a factor 2 either way.
 /// MPM's grid accounts for much of the gap: its top wall at Φ 0.90 was 487 kPa with 6 cells,
 /// 663 kPa with 10 and 819 kPa with 14 (dense mean 314, 418 and 418 kPa): against the scene's
@@ -66,8 +51,7 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// run (it ends at +0.21 J/m), but to −0.14 J/m at Φ 0.87 on the study's 30 grains.
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
-    let fem = run(&format!("{root}fem_compaction_2d.json"), &[]);
+    let fem = common::run_file_with("scenes/fem_compaction_2d.json", |_| {});
     let last = fem.last().expect("samples");
     let d = last.deformable.as_ref().expect("deformable sample");
     eprintln!(
@@ -88,7 +72,7 @@ fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let rel = (last.stress.yy - top(last)).abs() / top(last);
     assert!(rel < 0.1, "Love–Weber σ_yy {} against the top wall's {} ({rel:.3})", last.stress.yy, top(last));
     assert!(d.interpenetration < 0.003, "interpenetration {}", d.interpenetration);
-    let mpm = run(&format!("{root}mpm_compaction_2d.json"), &[("cells_per_diameter", 10.0)]);
+    let mpm = common::run_file_with("scenes/mpm_compaction_2d.json", |v| v["method"]["cells_per_diameter"] = 10.into());
     let (f, m) = (dense_stress(&fem), dense_stress(&mpm));
     eprintln!("mean top-wall stress for Φ 0.78 to 0.91: fem {f:.4e} Pa, mpm {m:.4e} Pa (fem/mpm {:.3})", f / m);
     assert!((f / m).ln().abs() < 2f64.ln(), "fem {f} against mpm {m}");
