@@ -101,6 +101,25 @@ pub enum InstabilityCause {
     },
 }
 
+impl InstabilityCause {
+    /// The cause's name, without its numbers (`"contact_drift"`, `"newton_budget"`, ...): what
+    /// counts of failures are kept under.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::NonFinite { .. } => "non_finite",
+            Self::Overlap { .. } => "overlap",
+            Self::SolverBudget { .. } => "solver_budget",
+            Self::NewtonBudget { .. } => "newton_budget",
+            Self::Inverted { .. } => "inverted",
+            Self::InvertedElement { .. } => "inverted_element",
+            Self::LeftGrid { .. } => "left_grid",
+            Self::NotPositiveDefinite { .. } => "not_positive_definite",
+            Self::ContactDrift { .. } => "contact_drift",
+            Self::EnergyGrowth { .. } => "energy_growth",
+        }
+    }
+}
+
 impl std::fmt::Display for InstabilityCause {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

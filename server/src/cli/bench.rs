@@ -7,6 +7,7 @@
 
 use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
+use sable_engine::methods::soft::parts::Cost;
 use sable_engine::run::Simulation;
 use sable_engine::scene::{parse_scene, presets::biaxial_benchmark, presets::cd_benchmark, Method, Sweep};
 use serde::Serialize;
@@ -96,14 +97,24 @@ struct SoftRun {
     wall_seconds: f64,
     newton_per_step: f64,
     sweeps_per_step: f64,
+    /// The failed step parts by their cause (`contact_drift`, `newton_budget`, ...).
+    failures: std::collections::BTreeMap<&'static str, u64>,
 }
 
 impl std::fmt::Display for SoftRun {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} thread(s): {} steps ({:.2} parts each, {} failed) to Φ = {:.4} in {:.1} s, {:.2} Newton iterations and {:.1} sweeps per step",
-            self.threads, self.steps, self.parts_per_step, self.split_steps, self.phi, self.wall_seconds, self.newton_per_step, self.sweeps_per_step
+            "{} thread(s): {} steps ({:.2} parts each, {} failed{}) to Φ = {:.4} in {:.1} s, {:.2} Newton iterations and {:.1} sweeps per step",
+            self.threads,
+            self.steps,
+            self.parts_per_step,
+            self.split_steps,
+            self.failures.iter().map(|(kind, n)| format!(", {n} {kind}")).collect::<String>(),
+            self.phi,
+            self.wall_seconds,
+            self.newton_per_step,
+            self.sweeps_per_step
         )
     }
 }
@@ -136,8 +147,8 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
 }
 
 /// Steps a soft-grain simulation until `phi` or `steps` inside `pool` (of `threads`), printing
-/// every `progress` steps to stderr where the time goes (`cost`: Newton iterations, contact
-/// sweeps, failed step parts and step parts since the start); returns what the run cost.
+/// every `progress` steps to stderr where the time goes (`cost`: what the steps cost since the
+/// start); returns what the run cost.
 fn drive_soft<S: Simulation>(
     sim: &mut S,
     pool: &rayon::ThreadPool,
@@ -145,12 +156,12 @@ fn drive_soft<S: Simulation>(
     max_steps: u64,
     phi: f64,
     progress: Option<u64>,
-    cost: impl Fn(&S) -> (u64, u64, u64, u64) + Sync,
+    cost: impl Fn(&S) -> Cost + Sync,
 ) -> anyhow::Result<SoftRun> {
     let start = std::time::Instant::now();
     let mut steps = 0u64;
     pool.install(|| {
-        let mut last = (0.0, (0, 0, 0, 0), 0);
+        let mut last = (0.0, Cost::default(), 0);
         while steps < max_steps && sim.packing_fraction() < phi {
             sim.step()?;
             steps += 1;
@@ -158,14 +169,23 @@ fn drive_soft<S: Simulation>(
                 let t = start.elapsed().as_secs_f64();
                 let c = cost(sim);
                 let k = (steps - last.2).max(1) as f64;
+                let causes: Vec<String> = c
+                    .failures
+                    .iter()
+                    .filter_map(|(kind, n)| {
+                        let new = n - last.1.failures.get(kind).copied().unwrap_or(0);
+                        (new > 0).then(|| format!("{new} {kind}"))
+                    })
+                    .collect();
                 eprintln!(
-                    "step {steps}: Φ {:.4}, {t:.1} s ({:.1} ms/step), {:.2} parts, {:.2} Newton and {:.0} sweeps per step, {} failed parts",
+                    "step {steps}: Φ {:.4}, {t:.1} s ({:.1} ms/step), {:.2} parts, {:.2} Newton and {:.0} sweeps per step, {} failed parts{}",
                     sim.packing_fraction(),
                     1e3 * (t - last.0) / k,
-                    (c.3 - last.1 .3) as f64 / k,
-                    (c.0 - last.1 .0) as f64 / k,
-                    (c.1 - last.1 .1) as f64 / k,
-                    c.2 - last.1 .2
+                    (c.parts - last.1.parts) as f64 / k,
+                    (c.newton - last.1.newton) as f64 / k,
+                    (c.sweeps - last.1.sweeps) as f64 / k,
+                    c.failed - last.1.failed,
+                    if causes.is_empty() { String::new() } else { format!(" ({})", causes.join(", ")) }
                 );
                 last = (t, c, steps);
             }
@@ -173,17 +193,18 @@ fn drive_soft<S: Simulation>(
         Ok::<(), sable_engine::EngineError>(())
     })?;
     let wall_seconds = start.elapsed().as_secs_f64();
-    let (newton, sweeps, split, parts) = cost(sim);
+    let c = cost(sim);
     let n = steps.max(1) as f64;
     Ok(SoftRun {
         threads,
         steps,
-        split_steps: split,
-        parts_per_step: parts as f64 / n,
+        split_steps: c.failed,
+        parts_per_step: c.parts as f64 / n,
         phi: sim.packing_fraction(),
         wall_seconds,
-        newton_per_step: newton as f64 / n,
-        sweeps_per_step: sweeps as f64 / n,
+        newton_per_step: c.newton as f64 / n,
+        sweeps_per_step: c.sweeps as f64 / n,
+        failures: c.failures,
     })
 }
 
@@ -205,6 +226,9 @@ pub struct FemBenchArgs {
     /// Boundary elements across the smallest grain (the method's `elements_per_diameter`).
     #[arg(long, default_value_t = 8.0)]
     pub elements_per_diameter: f64,
+    /// Time step, s (the method's `time_step`).
+    #[arg(long, default_value_t = sable_engine::scene::presets::FEM_COMPACTION_STEP)]
+    pub time_step: f64,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -233,7 +257,7 @@ struct FemBenchResult {
 /// start until `phi` (or `steps`), timed as a whole (meshing the grains excluded).
 pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
     let (scene, threads, pool) = prepare(a.threads, |t| {
-        sable_engine::scene::presets::fem_compaction(a.grains, a.friction, a.phi, a.steps, a.elements_per_diameter, t)
+        sable_engine::scene::presets::fem_compaction(a.grains, a.friction, a.phi, a.steps, a.elements_per_diameter, a.time_step, t)
     })?;
     let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
     let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;

@@ -16,6 +16,7 @@ use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
+use crate::methods::soft::parts::Cost;
 use crate::methods::soft::polygon::second_moments;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
 use crate::methods::world;
@@ -270,9 +271,9 @@ impl Fem {
         self.sys.grains.iter().map(|g| g.body.nodes()).sum()
     }
 
-    /// Newton iterations, contact sweeps, failed step parts (done again as two halves) and
-    /// step parts done, since the start.
-    pub fn cost(&self) -> (u64, u64, u64, u64) {
-        (u64::from(self.sys.totals.newton), u64::from(self.sys.totals.sweeps), self.sys.splitting.substeps, self.sys.splitting.parts)
+    /// What the steps cost since the start: Newton iterations, contact sweeps, step parts
+    /// done and failed (done again as two halves), and the failures' causes.
+    pub fn cost(&self) -> Cost {
+        Cost::new(&self.sys.totals, &self.sys.splitting)
     }
 }

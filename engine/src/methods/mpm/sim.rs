@@ -17,6 +17,7 @@ use crate::constitutive::{build, ConstitutiveLaw};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::Real;
 use crate::methods::soft::contact::Wall as PlaneWall;
+use crate::methods::soft::parts::Cost;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
 use crate::methods::world;
 use crate::nscd::Convergence;
@@ -209,9 +210,9 @@ impl Mpm {
         self.sys.points.len()
     }
 
-    /// Newton iterations, contact sweeps, failed step parts (done again as two halves) and
-    /// step parts done, since the start.
-    pub fn cost(&self) -> (u64, u64, u64, u64) {
-        (self.sys.totals.newton as u64, self.sys.totals.sweeps as u64, self.sys.splitting.substeps, self.sys.splitting.parts)
+    /// What the steps cost since the start: Newton iterations, contact sweeps, step parts
+    /// done and failed (done again as two halves), and the failures' causes.
+    pub fn cost(&self) -> Cost {
+        Cost::new(&self.sys.totals, &self.sys.splitting)
     }
 }

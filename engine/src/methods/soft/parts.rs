@@ -10,6 +10,8 @@
 //! contacts stay on the same segments, and every failed attempt costs Newton iterations (trying
 //! every step whole first cost a 300-grain MPM compaction more than half its time).
 
+use std::collections::BTreeMap;
+
 use crate::error::InstabilityCause;
 use crate::math::Real;
 
@@ -36,6 +38,34 @@ impl StepReport {
         self.newton += other.newton;
         self.sweeps += other.sweeps;
         self.contacts = other.contacts;
+    }
+}
+
+/// What a soft-grain method's steps cost since the start.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Cost {
+    /// Newton iterations.
+    pub newton: u64,
+    /// Contact-solver sweeps.
+    pub sweeps: u64,
+    /// Step parts that failed and were done again as two halves.
+    pub failed: u64,
+    /// Step parts done (a step is one part unless it was split).
+    pub parts: u64,
+    /// The failed parts by their cause's [`InstabilityCause::kind`].
+    pub failures: BTreeMap<&'static str, u64>,
+}
+
+impl Cost {
+    /// The cost of `totals` (Newton iterations and sweeps) with `splitting`'s parts.
+    pub fn new(totals: &StepReport, splitting: &Splitting) -> Self {
+        Self {
+            newton: u64::from(totals.newton),
+            sweeps: u64::from(totals.sweeps),
+            failed: splitting.substeps,
+            parts: splitting.parts,
+            failures: splitting.failures.clone(),
+        }
     }
 }
 
@@ -86,6 +116,8 @@ pub struct Splitting {
     pub substeps: u64,
     /// Step parts done since the start (a step is one part unless it was split).
     pub parts: u64,
+    /// The failed parts of [`Splitting::substeps`] by their cause's [`InstabilityCause::kind`].
+    pub failures: BTreeMap<&'static str, u64>,
 }
 
 impl Splitting {
@@ -120,6 +152,7 @@ impl Splitting {
             Err(f) if depth < MAX_DEPTH && recoverable(&f.cause) => {
                 sys.undo_part();
                 self.substeps += 1;
+                *self.failures.entry(f.cause.kind()).or_default() += 1;
                 let (mut a, da) = self.advance(sys, 0.5 * dt, depth + 1)?;
                 let (b, db) = self.advance(sys, 0.5 * dt, depth + 1)?;
                 a.add(&b);
@@ -167,6 +200,7 @@ mod tests {
         // 1 → 2 halves → each fails and splits again: 4 quarters done, 3 failures undone.
         assert_eq!((r.newton, r.sweeps, r.contacts), (4, 8, 3));
         assert_eq!((s.substeps, s.parts, sys.undone), (3, 4, 3));
+        assert_eq!(s.failures.get("not_positive_definite"), Some(&3));
         assert!((sys.done - 1.0).abs() < 1e-15);
         // The next step starts in quarters: no failure.
         s.step(&mut sys, 1.0).expect("quarters");
