@@ -5,6 +5,7 @@
 //! variant to [`NormalLaw`] and a row to [`model::LAW_NAMES`]; nothing in the solvers changes. The
 //! hot loop dispatches through the enum, never through a trait object.
 
+pub mod attraction_lj;
 pub mod batch;
 pub mod capillary_richefeu;
 pub mod damping;
