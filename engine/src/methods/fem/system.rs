@@ -42,7 +42,8 @@
 //!
 //! Where Newton converged the drifts are measured once more: a contact whose drift moved since
 //! the first iterates by more than [`DRIFT_TOLERANCE`] times the longest boundary segment had its gap predicted from a geometry the step left
-//! behind, and the part fails ([`InstabilityCause::ContactDrift`]; measured on the CI
+//! behind, and — if it carries an impulse or may close by the part's end (an open one leaves the
+//! solution as it is whatever its drift) — the part fails ([`InstabilityCause::ContactDrift`]; measured on the CI
 //! compaction, where rearranging grains moved up to 40 µm a step: without this check the
 //! outlines covered 0.94% of the box twice at Φ 0.90 and the top wall bore 594 kPa, with it
 //! 0.05% and 1.11 MPa, within 3.5% of the result at half the step). A part that fails so, or on
@@ -333,7 +334,7 @@ impl System {
                 // again: contacts that moved on from where their drifts were measured make the
                 // part fail (it is split), unless it is the shortest.
                 let limit = DRIFT_TOLERANCE * self.reach;
-                let moved = self.remeasure_drifts(&sc);
+                let moved = self.remeasure_drifts(&sc, limit);
                 if moved > limit && !last_chance {
                     return Err(fail(InstabilityCause::ContactDrift { drift: moved, limit }));
                 }
@@ -475,13 +476,36 @@ impl System {
         contact::measure_drifts(&mut self.contacts, &self.sides, &self.walls, &moved, sc.dt, displacement);
     }
 
-    /// Measures the contacts' drifts anew at the current iterate; returns the largest change, m.
-    fn remeasure_drifts(&mut self, sc: &Scheme) -> Real {
+    /// Measures the contacts' drifts anew at the current iterate; returns the largest change, m,
+    /// over the contacts whose drift matters: those that carry an impulse, and those whose gap
+    /// at the part's end, with the new drift, is within `limit` (m). A contact that stays open
+    /// whatever its drift leaves the solution as it is (the contacts that failed the parts of
+    /// a 100-grain compaction past Φ 0.83 were mostly one such contact among 1,300, a gap of
+    /// 1.0–1.3 mm open, its drift moved by 30 µm).
+    fn remeasure_drifts(&mut self, sc: &Scheme, limit: Real) -> Real {
         let mut before = std::mem::take(&mut self.drifts);
         before.clear();
         before.extend(self.contacts.iter().map(|c| c.drift));
         self.measure_drifts(sc);
-        let moved = self.contacts.iter().zip(&before).map(|(c, d)| (c.drift - d).abs()).fold(0.0, Real::max);
+        let grains = &self.grains;
+        let sides = &self.sides;
+        let displacement =
+            |g: usize, slot: u32| sides[g].samples[slot as usize].iter().map(|(k, w)| grains[g].body.increment(k, sc) * w).sum::<V2>();
+        let moved = self
+            .contacts
+            .iter()
+            .zip(&before)
+            .filter(|(c, _)| {
+                let n = V2::new(c.frame.n.x, c.frame.n.y);
+                let ub = match c.b {
+                    contact::Other::Grain { grain, slot } => displacement(grain as usize, slot),
+                    contact::Other::Wall(w) => self.walls[w as usize].velocity * sc.dt,
+                };
+                let end_gap = c.gap + (displacement(c.a as usize, c.slot) - ub).dot(&n) + c.drift;
+                c.r.x > 0.0 || end_gap <= limit
+            })
+            .map(|(c, d)| (c.drift - d).abs())
+            .fold(0.0, Real::max);
         self.drifts = before;
         moved
     }
