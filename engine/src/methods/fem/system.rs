@@ -80,6 +80,11 @@ const DRIFT_ITERATIONS: u32 = 2;
 /// documentation).
 pub const DRIFT_TOLERANCE: Real = 2e-2;
 
+/// How far the current iterate moves the place `s` of grain `g`'s boundary over the step, m.
+fn support_displacement(grains: &[Grain], g: usize, s: &Support, sc: &Scheme) -> V2 {
+    s.iter().map(|(k, w)| grains[g].body.increment(k, sc) * w).sum()
+}
+
 /// Settings of the method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -472,7 +477,7 @@ impl System {
             })
             .collect();
         let grains = &self.grains;
-        let displacement = |g: usize, s: &Support| s.iter().map(|(k, w)| grains[g].body.increment(k, sc) * w).sum::<V2>();
+        let displacement = |g: usize, s: &Support| support_displacement(grains, g, s, sc);
         contact::measure_drifts(&mut self.contacts, &self.sides, &self.walls, &moved, sc.dt, displacement);
     }
 
@@ -489,8 +494,7 @@ impl System {
         self.measure_drifts(sc);
         let grains = &self.grains;
         let sides = &self.sides;
-        let displacement =
-            |g: usize, slot: u32| sides[g].samples[slot as usize].iter().map(|(k, w)| grains[g].body.increment(k, sc) * w).sum::<V2>();
+        let displacement = |g: usize, slot: u32| support_displacement(grains, g, &sides[g].samples[slot as usize], sc);
         let moved = self
             .contacts
             .iter()
