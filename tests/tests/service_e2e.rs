@@ -519,10 +519,11 @@ async fn health_metrics_and_openapi_describe_the_service() {
         assert!(doc["components"]["schemas"].get(schema).is_some(), "OpenAPI lacks the {schema} schema");
     }
     let sample_fields = doc["components"]["schemas"]["Sample"]["properties"].as_object().map(|m| m.len());
-    assert_eq!(sample_fields, Some(18), "every Sample field is documented");
+    assert_eq!(sample_fields, Some(19), "every Sample field is documented");
     assert!(doc["components"]["schemas"].get("DrumSample").is_some(), "the drum's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("SolverSample").is_some(), "the contact solver's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("DeformableSample").is_some(), "the deformable grains' part of a sample has its schema");
+    assert!(doc["components"]["schemas"].get("GrainSample").is_some(), "the aggregates' grain-level part of a sample has its schema");
     assert!(doc["paths"]["/v1/jobs"]["post"]["responses"].get("422").is_some());
     // gRPC health answers SERVING for both services.
     let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");

@@ -7,8 +7,9 @@ use crate::geometry::Domain;
 use crate::loading::Wall;
 use crate::math::{Real, Vec3, AXES};
 use crate::observe::{ShearGeometry, WallFace, WallView};
+use crate::particles::aggregate::NO_AGGREGATE;
 use crate::particles::{generate::place_particles, Particles};
-use crate::scene::state::{StateParticles, STATE_FORMAT, STATE_VERSION};
+use crate::scene::state::{StateBonding, StateParticles, STATE_FORMAT, STATE_VERSION};
 use crate::scene::{Deformation, Material, Scene, StateFile, WallMotion};
 
 /// The scene's box and its particles, placed, given the Lees-Edwards velocity profile and
@@ -286,8 +287,23 @@ pub(crate) fn saved_state(time: Real, steps: u64, domain: &Domain, materials: &[
             material: Vec::with_capacity(p.len()),
             radius: p.radius.clone(),
             wet: if p.wet.iter().any(|&w| w) { p.wet.clone() } else { Vec::new() },
+            aggregate: if p.bondings.is_empty() {
+                Vec::new()
+            } else {
+                p.aggregate.iter().map(|&a| (a != NO_AGGREGATE).then_some(a)).collect()
+            },
             ..StateParticles::default()
         },
+        bondings: p
+            .bondings
+            .iter()
+            .map(|b| StateBonding {
+                force: b.attraction.f0,
+                exponent: b.attraction.gamma,
+                cutoff: b.attraction.cutoff,
+                friction: b.friction,
+            })
+            .collect(),
     };
     // Only the materials the particles use (walls' and unused ones need not exist where the
     // state goes), numbered in order of first use.

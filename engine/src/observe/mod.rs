@@ -6,6 +6,7 @@
 //! [`measure`] turns it into a [`Sample`].
 
 pub mod drum;
+pub mod grains;
 pub mod granule;
 pub mod metrics;
 pub mod power;
@@ -15,6 +16,7 @@ pub mod snapshot;
 pub mod vtk;
 
 pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
+pub use grains::GrainSample;
 pub use granule::GranuleResult;
 pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, ShearGeometry, SystemView, WallView};
 pub use power::{power_fit, PowerFit};

@@ -628,6 +628,7 @@ mod tests {
             drum: None,
             solver: None,
             deformable: None,
+            grains: None,
         }
     }
 

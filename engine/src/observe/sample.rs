@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::drum::DrumSample;
+use super::grains::GrainSample;
 
 /// Stress tensor components, Pa (compression positive; 2D: force per metre of thickness per
 /// metre, i.e. Pa for unit thickness). `zz`, `xz`, `yz` are absent in 2D.
@@ -86,6 +87,10 @@ pub struct Sample {
     /// The grains' own deformation and the energy it took (deformable grains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deformable: Option<Box<DeformableSample>>,
+    /// The grains' own measures when they are aggregates of primaries (the fields above are then
+    /// the primaries'): their packing fraction, coordination, pressure and shape.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grains: Option<Box<GrainSample>>,
 }
 
 /// The state of deformable grains at a sample (method `mpm`).
@@ -216,6 +221,9 @@ impl Sample {
                 .strain
                 .as_ref()
                 .is_none_or(|e| e.volumetric.is_finite() && e.deviatoric.is_finite() && e.axes.iter().all(|x| x.is_finite()))
+            && self.grains.as_ref().is_none_or(|g| {
+                [g.phi, g.z, g.pressure, g.mean_aspect_ratio, g.max_aspect_ratio, g.mean_area].iter().all(|x| x.is_finite())
+            })
             && self.drum.as_ref().is_none_or(|d| {
                 [d.mass_angle, d.fill, d.centroid_offset, d.airborne_fraction, d.drive_torque]
                     .iter()

@@ -7,6 +7,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::aggregate::grow_disk;
 use super::Particles;
 use crate::error::EngineError;
 use crate::geometry::Domain;
@@ -28,6 +29,8 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                 *w = st.omega[k];
             }
         }
+        out.aggregate.clone_from(&st.aggregate);
+        out.bondings.clone_from(&st.bondings);
         return Ok(out);
     }
     let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);
@@ -42,7 +45,10 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
     let mut grid = OverlapGrid::new(dmax.max(1e-300));
     let mut out = Particles::default();
     let confine = Confinement { drum: scene.container.drum.as_ref(), ball: scene.container.granule.as_ref() };
+    // Each set's grains in `out`: where they start.
+    let mut starts = Vec::with_capacity(scene.sets.len() + 1);
     for (k, set) in scene.sets.iter().enumerate() {
+        starts.push(out.len());
         let path = format!("particles[{k}]");
         let diameters = draw_diameters(set, &mut rng);
         let mat = &scene.materials[set.material];
@@ -121,6 +127,49 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                 }
             };
             out.push(scene.dim, *p, v, d / 2.0, mat.density, set.material as u16, wet[idx]);
+        }
+    }
+    starts.push(out.len());
+    if scene.sets.iter().any(|s| s.aggregate.is_some()) {
+        return fill_aggregates(scene, &out, &starts, &mut rng);
+    }
+    Ok(out)
+}
+
+/// The particles of `grains` (the placed grains, those of set `k` from `starts[k]` to
+/// `starts[k + 1]`), with each grain of an aggregate set replaced by its primaries
+/// ([`grow_disk`]), which move with the grain's velocity.
+fn fill_aggregates(scene: &Scene, grains: &Particles, starts: &[usize], rng: &mut ChaCha8Rng) -> Result<Particles, EngineError> {
+    let mut out = Particles::default();
+    for (k, set) in scene.sets.iter().enumerate() {
+        let density = scene.materials[set.material].density;
+        for i in starts[k]..starts[k + 1] {
+            let (pos, vel, r, material, wet) = (grains.pos[i], grains.vel[i], grains.radius[i], grains.material[i], grains.wet[i]);
+            let Some(model) = &set.aggregate else {
+                out.push(scene.dim, pos, vel, r, density, material, wet);
+                continue;
+            };
+            let primaries = grow_disk(pos, r, &model.primaries, rng);
+            if primaries.len() < model.min_primaries {
+                return Err(EngineError::Build {
+                    field: format!("particles[{k}].model.primaries"),
+                    reason: format!(
+                        "grain {} of the set ({:.4e} m across) holds only {} primaries, fewer than min_primaries ({}): make the grains larger or the primaries smaller",
+                        i - starts[k],
+                        2.0 * r,
+                        primaries.len(),
+                        model.min_primaries
+                    ),
+                });
+            }
+            let id = out.bondings.len() as u32;
+            out.bondings.push(model.bonding);
+            for (x, rp) in primaries {
+                out.push(scene.dim, x, vel, rp, density, material, wet);
+                if let Some(a) = out.aggregate.last_mut() {
+                    *a = id;
+                }
+            }
         }
     }
     Ok(out)

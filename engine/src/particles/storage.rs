@@ -4,6 +4,7 @@
 //! thickness), moment of inertia `m R² / 2`. In 3D a sphere has `m = rho 4/3 pi R³`,
 //! `I = 2/5 m R²` (PHYSICS.md §1).
 
+use super::aggregate::{Bonding, NO_AGGREGATE};
 use crate::math::{Real, Vec3};
 
 /// All particles of a simulation; index `i` addresses the same particle in every array.
@@ -32,6 +33,11 @@ pub struct Particles {
     pub material: Vec<u16>,
     /// Carries liquid (capillary bridges form only between wet particles).
     pub wet: Vec<bool>,
+    /// The aggregate (bonded particle method's grain) the particle is a primary of, an index
+    /// into `bondings`, or [`NO_AGGREGATE`].
+    pub aggregate: Vec<u32>,
+    /// The laws within each aggregate (one entry per aggregate, not per particle).
+    pub bondings: Vec<Bonding>,
 }
 
 impl Particles {
@@ -48,6 +54,21 @@ impl Particles {
             return 0.0;
         }
         0.5 * self.mass[i] * v.norm_squared() + 0.5 * self.omega[i].norm_squared() / self.inv_inertia[i]
+    }
+
+    /// The laws between particles `i` and `j` if they are primaries of one aggregate.
+    #[inline(always)]
+    pub fn bonding(&self, i: usize, j: usize) -> Option<&Bonding> {
+        let a = *self.aggregate.get(i)?;
+        if a == NO_AGGREGATE || self.aggregate.get(j) != Some(&a) {
+            return None;
+        }
+        self.bondings.get(a as usize)
+    }
+
+    /// Number of aggregates.
+    pub fn aggregate_count(&self) -> usize {
+        self.bondings.len()
     }
 
     /// Number of particles.
@@ -94,6 +115,7 @@ impl Particles {
         self.inv_inertia.push(1.0 / inertia);
         self.material.push(material);
         self.wet.push(wet);
+        self.aggregate.push(NO_AGGREGATE);
     }
 
     /// Reorders every array by `order` (new index k holds old particle `order[k]`).
@@ -112,12 +134,18 @@ impl Particles {
         apply(&mut self.inv_inertia, order);
         apply(&mut self.material, order);
         apply(&mut self.wet, order);
+        apply(&mut self.aggregate, order);
     }
 
     /// Heap bytes held by the arrays.
     pub fn heap_bytes(&self) -> usize {
         let v3 = std::mem::size_of::<Vec3>();
         let r = std::mem::size_of::<Real>();
-        5 * self.pos.capacity() * v3 + 4 * self.radius.capacity() * r + self.material.capacity() * 2 + self.wet.capacity()
+        5 * self.pos.capacity() * v3
+            + 4 * self.radius.capacity() * r
+            + self.material.capacity() * 2
+            + self.wet.capacity()
+            + self.aggregate.capacity() * 4
+            + self.bondings.capacity() * std::mem::size_of::<Bonding>()
     }
 }

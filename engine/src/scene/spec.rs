@@ -217,6 +217,47 @@ pub struct ParticleSetSpec {
     /// Fraction of the set that carries liquid (0..1); default 1 if the material has a liquid.
     #[serde(default)]
     pub wet_fraction: Option<f64>,
+    /// What each grain is made of. Default: one rigid particle (or a deformable body, by its
+    /// material).
+    #[serde(default)]
+    pub model: Option<GrainModelSpec>,
+}
+
+/// What the grains of a particle set are made of.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum GrainModelSpec {
+    /// An aggregate of rigid primaries of the set's material that attract one another (the
+    /// bonded particle method, PHYSICS.md §4): the set's `size` is the grains', each grain's
+    /// disk filled with primaries.
+    BondedPrimaries {
+        /// Size distribution of the primaries (diameters, m).
+        primaries: SizeSpec,
+        /// Fewest primaries a grain may hold. Default 200 (the sources'); at least 30.
+        #[serde(default)]
+        min_primaries: Option<usize>,
+        /// The attraction between primaries of one grain.
+        attraction: BondAttractionSpec,
+        /// Friction between primaries of one grain. Default 0 (the sources'). Primaries of
+        /// different grains rub with the material's friction.
+        #[serde(default)]
+        friction: Option<f64>,
+    },
+}
+
+/// The attraction `F_0 (1 + δ/a_0)^(−γ)` between primaries of one aggregate (N 1.2.1, eq. 1.12).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BondAttractionSpec {
+    /// Largest attraction `F_0`, at touching: N/m in 2D (> 0). The sources: 100 N/m.
+    pub force: f64,
+    /// Exponent `γ` (> 1). Default 7 (the sources').
+    #[serde(default)]
+    pub exponent: Option<f64>,
+    /// Gap beyond which primaries do not attract, m (at least the smallest primary's
+    /// diameter). Default: the largest primary's diameter.
+    #[serde(default)]
+    pub cutoff: Option<f64>,
 }
 
 /// Size distribution of a particle set (diameters, m).

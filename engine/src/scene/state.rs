@@ -12,7 +12,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::violation::Checker;
+use crate::contact::attraction_lj::AttractionLj;
 use crate::math::{Real, Vec3, AXES};
+use crate::particles::aggregate::{Bonding, NO_AGGREGATE};
 
 /// Value of [`StateFile::format`].
 pub const STATE_FORMAT: &str = "sable-state";
@@ -53,6 +55,25 @@ pub struct StateFile {
     pub materials: Vec<String>,
     /// The particles.
     pub particles: StateParticles,
+    /// The laws within each aggregate of primaries (bonded particle method), indexed by
+    /// [`StateParticles::aggregate`]; empty: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bondings: Vec<StateBonding>,
+}
+
+/// The laws between primaries of one aggregate, in a [`StateFile`]
+/// ([`crate::particles::aggregate::Bonding`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateBonding {
+    /// Largest attraction `F_0`, N/m in 2D (N in 3D).
+    pub force: f64,
+    /// Exponent `γ`.
+    pub exponent: f64,
+    /// Cut-off gap, m.
+    pub cutoff: f64,
+    /// Friction between the aggregate's primaries.
+    pub friction: f64,
 }
 
 /// The particles of a [`StateFile`], one entry per particle in every array.
@@ -72,6 +93,10 @@ pub struct StateParticles {
     /// Wet particles (those that carry liquid); empty: none.
     #[serde(default)]
     pub wet: Vec<bool>,
+    /// The aggregate each particle is a primary of (an index into [`StateFile::bondings`]), or
+    /// null; empty: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aggregate: Vec<Option<u32>>,
 }
 
 /// A checked state a scene starts from: particles in the scene's material numbering.
@@ -91,6 +116,10 @@ pub struct InitialState {
     pub material: Vec<usize>,
     /// Wet flags.
     pub wet: Vec<bool>,
+    /// Aggregate of each particle ([`crate::particles::aggregate::NO_AGGREGATE`]: none).
+    pub aggregate: Vec<u32>,
+    /// The laws within each aggregate.
+    pub bondings: Vec<Bonding>,
 }
 
 impl InitialState {
@@ -201,6 +230,11 @@ pub(crate) fn check_state(
         c.fail(format!("{pp}.wet"), format!("must be empty or have one entry per particle ({n}), got {}", p.wet.len()));
         lengths_ok = false;
     }
+    if !p.aggregate.is_empty() && p.aggregate.len() != n {
+        c.fail(format!("{pp}.aggregate"), format!("must be empty or have one entry per particle ({n}), got {}", p.aggregate.len()));
+        lengths_ok = false;
+    }
+    let bondings = check_bondings(c, &format!("{path}.bondings"), &s.bondings);
     let mut out = InitialState {
         lees_edwards_offset: offset,
         pos: Vec::new(),
@@ -209,6 +243,8 @@ pub(crate) fn check_state(
         radius: Vec::new(),
         material: Vec::new(),
         wet: Vec::new(),
+        aggregate: Vec::new(),
+        bondings,
     };
     if !lengths_ok {
         return out;
@@ -262,5 +298,33 @@ pub(crate) fn check_state(
     out.radius = p.radius.clone();
     out.material = p.material.iter().map(|&m| materials.get(m as usize).copied().unwrap_or(0)).collect();
     out.wet = if p.wet.is_empty() { vec![false; n] } else { p.wet.clone() };
+    {
+        let mut rule = ParticleRule { field: format!("{pp}.aggregate"), seen: 0, c };
+        for (i, a) in p.aggregate.iter().enumerate() {
+            if a.is_some_and(|a| a as usize >= s.bondings.len()) {
+                rule.fail(i, format!("must index {path}.bondings (0..{}) or be null, got {a:?}", s.bondings.len()));
+            }
+        }
+    }
+    out.aggregate =
+        if p.aggregate.is_empty() { vec![NO_AGGREGATE; n] } else { p.aggregate.iter().map(|a| a.unwrap_or(NO_AGGREGATE)).collect() };
     out
+}
+
+/// The laws of a state's aggregates, by the rules of a scene's `bonded_primaries` model.
+fn check_bondings(c: &mut Checker, path: &str, bondings: &[StateBonding]) -> Vec<Bonding> {
+    bondings
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let p = format!("{path}[{k}]");
+            c.positive(&format!("{p}.force"), b.force);
+            if !(b.exponent.is_finite() && b.exponent > 1.0) {
+                c.fail(format!("{p}.exponent"), format!("must be > 1, got {}", b.exponent));
+            }
+            c.positive(&format!("{p}.cutoff"), b.cutoff);
+            c.non_negative(&format!("{p}.friction"), b.friction);
+            Bonding { attraction: AttractionLj { f0: b.force, gamma: b.exponent, cutoff: b.cutoff }, friction: b.friction }
+        })
+        .collect()
 }

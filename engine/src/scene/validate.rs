@@ -6,7 +6,9 @@ use super::spec::*;
 use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
 use crate::constitutive::LawSpec;
+use crate::contact::attraction_lj::AttractionLj;
 use crate::math::{vec_from_slice, Real, Vec3, AXES};
+use crate::particles::aggregate::Bonding;
 
 /// Method names the format knows; only those in [`AVAILABLE_METHODS`] run in this version.
 pub const KNOWN_METHODS: [&str; 6] = ["dem", "cd", "bpm", "mpm", "fem", "auto"];
@@ -38,14 +40,15 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             3
         }
     };
-    let (method, method_reason, auto) = check_method(&mut c, &spec.method);
+    let (mut method, method_reason, auto) = check_method(&mut c, &spec.method);
 
     // Materials.
     let names: Vec<String> = spec.materials.keys().cloned().collect();
     if names.is_empty() {
         c.fail("materials", "must define at least one material");
     }
-    let rigid = matches!(method, Method::Cd(_));
+    // Rigid grains: contact dynamics, which `auto` takes for aggregates.
+    let rigid = matches!(method, Method::Cd(_)) || (auto && spec.particles.iter().any(|p| p.model.is_some()));
     let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(&mut c, name, m, rigid)).collect();
     let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
     let contact_materials: Vec<&Material> = materials.iter().filter(|m| m.deformable.is_none()).collect();
@@ -134,6 +137,30 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         _ => false,
     };
     check_deformable_fit(&mut c, spec, (soft, time_step_given), method.name(), dim, &materials, &sets, &container);
+    // Aggregates of bonded primaries, from a set or the state the scene starts from.
+    let aggregates = match sets.iter().position(|s| s.aggregate.is_some()) {
+        Some(k) => Some(format!("particles[{k}] are")),
+        None => initial.as_ref().filter(|st| !st.bondings.is_empty()).map(|_| "start_from holds".to_string()),
+    };
+    let tolerance_given = spec.method.get("tolerance").is_some();
+    if let (Some(_), Method::Cd(params), false) = (&aggregates, &mut method, tolerance_given) {
+        params.tolerance = AGGREGATE_TOLERANCE;
+    }
+    if let (Some(what), true) = (&aggregates, container.periodic.iter().any(|&p| p)) {
+        c.fail(
+            "container.periodic",
+            format!("{what} bonded_primaries aggregates, which need walls on every axis for now (the grains' measures do not follow a grain across a periodic boundary)"),
+        );
+    }
+    if let Some(what) = aggregates.as_ref().filter(|_| !auto && !matches!(method, Method::Cd(_))) {
+        c.fail(
+            "method",
+            format!(
+                "{what} bonded_primaries aggregates, which run by contact dynamics as in the sources: use method cd (or auto), not {}",
+                method.name()
+            ),
+        );
+    }
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
@@ -233,7 +260,10 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         snapshots,
         seed: spec.seed.unwrap_or(0),
     };
-    if auto {
+    if auto && aggregates.is_some() {
+        scene.method = Method::Cd(CdParams { tolerance: AGGREGATE_TOLERANCE, ..CdParams::default() });
+        scene.method_reason = "aggregates of rigid primaries run by contact dynamics, as in the sources (N 1.2.1)".into();
+    } else if auto {
         let mut advice = crate::advise::advise(&scene);
         advice.requested = "auto".into();
         scene.method = advice.method();
@@ -330,6 +360,13 @@ fn check_method(c: &mut Checker, v: &serde_json::Value) -> (Method, String, bool
     };
     if !KNOWN_METHODS.contains(&kind.as_str()) {
         c.fail(kind_path, format!("unknown method '{kind}'; known: {}", KNOWN_METHODS.join(", ")));
+        return fallback;
+    }
+    if kind == "bpm" {
+        c.fail(
+            kind_path,
+            "the bonded particle method is a model of the grains, run by contact dynamics: give the particle set \"model\": {\"kind\": \"bonded_primaries\", ...} and \"method\": \"cd\"",
+        );
         return fallback;
     }
     if !AVAILABLE_METHODS.contains(&kind.as_str()) {
@@ -920,26 +957,7 @@ fn check_set(
     count_from_fill: bool,
 ) -> ParticleSet {
     let size = match &p.size {
-        Some(SizeSpec::Monodisperse { diameter }) => {
-            c.positive(&format!("{path}.size.diameter"), *diameter);
-            SizeDist::Monodisperse(*diameter)
-        }
-        Some(SizeSpec::Uniform { min, max }) => {
-            c.positive(&format!("{path}.size.min"), *min);
-            if !(max.is_finite() && max >= min) {
-                c.fail(format!("{path}.size.max"), format!("must be >= size.min = {min}, got {max}"));
-            }
-            SizeDist::Uniform { min: *min, max: *max }
-        }
-        Some(SizeSpec::Bidisperse { diameter, ratio, fraction_small }) => {
-            c.positive(&format!("{path}.size.diameter"), *diameter);
-            if !(ratio.is_finite() && *ratio >= 1.0) {
-                c.fail(format!("{path}.size.ratio"), format!("must be >= 1, got {ratio}"));
-            }
-            let f = fraction_small.unwrap_or(0.5);
-            c.within(&format!("{path}.size.fraction_small"), f, 0.0, 1.0);
-            SizeDist::Bidisperse { small: *diameter, ratio: *ratio, fraction_small: f }
-        }
+        Some(size) => check_size(c, &format!("{path}.size"), size),
         None => {
             let has_diameters = matches!(&p.placement, PlacementSpec::List { diameters: Some(_), .. });
             if !has_diameters {
@@ -1059,7 +1077,102 @@ fn check_set(
         None if has_liquid => 1.0,
         None => 0.0,
     };
-    ParticleSet { material, count, size, placement, velocity, wet_fraction }
+    let aggregate = p.model.as_ref().map(|m| check_grain_model(c, &format!("{path}.model"), m, dim, &size, materials.get(material)));
+    if aggregate.is_some() && matches!(placement, Placement::List { diameters: None, .. }) && p.size.is_none() {
+        c.fail(format!("{path}.size"), "required for aggregates (the grains' sizes)");
+    }
+    ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate }
+}
+
+/// A size distribution at `path` (`….size`).
+fn check_size(c: &mut Checker, path: &str, s: &SizeSpec) -> SizeDist {
+    match s {
+        SizeSpec::Monodisperse { diameter } => {
+            c.positive(&format!("{path}.diameter"), *diameter);
+            SizeDist::Monodisperse(*diameter)
+        }
+        SizeSpec::Uniform { min, max } => {
+            c.positive(&format!("{path}.min"), *min);
+            if !(max.is_finite() && max >= min) {
+                c.fail(format!("{path}.max"), format!("must be >= {path}.min = {min}, got {max}"));
+            }
+            SizeDist::Uniform { min: *min, max: *max }
+        }
+        SizeSpec::Bidisperse { diameter, ratio, fraction_small } => {
+            c.positive(&format!("{path}.diameter"), *diameter);
+            if !(ratio.is_finite() && *ratio >= 1.0) {
+                c.fail(format!("{path}.ratio"), format!("must be >= 1, got {ratio}"));
+            }
+            let f = fraction_small.unwrap_or(0.5);
+            c.within(&format!("{path}.fraction_small"), f, 0.0, 1.0);
+            SizeDist::Bidisperse { small: *diameter, ratio: *ratio, fraction_small: f }
+        }
+    }
+}
+
+/// Fewest primaries of an aggregate that make a round grain rather than a cluster of a couple
+/// of rings.
+pub const MIN_ROUND_PRIMARIES: usize = 30;
+
+/// A set's `model` at `path`, for grains of `size` made of `material`.
+fn check_grain_model(
+    c: &mut Checker,
+    path: &str,
+    m: &GrainModelSpec,
+    dim: usize,
+    size: &SizeDist,
+    material: Option<&Material>,
+) -> AggregateModel {
+    let GrainModelSpec::BondedPrimaries { primaries, min_primaries, attraction, friction } = m;
+    if dim != 2 {
+        c.fail(format!("{path}.kind"), "bonded_primaries aggregates are 2D for now (dimension 2)");
+    }
+    if material.is_some_and(|m| m.deformable.is_some()) {
+        c.fail(format!("{path}.kind"), "bonded_primaries are rigid primaries: give the set a material without `deformable`");
+    }
+    let primaries = check_size(c, &format!("{path}.primaries"), primaries);
+    let min_primaries = min_primaries.unwrap_or(200);
+    if min_primaries < MIN_ROUND_PRIMARIES {
+        c.fail(
+            format!("{path}.min_primaries"),
+            format!("must be >= {MIN_ROUND_PRIMARIES} (fewer make a cluster of a couple of rings, not a round grain), got {min_primaries}"),
+        );
+    }
+    let f0 = attraction.force;
+    c.positive(&format!("{path}.attraction.force"), f0);
+    let gamma = attraction.exponent.unwrap_or(crate::contact::attraction_lj::GAMMA);
+    if !(gamma.is_finite() && gamma > 1.0) {
+        c.fail(
+            format!("{path}.attraction.exponent"),
+            format!("must be > 1 (the bond energy F_0 a_0/(γ − 1) is finite only then; the sources use 7), got {gamma}"),
+        );
+    }
+    let (d_min, d_max) = (primaries.min_diameter(), primaries.max_diameter());
+    let cutoff = attraction.cutoff.unwrap_or(d_max);
+    if !(cutoff.is_finite() && cutoff >= d_min) {
+        c.fail(
+            format!("{path}.attraction.cutoff"),
+            format!(
+                "must be at least the smallest primary's diameter {d_min} m (a shorter reach binds only touching primaries), got {cutoff}"
+            ),
+        );
+    }
+    let friction = friction.unwrap_or(0.0);
+    c.non_negative(&format!("{path}.friction"), friction);
+    let model = AggregateModel { primaries, min_primaries, bonding: Bonding { attraction: AttractionLj { f0, gamma, cutoff }, friction } };
+    let grain = size.min_diameter();
+    if d_max.is_finite() && d_max > 0.0 && grain > 0.0 {
+        let holds = model.estimated_primaries(grain * grain);
+        if holds < min_primaries {
+            c.fail(
+                format!("{path}.primaries"),
+                format!(
+                    "the smallest grain ({grain} m) holds about {holds} primaries of this size, fewer than min_primaries ({min_primaries}): make the grains larger or the primaries smaller"
+                ),
+            );
+        }
+    }
+    model
 }
 
 fn check_container(
@@ -1255,6 +1368,72 @@ mod tests {
             Ok(_) => Vec::new(),
             Err(v) => v.iter().map(|v| format!("{}: {}", v.field, v.rule)).collect(),
         }
+    }
+
+    /// A scene of 4 aggregate grains of 1.8 mm with the sources' primaries, `model` and
+    /// `method` as given, in a box periodic along x if `periodic`.
+    fn aggregate_scene(method: serde_json::Value, model: serde_json::Value, periodic: bool) -> String {
+        serde_json::json!({
+            "dimension": 2, "method": method,
+            "materials": {"primary": {"density": 2000, "contact": {"law": "linear", "k_n": 1e6}, "restitution": 0.0, "friction": 0.3}},
+            "particles": [{"material": "primary", "count": 4, "size": {"kind": "monodisperse", "diameter": 1.8e-3}, "placement": {"kind": "random"}, "model": model}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "primary", "periodic": if periodic { vec!["x"] } else { vec![] }},
+            "stop": {"steps": 10}
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn aggregates_take_their_defaults_and_run_with_contact_dynamics() {
+        let model = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4}, "attraction": {"force": 100.0}});
+        let scene = match parse_scene(&aggregate_scene(serde_json::json!("cd"), model.clone(), false)) {
+            Ok(s) => s,
+            Err(v) => panic!("{v:?}"),
+        };
+        let a = scene.sets[0].aggregate.expect("an aggregate set");
+        assert_eq!((a.min_primaries, a.bonding.attraction.gamma, a.bonding.attraction.cutoff, a.bonding.friction), (200, 7.0, 1.3e-4, 0.0));
+        assert!(matches!(scene.method, Method::Cd(ref p) if p.tolerance == AGGREGATE_TOLERANCE));
+        // 4 grains of about 0.70 × (1.8 / 0.1)² primaries (⟨d²⟩ of 0.07–0.13 mm: 1.03e-8 m²).
+        assert_eq!(scene.particle_count(), 4 * 220);
+        let auto = parse_scene(&aggregate_scene(serde_json::json!("auto"), model.clone(), false)).map(|s| s.method.name());
+        assert_eq!(auto, Ok("cd"));
+        // A tolerance the scene gives is kept.
+        let given = parse_scene(&aggregate_scene(serde_json::json!({"kind": "cd", "tolerance": 1e-4}), model, false));
+        assert!(matches!(given.map(|s| s.method), Ok(Method::Cd(p)) if p.tolerance == 1e-4));
+    }
+
+    #[test]
+    fn bad_aggregates_are_named_field_by_field() {
+        let bad = serde_json::json!({
+            "kind": "bonded_primaries",
+            "primaries": {"kind": "uniform", "min": 7e-5, "max": 5e-5},
+            "min_primaries": 10,
+            "attraction": {"force": -1.0, "exponent": 0.5, "cutoff": 1e-6},
+            "friction": -0.1
+        });
+        let r = rules(&aggregate_scene(serde_json::json!("dem"), bad, true));
+        for want in [
+            "particles[0].model.primaries.max: must be >=",
+            "particles[0].model.min_primaries: must be >= 30",
+            "particles[0].model.attraction.force: must be > 0",
+            "particles[0].model.attraction.exponent: must be > 1",
+            "particles[0].model.attraction.cutoff: must be at least the smallest primary's diameter",
+            "particles[0].model.friction: must be >= 0",
+            "container.periodic: particles[0] are bonded_primaries aggregates",
+            "method: particles[0] are bonded_primaries aggregates, which run by contact dynamics",
+        ] {
+            assert!(r.iter().any(|x| x.starts_with(want)), "missing '{want}' in {r:#?}");
+        }
+        // Grains too small for their primaries.
+        let small = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "monodisperse", "diameter": 2e-4}, "attraction": {"force": 100.0}});
+        let r = rules(&aggregate_scene(serde_json::json!("cd"), small, false));
+        assert!(
+            r.iter().any(|x| x.starts_with("particles[0].model.primaries: the smallest grain (0.0018 m) holds about 56 primaries")),
+            "{r:#?}"
+        );
+        // The method name `bpm` points to the model.
+        let r = rules(&scene_with(serde_json::json!("bpm"), 0.5));
+        assert!(r.iter().any(|x| x.starts_with("method: the bonded particle method is a model of the grains")), "{r:#?}");
     }
 
     #[test]

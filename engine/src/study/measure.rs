@@ -247,6 +247,7 @@ mod tests {
             drum: None,
             solver: None,
             deformable: None,
+            grains: None,
         }
     }
 

@@ -57,6 +57,10 @@
 //! Signorini graph by the attraction over the step at the gap of the step's start; a pair
 //! within range but apart is held by [`open_law`]. The bridges' lubrication (N 1.9-1.11) acts
 //! implicitly on the end-of-step normal velocity ([`crate::nscd::LocalLaw::viscosity`]).
+//! Primaries of one aggregate (the bonded particle method's grains,
+//! [`crate::particles::aggregate`]) attract by their bond instead, in the same way, and touch
+//! without bouncing, with the bond's friction; primaries of different aggregates follow their
+//! materials' laws.
 //!
 //! Contacts interpenetrated beyond the slop (`method.slop`, [`SLOP`] by default) of the radius
 //! are pulled back by [`RESTORE`] of the excess per step ([`restoring`]).
@@ -68,6 +72,7 @@
 mod balance;
 mod cell;
 mod laws;
+mod relax;
 
 use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::{Domain, NeighborList};
@@ -278,6 +283,9 @@ pub struct Cd {
     /// The scene runs a standard experiment (its loading stages take
     /// `loading_violation_tolerance`).
     experiment: bool,
+    /// A step whose contact problem is not solved within the budget goes on with the impulses
+    /// reached (the aggregates' relaxation, which is preparation, [`relax`]).
+    lenient: bool,
     step: u64,
     time: Real,
     len0: Vec3,
@@ -298,9 +306,13 @@ impl Cd {
             Some(dt) => dt,
             None => {
                 // The fastest imposed motion, stages included (0.1 m/s if nothing moves).
-                let v = params.reference_velocity.unwrap_or_else(|| match world::imposed_speed(scene, &p, true) {
-                    v if v > 0.0 => v,
-                    _ => world::reference_velocity(scene, &p),
+                // The primaries of aggregates rearrange at up to sqrt(p_I / ρ).
+                let v = params.reference_velocity.unwrap_or_else(|| {
+                    let imposed = match world::imposed_speed(scene, &p, true) {
+                        v if v > 0.0 => v,
+                        _ => world::reference_velocity(scene, &p),
+                    };
+                    imposed.max(relax::bond_speed(&p, scene.dim))
                 });
                 params.max_displacement * 2.0 * rmin / v
             }
@@ -313,7 +325,8 @@ impl Cd {
         }
         let skin = params.skin * 2.0 * rmin;
         let laws = PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None);
-        let reach = laws.range();
+        // An aggregate's primaries attract to the bond's cut-off.
+        let reach = p.bondings.iter().map(|b| b.attraction.range()).fold(laws.range(), Real::max);
         for a in 0..scene.dim {
             let need = 2.0 * (2.0 * rmax + reach + skin);
             if c.periodic[a] && domain.length(a) < need {
@@ -388,6 +401,7 @@ impl Cd {
             interpenetration: (0.0, 0.0),
             window: Window::default(),
             experiment: scene.experiment.is_some(),
+            lenient: false,
             step: 0,
             time: 0.0,
             solid_volume,
@@ -396,6 +410,9 @@ impl Cd {
         };
         sim.refresh_neighbors();
         sim.window.open(&sim.p.vel, sim.walls.len());
+        if sim.p.aggregate_count() > 0 {
+            sim.relax_aggregates()?;
+        }
         Ok(sim)
     }
 
@@ -637,8 +654,11 @@ impl Cd {
                 let g = dist - ri - rj;
                 let r = ri.min(rj);
                 let attraction = laws.attraction(p.material[i], p.material[j]);
+                // Primaries of one aggregate: the bond's attraction instead of the materials'.
+                let bond = p.bonding(i, j);
+                let range = bond.map_or_else(|| attraction.range(), |b| b.attraction.range());
                 let near = g <= near_gap * r;
-                if !near && ahead == 0.0 && g > attraction.range() {
+                if !near && ahead == 0.0 && g > range {
                     continue;
                 }
                 let n = d / dist;
@@ -649,22 +669,29 @@ impl Cd {
                 let closing = g + ahead * u_n <= alert;
                 // Not closing over the whole step at its start velocity either.
                 let near = near && g + h * u_n > 0.0;
-                if !closing && !near && g > attraction.range() {
+                if !closing && !near && g > range {
                     continue;
                 }
                 let old = held((i as u32, pr.j));
-                let wet = p.wet[i] && p.wet[j];
+                let wet = p.wet[i] && p.wet[j] && bond.is_none();
                 // A capillary bridge forms on contact and holds up to its rupture distance.
                 let bridge =
                     attraction.capillary.filter(|cap| wet && (g <= alert || (old.is_some_and(|o| o.bridge) && g <= cap.rupture_distance)));
-                let cohesion = h
-                    * (attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0)
-                        - bridge.map_or(0.0, |cap| cap.force(g, ri, rj)));
+                let cohesion = match bond {
+                    // The bond's attraction at the step's start gap (F_0 in contact).
+                    Some(b) => -h * b.attraction.force(g, ri, rj),
+                    None => {
+                        h * (attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0)
+                            - bridge.map_or(0.0, |cap| cap.force(g, ri, rj)))
+                    }
+                };
                 if !closing && !near && cohesion == 0.0 {
                     continue;
                 }
                 let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
-                let (e, mu) = laws.pair(p.material[i], p.material[j]);
+                // Primaries of one aggregate touch without bouncing (the sources' inelastic,
+                // frictionless contacts, or the bond's friction).
+                let (e, mu) = bond.map_or_else(|| laws.pair(p.material[i], p.material[j]), |b| (0.0, b.friction));
                 let mut law = if closing {
                     overlap(g, r);
                     let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
@@ -703,7 +730,7 @@ impl Cd {
                     w = RigidContact::with_moving_boundary(w, &n, &lever, m.inv_mass);
                 }
                 let rolling = Rolling {
-                    bound: laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj),
+                    bound: if bond.is_some() { 0.0 } else { laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj) },
                     w: p.inv_inertia[i] + p.inv_inertia[j],
                     m: old.map_or(Vec3::zeros(), |o| o.m * turned),
                 };
@@ -897,7 +924,7 @@ impl Cd {
         };
         self.report = self.solver.solve(&mut self.contacts, &mut bodies, h, self.mean_diameter, coloured.then_some(&self.colours));
         self.sweeps += u64::from(self.report.iterations);
-        if !self.report.converged {
+        if !self.report.converged && !self.lenient {
             let r = self.report;
             return Err(self.unstable(InstabilityCause::SolverBudget {
                 iterations: r.iterations,
