@@ -71,14 +71,15 @@ pub fn measure_grains(p: &Particles, contacts: &[ContactRecord], volume: Real) -
             }
         }
     }
-    let d_min = 2.0 * p.radius.iter().copied().fold(Real::INFINITY, Real::min);
+    let d_min = 2.0 * members.iter().flatten().map(|&i| p.radius[i]).fold(Real::INFINITY, Real::min);
     let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     let mut moment = vec![0.0; n];
     for c in contacts.iter().filter(|c| c.bears_load()) {
-        let (Some(a), b) = (grain_of(c.i), c.j.and_then(grain_of)) else { continue };
-        if b == Some(a) {
+        let (a, b) = (grain_of(c.i), c.j.and_then(grain_of));
+        if a == b {
+            // Within one grain, or between particles of no grain.
             continue;
         }
         let xi = p.pos[c.i as usize];
@@ -87,11 +88,15 @@ pub fn measure_grains(p: &Particles, contacts: &[ContactRecord], volume: Real) -
             Some(j) => xi - c.branch * (p.radius[c.i as usize] / (p.radius[c.i as usize] + p.radius[j as usize])),
             None => xi - c.branch,
         };
-        // f ⊗ (x_c − x_g) traced: the force on i dotted with its lever from a's centre; the
-        // force on j likewise from b's.
-        moment[a as usize] += c.force.dot(&(point - shapes[a as usize].centre));
+        // f ⊗ (x_c − x_g) traced: the force on i dotted with its lever from its grain's centre;
+        // the force on j, −f, likewise from j's.
+        if let Some(a) = a {
+            moment[a as usize] += c.force.dot(&(point - shapes[a as usize].centre));
+        }
         if let Some(b) = b {
             moment[b as usize] -= c.force.dot(&(point - shapes[b as usize].centre));
+        }
+        if let (Some(a), Some(b)) = (a, b) {
             pairs.push((a.min(b), a.max(b)));
         }
     }
@@ -283,6 +288,33 @@ mod tests {
         let pair = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0)]);
         let s = grain_shape(&pair, &[0, 1], 2.0);
         assert!((s.aspect_ratio - 5.0f64.sqrt()).abs() < 1e-12, "aspect {}", s.aspect_ratio);
+    }
+
+    /// Two one-disk grains of radius 1 squeezed against each other by F = 3 along x: Z = 1 and
+    /// the grains' pressure `−Σ f·(x_c − x_g) / (2 ΣA) = 2F / (2 ΣA)` (each disk's force times
+    /// its radius); a contact without force counts for neither.
+    #[test]
+    fn two_grains_in_contact_share_a_pair_and_a_pressure() {
+        let mut p = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0)]);
+        p.aggregate[1] = 1;
+        let bond = p.bondings[0];
+        p.bondings.push(bond);
+        let pressed = ContactRecord {
+            i: 0,
+            j: Some(1),
+            force: Vec3::new(-3.0, 0.0, 0.0),
+            branch: Vec3::new(-2.0, 0.0, 0.0),
+            touching: true,
+            bonded: false,
+        };
+        let idle = ContactRecord { force: Vec3::zeros(), ..pressed };
+        let g = measure_grains(&p, &[pressed, idle], 100.0).expect("grains");
+        assert_eq!((g.count, g.z), (2, 1.0));
+        let area = 2.0 * g.mean_area;
+        assert!((g.pressure - 3.0 / area).abs() < 1e-12 * g.pressure, "pressure {} against {}", g.pressure, 3.0 / area);
+        assert!((g.phi - area / 100.0).abs() < 1e-15);
+        let g = measure_grains(&p, &[idle], 100.0).expect("grains");
+        assert_eq!((g.z, g.pressure), (0.0, 0.0));
     }
 
     /// One disk alone: closing changes nothing, the area is `π r²` within the grid's error

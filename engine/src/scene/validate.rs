@@ -1078,9 +1078,6 @@ fn check_set(
         None => 0.0,
     };
     let aggregate = p.model.as_ref().map(|m| check_grain_model(c, &format!("{path}.model"), m, dim, &size, materials.get(material)));
-    if aggregate.is_some() && matches!(placement, Placement::List { diameters: None, .. }) && p.size.is_none() {
-        c.fail(format!("{path}.size"), "required for aggregates (the grains' sizes)");
-    }
     ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate }
 }
 
