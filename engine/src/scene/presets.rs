@@ -131,6 +131,41 @@ pub fn mpm_compaction(grains: usize, friction: f64, phi: f64, steps: u64, thread
     })
 }
 
+/// The bonded particle method's compaction (N 2.1.3; issue 27's benchmark): `grains` aggregates
+/// of 1.8–2.4 mm (uniform in diameter; about 220 to 390 primaries each), the sources' primaries
+/// (0.07–0.13 mm, ρ = 2000 kg/m³, frictionless, `F_0` = 100 N/m, γ = 7: p_I ≈ 1 MPa), placed at
+/// random at a grain Φ ≈ 0.5 in a box 1.5 times as high as wide without gravity; the top wall
+/// moves down at 0.4 m/s (inertial number `ε̇ ⟨D⟩ sqrt(ρ/p)` ≈ 1e-3 at p = p_I for 100
+/// grains: the quasi-static limit of the sources' biaxial tests) for `steps` steps. `method` is `"dem"` (contacts of k_n = 2e8 N/m, which
+/// hold `F_0` at 0.7% of the smallest primary, restitution 0.2) or `"cd"` (restitution 0, the
+/// aggregates' tolerance).
+pub fn bpm_compaction(grains: usize, method: &str, steps: u64, threads: usize) -> serde_json::Value {
+    let (dmin, dmax): (f64, f64) = (1.8e-3, 2.4e-3);
+    let mean_square = (dmax.powi(3) - dmin.powi(3)) / (3.0 * (dmax - dmin));
+    let solid = grains as f64 * std::f64::consts::PI / 4.0 * mean_square;
+    let width = (solid / 0.5 / 1.5).sqrt();
+    let restitution = if method == "cd" { 0.0 } else { 0.2 };
+    json!({
+        "name": format!("bpm-compaction-{grains}-{method}"),
+        "dimension": 2,
+        "method": {"kind": method, "threads": threads},
+        "materials": {
+            "primary": {"density": 2000.0, "contact": {"law": "linear", "k_n": 2.0e8}, "restitution": restitution, "friction": 0.0}
+        },
+        "particles": [{
+            "material": "primary", "count": grains,
+            "size": {"kind": "uniform", "min": dmin, "max": dmax},
+            "placement": {"kind": "random"},
+            "model": {"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7.0e-5, "max": 1.3e-4}, "attraction": {"force": 100.0}}
+        }],
+        "container": {"min": [0.0, 0.0], "max": [width, 1.5 * width], "wall_material": "primary",
+                      "walls": {"y_max": {"kind": "velocity", "velocity": [0.0, -0.4]}}},
+        "stop": {"steps": steps},
+        "sampling": {"every_steps": steps.max(1)},
+        "seed": 11
+    })
+}
+
 /// The time step of [`fem_compaction`], s: the wall moves 20 µm, a 625th of the mean
 /// diameter, a step. Measured on its 40 grains to Φ 0.90 (one thread, 2026-11-27): at 1e-4,
 /// 2e-4, 4e-4 and 8e-4 s the top wall reached 10 kPa at Φ 0.850, 0.857, 0.846 and 0.872, and

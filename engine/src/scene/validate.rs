@@ -152,14 +152,21 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
             format!("{what} bonded_primaries aggregates, which need walls on every axis for now (the grains' measures do not follow a grain across a periodic boundary)"),
         );
     }
-    if let Some(what) = aggregates.as_ref().filter(|_| !auto && !matches!(method, Method::Cd(_))) {
+    if let Some(what) = aggregates.as_ref().filter(|_| !auto && !matches!(method, Method::Cd(_) | Method::Dem(_))) {
         c.fail(
             "method",
             format!(
-                "{what} bonded_primaries aggregates, which run by contact dynamics as in the sources: use method cd (or auto), not {}",
+                "{what} bonded_primaries aggregates, which run by contact dynamics as in the sources or by DEM: use method cd (or auto) or dem, not {}",
                 method.name()
             ),
         );
+    }
+    if !auto && matches!(method, Method::Dem(_)) {
+        for (k, set) in sets.iter().enumerate() {
+            if let (Some(a), Some(m)) = (&set.aggregate, materials.get(set.material)) {
+                check_dem_aggregate(&mut c, &format!("particles[{k}].model"), a, m);
+            }
+        }
     }
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
@@ -1172,6 +1179,44 @@ fn check_grain_model(
     model
 }
 
+/// Largest overlap of two touching primaries under the attraction `F_0`, as a fraction of the
+/// smallest primary's diameter, that DEM accepts: the model's primaries are rigid.
+const DEM_PRIMARY_OVERLAP: Real = 0.01;
+
+/// The rules of an aggregate set `a` of material `m` run by DEM: its primaries touch by their
+/// material's contact law, which must therefore carry the bond's friction, and hold `F_0` at
+/// an overlap of at most [`DEM_PRIMARY_OVERLAP`] of the smallest primary.
+fn check_dem_aggregate(c: &mut Checker, path: &str, a: &AggregateModel, m: &Material) {
+    let b = a.bonding;
+    if b.friction != m.friction {
+        c.fail(
+            format!("{path}.friction"),
+            format!(
+                "with method dem the primaries of one aggregate touch by their material's contact law: must equal materials.{}.friction ({}), got {} (method cd takes a friction of its own)",
+                m.name, m.friction, b.friction
+            ),
+        );
+    }
+    let d_min = a.primaries.min_diameter();
+    if !(d_min > 0.0 && b.attraction.f0 > 0.0) {
+        return;
+    }
+    let law = crate::contact::ContactTable::new(std::slice::from_ref(m));
+    let overlap = DEM_PRIMARY_OVERLAP * d_min;
+    let held = crate::contact::NormalForce::elastic(&law.get(0, 0).normal, overlap, 0.25 * d_min);
+    if held < b.attraction.f0 {
+        c.fail(
+            format!("materials.{}.contact", m.name),
+            format!(
+                "with method dem the primaries are rigid: their contact must hold the attraction F_0 = {} at an overlap of {:.0}% of the smallest primary's diameter ({overlap:.3e} m), where this law gives {held:.3e} (the linear law needs k_n >= {:.3e})",
+                b.attraction.f0,
+                100.0 * DEM_PRIMARY_OVERLAP,
+                b.attraction.f0 / overlap
+            ),
+        );
+    }
+}
+
 fn check_container(
     c: &mut Checker,
     s: &ContainerSpec,
@@ -1408,7 +1453,7 @@ mod tests {
             "attraction": {"force": -1.0, "exponent": 0.5, "cutoff": 1e-6},
             "friction": -0.1
         });
-        let r = rules(&aggregate_scene(serde_json::json!("dem"), bad, true));
+        let r = rules(&aggregate_scene(serde_json::json!("mpm"), bad, true));
         for want in [
             "particles[0].model.primaries.max: must be >=",
             "particles[0].model.min_primaries: must be >= 30",
@@ -1417,10 +1462,23 @@ mod tests {
             "particles[0].model.attraction.cutoff: must be at least the smallest primary's diameter",
             "particles[0].model.friction: must be >= 0",
             "container.periodic: particles[0] are bonded_primaries aggregates",
-            "method: particles[0] are bonded_primaries aggregates, which run by contact dynamics",
+            "method: particles[0] are bonded_primaries aggregates, which run by contact dynamics as in the sources or by DEM",
         ] {
             assert!(r.iter().any(|x| x.starts_with(want)), "missing '{want}' in {r:#?}");
         }
+        // By DEM, the primaries touch by their material's law: its friction (0.3) must be the
+        // bond's (0 by default), and its k_n (1e6 N/m) must hold F_0 = 100 N/m at 1% of the
+        // smallest primary (7e-7 m): 1.43e8 N/m at least.
+        let model = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4}, "attraction": {"force": 100.0}});
+        let r = rules(&aggregate_scene(serde_json::json!("dem"), model, false));
+        for want in [
+            "particles[0].model.friction: with method dem the primaries of one aggregate touch by their material's contact law: must equal materials.primary.friction (0.3), got 0",
+            "materials.primary.contact: with method dem the primaries are rigid",
+        ] {
+            assert!(r.iter().any(|x| x.starts_with(want)), "missing '{want}' in {r:#?}");
+        }
+        assert!(r.iter().any(|x| x.contains("k_n >= 1.429e8")), "{r:#?}");
+        assert!(!r.iter().any(|x| x.starts_with("method:")), "{r:#?}");
         // Grains too small for their primaries.
         let small = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "monodisperse", "diameter": 2e-4}, "attraction": {"force": 100.0}});
         let r = rules(&aggregate_scene(serde_json::json!("cd"), small, false));

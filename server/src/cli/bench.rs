@@ -2,7 +2,8 @@
 //! suite, in particle-steps per second, with memory per particle; `sable bench cd`: contact
 //! dynamics in contact-iterations per second; `sable bench mpm`: the material point method on
 //! the soft-grain compaction in material-point-steps per second; `sable bench fem`: meshed
-//! grains on the sources' FEM compaction in element-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
+//! grains on the sources' FEM compaction in element-steps per second; `sable bench bpm`
+//! ([`super::bench_bpm`]): aggregates of primaries in primary-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
 use clap::{Args, Subcommand};
@@ -30,6 +31,9 @@ pub enum BenchCommand {
     /// Meshed grains (FEM) on the sources' FEM compaction, N 2.1.2 (element-steps per second,
     /// Newton iterations and contact sweeps per step, memory per node).
     Fem(FemBenchArgs),
+    /// The bonded particle method's compaction by DEM or CD, N 2.1.3 (primary-steps per second,
+    /// grain-seconds simulated per second, memory per primary).
+    Bpm(super::bench_bpm::BpmBenchArgs),
 }
 
 /// Runs the chosen benchmark.
@@ -41,6 +45,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Service(a) => super::bench_service::bench(a),
         BenchCommand::Mpm(a) => bench_mpm(a),
         BenchCommand::Fem(a) => bench_fem(a),
+        BenchCommand::Bpm(a) => super::bench_bpm::bench_bpm(a),
     }
 }
 
@@ -331,7 +336,7 @@ struct CdBenchResult {
 /// The benchmark scene `make` builds for the thread count asked (all cores by default), the
 /// threads it gets after the job's budget, and the pool it runs in — as in a job: the whole run
 /// inside one pool, not a hand-off to the method's pool per step.
-fn prepare(
+pub(super) fn prepare(
     threads: Option<usize>,
     make: impl FnOnce(usize) -> serde_json::Value,
 ) -> anyhow::Result<(sable_engine::scene::Scene, usize, rayon::ThreadPool)> {

@@ -2,6 +2,7 @@
 
 pub mod advise;
 pub mod bench;
+pub mod bench_bpm;
 pub mod bench_dem;
 pub mod bench_scaling;
 pub mod bench_service;

@@ -412,6 +412,9 @@ impl Dem {
         if refilter {
             self.near.filtered(&self.domain);
         }
+        if !self.bonds.is_empty() {
+            self.bond_forces();
+        }
     }
 
     /// Sums the forces on each particle: gravity, walls, then every interacting pair in block
@@ -436,7 +439,7 @@ impl Dem {
             dt: self.dt,
         };
         let p = &mut self.p;
-        let (pairs, reach) = (&self.pairs, &self.reach);
+        let (pairs, reach, bonds) = (&self.pairs, &self.reach, &self.bonds.blocks);
         debug_assert!(
             pairs.iter().zip(reach).all(|(list, &(lo, hi))| list.forces.iter().all(|c| (lo..=hi).contains(&c.j))),
             "a block's reach must cover its records (written by pair_forces)"
@@ -519,7 +522,7 @@ impl Dem {
                 let (jlo, jhi) = reach[b];
                 (own.start < hi && own.end > lo) || (jlo < hi && jhi >= lo)
             };
-            for list in pairs.iter().enumerate().filter(|&(b, _)| reaches(b)).map(|(_, list)| &list.forces) {
+            let mut add = |list: &[PairForce]| {
                 for c in list {
                     let (i, j) = (c.i as usize, c.j as usize);
                     if owned.contains(&i) {
@@ -530,6 +533,13 @@ impl Dem {
                         fs[j - base] -= c.out.force;
                         ts[j - base] += c.out.torque_j;
                     }
+                }
+            };
+            // Each block's contacts, then its bonds' attraction ([`super::bonds`]).
+            for (b, list) in pairs.iter().enumerate().filter(|&(b, _)| reaches(b)) {
+                add(&list.forces);
+                if let Some(bonded) = bonds.get(b) {
+                    add(&bonded.forces);
                 }
             }
             if kick {

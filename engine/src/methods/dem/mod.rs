@@ -4,8 +4,10 @@
 //!
 //! One step runs the stages of [`Stage`] in their declared order.
 
+mod bonds;
 mod forces;
 mod pair_state;
+mod relax;
 mod stability;
 pub mod timestep;
 mod wall_contacts;
@@ -128,6 +130,9 @@ pub struct Dem {
     /// (`(u32::MAX, 0)` for a block without records), written with the records, so that a
     /// gather task skips the blocks that cannot reach its particles.
     reach: Vec<(u32, u32)>,
+    /// The pairs of primaries of one aggregate, which attract ([`bonds`]); empty without
+    /// aggregates.
+    bonds: bonds::Bonds,
     /// Position and radius of each particle, packed for the pair loop: written by the drift,
     /// repacked before the force stage when positions changed otherwise (`xr_current` false).
     xr: Vec<[Real; 4]>,
@@ -183,7 +188,7 @@ impl Dem {
         let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
         let has_walls = !c.walls.is_empty() || c.drum.is_some();
         let bodies = Bodies { lightest: &lightest, names: &names, wall_material: has_walls.then_some(wall_material) };
-        let collision = collision_time(&table, &bodies, v_ref);
+        let collision = relax::with_bonds(collision_time(&table, &bodies, v_ref), &p);
         let dt = params.time_step.unwrap_or(params.time_step_fraction * collision.t_c);
         if !(dt.is_finite() && dt > 0.0) {
             return Err(EngineError::Build {
@@ -194,7 +199,9 @@ impl Dem {
 
         let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
         let rmax = p.radius.iter().copied().fold(0.0, f64::max);
-        let range = table.laws().iter().map(|l| l.range()).fold(0.0, f64::max);
+        // An aggregate's primaries attract to the bond's cut-off.
+        let range =
+            p.bondings.iter().map(|b| b.attraction.range()).fold(table.laws().iter().map(|l| l.range()).fold(0.0, f64::max), f64::max);
         let skin = params.skin * 2.0 * rmin;
         // Periodic boxes must be wide enough for minimum images to be unique.
         for a in 0..scene.dim {
@@ -261,6 +268,7 @@ impl Dem {
             pairs: vec![PairBlock::default(); n.div_ceil(forces::PARTICLE_BLOCK)],
             previous_springs: vec![PairSprings::default(); n.div_ceil(forces::PARTICLE_BLOCK)],
             reach: vec![(u32::MAX, 0); n.div_ceil(forces::PARTICLE_BLOCK)],
+            bonds: bonds::Bonds::default(),
             xr: vec![[0.0; 4]; n],
             xr_current: false,
             kin: vec![Kin::default(); n],
@@ -278,6 +286,9 @@ impl Dem {
         };
         sim.refresh_neighbors();
         sim.compute_forces(false);
+        if sim.p.aggregate_count() > 0 {
+            sim.relax_aggregates()?;
+        }
         sim.budget = EnergyBudget::start(sim.mechanical_energy());
         Ok(sim)
     }
@@ -402,19 +413,30 @@ impl Dem {
             + self.xr.capacity() * 32
             + self.kin.capacity() * std::mem::size_of::<Kin>()
             + self.wall_contacts.heap_bytes()
+            + self.bonds.heap_bytes()
     }
 
     /// Current contact forces as records (pairs and walls), for metrics and tests.
     pub fn contacts(&self) -> Vec<ContactRecord> {
         let mut records = Vec::new();
+        // The attraction of the primaries of an aggregate, reported with their contact when
+        // they touch (one record per pair, its net force: bonded when touching, as in CD).
+        let mut attraction: std::collections::BTreeMap<(u32, u32), (Vec3, Vec3)> =
+            self.bond_records().into_iter().map(|(i, j, f, d)| ((i, j), (f, d))).collect();
         for c in self.pairs.iter().flat_map(PairBlock::pairs) {
-            let bonded = c.extra.is_some_and(|e| e.bridge);
-            if c.out.force == Vec3::zeros() && !bonded {
+            let bond = attraction.remove(&(c.i, c.j)).map(|(f, _)| f);
+            let bridge = c.extra.is_some_and(|e| e.bridge);
+            if c.out.force == Vec3::zeros() && !bridge && bond.is_none() {
                 continue;
             }
             let (d, _) = self.nl.separation(c.q as usize, &self.p.pos, &self.domain);
             let touching = d.norm() < self.p.radius[c.i as usize] + self.p.radius[c.j as usize];
-            records.push(ContactRecord { i: c.i, j: Some(c.j), force: c.out.force, branch: d, touching, bonded });
+            let force = c.out.force + bond.unwrap_or_else(Vec3::zeros);
+            let bonded = bridge || (touching && bond.is_some());
+            records.push(ContactRecord { i: c.i, j: Some(c.j), force, branch: d, touching, bonded });
+        }
+        for ((i, j), (force, branch)) in attraction {
+            records.push(ContactRecord { i, j: Some(j), force, branch, touching: false, bonded: false });
         }
         for c in self.wall_contacts.iter().filter(|c| c.force != Vec3::zeros()) {
             let i = c.i as usize;
@@ -446,6 +468,7 @@ impl Dem {
         self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
         self.near.invalidate();
         pair_state::renumber(&mut self.pairs, &self.nl);
+        self.bonds.rebuild(&self.nl, &self.p);
         self.wall_contacts.choose(&self.p, &self.walls, self.drum.as_ref(), self.nl.skin);
     }
 

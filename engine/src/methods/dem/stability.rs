@@ -38,11 +38,13 @@ pub(crate) struct Energies {
     pub elastic: Real,
     pub gravity: Real,
     pub capillary: Real,
+    /// The attraction within aggregates ([`super::bonds`]): negative, zero for pairs apart.
+    pub bond: Real,
 }
 
 impl Energies {
     pub(crate) fn total(&self) -> Real {
-        self.kinetic + self.elastic + self.gravity + self.capillary
+        self.kinetic + self.elastic + self.gravity + self.capillary + self.bond
     }
     fn scale(&self) -> Real {
         self.kinetic + self.elastic + self.capillary.abs()
@@ -63,6 +65,7 @@ impl Energies {
             ("elastic", self.elastic - start.elastic),
             ("gravitational", self.gravity - start.gravity),
             ("capillary", self.capillary - start.capillary),
+            ("bond", self.bond - start.bond),
         ]
         .into_iter()
         .fold(("kinetic", Real::NEG_INFINITY), |best, part| if part.1 > best.1 { part } else { best })
@@ -70,7 +73,7 @@ impl Energies {
 }
 
 impl Dem {
-    /// Kinetic, elastic, capillary and gravitational energy.
+    /// Kinetic, elastic, capillary, bond and gravitational energy.
     pub(crate) fn mechanical_energy(&self) -> Energies {
         self.scan().energies
     }
@@ -162,6 +165,9 @@ impl Dem {
             scan.energies.capillary += capillary;
             scan.overlap = scan.overlap.max(*overlap);
         }
+        if !self.bonds.is_empty() {
+            scan.energies.bond = self.bond_energy();
+        }
         scan
     }
 
@@ -212,6 +218,7 @@ impl Dem {
                 let hint = match *part {
                     "elastic" => "springs that store energy faster than the collision time allows: a tangential stiffness k_t (or a rolling stiffness) far above k_n makes modes faster than t_c; lower it",
                     "capillary" => "bridges that form and break within a step: lower the rupture distance's ratio to the step's displacement (a smaller step or slower grains)",
+                    "bond" => "primaries of an aggregate that fall into one another's attraction faster than the step resolves: a smaller step, or stiffer contacts between the primaries",
                     "gravitational" => "grains pushed up out of deep overlaps: lower the speeds or loads that make them, or stiffen the contacts",
                     _ => "forces that do work no spring stored: a contact stiffer than its collision time, or an imposed motion the budget does not count; lower the stiffest contact's k_n or the speeds",
                 };
@@ -235,7 +242,10 @@ impl Dem {
         if self.energy_check_applies() {
             let e = scan.energies;
             let b = &mut self.budget;
-            b.scale = b.scale.max(e.scale() + b.work_in.abs() + (e.gravity - b.start.gravity).abs());
+            // Like gravity's, the bond energy counts by its change: the binding energy of the
+            // aggregates at rest is not an energy scale of their motion.
+            let changes = (e.gravity - b.start.gravity).abs() + (e.bond - b.start.bond).abs();
+            b.scale = b.scale.max(e.scale() + b.work_in.abs() + changes);
             let excess = e.total() - b.start.total() - b.work_in;
             if excess > ENERGY_TOLERANCE * b.scale && excess > 0.0 {
                 let scale = b.scale;
@@ -359,8 +369,8 @@ mod tests {
 
     #[test]
     fn the_largest_gain_names_the_part_that_grew() {
-        let start = Energies { kinetic: 1.0, elastic: 2.0, gravity: 3.0, capillary: -1.0 };
-        let now = Energies { kinetic: 1.5, elastic: 1.0, gravity: 3.2, capillary: -0.1 };
+        let start = Energies { kinetic: 1.0, elastic: 2.0, gravity: 3.0, capillary: -1.0, bond: 0.0 };
+        let now = Energies { kinetic: 1.5, elastic: 1.0, gravity: 3.2, capillary: -0.1, bond: 0.0 };
         assert_eq!(now.largest_gain(&start), ("capillary", 0.9));
         assert_eq!(Energies { elastic: 2.6, ..start }.largest_gain(&start).0, "elastic");
     }
