@@ -339,3 +339,55 @@ pub(crate) fn close_walls(p: &Particles, walls: &mut [Wall], domain: &mut Domain
     domain.hi[axis] = hi;
     true
 }
+
+/// How long the aggregates of a run may take to relax before it ([`settle_aggregates`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Settling {
+    /// Kinetic energy of the primaries, as a fraction of `N F_0 ⟨a_0⟩`, below which they have
+    /// settled.
+    pub settled: Real,
+    /// Steps between two looks at the kinetic energy.
+    pub check_every: u64,
+    /// Most steps.
+    pub max_steps: u64,
+}
+
+/// Steps `sim` (`step`) until the kinetic energy of the primaries of its aggregates
+/// (`particles`) falls to `s.settled` of their bond energy scale `N F_0 ⟨a_0⟩`, looking every
+/// `s.check_every` steps, for at most `s.max_steps`; then `not_settled` is the error. An
+/// instability comes back with "while the aggregates relaxed before the run" in its
+/// suggestion. The caller holds the walls, gravity and whatever else must not act meanwhile,
+/// and restores them after.
+pub(crate) fn settle_aggregates<S>(
+    sim: &mut S,
+    particles: fn(&S) -> &Particles,
+    step: fn(&mut S) -> Result<(), EngineError>,
+    s: Settling,
+    not_settled: EngineError,
+) -> Result<(), EngineError> {
+    let p = particles(sim);
+    let primaries: Vec<usize> = (0..p.len()).filter(|&i| p.aggregate[i] != NO_AGGREGATE).collect();
+    let scale: Real =
+        primaries.iter().map(|&i| p.bondings.get(p.aggregate[i] as usize).map_or(0.0, |b| b.attraction.f0) * 2.0 * p.radius[i]).sum();
+    for k in 1..=s.max_steps {
+        if let Err(e) = step(sim) {
+            return Err(match e {
+                EngineError::Unstable { step, time, cause, suggestion } => EngineError::Unstable {
+                    step,
+                    time,
+                    cause,
+                    suggestion: format!("while the aggregates relaxed before the run: {suggestion}"),
+                },
+                other => other,
+            });
+        }
+        if k % s.check_every == 0 {
+            let p = particles(sim);
+            let kinetic: Real = primaries.iter().map(|&i| p.kinetic_energy_at(i, &p.vel[i])).sum();
+            if kinetic <= s.settled * scale {
+                return Ok(());
+            }
+        }
+    }
+    Err(not_settled)
+}

@@ -65,6 +65,10 @@ pub struct State {
     pub p: f64,
     /// Stress ratio q/p.
     pub zeta: f64,
+    /// The grains' own measures when they are aggregates of primaries (the fields above are
+    /// then the primaries'): Φ, Z, pressure and shape of the grains ([`Sample::grains`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grains: Option<super::grains::GrainSample>,
 }
 
 impl State {
@@ -77,6 +81,7 @@ impl State {
             z_no_rattlers: s.z_no_rattlers,
             p: s.p,
             zeta: s.mu,
+            grains: s.grains.as_deref().copied(),
         }
     }
 }
@@ -730,6 +735,17 @@ mod tests {
         let r = a.finish(1e-3, 2500.0).expect("result");
         assert_eq!(r.experiment, "biaxial");
         assert_eq!(r.prepared.as_ref().map(|s| s.step), Some(10));
+        assert_eq!(r.prepared.as_ref().map(|s| s.grains), Some(None));
+        // Grains made of primaries: the states carry the grains' own measures.
+        let mut g = biaxial_analysis(1e7, 0.01);
+        let grains = crate::observe::GrainSample { count: 4, phi: 0.93, z: 2.5, ..Default::default() };
+        let mut prepared = sample(10, "preparation", 0.0, 0.0, 0.0);
+        prepared.grains = Some(Box::new(grains));
+        g.push(&prepared);
+        g.push(&sample(11, "loading", 0.01, 0.1, 0.0));
+        let with = g.finish(1e-3, 2500.0).expect("result");
+        assert_eq!(with.prepared.and_then(|s| s.grains), Some(grains));
+        assert_eq!(with.last.grains, None);
         let peak = r.peak.expect("peak");
         assert!((peak.zeta - 0.5).abs() < 1e-12 && (peak.axial_strain - 0.02).abs() < 1e-12);
         let steady = r.steady.expect("steady");

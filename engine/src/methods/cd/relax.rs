@@ -16,6 +16,7 @@ use super::Cd;
 use crate::contact::attraction_lj::characteristic_stress;
 use crate::error::EngineError;
 use crate::math::{Real, Vec3};
+use crate::methods::world;
 use crate::particles::Particles;
 use crate::scene::WallMotion;
 
@@ -32,13 +33,10 @@ impl Cd {
     /// Relaxes the aggregates in place (module documentation); the error names the scene's
     /// solver settings if they do not settle in [`MAX_STEPS`].
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
-        let p = &self.p;
-        let primaries: Vec<usize> = (0..p.len()).filter(|&i| p.aggregate[i] != crate::particles::aggregate::NO_AGGREGATE).collect();
-        if primaries.is_empty() {
+        if self.p.aggregate_count() == 0 {
             return Ok(());
         }
-        let scale: Real =
-            primaries.iter().map(|&i| p.bondings.get(p.aggregate[i] as usize).map_or(0.0, |b| b.attraction.f0) * 2.0 * p.radius[i]).sum();
+        let p = &self.p;
         let (vel, omega) = (p.vel.clone(), p.omega.clone());
         let motions: Vec<(WallMotion, Vec3)> = self.walls.iter().map(|w| (w.motion, w.velocity)).collect();
         let (gravity, field, cell) = (self.gravity, self.field.take(), self.cell.take());
@@ -50,34 +48,14 @@ impl Cd {
         self.p.omega.iter_mut().for_each(|w| *w = Vec3::zeros());
         let tolerance = self.params.tolerance;
         self.lenient = true;
-        let mut outcome = Err(EngineError::Build {
+        let not_settled = EngineError::Build {
             field: "method.tolerance".into(),
             reason: format!(
                 "the aggregates did not settle in {MAX_STEPS} steps (kinetic energy above {SETTLED:e} of N F_0 <a_0>): tighten the solver's tolerance (now {tolerance:e}; 1e-6 settled an aggregate of 227 primaries) or shorten method.time_step"
             ),
-        });
-        for k in 1..=MAX_STEPS {
-            if let Err(e) = self.step_stages() {
-                outcome = Err(match e {
-                    EngineError::Unstable { step, time, cause, suggestion } => EngineError::Unstable {
-                        step,
-                        time,
-                        cause,
-                        suggestion: format!("while the aggregates relaxed before the run: {suggestion}"),
-                    },
-                    other => other,
-                });
-                break;
-            }
-            if k % CHECK_EVERY == 0 {
-                let p = &self.p;
-                let kinetic: Real = primaries.iter().map(|&i| p.kinetic_energy_at(i, &p.vel[i])).sum();
-                if kinetic <= SETTLED * scale {
-                    outcome = Ok(());
-                    break;
-                }
-            }
-        }
+        };
+        let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
+        let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
         self.lenient = false;
         for (w, (motion, velocity)) in self.walls.iter_mut().zip(motions) {
             (w.motion, w.velocity) = (motion, velocity);

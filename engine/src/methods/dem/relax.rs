@@ -9,10 +9,10 @@
 //! start after it.
 
 use super::timestep::CollisionTime;
+use super::world;
 use super::Dem;
 use crate::error::EngineError;
 use crate::math::{Real, Vec3};
-use crate::particles::aggregate::NO_AGGREGATE;
 use crate::particles::Particles;
 use crate::scene::WallMotion;
 
@@ -55,13 +55,10 @@ pub(super) fn with_bonds(c: CollisionTime, p: &Particles) -> CollisionTime {
 impl Dem {
     /// Relaxes the aggregates in place (module documentation).
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
-        let p = &self.p;
-        let primaries: Vec<usize> = (0..p.len()).filter(|&i| p.aggregate[i] != NO_AGGREGATE).collect();
-        if primaries.is_empty() {
+        if self.p.aggregate_count() == 0 {
             return Ok(());
         }
-        let scale: Real =
-            primaries.iter().map(|&i| p.bondings.get(p.aggregate[i] as usize).map_or(0.0, |b| b.attraction.f0) * 2.0 * p.radius[i]).sum();
+        let p = &self.p;
         let (vel, omega) = (p.vel.clone(), p.omega.clone());
         let motions: Vec<(WallMotion, Vec3)> = self.walls.iter().map(|w| (w.motion, w.velocity)).collect();
         let (gravity, field, damping) = (self.gravity, self.field.take(), self.params.local_damping);
@@ -74,36 +71,16 @@ impl Dem {
         self.p.omega.iter_mut().for_each(|w| *w = Vec3::zeros());
         self.kin_current = false;
         self.budget = super::stability::EnergyBudget::start(self.mechanical_energy());
-        let mut outcome = Err(EngineError::Build {
+        let not_settled = EngineError::Build {
             field: "method.time_step".into(),
             reason: format!(
                 "the aggregates did not settle in {MAX_STEPS} steps of {:.3e} s (kinetic energy above {SETTLED:e} of N F_0 <a_0>): shorten the step (method.time_step_fraction, now {:.3}: at t_c/10 the damped contacts of the sources' primaries kept vibrating above it, at the default t_c/50 one aggregate settled within 20,000 steps)",
                 self.dt,
                 self.dt / self.collision.t_c
             ),
-        });
-        for k in 1..=MAX_STEPS {
-            if let Err(e) = self.step_stages() {
-                outcome = Err(match e {
-                    EngineError::Unstable { step, time, cause, suggestion } => EngineError::Unstable {
-                        step,
-                        time,
-                        cause,
-                        suggestion: format!("while the aggregates relaxed before the run: {suggestion}"),
-                    },
-                    other => other,
-                });
-                break;
-            }
-            if k % CHECK_EVERY == 0 {
-                let p = &self.p;
-                let kinetic: Real = primaries.iter().map(|&i| p.kinetic_energy_at(i, &p.vel[i])).sum();
-                if kinetic <= SETTLED * scale {
-                    outcome = Ok(());
-                    break;
-                }
-            }
-        }
+        };
+        let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
+        let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
         for (w, (motion, velocity)) in self.walls.iter_mut().zip(motions) {
             (w.motion, w.velocity) = (motion, velocity);
         }
