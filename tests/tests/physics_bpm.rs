@@ -29,12 +29,17 @@ fn bonded(min_primaries: usize) -> serde_json::Value {
 }
 
 /// One grain of the sources' size (1.8 mm, over 200 primaries of [`bonded`]) in the middle of a
-/// 4 mm box without gravity, run for `steps`.
+/// 4 mm box without gravity, run for `steps` by contact dynamics.
 fn one_grain(steps: u64) -> sable_engine::scene::Scene {
+    one_grain_by(json!("cd"), primaries_material(), steps)
+}
+
+/// [`one_grain`] by `method`, its primaries of `material`.
+fn one_grain_by(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::scene::Scene {
     common::scene(json!({
         "dimension": 2,
-        "method": "cd",
-        "materials": {"primary": primaries_material()},
+        "method": method,
+        "materials": {"primary": material},
         "particles": [{
             "material": "primary",
             "size": {"kind": "monodisperse", "diameter": 1.8e-3},
@@ -194,23 +199,6 @@ fn dem_primaries_material() -> serde_json::Value {
     json!({"density": 2000.0, "contact": {"law": "linear", "k_n": 2e8}, "restitution": 0.2, "friction": 0.0})
 }
 
-/// [`one_grain`] run by DEM.
-fn one_grain_dem(steps: u64) -> sable_engine::scene::Scene {
-    common::scene(json!({
-        "dimension": 2,
-        "method": {"kind": "dem", "threads": 1},
-        "materials": {"primary": dem_primaries_material()},
-        "particles": [{
-            "material": "primary",
-            "size": {"kind": "monodisperse", "diameter": 1.8e-3},
-            "placement": {"kind": "list", "positions": [[2e-3, 2e-3]]},
-            "model": bonded(200)
-        }],
-        "container": {"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary"},
-        "stop": {"steps": steps}
-    }))
-}
-
 /// Two primaries of one aggregate released apart, by DEM: they fall together under the
 /// attraction alone, and at every step before they touch the kinetic energy they gained is
 /// the bond energy they lost, `½ m* v² = U(δ_0) − U(δ)` with
@@ -292,7 +280,7 @@ fn two_primaries_fall_together_with_the_bond_energy_in_dem() {
 /// relaxation's damping has removed its kinetic energy.
 #[test]
 fn an_isolated_aggregate_stays_intact_and_round_in_dem() {
-    let mut sim = common::dem(&one_grain_dem(100_000));
+    let mut sim = common::dem(&one_grain_by(json!({"kind": "dem", "threads": 1}), dem_primaries_material(), 100_000));
     stays_intact_and_round(&mut sim, |s| s.particles(), 100_000);
 }
 

@@ -35,6 +35,9 @@ pub(crate) struct BondBlock {
     pub forces: Vec<PairForce>,
     /// The index in the neighbour list of each record of `forces`.
     pub held: Vec<u32>,
+    /// The smallest and largest second particle of `forces` (`(u32::MAX, 0)` for none), which
+    /// the gather's reach must cover.
+    pub reach: (u32, u32),
 }
 
 /// The bonded pairs of every block ([`BondBlock`]); empty in a scene without aggregates.
@@ -78,25 +81,19 @@ impl Bonds {
         });
     }
 
-    /// Evaluates the attraction of every listed pair; returns, per block, the smallest and
-    /// largest second particle of its records (`(u32::MAX, 0)` for none), which the gather's
-    /// reach must cover.
-    pub fn evaluate(&mut self, nl: &NeighborList, p: &Particles, domain: &Domain) -> Vec<(u32, u32)> {
-        self.blocks
-            .par_iter_mut()
-            .map(|block| {
-                block.forces.clear();
-                block.held.clear();
-                let mut reach = (u32::MAX, 0);
-                for &q in &block.q {
-                    let Some(f) = pair_force(nl, p, domain, q as usize) else { continue };
-                    reach = (reach.0.min(f.j), reach.1.max(f.j));
-                    block.forces.push(f);
-                    block.held.push(q);
-                }
-                reach
-            })
-            .collect()
+    /// Evaluates the attraction of every listed pair, with each block's reach.
+    pub fn evaluate(&mut self, nl: &NeighborList, p: &Particles, domain: &Domain) {
+        self.blocks.par_iter_mut().for_each(|block| {
+            block.forces.clear();
+            block.held.clear();
+            block.reach = (u32::MAX, 0);
+            for &q in &block.q {
+                let Some(f) = pair_force(nl, p, domain, q as usize) else { continue };
+                block.reach = (block.reach.0.min(f.j), block.reach.1.max(f.j));
+                block.forces.push(f);
+                block.held.push(q);
+            }
+        });
     }
 
     /// The bond energy of the listed pairs of each block, J (J/m in 2D): `U` summed over the
@@ -148,9 +145,9 @@ impl Dem {
     /// The bonded pairs' attraction ([`Bonds::evaluate`]), with each block's reach widened to
     /// its bond records.
     pub(crate) fn bond_forces(&mut self) {
-        let reach = self.bonds.evaluate(&self.nl, &self.p, &self.domain);
-        for (r, b) in self.reach.iter_mut().zip(reach) {
-            *r = (r.0.min(b.0), r.1.max(b.1));
+        self.bonds.evaluate(&self.nl, &self.p, &self.domain);
+        for (r, b) in self.reach.iter_mut().zip(&self.bonds.blocks) {
+            *r = (r.0.min(b.reach.0), r.1.max(b.reach.1));
         }
     }
 
