@@ -352,6 +352,40 @@ pub(crate) struct Settling {
     pub max_steps: u64,
 }
 
+/// What a relaxation of aggregates holds still while they settle and gives back after: the
+/// walls' motions, gravity and the particles' velocities (the run's initial velocities start
+/// after it).
+pub(crate) struct Held {
+    motions: Vec<(WallMotion, Vec3)>,
+    gravity: Vec3,
+    vel: Vec<Vec3>,
+    omega: Vec<Vec3>,
+}
+
+impl Held {
+    /// Holds the `walls` fixed, turns `gravity` off and the particles `p` at rest.
+    pub(crate) fn hold(walls: &mut [Wall], gravity: &mut Vec3, p: &mut Particles) -> Self {
+        let motions = walls.iter().map(|w| (w.motion, w.velocity)).collect();
+        for w in walls.iter_mut() {
+            (w.motion, w.velocity) = (WallMotion::Fixed, Vec3::zeros());
+        }
+        let held = Held { motions, gravity: std::mem::replace(gravity, Vec3::zeros()), vel: p.vel.clone(), omega: p.omega.clone() };
+        p.vel.iter_mut().for_each(|v| *v = Vec3::zeros());
+        p.omega.iter_mut().for_each(|w| *w = Vec3::zeros());
+        held
+    }
+
+    /// Gives back what [`Held::hold`] took.
+    pub(crate) fn restore(self, walls: &mut [Wall], gravity: &mut Vec3, p: &mut Particles) {
+        for (w, (motion, velocity)) in walls.iter_mut().zip(self.motions) {
+            (w.motion, w.velocity) = (motion, velocity);
+        }
+        *gravity = self.gravity;
+        p.vel = self.vel;
+        p.omega = self.omega;
+    }
+}
+
 /// Steps `sim` (`step`) until the kinetic energy of the primaries of its aggregates
 /// (`particles`) falls to `s.settled` of their bond energy scale `N F_0 ⟨a_0⟩`, looking every
 /// `s.check_every` steps, for at most `s.max_steps`; then `not_settled` is the error. An

@@ -6,11 +6,12 @@
 //! ([`super::bench_bpm`]): aggregates of primaries in primary-steps per second; `sable bench biaxial`: the cost of one quasi-static biaxial test by CD and by DEM
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
+use super::bench_prepare::prepare;
 use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
 use sable_engine::methods::soft::parts::Cost;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::biaxial_benchmark, presets::cd_benchmark, Method, Sweep};
+use sable_engine::scene::{presets::biaxial_benchmark, presets::cd_benchmark, Method, Sweep};
 use serde::Serialize;
 
 /// What `sable bench` measures.
@@ -331,20 +332,6 @@ struct CdBenchResult {
     contact_iterations_per_second: f64,
     particle_steps_per_second: f64,
     bytes_per_particle: f64,
-}
-
-/// The benchmark scene `make` builds for the thread count asked (all cores by default), the
-/// threads it gets after the job's budget, and the pool it runs in — as in a job: the whole run
-/// inside one pool, not a hand-off to the method's pool per step.
-pub(super) fn prepare(
-    threads: Option<usize>,
-    make: impl FnOnce(usize) -> serde_json::Value,
-) -> anyhow::Result<(sable_engine::scene::Scene, usize, rayon::ThreadPool)> {
-    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let mut scene = parse_scene(&make(threads).to_string()).map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
-    let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
-    let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
-    Ok((scene, threads, pool))
 }
 
 /// `sable bench cd`: the dense pile of [`cd_benchmark`], `warmup` steps untimed, then `steps`

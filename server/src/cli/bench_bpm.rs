@@ -59,7 +59,7 @@ pub fn bench_bpm(a: BpmBenchArgs) -> anyhow::Result<()> {
         anyhow::bail!("--method: must be dem or cd, got {:?}", a.method);
     }
     let (scene, threads, pool) =
-        super::bench::prepare(a.threads, |t| sable_engine::scene::presets::bpm_compaction(a.grains, &a.method, a.steps, t))?;
+        super::bench_prepare::prepare(a.threads, |t| sable_engine::scene::presets::bpm_compaction(a.grains, &a.method, a.steps, t))?;
     let start = std::time::Instant::now();
     let mut sim: Box<dyn Simulation + Send> = pool.install(|| -> anyhow::Result<Box<dyn Simulation + Send>> {
         Ok(match &scene.method {

@@ -15,10 +15,9 @@
 use super::Cd;
 use crate::contact::attraction_lj::characteristic_stress;
 use crate::error::EngineError;
-use crate::math::{Real, Vec3};
+use crate::math::Real;
 use crate::methods::world;
 use crate::particles::Particles;
-use crate::scene::WallMotion;
 
 /// Kinetic energy, as a fraction of `N F_0 ⟨a_0⟩`, below which the aggregates have settled
 /// (measured: 1e-11 once settled at the solver tolerance 1e-6; 6e-5 while they rearrange).
@@ -36,16 +35,8 @@ impl Cd {
         if self.p.aggregate_count() == 0 {
             return Ok(());
         }
-        let p = &self.p;
-        let (vel, omega) = (p.vel.clone(), p.omega.clone());
-        let motions: Vec<(WallMotion, Vec3)> = self.walls.iter().map(|w| (w.motion, w.velocity)).collect();
-        let (gravity, field, cell) = (self.gravity, self.field.take(), self.cell.take());
-        for w in &mut self.walls {
-            (w.motion, w.velocity) = (WallMotion::Fixed, Vec3::zeros());
-        }
-        self.gravity = Vec3::zeros();
-        self.p.vel.iter_mut().for_each(|v| *v = Vec3::zeros());
-        self.p.omega.iter_mut().for_each(|w| *w = Vec3::zeros());
+        let held = world::Held::hold(&mut self.walls, &mut self.gravity, &mut self.p);
+        let (field, cell) = (self.field.take(), self.cell.take());
         let tolerance = self.params.tolerance;
         self.lenient = true;
         let not_settled = EngineError::Build {
@@ -57,12 +48,8 @@ impl Cd {
         let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
         let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
         self.lenient = false;
-        for (w, (motion, velocity)) in self.walls.iter_mut().zip(motions) {
-            (w.motion, w.velocity) = (motion, velocity);
-        }
-        (self.gravity, self.field, self.cell) = (gravity, field, cell);
-        self.p.vel = vel;
-        self.p.omega = omega;
+        held.restore(&mut self.walls, &mut self.gravity, &mut self.p);
+        (self.field, self.cell) = (field, cell);
         self.step = 0;
         self.time = 0.0;
         self.sweeps = 0;

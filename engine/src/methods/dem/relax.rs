@@ -12,9 +12,8 @@ use super::timestep::CollisionTime;
 use super::world;
 use super::Dem;
 use crate::error::EngineError;
-use crate::math::{Real, Vec3};
+use crate::math::Real;
 use crate::particles::Particles;
-use crate::scene::WallMotion;
 
 /// Kinetic energy, as a fraction of `N F_0 ⟨a_0⟩`, below which the aggregates have settled
 /// (the value of contact dynamics' relaxation).
@@ -55,20 +54,9 @@ pub(super) fn with_bonds(c: CollisionTime, p: &Particles) -> CollisionTime {
 impl Dem {
     /// Relaxes the aggregates in place (module documentation).
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
-        if self.p.aggregate_count() == 0 {
-            return Ok(());
-        }
-        let p = &self.p;
-        let (vel, omega) = (p.vel.clone(), p.omega.clone());
-        let motions: Vec<(WallMotion, Vec3)> = self.walls.iter().map(|w| (w.motion, w.velocity)).collect();
-        let (gravity, field, damping) = (self.gravity, self.field.take(), self.params.local_damping);
-        for w in &mut self.walls {
-            (w.motion, w.velocity) = (WallMotion::Fixed, Vec3::zeros());
-        }
-        self.gravity = Vec3::zeros();
+        let held = world::Held::hold(&mut self.walls, &mut self.gravity, &mut self.p);
+        let (field, damping) = (self.field.take(), self.params.local_damping);
         self.params.local_damping = RELAX_DAMPING;
-        self.p.vel.iter_mut().for_each(|v| *v = Vec3::zeros());
-        self.p.omega.iter_mut().for_each(|w| *w = Vec3::zeros());
         self.kin_current = false;
         self.budget = super::stability::EnergyBudget::start(self.mechanical_energy());
         let not_settled = EngineError::Build {
@@ -81,12 +69,8 @@ impl Dem {
         };
         let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
         let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
-        for (w, (motion, velocity)) in self.walls.iter_mut().zip(motions) {
-            (w.motion, w.velocity) = (motion, velocity);
-        }
-        (self.gravity, self.field, self.params.local_damping) = (gravity, field, damping);
-        self.p.vel = vel;
-        self.p.omega = omega;
+        held.restore(&mut self.walls, &mut self.gravity, &mut self.p);
+        (self.field, self.params.local_damping) = (field, damping);
         self.kin_current = false;
         self.step = 0;
         self.time = 0.0;
