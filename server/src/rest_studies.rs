@@ -101,9 +101,14 @@ async fn study_chart(st: &AppState, id: &str, format: Format) -> Result<Response
 #[into_params(parameter_in = Query)]
 pub(crate) struct ChartParams {
     /// Sample field on the vertical axis, by path (`mu`, `p`, `phi`, `stress.xy`). Default `mu`.
+    /// Or one path per job, comma-separated, in the jobs' order (this one, then `with`): models
+    /// whose samples name a quantity differently (`grains.phi,phi`).
     y: Option<String>,
     /// `time` (default), `step`, `strain` (the deviatoric strain of the stage) or a sample path.
     x: Option<String>,
+    /// Units of the horizontal axis, one positive number per job in the jobs' order: each job's
+    /// x is divided by its own (the wall stress over each model's characteristic stress).
+    x_unit: Option<String>,
     /// Other jobs drawn on the same axes, comma-separated ids.
     with: Option<String>,
     /// Only the samples of this stage of the experiment. Default: every sample, or the last
@@ -167,8 +172,27 @@ async fn samples_chart(
         return Err(ApiError::invalid("with", "at most 11 other jobs"));
     }
     let x_path = if x == "strain" { "strain.deviatoric".to_string() } else { x.clone() };
+    let ys: Vec<String> = y.split(',').map(|s| s.trim().to_string()).collect();
+    if ys.len() != 1 && ys.len() != ids.len() {
+        return Err(ApiError::invalid("y", format!("give one path, or one per job ({}), got {}", ids.len(), ys.len())));
+    }
+    let units: Vec<f64> = match &p.x_unit {
+        None => vec![1.0; ids.len()],
+        Some(text) => {
+            let units: Vec<f64> = text
+                .split(',')
+                .map(|part| part.trim().parse::<f64>().ok().filter(|u| u.is_finite() && *u > 0.0))
+                .collect::<Option<_>>()
+                .ok_or_else(|| ApiError::invalid("x_unit", format!("must list positive numbers, got '{text}'")))?;
+            if units.len() != ids.len() {
+                return Err(ApiError::invalid("x_unit", format!("give one unit per job ({}), got {}", ids.len(), units.len())));
+            }
+            units
+        }
+    };
     let mut series = Vec::new();
-    for id in ids {
+    for (k, id) in ids.into_iter().enumerate() {
+        let y = &ys[if ys.len() == 1 { 0 } else { k }];
         let job = st.store.get(id).await?;
         let (_, samples) = api::samples(&st.store, id, 0, None, Some(2000)).await?;
         // Strains restart at every stage: by default a strain axis shows the last stage.
@@ -181,19 +205,21 @@ async fn samples_chart(
         for s in &samples {
             let doc = serde_json::to_value(s).map_err(|e| ApiError::Internal(e.to_string()))?;
             let get = |path: &str| sable_engine::study::paths::get(&doc, path).and_then(|v| v.as_f64());
-            let (a, b) = (get(&x_path), get(&y));
+            let (a, b) = (get(&x_path), get(y));
             has_y |= b.is_some();
             if let (Some(a), Some(b)) = (a, b) {
-                pts.push((a, b));
+                pts.push((a / units[k], b));
             }
         }
         if pts.is_empty() && !samples.is_empty() {
             let field = if has_y { "x" } else { "y" };
             return Err(ApiError::invalid(field, format!("job {id}'s samples have no number at '{y}' against '{x}'")));
         }
-        series.push((format!("job {id}: {}", job.name), pts));
+        let scaled = if p.x_unit.is_some() { format!(", x over {:e}", units[k]) } else { String::new() };
+        let field = if ys.len() > 1 { format!(", {y}") } else { String::new() };
+        series.push((format!("job {id}{field}{scaled}: {}", job.name), pts));
     }
-    let title = format!("{y} against {x}");
+    let title = format!("{y} against {x}{}", if p.x_unit.is_some() { " over each job's unit" } else { "" });
     let unit = |f: &str| match f {
         "time" => "time, s".to_string(),
         "strain" => "deviatoric strain of the stage".to_string(),
@@ -202,5 +228,7 @@ async fn samples_chart(
         "kinetic_energy" | "elastic_energy" => format!("{f}, J"),
         other => other.to_string(),
     };
-    Ok(image(format, crate::charts::lines(&title, &unit(&x), &unit(&y), &series, format).map_err(ApiError::Internal)?))
+    let x_desc = if p.x_unit.is_some() { format!("{x} / unit of the job") } else { unit(&x) };
+    let y_desc = if ys.len() > 1 { ys.join(" | ") } else { unit(&y) };
+    Ok(image(format, crate::charts::lines(&title, &x_desc, &y_desc, &series, format).map_err(ApiError::Internal)?))
 }

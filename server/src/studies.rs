@@ -253,9 +253,10 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
         }
     };
     // Measure what ended.
-    if let Study::Sweep { measure, .. } = &study {
+    if let Study::Sweep { measure, points, .. } = &study {
         for r in runs.iter_mut().filter(|r| ended(&r.state) && r.measured_done == 0) {
             let (value, note) = if r.state == "succeeded" {
+                let measure = points.get(r.idx as usize).and_then(|p| p.measure.as_ref()).unwrap_or(measure);
                 match measure_job(store, measure, r.job_id, r.result.as_deref()).await? {
                     Ok(v) => (Some(v), None),
                     Err(e) => (None, Some(e)),
@@ -281,7 +282,7 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
     };
     match &study {
         Study::Sweep { measure, reference, points } => {
-            report.measure = measure.describe();
+            report.measure = describe_measures(&spec, measure);
             match reference.formula.as_deref().map(sable_engine::study::formula::Formula::parse) {
                 Some(Ok(f)) => {
                     report.reference_source = format!("formula {}", reference.formula.as_deref().unwrap_or_default());
@@ -357,6 +358,17 @@ fn point_of(r: &RunRow) -> PointReport {
         failure: failure_of(r),
         note: r.measure_note.clone(),
         pareto: false,
+    }
+}
+
+/// What the study measures: its measure, and each series' own (`BPM: grains.phi where ...`).
+fn describe_measures(spec: &StudySpec, measure: &sable_engine::study::MeasureSpec) -> String {
+    let own: Vec<String> =
+        spec.series.iter().filter_map(|s| s.measure.as_ref().map(|m| format!("{}: {}", s.label, m.describe()))).collect();
+    match (own.len(), spec.measure.is_some()) {
+        (0, _) => measure.describe(),
+        (_, true) => format!("{}; {}", measure.describe(), own.join("; ")),
+        (_, false) => own.join("; "),
     }
 }
 

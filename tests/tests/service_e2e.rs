@@ -898,6 +898,19 @@ async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
         h.http.get(format!("{}/v1/jobs/{}/chart.svg?y=kinetic_energy&x=time", h.base, points[0]["job_id"])).send().await.expect("chart");
     assert_eq!(c.status(), 200);
     assert!(c.text().await.expect("svg").contains("kinetic_energy against time"));
+    // Two jobs on one chart, each with its own field and its own unit of x.
+    let (a, b) = (&points[0]["job_id"], &points[1]["job_id"]);
+    let both = format!("{}/v1/jobs/{a}/chart.svg?y=kinetic_energy,phi&x=time&with={b}&x_unit=1e-3,2e-3", h.base);
+    let c = h.http.get(both).send().await.expect("chart");
+    assert_eq!(c.status(), 200);
+    let svg = c.text().await.expect("svg");
+    for needle in [format!("job {a}, kinetic_energy, x over 1e-3"), format!("job {b}, phi, x over 2e-3"), "time / unit of the job".into()] {
+        assert!(svg.contains(&needle), "the chart lacks '{needle}'");
+    }
+    for (query, field) in [("x_unit=1", "x_unit"), ("x_unit=0,1", "x_unit"), ("y=p,q,phi", "y")] {
+        let (status, err) = h.get(&format!("/v1/jobs/{a}/chart.svg?x=time&with={b}&{query}")).await;
+        assert_eq!((status, err["details"][0]["field"].as_str()), (422, Some(field)), "{query}: {err}");
+    }
     // The advice for the same scene quotes what the study measured: its Pareto front.
     let (_, advice) = h.post("/v1/advice", &collision(0.02), None).await;
     let quoted = advice["expected_cost"].as_array().expect("expected cost");
@@ -1075,4 +1088,55 @@ async fn a_soft_grain_compaction_runs_as_a_job() {
     pool.close().await;
     assert_eq!(n, 9);
     assert!(phi.last().is_some_and(|&p| (phi_last - p).abs() < 1e-12), "{phi_last} against {phi:?}");
+}
+
+/// Aggregates through the service (issue 27): the DEM compaction of four aggregates
+/// (`scenes/bpm_compaction_dem_2d.json`, cut at 3e4 steps, where the top wall has met the grains)
+/// submitted by HTTP; its samples carry the grains' own Φ, Z and pressure beside the primaries',
+/// and the same values are in SQLite (the sample's `grains` part, read with `json_extract`).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/bpm_compaction_dem_2d.json")).expect("scene");
+    let mut scene: Value = serde_json::from_str(&text).expect("json");
+    scene["stop"] = json!({"steps": 30000});
+    scene["sampling"] = json!({"every_steps": 5000});
+    let h = Harness::start(1).await;
+    let (status, job) = h.post("/v1/jobs", &json!({"scene": scene}), None).await;
+    assert_eq!(status, 201, "{job}");
+    assert_eq!(job["method"], "dem");
+    let id = job["id"].as_i64().expect("id");
+    let job = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(300)).await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    let samples = body["samples"].as_array().expect("samples");
+    assert_eq!(samples.len(), 7);
+    let grains: Vec<&Value> = samples.iter().map(|s| &s["grains"]).collect();
+    assert!(grains.iter().all(|g| g["count"] == 4), "four aggregates: {grains:?}");
+    let phi: Vec<f64> = grains.iter().map(|g| g["phi"].as_f64().unwrap_or(0.0)).collect();
+    assert!(phi.windows(2).all(|w| w[1] > w[0]), "the grains' Φ must grow as the wall comes down: {phi:?}");
+    // The grains' Φ counts the pores inside each grain: above the primaries' own Φ.
+    for s in samples {
+        let (g, p) = (s["grains"]["phi"].as_f64().unwrap_or(0.0), s["phi"].as_f64().unwrap_or(1.0));
+        assert!(g > p && g < 1.0, "grains' Φ {g} against the primaries' {p}");
+    }
+    // The wall meets the top grains within these steps: some sample has a loaded grain.
+    assert!(grains.iter().any(|g| g["pressure"].as_f64().unwrap_or(0.0) > 0.0), "{grains:?}");
+    assert!(grains.iter().all(|g| g["mean_aspect_ratio"].as_f64().is_some_and(|a| (1.0..1.5).contains(&a))), "{grains:?}");
+    let url = format!("sqlite://{}?mode=ro", h.dir.path().join("sable.db").display());
+    let pool = sqlx::SqlitePool::connect(&url).await.expect("open db");
+    let stored: Vec<(f64, f64, f64)> = sqlx::query_as(
+        "SELECT json_extract(data, '$.grains.phi'), json_extract(data, '$.grains.z'), json_extract(data, '$.grains.pressure') \
+         FROM samples WHERE job_id = ? ORDER BY seq",
+    )
+    .bind(id)
+    .fetch_all(&pool)
+    .await
+    .expect("query");
+    pool.close().await;
+    assert_eq!(stored.len(), samples.len());
+    // SQLite's JSON parser may round the last digit of a double.
+    let same = |db: f64, api: &Value| api.as_f64().is_some_and(|v| (db - v).abs() <= 1e-12 * v.abs().max(1.0));
+    for (&(phi_db, z_db, p_db), g) in stored.iter().zip(&grains) {
+        assert!(same(phi_db, &g["phi"]) && same(z_db, &g["z"]) && same(p_db, &g["pressure"]), "{:?} against {g}", (phi_db, z_db, p_db));
+    }
 }

@@ -26,6 +26,7 @@ fn every_shipped_study_expands_into_valid_runs() {
             ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),
             ("restitution_dem.json".to_string(), 9),
+            ("soft_compaction_bpm_mpm.json".to_string(), 3),
             ("soft_compaction_mpm_fem.json".to_string(), 5),
         ]
     );

@@ -62,6 +62,12 @@ pub struct SeriesSpec {
     /// Swept parameters, in order; every combination of their values is a run.
     #[serde(default)]
     pub sweep: Vec<SweepSpec>,
+    /// What is measured on this series' runs instead of the study's `measure`: two models
+    /// whose samples name or scale the same quantity differently (the grains' Φ of aggregates
+    /// is `grains.phi`, of MPM grains `phi`; each model's wall stress at its own characteristic
+    /// stress).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measure: Option<MeasureSpec>,
 }
 
 /// One swept parameter.
@@ -112,6 +118,9 @@ pub struct Point {
     pub vars: std::collections::BTreeMap<String, f64>,
     /// The scene to run.
     pub scene: Value,
+    /// Its series' own measure, if it has one (else the study's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measure: Option<MeasureSpec>,
 }
 
 impl Point {
@@ -239,6 +248,11 @@ fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation
                 fail(&mut v, format!("{at}.set.{path}"), e);
             }
         }
+        if let Some(m) = &series.measure {
+            for (f, rule) in m.check() {
+                fail(&mut v, if f.is_empty() { format!("{at}.measure") } else { format!("{at}.measure.{f}") }, rule);
+            }
+        }
         let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
         for (j, sw) in series.sweep.iter().enumerate() {
             if sw.values.is_empty() {
@@ -283,7 +297,7 @@ fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation
                 .chain(params.iter().map(|(p, v)| (p, v)))
                 .filter_map(|(p, v)| v.as_f64().map(|x| (formula::variable_of(p), x)))
                 .collect();
-            points.push(Point { index: points.len(), series: series.label.clone(), params, vars, scene });
+            points.push(Point { index: points.len(), series: series.label.clone(), params, vars, scene, measure: series.measure.clone() });
         }
     }
     let measure = match &spec.measure {
@@ -294,7 +308,9 @@ fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation
             m.clone()
         }
         None => {
-            fail(&mut v, "measure".into(), "required: what to measure on each run".into());
+            if spec.series.iter().any(|s| s.measure.is_none()) {
+                fail(&mut v, "measure".into(), "required: what to measure on each run (unless every series has its own)".into());
+            }
             MeasureSpec::default()
         }
     };
@@ -339,6 +355,9 @@ fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation
                 if !x.is_finite() {
                     fail(&mut v, "reference.value".into(), "must be a finite number".into());
                 }
+            }
+            if r.job.is_some() && spec.measure.is_none() {
+                fail(&mut v, "measure".into(), "a job as reference is measured by the study's measure: give one".into());
             }
             if let Some(label) = &r.finest {
                 if !spec.series.iter().any(|s| &s.label == label) {
@@ -439,5 +458,36 @@ mod tests {
         assert_eq!(v[0].field, "search.high");
         let unknown = json!({"scene": base(), "serie": []});
         assert!(parse_study(&unknown.to_string()).expect_err("rejected")[0].rule.starts_with("unknown field `serie`"));
+    }
+    #[test]
+    fn a_series_may_measure_its_own_quantity() {
+        let study = json!({
+            "scene": base(),
+            "series": [
+                {"label": "grains", "measure": {"sample": "grains.phi"}},
+                {"label": "disks", "set": {"method": "cd"}, "measure": {"sample": "phi", "at": "peak"}}
+            ],
+            "reference": {"finest": "disks"}
+        });
+        let (_, s) = parse_study(&study.to_string()).expect("valid: every series has its measure");
+        let Study::Sweep { points, .. } = s else { panic!("a sweep") };
+        let own: Vec<Option<String>> = points.iter().map(|p| p.measure.as_ref().and_then(|m| m.sample.clone())).collect();
+        assert_eq!(own, vec![Some("grains.phi".to_string()), Some("phi".to_string())]);
+        // One series without a measure of its own needs the study's; a series' measure is checked
+        // like the study's; a job as reference is measured by the study's measure.
+        let mut bad = study.clone();
+        bad["series"][1].as_object_mut().expect("series").remove("measure");
+        bad["series"][0]["measure"]["from"] = json!(-1);
+        bad["reference"] = json!({"job": 3});
+        let got: Vec<String> =
+            parse_study(&bad.to_string()).expect_err("rejected").iter().map(|x| format!("{}: {}", x.field, x.rule)).collect();
+        assert_eq!(
+            got,
+            vec![
+                "series[0].measure.from: must be in [0, 1), got -1",
+                "measure: required: what to measure on each run (unless every series has its own)",
+                "measure: a job as reference is measured by the study's measure: give one",
+            ]
+        );
     }
 }
