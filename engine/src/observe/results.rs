@@ -42,6 +42,10 @@ use crate::scene::{CompactionDrive, ElasticLaw, Experiment, Scene, StateFile};
 pub const QUASI_STATIC_I: Real = 1e-3;
 /// Stiffness number below which contacts are not in the rigid limit.
 pub const RIGID_KAPPA: Real = 1e4;
+/// The same for the primaries of aggregates: their contacts may deflect by 1% of a primary,
+/// the bound validation puts on them at `F_0` (`k_n ≥ 100 F_0 / d_min`): the attraction, not
+/// the contacts, sets how an aggregate deforms, and it varies over `a_0 / γ`, 14% of a primary.
+pub const AGGREGATE_KAPPA: Real = 100.0;
 /// Fraction of the axial strain over which the steady state is averaged (the last quarter).
 pub const STEADY_WINDOW: Real = 0.25;
 /// Fraction of the final wall stress that marks the onset of load in a compaction.
@@ -314,6 +318,8 @@ pub struct Analysis {
     wet: Option<WetScales>,
     /// The grains deform (method `mpm`): they are meant to be far from the rigid limit.
     deformable: bool,
+    /// The grains are aggregates: the rigid limit is the primaries' ([`AGGREGATE_KAPPA`]).
+    aggregates: bool,
 }
 
 impl Analysis {
@@ -339,6 +345,8 @@ impl Analysis {
             grains: None,
             wet,
             deformable: matches!(scene.method, crate::scene::Method::Mpm(_) | crate::scene::Method::Fem(_)),
+            aggregates: scene.sets.iter().any(|s| s.aggregate.is_some())
+                || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty()),
         }
     }
 
@@ -562,10 +570,16 @@ impl Analysis {
                 "not quasi-static: inertial number I = {i:.2e} > {QUASI_STATIC_I:e}; lower the strain rate (or the wall speed) for quasi-static results"
             ));
         }
-        if let Some(k) = r.stiffness_number.filter(|&k| !self.deformable && k < RIGID_KAPPA * (1.0 - 1e-9)) {
+        let rigid = if self.aggregates { AGGREGATE_KAPPA } else { RIGID_KAPPA };
+        if let Some(k) = r.stiffness_number.filter(|&k| !self.deformable && k < rigid * (1.0 - 1e-9)) {
+            let what = if self.aggregates {
+                "the primaries' contacts deflect by about {d} of a primary, more than the 1% they may at F_0"
+            } else {
+                "contacts deflect by about {d} of a diameter"
+            };
             r.warnings.push(format!(
-                "not in the rigid limit: stiffness number {k:.2e} < {RIGID_KAPPA:e} (contacts deflect by about {:.1e} of a diameter); stiffen the contacts or lower the stress",
-                1.0 / k
+                "not in the rigid limit: stiffness number {k:.2e} < {rigid:e} ({}); stiffen the contacts or lower the stress",
+                what.replace("{d}", &format!("{:.1e}", 1.0 / k))
             ));
         }
         Some(r)
@@ -777,5 +791,27 @@ mod tests {
         let r = a.finish(1e-3, 2500.0).expect("result");
         assert_eq!(r.warnings.len(), 2, "{:?}", r.warnings);
         assert!(r.warnings[0].starts_with("not quasi-static") && r.warnings[1].starts_with("not in the rigid limit"));
+    }
+
+    /// Aggregates: κ = 1e3 is rigid enough for their primaries (their contacts deflect by 0.1%
+    /// of a primary); κ = 50 is not, and the warning says it of the primaries.
+    #[test]
+    fn aggregates_are_judged_by_the_rigidity_of_their_primaries() {
+        let warnings = |k_n: f64| {
+            let mut a = biaxial_analysis(k_n, 1e-4);
+            a.aggregates = true;
+            a.push(&sample(0, "loading", 0.0, 0.0, 0.0));
+            a.push(&sample(1, "loading", 0.01, 0.1, 0.0));
+            a.finish(1e-3, 2500.0).expect("result").warnings
+        };
+        assert!(warnings(1e5).is_empty(), "{:?}", warnings(1e5));
+        let w = warnings(5e3);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with(
+                "not in the rigid limit: stiffness number 5.00e1 < 1e2 (the primaries' contacts deflect by about 2.0e-2 of a primary"
+            ),
+            "{w:?}"
+        );
     }
 }

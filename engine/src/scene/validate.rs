@@ -164,7 +164,21 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     if !auto && matches!(method, Method::Dem(_)) {
         for (k, set) in sets.iter().enumerate() {
             if let (Some(a), Some(m)) = (&set.aggregate, materials.get(set.material)) {
-                check_dem_aggregate(&mut c, &format!("particles[{k}].model"), a, m);
+                check_dem_aggregate(&mut c, &format!("particles[{k}].model"), a.bonding, a.primaries.min_diameter(), m);
+            }
+        }
+        // The aggregates a saved state holds: the same rules, with the primaries it holds.
+        if let Some(st) = &initial {
+            for (k, b) in st.bondings.iter().enumerate() {
+                let primaries = (0..st.radius.len()).filter(|&i| st.aggregate.get(i).is_some_and(|&a| a as usize == k));
+                let (mut d_min, mut material) = (Real::INFINITY, None);
+                for i in primaries {
+                    d_min = d_min.min(2.0 * st.radius[i]);
+                    material = material.or(st.material.get(i).copied());
+                }
+                if let Some(m) = material.and_then(|m| materials.get(m)) {
+                    check_dem_aggregate(&mut c, &format!("start_from.state.bondings[{k}]"), *b, d_min, m);
+                }
             }
         }
     }
@@ -1183,11 +1197,11 @@ fn check_grain_model(
 /// smallest primary's diameter, that DEM accepts: the model's primaries are rigid.
 const DEM_PRIMARY_OVERLAP: Real = 0.01;
 
-/// The rules of an aggregate set `a` of material `m` run by DEM: its primaries touch by their
-/// material's contact law, which must therefore carry the bond's friction, and hold `F_0` at
-/// an overlap of at most [`DEM_PRIMARY_OVERLAP`] of the smallest primary.
-fn check_dem_aggregate(c: &mut Checker, path: &str, a: &AggregateModel, m: &Material) {
-    let b = a.bonding;
+/// The rules of aggregates bonded by `b` (a set's model, or a saved state's bonding, named by
+/// `path`) whose primaries are of material `m`, the smallest `d_min` across, run by DEM: the
+/// primaries touch by their material's contact law, which must therefore carry the bond's
+/// friction, and hold `F_0` at an overlap of at most [`DEM_PRIMARY_OVERLAP`] of `d_min`.
+fn check_dem_aggregate(c: &mut Checker, path: &str, b: crate::particles::aggregate::Bonding, d_min: Real, m: &Material) {
     if b.friction != m.friction {
         c.fail(
             format!("{path}.friction"),
@@ -1197,8 +1211,7 @@ fn check_dem_aggregate(c: &mut Checker, path: &str, a: &AggregateModel, m: &Mate
             ),
         );
     }
-    let d_min = a.primaries.min_diameter();
-    if !(d_min > 0.0 && b.attraction.f0 > 0.0) {
+    if !(d_min.is_finite() && d_min > 0.0 && b.attraction.f0 > 0.0) {
         return;
     }
     let law = crate::contact::ContactTable::new(std::slice::from_ref(m));
@@ -1479,6 +1492,31 @@ mod tests {
         }
         assert!(r.iter().any(|x| x.contains("k_n >= 1.429e8")), "{r:#?}");
         assert!(!r.iter().any(|x| x.starts_with("method:")), "{r:#?}");
+        // The same rules for the aggregates a saved state holds: two primaries of 0.1 and
+        // 0.12 mm bonded by F_0 = 100 N/m need k_n >= 100 / 1e-6 = 1e8 N/m.
+        let state = serde_json::json!({
+            "format": "sable-state", "version": 1, "dimension": 2, "min": [0.0, 0.0], "max": [1e-3, 1e-3],
+            "materials": ["primary"],
+            "particles": {
+                "material": [0, 0], "radius": [5e-5, 6e-5], "position": [[4e-4, 5e-4], [5.1e-4, 5e-4]],
+                "velocity": [[0.0, 0.0], [0.0, 0.0]], "angular_velocity": [[0.0], [0.0]], "aggregate": [0, 0]
+            },
+            "bondings": [{"force": 100.0, "exponent": 7.0, "cutoff": 1.3e-4, "friction": 0.0}]
+        });
+        let saved = |k_n: f64, friction: f64| {
+            rules(
+                &serde_json::json!({
+                    "dimension": 2, "method": "dem",
+                    "materials": {"primary": {"density": 2000, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.2, "friction": friction}},
+                    "start_from": {"state": state}, "container": {"wall_material": "primary"}, "stop": {"steps": 10}
+                })
+                .to_string(),
+            )
+        };
+        assert!(saved(1.1e8, 0.0).is_empty(), "{:#?}", saved(1.1e8, 0.0));
+        let r = saved(1e6, 0.3);
+        assert!(r.iter().any(|x| x.starts_with("start_from.state.bondings[0].friction: with method dem")), "{r:#?}");
+        assert!(r.iter().any(|x| x.starts_with("materials.primary.contact: with method dem") && x.contains("k_n >= 1.000e8")), "{r:#?}");
         // Grains too small for their primaries.
         let small = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "monodisperse", "diameter": 2e-4}, "attraction": {"force": 100.0}});
         let r = rules(&aggregate_scene(serde_json::json!("cd"), small, false));
