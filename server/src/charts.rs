@@ -126,7 +126,12 @@ const LINE_SIZE: f64 = 13.0;
 /// sans-serif font of `size` px (a character taken as 0.55 of the size, a little wider than
 /// the mean), with "…" where it was cut: study names run long and were clipped at both sides.
 fn fit(text: &str, size: f64, reserve: usize) -> String {
-    let room = ((f64::from(SIZE.0) - 40.0) / (0.55 * size)) as usize;
+    fit_along(text, size, f64::from(SIZE.0) - 40.0, reserve)
+}
+
+/// [`fit`] along `length` px (the height, for an axis' description).
+fn fit_along(text: &str, size: f64, length: f64, reserve: usize) -> String {
+    let room = (length / (0.55 * size)) as usize;
     let room = room.saturating_sub(reserve).max(8);
     if text.chars().count() <= room {
         return text.to_string();
@@ -188,7 +193,13 @@ fn sweep_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, re
         .x_label_formatter(&|v| format!("{v:.2e}"))
         .y_label_formatter(&|v| format!("{v:.1e}"))
         .x_desc(if cpu { "cost: CPU time of the run, s" } else { "cost: wall-clock time of the run, s" })
-        .y_desc(format!("{} error of {}", if relative { "relative" } else { "absolute" }, report.measure))
+        // Two models' measures (one per series) run long: cut to the axis' height.
+        .y_desc(fit_along(
+            &format!("{} error of {}", if relative { "relative" } else { "absolute" }, report.measure),
+            15.0,
+            f64::from(SIZE.1) - 140.0,
+            0,
+        ))
         .axis_desc_style(("sans-serif", 15))
         .draw()
         .map_err(err)?;

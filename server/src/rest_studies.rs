@@ -148,6 +148,16 @@ pub(crate) async fn job_chart_png(
     samples_chart(&st, &id, q, Format::Png).await
 }
 
+/// A job's name as a legend: a study's run by its series and values (what follows the study's
+/// name), any other name cut to 60 characters.
+fn legend_name(name: &str) -> String {
+    let short = name.rsplit_once(" · ").map_or(name, |(_, run)| run);
+    match short.char_indices().nth(60) {
+        Some((cut, _)) => format!("{}…", &short[..cut]),
+        None => short.to_string(),
+    }
+}
+
 async fn samples_chart(
     st: &AppState,
     id: &str,
@@ -217,9 +227,9 @@ async fn samples_chart(
         }
         let scaled = if p.x_unit.is_some() { format!(", x over {:e}", units[k]) } else { String::new() };
         let field = if ys.len() > 1 { format!(", {y}") } else { String::new() };
-        series.push((format!("job {id}{field}{scaled}: {}", job.name), pts));
+        series.push((format!("job {id}{field}{scaled}: {}", legend_name(&job.name)), pts));
     }
-    let title = format!("{y} against {x}{}", if p.x_unit.is_some() { " over each job's unit" } else { "" });
+    let title = format!("{} against {x}{}", ys.join(" | "), if p.x_unit.is_some() { " over each job's unit" } else { "" });
     let unit = |f: &str| match f {
         "time" => "time, s".to_string(),
         "strain" => "deviatoric strain of the stage".to_string(),

@@ -904,9 +904,16 @@ async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
     let c = h.http.get(both).send().await.expect("chart");
     assert_eq!(c.status(), 200);
     let svg = c.text().await.expect("svg");
-    for needle in [format!("job {a}, kinetic_energy, x over 1e-3"), format!("job {b}, phi, x over 2e-3"), "time / unit of the job".into()] {
+    // A study's run is named in the legend by its series and values.
+    for needle in [
+        format!("job {a}, kinetic_energy, x over 1e-3: DEM 5e-3"),
+        format!("job {b}, phi, x over 2e-3: DEM 0.05"),
+        "kinetic_energy | phi against time over each job&apos;s unit".into(),
+        "time / unit of the job".into(),
+    ] {
         assert!(svg.contains(&needle), "the chart lacks '{needle}'");
     }
+    assert!(!svg.contains("restitution against the step"), "the legend repeats the study's name");
     for (query, field) in [("x_unit=1", "x_unit"), ("x_unit=0,1", "x_unit"), ("y=p,q,phi", "y")] {
         let (status, err) = h.get(&format!("/v1/jobs/{a}/chart.svg?x=time&with={b}&{query}")).await;
         assert_eq!((status, err["details"][0]["field"].as_str()), (422, Some(field)), "{query}: {err}");
