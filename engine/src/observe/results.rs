@@ -572,14 +572,14 @@ impl Analysis {
         }
         let rigid = if self.aggregates { AGGREGATE_KAPPA } else { RIGID_KAPPA };
         if let Some(k) = r.stiffness_number.filter(|&k| !self.deformable && k < rigid * (1.0 - 1e-9)) {
+            let deflection = 1.0 / k;
             let what = if self.aggregates {
-                "the primaries' contacts deflect by about {d} of a primary, more than the 1% they may at F_0"
+                format!("the primaries' contacts deflect by about {deflection:.1e} of a primary, more than the 1% they may at F_0")
             } else {
-                "contacts deflect by about {d} of a diameter"
+                format!("contacts deflect by about {deflection:.1e} of a diameter")
             };
             r.warnings.push(format!(
-                "not in the rigid limit: stiffness number {k:.2e} < {rigid:e} ({}); stiffen the contacts or lower the stress",
-                what.replace("{d}", &format!("{:.1e}", 1.0 / k))
+                "not in the rigid limit: stiffness number {k:.2e} < {rigid:e} ({what}); stiffen the contacts or lower the stress"
             ));
         }
         Some(r)

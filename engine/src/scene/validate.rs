@@ -169,13 +169,15 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         }
         // The aggregates a saved state holds: the same rules, with the primaries it holds.
         if let Some(st) = &initial {
-            for (k, b) in st.bondings.iter().enumerate() {
-                let primaries = (0..st.radius.len()).filter(|&i| st.aggregate.get(i).is_some_and(|&a| a as usize == k));
-                let (mut d_min, mut material) = (Real::INFINITY, None);
-                for i in primaries {
-                    d_min = d_min.min(2.0 * st.radius[i]);
-                    material = material.or(st.material.get(i).copied());
+            // One pass over the particles: each aggregate's smallest primary and its material.
+            let mut of: Vec<(Real, Option<usize>)> = vec![(Real::INFINITY, None); st.bondings.len()];
+            for (i, &a) in st.aggregate.iter().enumerate() {
+                if let (Some(o), Some(&r)) = (of.get_mut(a as usize), st.radius.get(i)) {
+                    o.0 = o.0.min(2.0 * r);
+                    o.1 = o.1.or(st.material.get(i).copied());
                 }
+            }
+            for (k, (b, (d_min, material))) in st.bondings.iter().zip(of).enumerate() {
                 if let Some(m) = material.and_then(|m| materials.get(m)) {
                     check_dem_aggregate(&mut c, &format!("start_from.state.bondings[{k}]"), *b, d_min, m);
                 }
