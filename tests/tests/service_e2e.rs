@@ -1058,6 +1058,22 @@ async fn a_formula_reference_is_evaluated_for_each_run() {
     );
 }
 
+/// Submits `scenes/{file}`, changed by `edit`, by HTTP; checks that it runs by `method` and
+/// succeeds; returns its id and samples.
+async fn run_shipped_scene(h: &Harness, file: &str, method: &str, edit: impl FnOnce(&mut Value)) -> (i64, Vec<Value>) {
+    let path = format!("{}/../scenes/{file}", env!("CARGO_MANIFEST_DIR"));
+    let mut scene: Value = serde_json::from_str(&std::fs::read_to_string(&path).expect("scene")).expect("json");
+    edit(&mut scene);
+    let (status, job) = h.post("/v1/jobs", &json!({"scene": scene}), None).await;
+    assert_eq!(status, 201, "{job}");
+    assert_eq!(job["method"], method);
+    let id = job["id"].as_i64().expect("id");
+    let job = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(300)).await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    (id, body["samples"].as_array().expect("samples").clone())
+}
+
 /// Deformable grains through the service: the CI compaction of soft disks
 /// (`scenes/mpm_compaction_2d.json`, its wall twice as fast and cut at 400 steps, Φ 0.73, where
 /// the grains press on each other: before Φ ≈ 0.67 the first ones the wall meets bounce, and Z
@@ -1065,20 +1081,13 @@ async fn a_formula_reference_is_evaluated_for_each_run() {
 /// current area, Z, the stress and the `deformable` part — and the same rows in SQLite.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_soft_grain_compaction_runs_as_a_job() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json")).expect("scene");
-    let mut scene: Value = serde_json::from_str(&text).expect("json");
-    scene["container"]["walls"]["y_max"]["velocity"] = json!([0.0, -0.2]);
-    scene["stop"] = json!({"steps": 400});
-    scene["sampling"] = json!({"every_steps": 50});
     let h = Harness::start(1).await;
-    let (status, job) = h.post("/v1/jobs", &json!({"scene": scene}), None).await;
-    assert_eq!(status, 201, "{job}");
-    assert_eq!(job["method"], "mpm");
-    let id = job["id"].as_i64().expect("id");
-    let job = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(300)).await;
-    assert_eq!(job["state"], "succeeded", "{job}");
-    let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
-    let samples = body["samples"].as_array().expect("samples");
+    let (id, samples) = run_shipped_scene(&h, "mpm_compaction_2d.json", "mpm", |scene| {
+        scene["container"]["walls"]["y_max"]["velocity"] = json!([0.0, -0.2]);
+        scene["stop"] = json!({"steps": 400});
+        scene["sampling"] = json!({"every_steps": 50});
+    })
+    .await;
     assert_eq!(samples.len(), 9);
     let phi: Vec<f64> = samples.iter().map(|s| s["phi"].as_f64().unwrap_or(0.0)).collect();
     assert!(phi.windows(2).all(|w| w[1] > w[0]), "Φ must grow as the wall comes down: {phi:?}");
@@ -1103,26 +1112,19 @@ async fn a_soft_grain_compaction_runs_as_a_job() {
 /// and the same values are in SQLite (the sample's `grains` part, read with `json_extract`).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/bpm_compaction_dem_2d.json")).expect("scene");
-    let mut scene: Value = serde_json::from_str(&text).expect("json");
-    scene["stop"] = json!({"steps": 30000});
-    scene["sampling"] = json!({"every_steps": 5000});
     let h = Harness::start(1).await;
-    let (status, job) = h.post("/v1/jobs", &json!({"scene": scene}), None).await;
-    assert_eq!(status, 201, "{job}");
-    assert_eq!(job["method"], "dem");
-    let id = job["id"].as_i64().expect("id");
-    let job = h.wait_state(id, &["succeeded", "failed"], Duration::from_secs(300)).await;
-    assert_eq!(job["state"], "succeeded", "{job}");
-    let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
-    let samples = body["samples"].as_array().expect("samples");
+    let (id, samples) = run_shipped_scene(&h, "bpm_compaction_dem_2d.json", "dem", |scene| {
+        scene["stop"] = json!({"steps": 30000});
+        scene["sampling"] = json!({"every_steps": 5000});
+    })
+    .await;
     assert_eq!(samples.len(), 7);
     let grains: Vec<&Value> = samples.iter().map(|s| &s["grains"]).collect();
     assert!(grains.iter().all(|g| g["count"] == 4), "four aggregates: {grains:?}");
     let phi: Vec<f64> = grains.iter().map(|g| g["phi"].as_f64().unwrap_or(0.0)).collect();
     assert!(phi.windows(2).all(|w| w[1] > w[0]), "the grains' Φ must grow as the wall comes down: {phi:?}");
     // The grains' Φ counts the pores inside each grain: above the primaries' own Φ.
-    for s in samples {
+    for s in &samples {
         let (g, p) = (s["grains"]["phi"].as_f64().unwrap_or(0.0), s["phi"].as_f64().unwrap_or(1.0));
         assert!(g > p && g < 1.0, "grains' Φ {g} against the primaries' {p}");
     }
