@@ -1,0 +1,47 @@
+//! The Python client (client/python) against this build of `sable serve`: installs the package
+//! with pip into a virtual environment under the target directory (once; then only the package
+//! itself is reinstalled) and runs its pytest suite, which starts the server from
+//! `CARGO_BIN_EXE_sable`. Needs `python3` (3.10 or later, with venv and pip) and the PyPI
+//! registry on the first run.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn run(what: &str, cmd: &mut Command) {
+    let out = cmd.output().unwrap_or_else(|e| panic!("{what}: cannot start {cmd:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "{what} failed ({}):\n--- stdout\n{}\n--- stderr\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn target_dir(root: &Path) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| root.join("target"))
+}
+
+#[test]
+fn the_python_client_passes_its_tests_against_this_server() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the workspace root").to_path_buf();
+    let venv = target_dir(&root).join("python-client-venv");
+    let python = venv.join("bin").join("python");
+    if !python.is_file() {
+        let system = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
+        run("creating the virtual environment", Command::new(system).args(["-m", "venv"]).arg(&venv));
+    }
+    run(
+        "pip install ./client/python[test]",
+        Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "./client/python[test]"])
+            .current_dir(&root),
+    );
+    run(
+        "pytest client/python/tests",
+        Command::new(&python)
+            .args(["-m", "pytest", "client/python/tests", "-q", "-p", "no:cacheprovider"])
+            .env("SABLE_BIN", env!("CARGO_BIN_EXE_sable"))
+            .current_dir(&root),
+    );
+}
