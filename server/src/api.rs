@@ -7,6 +7,7 @@ use serde::Serialize;
 use sha2::{Digest, Sha256};
 
 use crate::start_from;
+pub use crate::store::downsample;
 use crate::store::{JobRow, JobState, JobStore, ListFilter, NewJob, StoreError};
 
 /// Every error the APIs return. Messages name the field and the rule, never internals.
@@ -519,15 +520,27 @@ pub async fn list(store: &JobStore, q: ListQuery) -> Result<(Vec<JobView>, Optio
     Ok((rows.into_iter().map(JobView::from).collect(), next))
 }
 
+/// A job's samples as read: the scene's dimension, the samples, and the job's last event
+/// sequence number at the read ([`JobStore::samples_and_seq`]).
+#[derive(Debug)]
+pub struct SampleRead {
+    /// The scene's dimension.
+    pub dim: usize,
+    /// In step order.
+    pub samples: Vec<Sample>,
+    /// Resume the job's event stream after it for the samples stored since.
+    pub events_seq: i64,
+}
+
 /// A job's samples in a step range, keeping at most `max_points` evenly spread (the last one
-/// always kept). Returns the scene's dimension with them.
+/// always kept).
 pub async fn samples(
     store: &JobStore,
     id: i64,
     from_step: u64,
     to_step: Option<u64>,
     max_points: Option<u32>,
-) -> Result<(usize, Vec<Sample>), ApiError> {
+) -> Result<SampleRead, ApiError> {
     if let Some(to) = to_step {
         if to < from_step {
             return Err(ApiError::invalid("to_step", format!("must be >= from_step ({from_step}), got {to}")));
@@ -537,21 +550,8 @@ pub async fn samples(
     let dim =
         serde_json::from_str::<serde_json::Value>(&job.scene).ok().and_then(|v| v.get("dimension").and_then(|d| d.as_u64())).unwrap_or(3)
             as usize;
-    let all = store.samples(id, from_step, to_step).await?;
-    Ok((dim, downsample(all, max_points.unwrap_or(0) as usize)))
-}
-
-/// Keeps at most `max` of `v` (0 = all), evenly spread, first and last included.
-pub fn downsample<T>(v: Vec<T>, max: usize) -> Vec<T> {
-    if max == 0 || v.len() <= max {
-        return v;
-    }
-    if max == 1 {
-        return v.into_iter().last().into_iter().collect();
-    }
-    let n = v.len();
-    let keep: Vec<usize> = (0..max).map(|k| (k * (n - 1) + (max - 1) / 2) / (max - 1)).collect();
-    v.into_iter().enumerate().filter(|(i, _)| keep.binary_search(i).is_ok()).map(|(_, x)| x).collect()
+    let (samples, events_seq) = store.samples_and_seq(id, from_step, to_step, max_points.unwrap_or(0) as usize).await?;
+    Ok(SampleRead { dim, samples, events_seq })
 }
 
 #[cfg(test)]

@@ -253,7 +253,7 @@ impl pb::simulations_server::Simulations for SimulationsService {
     async fn get_samples(&self, req: Request<pb::GetSamplesRequest>) -> Result<Response<pb::GetSamplesResponse>, Status> {
         let r = req.into_inner();
         let to = (r.to_step > 0).then_some(r.to_step);
-        let (_, samples) = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?;
+        let samples = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?.samples;
         let samples_json = samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
         Ok(Response::new(pb::GetSamplesResponse { samples_json }))
     }

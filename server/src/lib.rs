@@ -7,6 +7,7 @@
 
 pub mod api;
 pub mod charts;
+pub mod dashboard;
 pub mod grpc;
 pub mod metrics;
 pub mod openapi;

@@ -14,6 +14,7 @@
 //! | GET | `/v1/jobs/{id}/state` | the final state of a succeeded job (JSON; a scene's `start_from`) |
 //! | GET | `/v1/openapi.json` | the OpenAPI document |
 //! | GET | `/healthz`, `/metrics` | liveness, Prometheus text |
+//! | GET | `/`, `/assets/...` | the browser dashboard ([`crate::dashboard`]) |
 
 use std::convert::Infallible;
 use std::sync::Arc;
@@ -86,6 +87,7 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/openapi.json", get(openapi))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
+        .merge(crate::dashboard::router())
         .fallback(not_found)
         .layer(axum::extract::DefaultBodyLimit::max(limit))
         .with_state(state)
@@ -336,6 +338,9 @@ pub(crate) struct SamplePage {
     job_id: i64,
     /// In step order, with the engine's field names.
     samples: Vec<Sample>,
+    /// The job's last event sequence number when the samples were read: the event stream
+    /// resumed after it (`after_seq`) brings exactly the samples stored since.
+    events_seq: i64,
 }
 
 /// `GET /v1/jobs/{id}/samples`.
@@ -364,11 +369,11 @@ pub(crate) async fn samples(
         Some("csv") => true,
         Some(f) => return Err(ApiError::invalid("format", format!("must be json or csv, got '{f}'"))),
     };
-    let (dim, samples) = api::samples(&st.store, id, p.from_step.unwrap_or(0), p.to_step, p.max_points).await?;
+    let read = api::samples(&st.store, id, p.from_step.unwrap_or(0), p.to_step, p.max_points).await?;
     if csv {
-        Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(dim, &samples)).into_response())
+        Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(read.dim, &read.samples)).into_response())
     } else {
-        Ok(Json(SamplePage { job_id: id, samples }).into_response())
+        Ok(Json(SamplePage { job_id: id, samples: read.samples, events_seq: read.events_seq }).into_response())
     }
 }
 

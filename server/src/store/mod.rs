@@ -314,18 +314,60 @@ impl JobStore {
 
     /// Samples of a job in a step range, in order.
     pub async fn samples(&self, id: i64, from_step: u64, to_step: Option<u64>) -> Result<Vec<Sample>, StoreError> {
+        Ok(self.samples_and_seq(id, from_step, to_step, 0).await?.0)
+    }
+
+    /// Samples of a job in a step range, in order, at most `max_points` of them evenly spread
+    /// ([`downsample`]; 0 = all), with the sequence number of the job's last event when they
+    /// were read (one read transaction; a worker stores its samples and their events in one
+    /// write): the job's event stream resumed after it brings exactly the samples stored since.
+    /// Only the kept samples are read and decoded (a 2,000-point view of 100,000 samples).
+    pub async fn samples_and_seq(
+        &self,
+        id: i64,
+        from_step: u64,
+        to_step: Option<u64>,
+        max_points: usize,
+    ) -> Result<(Vec<Sample>, i64), StoreError> {
         self.get(id).await?;
-        let rows: Vec<String> = sqlx::query_scalar("SELECT data FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
+        let to = to_step.map_or(i64::MAX, |s| s.min(i64::MAX as u64) as i64);
+        let mut tx = self.reader.begin().await?;
+        let seqs: Vec<i64> = sqlx::query_scalar("SELECT seq FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
             .bind(id)
             .bind(from_step as i64)
-            .bind(to_step.map_or(i64::MAX, |s| s.min(i64::MAX as u64) as i64))
-            .fetch_all(&self.reader)
+            .bind(to)
+            .fetch_all(&mut *tx)
             .await?;
+        let all = seqs.len();
+        let keep = downsample(seqs, max_points);
+        let rows: Vec<String> = if keep.len() == all {
+            sqlx::query_scalar("SELECT data FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
+                .bind(id)
+                .bind(from_step as i64)
+                .bind(to)
+                .fetch_all(&mut *tx)
+                .await?
+        } else {
+            let mut rows = Vec::with_capacity(keep.len());
+            for chunk in keep.chunks(500) {
+                let marks = vec!["?"; chunk.len()].join(",");
+                let sql = format!("SELECT data FROM samples WHERE job_id = ? AND seq IN ({marks}) ORDER BY seq");
+                let mut q = sqlx::query_scalar::<_, String>(&sql).bind(id);
+                for s in chunk {
+                    q = q.bind(*s);
+                }
+                rows.extend(q.fetch_all(&mut *tx).await?);
+            }
+            rows
+        };
+        let seq: i64 =
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM job_events WHERE job_id = ?").bind(id).fetch_one(&mut *tx).await?;
+        tx.commit().await?;
         let mut out = Vec::with_capacity(rows.len());
         for r in rows {
             out.push(serde_json::from_str(&r).map_err(|e| sqlx::Error::Decode(Box::new(e)))?);
         }
-        Ok(out)
+        Ok((out, seq))
     }
 
     /// The snapshots of a job, in order, without their files.
@@ -671,4 +713,17 @@ impl JobSource for JobStore {
     async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {
         JobStore::finish(self, lease, &outcome).await.map_err(|e| source_error(e, Some(lease)))
     }
+}
+
+/// Keeps at most `max` of `v` (0 = all), evenly spread, first and last included.
+pub fn downsample<T>(v: Vec<T>, max: usize) -> Vec<T> {
+    if max == 0 || v.len() <= max {
+        return v;
+    }
+    if max == 1 {
+        return v.into_iter().last().into_iter().collect();
+    }
+    let n = v.len();
+    let keep: Vec<usize> = (0..max).map(|k| (k * (n - 1) + (max - 1) / 2) / (max - 1)).collect();
+    v.into_iter().enumerate().filter(|(i, _)| keep.binary_search(i).is_ok()).map(|(_, x)| x).collect()
 }
