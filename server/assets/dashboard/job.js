@@ -102,7 +102,7 @@ export async function jobPage(id, onLeave) {
         scales: { x: { time: false } },
         axes: [
           { label: x === "time" ? "time (s)" : x === "step" ? "step" : `${x} (—)`, stroke: "currentColor", grid: { stroke: "rgba(128,128,128,.2)" } },
-          { label: d.y, stroke: "currentColor", size: 70, grid: { stroke: "rgba(128,128,128,.2)" } },
+          { label: d.y, stroke: "currentColor", size: 70, grid: { stroke: "rgba(128,128,128,.2)" }, values: (_, ticks) => ticks.map(num) },
         ],
         series: [{ label: x }, ...series.map(([, label], k) => ({ label, stroke: COLOURS[k], width: 1.5, points: { show: false } }))],
       };

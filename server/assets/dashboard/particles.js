@@ -1,7 +1,8 @@
 // The particles of a job's latest snapshot (or, without snapshots, of its final state) drawn on a
 // canvas: disks coloured by a chosen field, and the contact forces as lines whose width is the
 // normal force (the force chains). Deformable grains (mpm) are drawn as their material points'
-// quads. 3D scenes are projected on the x–y plane, farthest (lowest z) first.
+// quads. 3D scenes are seen from a side (or from above), nearest last, whole or as a slice two
+// diameters thick through the middle.
 
 import { api } from "./api.js";
 import { el, num } from "./ui.js";
@@ -62,7 +63,7 @@ async function load(job) {
     const [p, c] = await Promise.all([api.snapshotFile(job.id, last.index, "particles"), api.snapshotFile(job.id, last.index, "contacts")]);
     const parts = parsePolyData(p), contacts = parsePolyData(c);
     const n = parts.points.length / 3;
-    const d = { source: `snapshot ${last.index} at step ${last.step.toLocaleString()}, t = ${num(last.time)} s`, n, xyz: parts.points, fields: {}, contacts: null, polys: null };
+    const d = { source: `snapshot ${last.index} at step ${last.step.toLocaleString()}, t = ${num(last.time)} s`, n, xyz: parts.points, fields: {}, contacts: null, polys: null, dim3: job.scene.dimension === 3 };
     if (parts.cells.polys && parts.cells.polys.length) {
       d.polys = parts.cells.polys;
       for (const [name, a] of Object.entries(parts.cellData)) d.fields[name] = Array.from({ length: d.polys.length }, (_, k) => magnitude(a, k));
@@ -86,21 +87,33 @@ async function load(job) {
   p.position.forEach((x, k) => { xyz[3 * k] = x[0]; xyz[3 * k + 1] = x[1]; xyz[3 * k + 2] = dim === 3 ? x[2] : 0; });
   return {
     source: `final state at step ${st.steps.toLocaleString()}, t = ${num(st.time)} s (no snapshots: no contact forces)`,
-    n, xyz, radius: Float64Array.from(p.radius), contacts: null, polys: null,
+    n, xyz, radius: Float64Array.from(p.radius), contacts: null, polys: null, dim3: dim === 3,
     fields: { radius: p.radius, speed: p.velocity.map((v) => Math.hypot(...v)), material: p.material },
   };
 }
 
-function draw(canvas, d, field, showContacts) {
+/** The view of a 3D scene: the screen's axes (indices into x, y, z) and the depth axis. */
+const VIEWS = { "x–z": [0, 2, 1], "y–z": [1, 2, 0], "x–y": [0, 1, 2] };
+
+function draw(canvas, d, field, showContacts, view, slice) {
   const ctx = canvas.getContext("2d");
   const xyz = d.xyz;
-  let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
+  const [ax, ay, az] = d.dim3 ? VIEWS[view] : VIEWS["x–y"];
   const rmax = d.radius ? Math.max(0, ...d.radius) : 0;
-  for (let k = 0; k < xyz.length; k += 3) { x0 = Math.min(x0, xyz[k]); x1 = Math.max(x1, xyz[k]); y0 = Math.min(y0, xyz[k + 1]); y1 = Math.max(y1, xyz[k + 1]); }
+  // A slice keeps what lies within two largest diameters of the middle along the depth axis.
+  let zlo = -Infinity, zhi = Infinity;
+  if (d.dim3 && slice) {
+    let a = Infinity, b = -Infinity;
+    for (let k = az; k < xyz.length; k += 3) { a = Math.min(a, xyz[k]); b = Math.max(b, xyz[k]); }
+    zlo = (a + b) / 2 - 2 * rmax; zhi = (a + b) / 2 + 2 * rmax;
+  }
+  const inside = (i) => xyz[3 * i + az] >= zlo && xyz[3 * i + az] <= zhi;
+  let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
+  for (let k = 0; k < xyz.length; k += 3) { x0 = Math.min(x0, xyz[k + ax]); x1 = Math.max(x1, xyz[k + ax]); y0 = Math.min(y0, xyz[k + ay]); y1 = Math.max(y1, xyz[k + ay]); }
   x0 -= rmax; y0 -= rmax; x1 += rmax; y1 += rmax;
   const w = canvas.width, h = canvas.height, pad = 8;
   const s = Math.min((w - 2 * pad) / (x1 - x0 || 1), (h - 2 * pad) / (y1 - y0 || 1));
-  const X = (x) => pad + (x - x0) * s, Y = (y) => h - pad - (y - y0) * s;
+  const X = (p, i) => pad + (p[3 * i + ax] - x0) * s, Y = (p, i) => h - pad - (p[3 * i + ay] - y0) * s;
   ctx.clearRect(0, 0, w, h);
   const values = d.fields[field] || [];
   let lo = Infinity, hi = -Infinity;
@@ -109,18 +122,20 @@ function draw(canvas, d, field, showContacts) {
   if (d.polys) {
     d.polys.forEach((poly, k) => {
       ctx.beginPath();
-      poly.forEach((i, j) => (j ? ctx.lineTo : ctx.moveTo).call(ctx, X(xyz[3 * i]), Y(xyz[3 * i + 1])));
+      poly.forEach((i, j) => (j ? ctx.lineTo : ctx.moveTo).call(ctx, X(xyz, i), Y(xyz, i)));
       ctx.closePath();
       ctx.fillStyle = colour(t(values[k]));
       ctx.fill();
     });
   } else {
-    const order = Array.from({ length: d.n }, (_, k) => k).sort((a, b) => xyz[3 * a + 2] - xyz[3 * b + 2]);
+    // Far first: seen from above, the lowest; from a side (looking along +depth), the deepest.
+    const toward = d.dim3 && view !== "x–y" ? -1 : 1;
+    const order = Array.from({ length: d.n }, (_, k) => k).filter(inside).sort((a, b) => toward * (xyz[3 * a + az] - xyz[3 * b + az]));
     ctx.strokeStyle = "rgba(0,0,0,.35)";
     ctx.lineWidth = 0.5;
     for (const k of order) {
       ctx.beginPath();
-      ctx.arc(X(xyz[3 * k]), Y(xyz[3 * k + 1]), Math.max(d.radius[k] * s, 0.5), 0, 2 * Math.PI);
+      ctx.arc(X(xyz, k), Y(xyz, k), Math.max(d.radius[k] * s, 0.5), 0, 2 * Math.PI);
       ctx.fillStyle = colour(t(values[k]));
       ctx.fill();
       ctx.stroke();
@@ -132,13 +147,16 @@ function draw(canvas, d, field, showContacts) {
     for (const v of f) fmax = Math.max(fmax, Math.abs(v));
     ctx.strokeStyle = getComputedStyle(document.body).color;
     ctx.lineCap = "round";
+    const cx = d.contacts.xyz;
+    const near = (i) => cx[3 * i + az] >= zlo && cx[3 * i + az] <= zhi;
     d.contacts.lines.forEach((line, k) => {
       if (!fmax || !(Math.abs(f[k]) > 0)) return;
       const [a, b] = [line[0], line[line.length - 1]];
+      if (!near(a) || !near(b)) return;
       ctx.lineWidth = 0.5 + 5 * Math.abs(f[k]) / fmax;
       ctx.beginPath();
-      ctx.moveTo(X(d.contacts.xyz[3 * a]), Y(d.contacts.xyz[3 * a + 1]));
-      ctx.lineTo(X(d.contacts.xyz[3 * b]), Y(d.contacts.xyz[3 * b + 1]));
+      ctx.moveTo(X(cx, a), Y(cx, a));
+      ctx.lineTo(X(cx, b), Y(cx, b));
       ctx.stroke();
     });
   }
@@ -153,13 +171,17 @@ export async function particleView(box, job) {
   const legend = el("div", { id: "particles-legend" });
   const caption = el("p", { class: "muted", id: "particles-source" });
   const reload = el("button", { id: "load-particles", onclick: () => refresh() }, "Load the latest");
+  const view = el("select", { id: "view", "aria-label": "View of a 3D scene" }, Object.keys(VIEWS).map((v) => el("option", { value: v }, v === "x–y" ? "x–y (from above)" : `${v} (side)`)));
+  const slice = el("input", { type: "checkbox", id: "slice", checked: true });
+  const view3d = el("span", { class: "toolbar", hidden: true }, el("label", {}, "View ", view), el("label", {}, slice, " a slice through the middle"));
   box.replaceChildren(el("h2", {}, "Particles"),
-    el("div", { class: "toolbar" }, el("label", {}, "Colour by ", fieldSelect), el("label", {}, contacts, " contact forces (line width ∝ normal force)"), reload),
+    el("div", { class: "toolbar" }, el("label", {}, "Colour by ", fieldSelect), el("label", {}, contacts, " contact forces (line width ∝ normal force)"), view3d, reload),
     caption, el("div", { class: "particles" }, canvas, legend));
   let data = null;
   function paint() {
     if (!data) return;
-    const r = draw(canvas, data, fieldSelect.value, contacts.checked);
+    view3d.hidden = !data.dim3;
+    const r = draw(canvas, data, fieldSelect.value, contacts.checked, view.value, slice.checked);
     const unit = UNITS[fieldSelect.value] || "—";
     legend.replaceChildren(el("div", {}, `${fieldSelect.value} (${unit})`),
       el("div", { class: "legend-bar", style: `background: linear-gradient(to right, ${VIRIDIS.join(",")})` }),
@@ -184,7 +206,6 @@ export async function particleView(box, job) {
     contacts.disabled = !data.contacts;
     paint();
   }
-  fieldSelect.addEventListener("change", paint);
-  contacts.addEventListener("change", paint);
+  for (const control of [fieldSelect, contacts, view, slice]) control.addEventListener("change", paint);
   await refresh();
 }
