@@ -504,7 +504,8 @@ pub fn samples_csv(dim: usize, samples: &[Sample]) -> String {
 #[serde(deny_unknown_fields)]
 #[into_params(parameter_in = Query)]
 pub(crate) struct EventParams {
-    /// Send the events after this sequence number (or give the Last-Event-ID header).
+    /// Send the events after this sequence number (a Last-Event-ID header, as a reconnecting
+    /// browser sends, takes precedence).
     after_seq: Option<i64>,
 }
 
@@ -514,7 +515,7 @@ pub(crate) struct EventParams {
     path = "/v1/jobs/{id}/events",
     tag = "jobs",
     summary = "Server-Sent Events: state changes and samples, ending after the final state",
-    description = "Each event has id = sequence number, event = state | sample | heartbeat, and JSON data. Resume with after_seq or Last-Event-ID.",
+    description = "Each event has id = sequence number, event = state | sample | heartbeat, and JSON data. Resume with after_seq or Last-Event-ID (the header wins when both are given: a reconnecting browser sends its original URL with it).",
     params(("id" = i64, Path, description = "Job id"), EventParams),
     responses(
         (status = 200, description = "The event stream", body = String, content_type = "text/event-stream"),
@@ -530,8 +531,10 @@ pub(crate) async fn events(
 ) -> Result<Response, ApiError> {
     let id = parse_id(&id)?;
     let p = query(q)?;
+    // A browser's EventSource reconnects with the URL it opened (its after_seq) and the last
+    // event it received in Last-Event-ID: the header is the newer of the two.
     let resume = headers.get("last-event-id").and_then(|v| v.to_str().ok()).and_then(|s| s.parse::<i64>().ok());
-    let after = p.after_seq.or(resume).unwrap_or(0);
+    let after = resume.or(p.after_seq).unwrap_or(0);
     if after < 0 {
         return Err(ApiError::invalid("after_seq", "must be >= 0"));
     }

@@ -162,11 +162,15 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     let logged = console_errors(&c).await;
     assert!(logged.len() == 1 && logged[0].contains("/v1/jobs") && logged[0].contains("422"), "console errors: {logged:#?}");
 
-    // A job submitted through the form: its page, its plots gaining points while it runs.
+    // A valid scene: the advisor's answer, then the job submitted through the form: its page,
+    // its plots gaining points while it runs.
     let scene = quickstart(
         json!({"name": "browser", "stop": {"time": 10.0}, "sampling": {"every_steps": 2000}, "snapshots": {"every_steps": 20000}}),
     );
     c.execute("document.getElementById('scene-text').value = arguments[0];", vec![json!(scene.to_string())]).await.expect("fill");
+    c.find(Locator::Id("validate")).await.expect("validate button").click().await.expect("click");
+    let valid = until(&c, "the advisor's answer", "document.getElementById('valid')?.innerText", wait).await;
+    assert!(valid.as_str().unwrap_or_default().contains("dem"), "{valid}");
     c.find(Locator::Id("submit")).await.expect("submit button").click().await.expect("click");
     until(&c, "the job page", "location.hash.startsWith('#/jobs/')", wait).await;
     let id: i64 = c.execute("return Number(location.hash.split('/')[2]);", vec![]).await.expect("id").as_i64().expect("a job id");
@@ -239,7 +243,9 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     let runs = until(&c, "the runs", "document.querySelectorAll('#runs tbody tr').length", wait).await;
     assert_eq!(runs, json!(2));
 
-    // Keyboard: from the top of a page, Tab reaches the skip link, then the sections' links.
+    // Keyboard: from the top of a page, Tab reaches the skip link, then the sections' links;
+    // the skip link moves the focus to the content and leaves the page where it is.
+    let mut page_errors = vec![c.execute("return window.__sableErrors;", vec![]).await.expect("the page's errors")];
     c.goto(&format!("{base}/?keyboard#/studies")).await.expect("the studies, loaded anew");
     until(&c, "the studies", "document.getElementById('studies')", wait).await;
     let body = c.find(Locator::Css("body")).await.expect("body");
@@ -249,10 +255,14 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
         reached.push(c.execute("return document.activeElement.textContent.trim();", vec![]).await.expect("focus"));
     }
     assert_eq!(reached, vec![json!("Skip to content"), json!("Sable"), json!("Jobs"), json!("Studies")]);
+    c.execute("document.querySelector('.skip').focus();", vec![]).await.expect("focus the skip link");
+    c.find(Locator::Css(".skip")).await.expect("skip link").send_keys("\u{E007}").await.expect("Enter");
+    let after: Value = c.execute("return [document.activeElement.id, location.hash];", vec![]).await.expect("focus");
+    assert_eq!(after, json!(["main", "#/studies"]));
 
     let errors = console_errors(&c).await;
-    let page_errors = c.execute("return window.__sableErrors;", vec![]).await.expect("the page's errors");
+    page_errors.push(c.execute("return window.__sableErrors;", vec![]).await.expect("the page's errors"));
     c.close().await.expect("close the browser");
     assert!(errors.is_empty(), "console errors: {errors:#?}");
-    assert_eq!(page_errors, json!([]), "errors the page caught");
+    assert_eq!(page_errors, vec![json!([]), json!([])], "errors the pages caught (before and after the reload)");
 }

@@ -1,8 +1,9 @@
 //! The Python client (client/python) against this build of `sable serve`: installs the package
-//! with pip into a virtual environment under the target directory (once; then only the package
-//! itself is reinstalled) and runs its pytest suite, which starts the server from
-//! `CARGO_BIN_EXE_sable`. Needs `python3` (3.10 or later, with venv and pip) and the PyPI
-//! registry on the first run.
+//! with pip into a virtual environment under the target directory and runs its pytest suite,
+//! which starts the server from `CARGO_BIN_EXE_sable`. Needs `python3` (3.10 or later, with
+//! venv and pip) and, on the first run, the PyPI registry: the environment is made once, with
+//! setuptools and the package's dependencies; later runs find them installed and reinstall
+//! only the package, built without an isolated environment, so they need no registry.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -31,10 +32,15 @@ fn the_python_client_passes_its_tests_against_this_server() {
         let system = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
         run("creating the virtual environment", Command::new(system).args(["-m", "venv"]).arg(&venv));
     }
+    // What builds the package (already there after the first run: pip then asks no registry).
+    run(
+        "pip install setuptools",
+        Command::new(&python).args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "setuptools>=68", "wheel"]),
+    );
     run(
         "pip install ./client/python[test]",
         Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "./client/python[test]"])
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-build-isolation", "./client/python[test]"])
             .current_dir(&root),
     );
     run(

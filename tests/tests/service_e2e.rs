@@ -377,6 +377,19 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
     let text = h.http.get(format!("{}/v1/jobs/{id}/events?after_seq=4", h.base)).send().await.expect("sse").text().await.expect("body");
     let ids: Vec<u64> = text.lines().filter_map(|l| l.strip_prefix("id:")).filter_map(|s| s.trim().parse().ok()).collect();
     assert_eq!(ids, tail.iter().map(|e| e.seq).collect::<Vec<_>>());
+    // A browser reconnects with its first URL and the last id it got: the header wins.
+    let text = h
+        .http
+        .get(format!("{}/v1/jobs/{id}/events?after_seq=2", h.base))
+        .header("Last-Event-ID", "4")
+        .send()
+        .await
+        .expect("sse")
+        .text()
+        .await
+        .expect("body");
+    let ids: Vec<u64> = text.lines().filter_map(|l| l.strip_prefix("id:")).filter_map(|s| s.trim().parse().ok()).collect();
+    assert_eq!(ids, tail.iter().map(|e| e.seq).collect::<Vec<_>>());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -109,3 +109,35 @@ def test_the_vtk_reader_reads_points_arrays_and_cells() -> None:
     assert [c.tolist() for c in d.cells["lines"]] == [[0, 1]]
     with pytest.raises(ValueError, match="not a VTK"):
         read_polydata("<html/>")
+
+
+def test_a_stream_ended_without_the_final_state_is_resumed_after_the_last_event() -> None:
+    """A server stopping ends the stream early; the client resumes after the last id it saw,
+    and an `error` event becomes an exception."""
+    import httpx
+
+    from sable_client import Client, SableError
+
+    asked: list[str | None] = []
+
+    def answer(request: httpx.Request) -> httpx.Response:
+        after = request.url.params.get("after_seq")
+        asked.append(after)
+        if after is None:  # the first stream: two events, then the server goes away
+            body = 'id: 1\nevent: state\ndata: {"state":"running"}\n\nid: 2\nevent: sample\ndata: {"fraction":0.5,"sample":{"step":5}}\n\n'
+        else:
+            body = 'id: 3\nevent: state\ndata: {"state":"succeeded"}\n\nid: 4\nevent: sample\ndata: {}\n\n'
+        return httpx.Response(200, text=body, headers={"content-type": "text/event-stream"})
+
+    with Client("http://sable.test", transport=httpx.MockTransport(answer)) as c:
+        got = [(e.id, e.kind) for e in c.events(7)]
+    assert got == [(1, "state"), (2, "sample"), (3, "state")]  # nothing after the final state
+    assert asked == [None, "2"]
+
+    def failing(request: httpx.Request) -> httpx.Response:
+        body = 'id: 1\nevent: error\ndata: {"code":"internal","message":"the store is closing"}\n\n'
+        return httpx.Response(200, text=body, headers={"content-type": "text/event-stream"})
+
+    with Client("http://sable.test", transport=httpx.MockTransport(failing)) as c:
+        with pytest.raises(SableError, match="the store is closing"):
+            list(c.events(7))

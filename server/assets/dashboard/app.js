@@ -33,5 +33,11 @@ function route() {
   });
 }
 
+// The skip link moves the focus to the content without touching the hash the router reads.
+document.querySelector(".skip").addEventListener("click", (e) => {
+  e.preventDefault();
+  document.getElementById("main").focus();
+});
+
 window.addEventListener("hashchange", route);
 route();

@@ -43,7 +43,9 @@ export async function jobPage(id, onLeave) {
   let source = null;
   let plots = [];
   let pending = false;
-  onLeave(() => { if (source) source.close(); for (const p of plots) p.plot.destroy(); });
+  // Set when another page replaces this one: what is still loading then stops.
+  let left = false;
+  onLeave(() => { left = true; if (source) source.close(); for (const p of plots) p.plot.destroy(); });
 
   // -- header --
   function drawHead() {
@@ -124,7 +126,7 @@ export async function jobPage(id, onLeave) {
 
   // -- live samples --
   function listen(after) {
-    if (TERMINAL.has(job.state)) return;
+    if (left || TERMINAL.has(job.state)) return;
     source = api.events(id, after);
     source.addEventListener("sample", (e) => {
       const data = JSON.parse(e.data);
@@ -146,7 +148,10 @@ export async function jobPage(id, onLeave) {
       drawHead();
       if (TERMINAL.has(data.state)) await finished();
     });
-    source.onerror = () => status("event stream interrupted; the browser reconnects");
+    // The browser reconnects by itself, sending the last event's id, which the service resumes
+    // after.
+    source.onerror = () => status("event stream interrupted; reconnecting");
+    source.onopen = () => status("");
   }
 
   async function finished() {
@@ -182,6 +187,7 @@ export async function jobPage(id, onLeave) {
   // Read after the samples, the job is at least as new as their last event: a state change
   // before it is in the job, one after it comes through the stream.
   job = await api.job(id);
+  if (left) return;
   drawHead();
   samples = first.samples;
   xOptions();

@@ -99,7 +99,8 @@ function draw(canvas, d, field, showContacts, view, slice) {
   const ctx = canvas.getContext("2d");
   const xyz = d.xyz;
   const [ax, ay, az] = d.dim3 ? VIEWS[view] : VIEWS["x–y"];
-  const rmax = d.radius ? Math.max(0, ...d.radius) : 0;
+  let rmax = 0;
+  if (d.radius) for (const r of d.radius) rmax = Math.max(rmax, r);
   // A slice keeps what lies within two largest diameters of the middle along the depth axis.
   let zlo = -Infinity, zhi = Infinity;
   if (d.dim3 && slice) {

@@ -17,11 +17,12 @@ export async function studiesPage() {
 
 export async function studyPage(id) {
   const s = await api.study(id);
-  const points = (s.report && s.report.points) || [];
+  const report = s.report || {};
+  const points = report.points || [];
   show(el("h1", {}, `Study ${s.id}: ${s.name}`),
     el("div", { class: "toolbar" }, stateBadge(s.state), `${s.runs_done} of ${s.runs} runs ended`),
     s.error ? el("div", { class: "error-box" }, s.error) : null,
-    el("p", {}, `Measure: ${s.report.measure ?? "—"}; reference: ${s.report.reference_source ?? "—"} ${s.report.reference !== undefined ? `(${num(s.report.reference)})` : ""}`),
+    el("p", {}, `Measure: ${report.measure ?? "—"}; reference: ${report.reference_source ?? "—"} ${report.reference != null ? `(${num(report.reference)})` : ""}`),
     el("img", { class: "chart", src: `/v1/studies/${id}/chart.svg`, alt: `Error against CPU time of the runs of study ${id}` }),
     el("h2", {}, "Runs"),
     el("table", { id: "runs" },

@@ -22,13 +22,13 @@ export async function submitPage() {
   function rejected(e, wrapped) {
     const path = (f) => (wrapped ? f.replace(/^scene\.?/, "") : f) || "(the scene)";
     out.replaceChildren(el("div", { class: "error-box", role: "alert" }, el("strong", {}, e.message),
-      e.details.length ? el("ul", { class: "violations", id: "violations" }, e.details.map((v) => el("li", {}, el("code", {}, path(v.field)), ": ", v.rule))) : null));
+      (e.details || []).length ? el("ul", { class: "violations", id: "violations" }, e.details.map((v) => el("li", {}, el("code", {}, path(v.field)), ": ", v.rule))) : null));
   }
   async function validate() {
     const scene = parsed();
     if (!scene) return;
     try {
-      const a = await api.advice(scene.scene ? scene : { scene });
+      const a = await api.advice(scene.scene ?? scene);
       out.replaceChildren(el("p", { id: "valid" }, "Valid. The advisor would run it with ", el("strong", {}, a.method), "."), el("ul", {}, a.reasons.map((r) => el("li", {}, r))));
     } catch (e) { rejected(e, !scene.scene); }
   }

@@ -41,9 +41,11 @@ export function when(t) {
 /** Seconds in a short form. */
 export function seconds(s) {
   if (!s && s !== 0) return "—";
-  if (s < 60) return `${num(s)} s`;
-  if (s < 3600) return `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`;
-  return `${Math.floor(s / 3600)} h ${Math.round((s % 3600) / 60)} min`;
+  if (s < 59.5) return `${num(s)} s`;
+  const r = Math.round(s);
+  if (r < 3600) return `${Math.floor(r / 60)} min ${r % 60} s`;
+  const m = Math.round(s / 60);
+  return `${Math.floor(m / 60)} h ${m % 60} min`;
 }
 
 /** A nested object flattened to [dotted.path, value] rows. */
@@ -65,5 +67,6 @@ export function show(...children) {
 
 /** The page's status line (bottom right of the header). */
 export function status(text) {
-  document.getElementById("status").textContent = text;
+  const line = document.getElementById("status");
+  if (line.textContent !== text) line.textContent = text;
 }

@@ -179,10 +179,14 @@ class Client:
     def jobs(self, *, limit: int | None = None, **filters: Any) -> list[Job]:
         """Jobs that match the filters of :meth:`iter_jobs`, newest first, at most ``limit``."""
         out: list[Job] = []
+        if limit is not None:
+            if limit <= 0:
+                return out
+            filters["page_size"] = min(int(filters.get("page_size", 100)), limit)
         for j in self.iter_jobs(**filters):
-            if limit is not None and len(out) >= limit:
-                break
             out.append(j)
+            if limit is not None and len(out) >= limit:
+                break  # before the generator asks for another page
         return out
 
     def jobs_frame(self, *, limit: int | None = None, **filters: Any) -> pd.DataFrame:
@@ -215,13 +219,30 @@ class Client:
         """
         return Job.from_json(self._json("cancel", path={"id": _id(job)}))
 
-    def events(self, job: JobRef, *, after: int | None = None, read_timeout: float = 120.0) -> Iterator[sse.Event]:
-        """The job's events as they come (``state``, ``sample`` and ``heartbeat``), until it
-        ends. A dropped connection is resumed after the last event seen."""
+    def events(
+        self,
+        job: JobRef,
+        *,
+        after: int | None = None,
+        read_timeout: float = 120.0,
+        reconnect_for: float = 120.0,
+    ) -> Iterator[sse.Event]:
+        """The job's events as they come (``state``, ``sample`` and ``heartbeat``), from the
+        first (or after sequence number ``after``) until the job ends.
+
+        A stream that drops, or that the service ends without the job's final state (a server
+        stopping), is resumed after the last event seen, for as long as ``reconnect_for``
+        seconds pass without a connection.
+
+        Raises:
+            SableError: The service reports an error in the stream, or an error answer.
+            httpx.TransportError: No connection for ``reconnect_for`` seconds.
+        """
         jid = _id(job)
         last = after
         r = ROUTES["events"]
         timeout = httpx.Timeout(self._http.timeout.connect or 30.0, read=read_timeout)
+        down_since: float | None = None
         while True:
             params = {"after_seq": last} if last is not None else {}
             try:
@@ -233,15 +254,21 @@ class Client:
                         except ValueError:
                             detail = response.text
                         raise errors.from_response(response.status_code, detail)
+                    down_since = None
                     for event in sse.events(response.iter_lines()):
+                        if event.kind == "error":
+                            raise errors.from_response(500, event.data)
                         if event.id is not None:
                             last = event.id
                         yield event
                         if event.kind == "state" and event.data.get("state") in TERMINAL_STATES:
                             return
-                return
-            except (httpx.RemoteProtocolError, httpx.ReadError, httpx.ReadTimeout):
-                time.sleep(0.5)  # resume after `last`
+            except httpx.TransportError:
+                now = time.monotonic()
+                down_since = now if down_since is None else down_since
+                if now - down_since > reconnect_for:
+                    raise
+            time.sleep(0.5)  # then resume after `last`
 
     def watch(
         self,
@@ -362,10 +389,22 @@ class Client:
             index = taken[index].index
         return vtk.read_polydata(self.snapshot_file(job, index, part))
 
-    def chart_svg(self, job: JobRef, y: str = "phi", x: str = "time", **query: Any) -> str:
-        """The service's SVG chart of a job's samples (``y`` against ``x``; ``x_unit``,
-        ``with``, ``stage`` as in the API)."""
-        return self._request("job_chart", path={"id": _id(job)}, query={"y": y, "x": x, **query}).text
+    def chart_svg(
+        self,
+        job: JobRef,
+        y: str = "phi",
+        x: str = "time",
+        *,
+        x_unit: str | None = None,
+        with_: str | None = None,
+        stage: str | None = None,
+    ) -> str:
+        """The service's SVG chart of a job's samples: ``y`` against ``x`` (sample paths, or
+        ``time``, ``step``, ``strain``), ``with_`` other jobs drawn alongside (the API's
+        ``with``: comma-separated ids), ``x_unit`` one divisor of x per job (comma-separated),
+        ``stage`` one stage of an experiment."""
+        query = {"y": y, "x": x, "x_unit": x_unit, "with": with_, "stage": stage}
+        return self._request("job_chart", path={"id": _id(job)}, query=query).text
 
     # -- the advisor --------------------------------------------------------------------------
 
