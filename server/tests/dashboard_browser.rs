@@ -194,6 +194,11 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     c.goto(&format!("{base}/#/")).await.expect("the job list");
     let row = until(&c, "the job's row", &format!("document.querySelector('tr[data-job=\"{id}\"] .state')?.textContent"), wait).await;
     assert_eq!(row, json!("running"));
+    // Its row follows the job's event stream: the sample count grows within 4 s, before the
+    // list is read again (every 5 s).
+    let cell = format!("Number(document.querySelector('tr[data-job=\"{id}\"] .samples').dataset.n)");
+    let before = until(&c, "the row's sample count", &cell, wait).await.as_i64().unwrap_or_default();
+    until(&c, "the row updated live", &format!("{cell} > {before}"), Duration::from_secs(4)).await;
     screenshot(&c, "jobs.png").await;
 
     // Cancelled from its page; the particle view then draws its last snapshot with its contacts.

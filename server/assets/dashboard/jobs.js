@@ -1,11 +1,15 @@
-// The job list: newest first, 50 a page, filtered by state; refreshed every two seconds. A
+// The job list: newest first, 50 a page, filtered by state. The running jobs shown follow
+// their event streams (progress, steps and samples as each sample arrives, from the job's
+// current event on); the page is read again every five seconds for new jobs and states. A
 // refresh keeps the keyboard focus where it was (the same job's link, the same button).
 
 import { api } from "./api.js";
 import { el, num, show, stateBadge, when, status } from "./ui.js";
 
 const STATES = ["", "queued", "running", "succeeded", "failed", "cancelled"];
+const TERMINAL = new Set(["succeeded", "failed", "cancelled"]);
 const PAGE = 50;
+const REFRESH_MS = 5000;
 
 export async function jobsPage(onLeave) {
   const filter = el("select", { id: "state-filter", "aria-label": "Show jobs in state" },
@@ -26,6 +30,35 @@ export async function jobsPage(onLeave) {
 
   let timer = null;
   let stopped = false;
+  // The event stream of each running job shown (null while it opens).
+  const streams = new Map();
+  function follow(id) {
+    if (streams.has(id)) return;
+    streams.set(id, null);
+    api.samples(id, 1).then((read) => {
+      if (stopped || !streams.has(id)) return;
+      const source = api.events(id, read.events_seq);
+      streams.set(id, source);
+      source.addEventListener("sample", (e) => {
+        const d = JSON.parse(e.data);
+        const tr = body.querySelector(`tr[data-job="${id}"]`);
+        if (!tr) return;
+        tr.querySelector("progress").value = d.fraction;
+        tr.querySelector(".pct").textContent = ` ${Math.round(d.fraction * 100)}%`;
+        tr.querySelector(".steps").textContent = d.sample.step.toLocaleString();
+        const n = tr.querySelector(".samples");
+        n.textContent = (Number(n.dataset.n) + 1).toLocaleString();
+        n.dataset.n = String(Number(n.dataset.n) + 1);
+      });
+      source.addEventListener("state", (e) => {
+        if (TERMINAL.has(JSON.parse(e.data).state)) { unfollow(id); refresh().catch(() => {}); }
+      });
+    }).catch(() => streams.delete(id));
+  }
+  function unfollow(id) {
+    streams.get(id)?.close();
+    streams.delete(id);
+  }
   async function refresh() {
     const query = { page_size: PAGE };
     if (filter.value) query.state = filter.value;
@@ -37,6 +70,9 @@ export async function jobsPage(onLeave) {
     body.replaceChildren(...page.jobs.map(row));
     if (!page.jobs.length) body.append(el("tr", {}, el("td", { colspan: 9, class: "muted" }, "No jobs.")));
     if (focused) body.querySelector(`tr[data-job="${focused}"] a`)?.focus();
+    const running = new Set(page.jobs.filter((j) => j.state === "running").map((j) => j.id));
+    for (const id of [...streams.keys()]) if (!running.has(id)) unfollow(id);
+    for (const id of running) follow(id);
     next = page.next_page_token;
     newer.disabled = tokens.length === 1;
     older.disabled = !next;
@@ -48,17 +84,17 @@ export async function jobsPage(onLeave) {
       el("td", {}, el("a", { href: `#/jobs/${j.id}` }, j.name)),
       el("td", {}, stateBadge(j.state)),
       el("td", {}, j.method),
-      el("td", {}, el("progress", { max: 1, value: j.progress, "aria-label": `progress of job ${j.id}` }), ` ${Math.round(j.progress * 100)}%`),
-      el("td", { class: "num" }, j.steps.toLocaleString()),
-      el("td", { class: "num" }, j.sample_count.toLocaleString()),
+      el("td", {}, el("progress", { max: 1, value: j.progress, "aria-label": `progress of job ${j.id}` }), el("span", { class: "pct" }, ` ${Math.round(j.progress * 100)}%`)),
+      el("td", { class: "num steps" }, j.steps.toLocaleString()),
+      el("td", { class: "num samples", "data-n": j.sample_count }, j.sample_count.toLocaleString()),
       el("td", { class: "num" }, num(j.cpu_seconds)),
       el("td", {}, when(j.created_at)));
   }
   filter.addEventListener("change", () => { tokens = [""]; refresh(); });
   const tick = async () => {
     try { await refresh(); } catch (e) { status(`cannot reach the service: ${e.message}`); }
-    if (!stopped) timer = setTimeout(tick, 2000);
+    if (!stopped) timer = setTimeout(tick, REFRESH_MS);
   };
-  onLeave(() => { stopped = true; clearTimeout(timer); });
+  onLeave(() => { stopped = true; clearTimeout(timer); for (const id of [...streams.keys()]) unfollow(id); });
   await tick();
 }
