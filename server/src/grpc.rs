@@ -253,9 +253,9 @@ impl pb::simulations_server::Simulations for SimulationsService {
     async fn get_samples(&self, req: Request<pb::GetSamplesRequest>) -> Result<Response<pb::GetSamplesResponse>, Status> {
         let r = req.into_inner();
         let to = (r.to_step > 0).then_some(r.to_step);
-        let samples = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?.samples;
-        let samples_json = samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
-        Ok(Response::new(pb::GetSamplesResponse { samples_json }))
+        let read = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?;
+        let samples_json = read.samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
+        Ok(Response::new(pb::GetSamplesResponse { samples_json, events_seq: read.events_seq.max(0) as u64 }))
     }
 
     async fn get_final_state(&self, req: Request<pb::GetFinalStateRequest>) -> Result<Response<pb::FinalState>, Status> {

@@ -371,6 +371,15 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
     let tail = watch_all(&mut client, id, 4).await;
     let all = watch_all(&mut client, id, 0).await;
     assert_eq!(tail.first().map(|e| e.seq), Some(5));
+    // A samples read says where its events end (here the ended job's last event), so that a
+    // watch resumed there misses nothing and repeats nothing; gRPC and REST alike.
+    let read =
+        client.get_samples(pb::GetSamplesRequest { id, from_step: 0, to_step: 0, max_points: 3 }).await.expect("samples").into_inner();
+    assert_eq!(read.samples_json.len(), 3);
+    assert_eq!(Some(read.events_seq), all.last().map(|e| e.seq));
+    let (_, page) = h.get(&format!("/v1/jobs/{id}/samples?max_points=3")).await;
+    assert_eq!(page["events_seq"].as_u64(), all.last().map(|e| e.seq));
+    assert_eq!(page["samples"].as_array().map(Vec::len), Some(3));
     assert_eq!(all[4..].iter().map(|e| e.seq).collect::<Vec<_>>(), tail.iter().map(|e| e.seq).collect::<Vec<_>>());
     assert_eq!(all[4..], tail[..]);
     // SSE mirrors it.
