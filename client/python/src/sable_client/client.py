@@ -36,6 +36,18 @@ def _scene_paths() -> Iterator[None]:
         raise
 
 
+def _raise_for(response: httpx.Response) -> None:
+    """Raises the exception for an error answer (its body read as JSON, else as text)."""
+    if response.status_code < 400:
+        return
+    response.read()
+    try:
+        detail = response.json()
+    except ValueError:
+        detail = response.text
+    raise errors.from_response(response.status_code, detail)
+
+
 def _id(ref: JobRef | StudyRef) -> int:
     return ref.id if isinstance(ref, (Job, Study)) else int(ref)
 
@@ -91,12 +103,7 @@ class Client:
             raise ValueError(f"{route}: query parameters {sorted(unknown)} are not in the route table")
         url = r.path.format(**(path or {}))
         response = self._http.request(r.method, url, params=params, json=body, headers=headers)
-        if response.status_code >= 400:
-            try:
-                detail = response.json()
-            except ValueError:
-                detail = response.text
-            raise errors.from_response(response.status_code, detail)
+        _raise_for(response)
         return response
 
     def _json(self, route: str, **kw: Any) -> Any:
@@ -247,13 +254,7 @@ class Client:
             params = {"after_seq": last} if last is not None else {}
             try:
                 with self._http.stream(r.method, r.path.format(id=jid), params=params, timeout=timeout) as response:
-                    if response.status_code >= 400:
-                        response.read()
-                        try:
-                            detail = response.json()
-                        except ValueError:
-                            detail = response.text
-                        raise errors.from_response(response.status_code, detail)
+                    _raise_for(response)
                     down_since = None
                     for event in sse.events(response.iter_lines()):
                         if event.kind == "error":
