@@ -15,13 +15,13 @@ use tokio_util::sync::CancellationToken;
 
 use crate::grpc::{SimulationsService, WorkersService};
 use crate::rest::{router, AppState};
-use crate::store::{JobStore, LeaseConfig, StoreError};
+use crate::store::{Backend, DbLocation, JobStore, LeaseConfig, StoreError};
 
 /// Settings of a server.
 #[derive(Debug, Clone)]
 pub struct ServeConfig {
-    /// SQLite database file (created if missing).
-    pub db: PathBuf,
+    /// The job store: an SQLite file (created if missing) or a PostgreSQL database.
+    pub db: DbLocation,
     /// REST address (port 0: any free port).
     pub http: SocketAddr,
     /// gRPC address (port 0: any free port).
@@ -43,7 +43,7 @@ pub struct ServeConfig {
 impl Default for ServeConfig {
     fn default() -> Self {
         Self {
-            db: PathBuf::from("sable.db"),
+            db: DbLocation::Sqlite(PathBuf::from("sable.db")),
             http: SocketAddr::from(([127, 0, 0, 1], 8080)),
             grpc: SocketAddr::from(([127, 0, 0, 1], 50051)),
             workers: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -94,10 +94,14 @@ impl Server {
     /// left running, starts the workers, the reaper and both listeners.
     pub async fn start(cfg: ServeConfig) -> Result<Self, ServeError> {
         let store = JobStore::open(&cfg.db, LeaseConfig { ttl: cfg.lease_ttl }).await?;
-        // A local worker of an earlier run of this server cannot be alive any more.
-        let requeued = store.requeue_expired(Some("local:")).await?;
-        if requeued > 0 {
-            eprintln!("sable serve: {requeued} job(s) left running by a previous run put back in the queue");
+        // A local worker of an earlier run of this server cannot be alive any more. (On
+        // PostgreSQL other servers' local workers may be: their jobs go back to the queue
+        // when their leases expire.)
+        if store.backend() == Backend::Sqlite {
+            let requeued = store.requeue_expired(Some("local:")).await?;
+            if requeued > 0 {
+                eprintln!("sable serve: {requeued} job(s) left running by a previous run put back in the queue");
+            }
         }
         let stop = CancellationToken::new();
         let mut tasks = JoinSet::new();

@@ -216,6 +216,10 @@ pub async fn drive(store: JobStore, limits: Limits, every: Duration, stop: tokio
             _ = stop.cancelled() => return,
             _ = tick.tick() => {}
         }
+        // Servers sharing a PostgreSQL database drive the studies one at a time.
+        if !store.is_study_driver().await {
+            continue;
+        }
         let running = match store.studies(Some("running"), 1000).await {
             Ok(r) => r,
             Err(e) => {

@@ -88,7 +88,10 @@ pub async fn watch(
             first = false;
             // Wait for news of this job, a heartbeat, or the watcher leaving. A notification that
             // continues exactly where this watcher stands is sent as it is; anything else (a gap,
-            // a lagged channel) means reading the table again.
+            // a lagged channel, another server's word that the job changed) means reading the
+            // table again, and so does each heartbeat (a notification lost on the way from
+            // another server delays the events by one heartbeat at most).
+            let beat = tokio::time::Instant::now() + heartbeat;
             loop {
                 tokio::select! {
                     n = notices.recv() => match n {
@@ -103,10 +106,11 @@ pub async fn watch(
                         Err(RecvError::Lagged(_)) => break,
                         Err(RecvError::Closed) => return,
                     },
-                    _ = tokio::time::sleep(heartbeat) => {
+                    _ = tokio::time::sleep_until(beat) => {
                         if tx.send(Ok(WatchItem::Heartbeat)).await.is_err() {
                             return;
                         }
+                        break;
                     }
                     _ = tx.closed() => return,
                     _ = store.closing.cancelled() => return,

@@ -185,7 +185,7 @@ async fn target(a: &ServiceBenchArgs, db: &std::path::Path, workers: usize) -> a
         return Ok((u.clone(), None));
     }
     let cfg = ServeConfig {
-        db: db.to_path_buf(),
+        db: sable_server::store::DbLocation::Sqlite(db.to_path_buf()),
         http: "127.0.0.1:0".parse()?,
         grpc: "127.0.0.1:0".parse()?,
         workers,

@@ -22,9 +22,10 @@ pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 /// Arguments of `sable serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// SQLite database file (created if missing).
+    /// The job store: an SQLite file (`sqlite:PATH` or a bare path, created if missing), or a
+    /// PostgreSQL database shared with other servers (`postgres://USER:PASSWORD@HOST:PORT/DB`).
     #[arg(long, default_value = "sable.db", env = "SABLE_DB")]
-    pub db: PathBuf,
+    pub db: sable_server::store::DbLocation,
     /// REST address.
     #[arg(long, default_value = "127.0.0.1:8080", env = "SABLE_HTTP")]
     pub http: SocketAddr,
@@ -93,13 +94,10 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         max_watchers: a.max_watchers,
     };
     runtime()?.block_on(async move {
-        let server = Server::start(cfg.clone()).await.with_context(|| format!("cannot start the server on {}", a.db.display()))?;
+        let server = Server::start(cfg.clone()).await.with_context(|| format!("cannot start the server on {}", a.db))?;
         eprintln!(
             "sable serve: REST on http://{}, gRPC on {}, database {}, {} local worker(s); Ctrl-C to stop",
-            server.http_addr,
-            server.grpc_addr,
-            a.db.display(),
-            cfg.workers
+            server.http_addr, server.grpc_addr, a.db, cfg.workers
         );
         stop_signal().await;
         eprintln!("sable serve: stopping (running jobs go back to the queue)");

@@ -1,28 +1,36 @@
-//! The job store: jobs, their samples and their events in SQLite (WAL mode), with the queue
-//! operations workers use (lease, report, finish) fenced by lease ids. Schema: migrations/.
+//! The job store: jobs, their samples and their events, with the queue operations workers use
+//! (lease, report, finish) fenced by lease ids. Two back-ends, one set of queries
+//! ([`backend`]): an SQLite file (WAL mode; the default, for one machine) and PostgreSQL (for
+//! several servers and their workers sharing one queue). Schema: migrations/sqlite and
+//! migrations/postgres, the same versions in each.
 //!
-//! All writes go through one connection (SQLite has one writer) in `BEGIN IMMEDIATE`
-//! transactions, so a read-then-write never fails with SQLITE_BUSY; reads use a pool of their
-//! own. Every committed change that adds events notifies [`JobStore::subscribe`]rs with the job id.
+//! Writes run in write transactions: on SQLite through one connection in `BEGIN IMMEDIATE`
+//! transactions (one writer, so a read-then-write never fails with SQLITE_BUSY); on PostgreSQL
+//! each transaction first locks the job rows it changes (`FOR UPDATE`; the queue with
+//! `SKIP LOCKED`), so that two servers never interleave their changes to one job. Reads use a
+//! pool of their own on SQLite. Every committed change that adds events notifies
+//! [`JobStore::subscribe`]rs with the job id; on PostgreSQL the other servers hear of it too
+//! ([`listen`]).
 
+mod backend;
+mod listen;
 mod rows;
 mod studies;
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
 use sable_engine::observe::Sample;
 use sable_worker::{JobSource, Lease, Outcome, Report, SourceError};
-use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
-use sqlx::{Row, Sqlite, Transaction};
+use sqlx::{Any, AnyPool, Row, Transaction};
 use tokio::sync::{broadcast, Notify};
 
+pub use backend::{Backend, BadLocation, DbLocation, POSTGRES_MIGRATOR, SQLITE_MIGRATOR};
 pub use rows::{EventRow, JobRow, JobState, SnapshotPart, SnapshotRow};
 pub use studies::{NewRun, RunRow, StudyRow};
 
-/// The migrations of migrations/, embedded at build time.
-pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../migrations");
+/// A write transaction of the store.
+type Tx = Transaction<'static, Any>;
 
 /// What watchers hear after each commit: the job that changed and the events it appended, in
 /// order (empty when nothing was appended, e.g. a cancellation request for a running job).
@@ -103,11 +111,17 @@ pub struct LeaseConfig {
     pub ttl: Duration,
 }
 
-/// The SQLite job store.
+/// The job store (module documentation).
 #[derive(Debug, Clone)]
 pub struct JobStore {
-    writer: SqlitePool,
-    reader: SqlitePool,
+    backend: Backend,
+    writer: AnyPool,
+    reader: AnyPool,
+    /// This server's name in the notifications it sends to the others (PostgreSQL), so that
+    /// it does not hear its own.
+    origin: Arc<str>,
+    /// Holds the study driver's role among the servers of one database, while it has it.
+    driver: Arc<tokio::sync::Mutex<listen::DriverRole>>,
     events: broadcast::Sender<Arc<Notice>>,
     /// Notified when a job is queued (wakes idle local workers).
     pub queued: std::sync::Arc<Notify>,
@@ -126,24 +140,37 @@ fn new_lease_id() -> String {
 }
 
 impl JobStore {
-    /// Opens (creating if needed) the database file at `path` and applies the migrations.
-    pub async fn open(path: &Path, lease: LeaseConfig) -> Result<Self, StoreError> {
-        let options = SqliteConnectOptions::new()
-            .filename(path)
-            .create_if_missing(true)
-            .journal_mode(SqliteJournalMode::Wal)
-            .synchronous(SqliteSynchronous::Normal)
-            .busy_timeout(Duration::from_secs(30))
-            .foreign_keys(true);
-        let writer = SqlitePoolOptions::new().max_connections(1).connect_with(options.clone()).await?;
-        MIGRATOR.run(&writer).await?;
-        let reader = SqlitePoolOptions::new().max_connections(8).connect_with(options.read_only(true)).await?;
+    /// Opens the store at `at` (creating an SQLite file if needed) and applies the migrations.
+    /// On PostgreSQL it also starts listening to the other servers' notifications.
+    pub async fn open(at: &DbLocation, lease: LeaseConfig) -> Result<Self, StoreError> {
+        let pools = backend::connect(at).await?;
         let (events, _) = broadcast::channel(1024);
-        Ok(Self { writer, reader, events, queued: Default::default(), closing: Default::default(), lease })
+        let store = Self {
+            backend: at.backend(),
+            writer: pools.writer,
+            reader: pools.reader,
+            origin: format!("{:016x}", rand::random::<u64>()).into(),
+            driver: Default::default(),
+            events,
+            queued: Default::default(),
+            closing: Default::default(),
+            lease,
+        };
+        if let DbLocation::Postgres(url) = at {
+            listen::start(&store, url).await?;
+        }
+        Ok(store)
     }
 
-    /// Closes both pools.
+    /// The back-end the store runs on.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Closes the pools.
     pub async fn close(&self) {
+        self.closing.cancel();
+        self.driver.lock().await.release().await;
         self.writer.close().await;
         self.reader.close().await;
     }
@@ -153,25 +180,29 @@ impl JobStore {
         self.events.subscribe()
     }
 
-    async fn begin(&self) -> Result<Transaction<'static, Sqlite>, StoreError> {
-        Ok(self.writer.begin_with("BEGIN IMMEDIATE").await?)
+    async fn begin(&self) -> Result<Tx, StoreError> {
+        Ok(self.writer.begin_with(self.backend.begin_write()).await?)
+    }
+
+    /// Locks job `id`'s row until the commit (PostgreSQL; SQLite's write transaction holds the
+    /// whole database) and returns its state, or None if there is no such job. Every write
+    /// transaction that appends events to a job takes this lock first, so that event
+    /// numbers never collide between servers.
+    async fn lock_job(&self, tx: &mut Tx, id: i64) -> Result<Option<String>, StoreError> {
+        let sql = format!("SELECT state FROM jobs WHERE id = $1{}", self.backend.lock());
+        Ok(sqlx::query_scalar(&sql).bind(id).fetch_optional(&mut **tx).await?)
     }
 
     /// Sequence number the next event of `job` will take.
-    async fn next_seq(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<i64, StoreError> {
-        Ok(sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) + 1 FROM job_events WHERE job_id = ?").bind(job).fetch_one(&mut **tx).await?)
+    async fn next_seq(tx: &mut Tx, job: i64) -> Result<i64, StoreError> {
+        Ok(sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) + 1 FROM job_events WHERE job_id = $1").bind(job).fetch_one(&mut **tx).await?)
     }
 
-    /// Stores one event with sequence number `seq` and returns it.
-    async fn insert_event(
-        tx: &mut Transaction<'static, Sqlite>,
-        job: i64,
-        seq: i64,
-        kind: &str,
-        payload: &serde_json::Value,
-    ) -> Result<EventRow, StoreError> {
+    /// Stores one event with sequence number `seq` and returns it; on PostgreSQL the other
+    /// servers hear of it when the transaction commits ([`listen`]).
+    async fn insert_event(&self, tx: &mut Tx, job: i64, seq: i64, kind: &str, payload: &serde_json::Value) -> Result<EventRow, StoreError> {
         let row = EventRow { job_id: job, seq, at: now_ms(), kind: kind.to_string(), payload: payload.to_string() };
-        sqlx::query("INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES (?, ?, ?, ?, ?)")
+        sqlx::query("INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES ($1, $2, $3, $4, $5)")
             .bind(row.job_id)
             .bind(row.seq)
             .bind(row.at)
@@ -179,13 +210,15 @@ impl JobStore {
             .bind(&row.payload)
             .execute(&mut **tx)
             .await?;
+        let queued = kind == "state" && payload.get("state").and_then(|s| s.as_str()) == Some("queued");
+        listen::announce(self, tx, job, queued).await?;
         Ok(row)
     }
 
     /// Appends a state event carrying the job's current state, attempt and error.
-    async fn state_event(tx: &mut Transaction<'static, Sqlite>, job: i64) -> Result<EventRow, StoreError> {
+    async fn state_event(&self, tx: &mut Tx, job: i64) -> Result<EventRow, StoreError> {
         let r =
-            sqlx::query("SELECT state, attempts, error_code, error_message FROM jobs WHERE id = ?").bind(job).fetch_one(&mut **tx).await?;
+            sqlx::query("SELECT state, attempts, error_code, error_message FROM jobs WHERE id = $1").bind(job).fetch_one(&mut **tx).await?;
         let payload = serde_json::json!({
             "state": r.get::<String, _>("state"),
             "attempt": r.get::<i64, _>("attempts"),
@@ -193,7 +226,7 @@ impl JobStore {
             "error_message": r.get::<Option<String>, _>("error_message"),
         });
         let seq = Self::next_seq(tx, job).await?;
-        Self::insert_event(tx, job, seq, "state", &payload).await
+        self.insert_event(tx, job, seq, "state", &payload).await
     }
 
     /// Tells watchers (after the commit) that `job` changed, with the events it appended.
@@ -202,10 +235,10 @@ impl JobStore {
     }
 
     /// Inserts a queued job and its first state event, in the caller's transaction.
-    async fn insert_job(tx: &mut Transaction<'static, Sqlite>, new: &NewJob) -> Result<(i64, EventRow), StoreError> {
+    async fn insert_job(&self, tx: &mut Tx, new: &NewJob) -> Result<(i64, EventRow), StoreError> {
         let id: i64 = sqlx::query_scalar(
             "INSERT INTO jobs (name, state, priority, method, method_reason, scene, scene_hash, engine_version, seed, \
-             idempotency_key, max_attempts, created_at) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+             idempotency_key, max_attempts, created_at) VALUES ($1, 'queued', $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) RETURNING id",
         )
         .bind(&new.name)
         .bind(new.priority)
@@ -220,7 +253,7 @@ impl JobStore {
         .bind(now_ms())
         .fetch_one(&mut **tx)
         .await?;
-        let event = Self::state_event(tx, id).await?;
+        let event = self.state_event(tx, id).await?;
         Ok((id, event))
     }
 
@@ -230,7 +263,7 @@ impl JobStore {
         let mut tx = self.begin().await?;
         if let Some(key) = &new.idempotency_key {
             let existing: Option<(i64, String)> =
-                sqlx::query_as("SELECT id, scene_hash FROM jobs WHERE idempotency_key = ?").bind(key).fetch_optional(&mut *tx).await?;
+                sqlx::query_as("SELECT id, scene_hash FROM jobs WHERE idempotency_key = $1").bind(key).fetch_optional(&mut *tx).await?;
             if let Some((id, hash)) = existing {
                 tx.rollback().await?;
                 if hash != new.scene_hash {
@@ -241,9 +274,9 @@ impl JobStore {
                 return Ok((self.get(id).await?, false));
             }
         }
-        let (id, event) = Self::insert_job(&mut tx, &new).await?;
+        let (id, event) = self.insert_job(&mut tx, &new).await?;
         // The job as created (a worker may lease it the moment the transaction commits).
-        let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = ?", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
+        let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = $1", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
         self.notify(id, vec![event]);
         self.queued.notify_one();
@@ -252,53 +285,68 @@ impl JobStore {
 
     /// One job.
     pub async fn get(&self, id: i64) -> Result<JobRow, StoreError> {
-        let sql = format!("{} WHERE j.id = ?", rows::JOB_SELECT);
+        let sql = format!("{} WHERE j.id = $1", rows::JOB_SELECT);
         sqlx::query_as::<_, JobRow>(&sql).bind(id).fetch_optional(&self.reader).await?.ok_or(StoreError::NotFound(id))
     }
 
     /// Jobs matching the filter, newest first.
     pub async fn list(&self, f: &ListFilter) -> Result<Vec<JobRow>, StoreError> {
-        let mut q = sqlx::QueryBuilder::<Sqlite>::new(rows::JOB_SELECT);
-        q.push(" WHERE 1 = 1");
+        // The filters as `$n` parameters (both back-ends read that form), each bound in turn.
+        enum Arg {
+            Text(String),
+            Int(i64),
+        }
+        let mut sql = format!("{} WHERE 1 = 1", rows::JOB_SELECT);
+        let mut args = Vec::new();
+        let mut push = |clause: &str, arg: Arg| {
+            args.push(arg);
+            sql.push_str(&format!(" AND {clause} ${}", args.len()));
+        };
         if let Some(s) = f.state {
-            q.push(" AND j.state = ").push_bind(s.as_str());
+            push("j.state =", Arg::Text(s.as_str().to_string()));
         }
         if let Some(n) = &f.name {
-            q.push(" AND j.name = ").push_bind(n.clone());
+            push("j.name =", Arg::Text(n.clone()));
         }
         if let Some(m) = &f.method {
-            q.push(" AND j.method = ").push_bind(m.clone());
+            push("j.method =", Arg::Text(m.clone()));
         }
         if let Some(t) = f.created_after {
-            q.push(" AND j.created_at >= ").push_bind(t);
+            push("j.created_at >=", Arg::Int(t));
         }
         if let Some(t) = f.created_before {
-            q.push(" AND j.created_at < ").push_bind(t);
+            push("j.created_at <", Arg::Int(t));
         }
         if let Some(id) = f.before_id {
-            q.push(" AND j.id < ").push_bind(id);
+            push("j.id <", Arg::Int(id));
         }
-        q.push(" ORDER BY j.id DESC LIMIT ").push_bind(f.limit as i64);
-        Ok(q.build_query_as::<JobRow>().fetch_all(&self.reader).await?)
+        sql.push_str(&format!(" ORDER BY j.id DESC LIMIT ${}", args.len() + 1));
+        let mut q = sqlx::query_as::<_, JobRow>(&sql);
+        for a in args {
+            q = match a {
+                Arg::Text(t) => q.bind(t),
+                Arg::Int(i) => q.bind(i),
+            };
+        }
+        Ok(q.bind(i64::from(f.limit)).fetch_all(&self.reader).await?)
     }
 
     /// Cancels a job: a queued one at once, a running one at its worker's next report.
     pub async fn cancel(&self, id: i64) -> Result<JobRow, StoreError> {
         let mut tx = self.begin().await?;
-        let state: Option<String> = sqlx::query_scalar("SELECT state FROM jobs WHERE id = ?").bind(id).fetch_optional(&mut *tx).await?;
-        let state = state.ok_or(StoreError::NotFound(id))?;
+        let state = self.lock_job(&mut tx, id).await?.ok_or(StoreError::NotFound(id))?;
         let mut events = Vec::new();
         match JobState::parse(&state) {
             Some(JobState::Queued) => {
-                sqlx::query("UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1 WHERE id = ?")
+                sqlx::query("UPDATE jobs SET state = 'cancelled', finished_at = $1, cancel_requested = 1 WHERE id = $2")
                     .bind(now_ms())
                     .bind(id)
                     .execute(&mut *tx)
                     .await?;
-                events.push(Self::state_event(&mut tx, id).await?);
+                events.push(self.state_event(&mut tx, id).await?);
             }
             Some(JobState::Running) => {
-                sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ?").bind(id).execute(&mut *tx).await?;
+                sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = $1").bind(id).execute(&mut *tx).await?;
             }
             _ => {
                 tx.rollback().await?;
@@ -331,8 +379,8 @@ impl JobStore {
     ) -> Result<(Vec<Sample>, i64), StoreError> {
         self.get(id).await?;
         let to = to_step.map_or(i64::MAX, |s| s.min(i64::MAX as u64) as i64);
-        let mut tx = self.reader.begin().await?;
-        let seqs: Vec<i64> = sqlx::query_scalar("SELECT seq FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
+        let mut tx = self.reader.begin_with(self.backend.begin_read()).await?;
+        let seqs: Vec<i64> = sqlx::query_scalar("SELECT seq FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
             .bind(id)
             .bind(from_step as i64)
             .bind(to)
@@ -341,7 +389,7 @@ impl JobStore {
         let all = seqs.len();
         let keep = downsample(seqs, max_points);
         let rows: Vec<String> = if keep.len() == all {
-            sqlx::query_scalar("SELECT data FROM samples WHERE job_id = ? AND step >= ? AND step <= ? ORDER BY seq")
+            sqlx::query_scalar("SELECT data FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
                 .bind(id)
                 .bind(from_step as i64)
                 .bind(to)
@@ -350,8 +398,8 @@ impl JobStore {
         } else {
             let mut rows = Vec::with_capacity(keep.len());
             for chunk in keep.chunks(500) {
-                let marks = vec!["?"; chunk.len()].join(",");
-                let sql = format!("SELECT data FROM samples WHERE job_id = ? AND seq IN ({marks}) ORDER BY seq");
+                let marks = (2..chunk.len() + 2).map(|k| format!("${k}")).collect::<Vec<_>>().join(",");
+                let sql = format!("SELECT data FROM samples WHERE job_id = $1 AND seq IN ({marks}) ORDER BY seq");
                 let mut q = sqlx::query_scalar::<_, String>(&sql).bind(id);
                 for s in chunk {
                     q = q.bind(*s);
@@ -361,7 +409,7 @@ impl JobStore {
             rows
         };
         let seq: i64 =
-            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM job_events WHERE job_id = ?").bind(id).fetch_one(&mut *tx).await?;
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM job_events WHERE job_id = $1").bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
         let mut out = Vec::with_capacity(rows.len());
         for r in rows {
@@ -373,7 +421,7 @@ impl JobStore {
     /// The snapshots of a job, in order, without their files.
     pub async fn snapshots(&self, id: i64) -> Result<Vec<SnapshotRow>, StoreError> {
         self.get(id).await?;
-        Ok(sqlx::query_as::<_, SnapshotRow>("SELECT idx, step, time FROM snapshots WHERE job_id = ? ORDER BY idx")
+        Ok(sqlx::query_as::<_, SnapshotRow>("SELECT idx, step, time FROM snapshots WHERE job_id = $1 ORDER BY idx")
             .bind(id)
             .fetch_all(&self.reader)
             .await?)
@@ -382,7 +430,7 @@ impl JobStore {
     /// One file of a snapshot, gzip-compressed as stored.
     pub async fn snapshot_file(&self, id: i64, index: u32, part: SnapshotPart) -> Result<Vec<u8>, StoreError> {
         self.get(id).await?;
-        let sql = format!("SELECT {} FROM snapshots WHERE job_id = ? AND idx = ?", part.column());
+        let sql = format!("SELECT {} FROM snapshots WHERE job_id = $1 AND idx = $2", part.column());
         sqlx::query_scalar::<_, Vec<u8>>(&sql)
             .bind(id)
             .bind(index as i64)
@@ -394,7 +442,7 @@ impl JobStore {
     /// The final state of a succeeded job, gzip-compressed JSON as stored.
     pub async fn final_state(&self, id: i64) -> Result<Vec<u8>, StoreError> {
         let job = self.get(id).await?;
-        sqlx::query_scalar::<_, Vec<u8>>("SELECT state FROM job_states WHERE job_id = ?")
+        sqlx::query_scalar::<_, Vec<u8>>("SELECT state FROM job_states WHERE job_id = $1")
             .bind(id)
             .fetch_optional(&self.reader)
             .await?
@@ -409,14 +457,14 @@ impl JobStore {
         let Ok(value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
         let Some(from) = crate::start_from::referenced_job(&value) else { return Ok(scene) };
         let gz: Option<Vec<u8>> =
-            sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = ?").bind(from).fetch_optional(&self.reader).await?;
+            sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = $1").bind(from).fetch_optional(&self.reader).await?;
         Ok(gz.and_then(|gz| crate::start_from::with_state(&value, &gz).ok()).map_or(scene, |v| v.to_string()))
     }
 
     /// Events of a job with seq > `after`, in order (at most `limit`).
     pub async fn events_after(&self, id: i64, after: i64, limit: i64) -> Result<Vec<EventRow>, StoreError> {
         Ok(sqlx::query_as::<_, EventRow>(
-            "SELECT job_id, seq, at, kind, payload FROM job_events WHERE job_id = ? AND seq > ? ORDER BY seq LIMIT ?",
+            "SELECT job_id, seq, at, kind, payload FROM job_events WHERE job_id = $1 AND seq > $2 ORDER BY seq LIMIT $3",
         )
         .bind(id)
         .bind(after)
@@ -433,7 +481,7 @@ impl JobStore {
     /// Run durations (s) of finished jobs, for metrics.
     pub async fn durations(&self) -> Result<Vec<(String, f64)>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT state, (finished_at - started_at) / 1000.0 FROM jobs WHERE finished_at IS NOT NULL AND started_at IS NOT NULL",
+            "SELECT state, CAST(finished_at - started_at AS DOUBLE PRECISION) / 1000.0 FROM jobs WHERE finished_at IS NOT NULL AND started_at IS NOT NULL",
         )
         .fetch_all(&self.reader)
         .await?)
@@ -446,32 +494,31 @@ impl JobStore {
         let mut tx = self.begin().await?;
         let ids: Vec<(i64, i64, i64)> = match owner_prefix {
             None => {
-                sqlx::query_as("SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND lease_expires_at < ?")
-                    .bind(now_ms())
-                    .fetch_all(&mut *tx)
-                    .await?
+                let sql = format!(
+                    "SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND lease_expires_at < $1{}",
+                    self.backend.lock_skip()
+                );
+                sqlx::query_as(&sql).bind(now_ms()).fetch_all(&mut *tx).await?
             }
             Some(p) => {
-                sqlx::query_as(
-                    "SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND substr(lease_owner, 1, length(?)) = ?",
-                )
-                .bind(p)
-                .bind(p)
-                .fetch_all(&mut *tx)
-                .await?
+                let sql = format!(
+                    "SELECT id, attempts, max_attempts FROM jobs WHERE state = 'running' AND substr(lease_owner, 1, length($1)) = $2{}",
+                    self.backend.lock_skip()
+                );
+                sqlx::query_as(&sql).bind(p).bind(p).fetch_all(&mut *tx).await?
             }
         };
         let mut events = Vec::with_capacity(ids.len());
         for &(id, attempts, max) in &ids {
             if attempts < max {
-                sqlx::query("UPDATE jobs SET state = 'queued', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL WHERE id = ?")
+                sqlx::query("UPDATE jobs SET state = 'queued', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL WHERE id = $1")
                     .bind(id)
                     .execute(&mut *tx)
                     .await?;
             } else {
                 sqlx::query(
-                    "UPDATE jobs SET state = 'failed', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL, finished_at = ?, \
-                     error_code = 'worker_lost', error_message = ? WHERE id = ?",
+                    "UPDATE jobs SET state = 'failed', lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL, finished_at = $1, \
+                     error_code = 'worker_lost', error_message = $2 WHERE id = $3",
                 )
                 .bind(now_ms())
                 .bind(format!("the worker running the job stopped answering, {attempts} time(s) out of {max} allowed attempts"))
@@ -479,7 +526,7 @@ impl JobStore {
                 .execute(&mut *tx)
                 .await?;
             }
-            events.push((id, Self::state_event(&mut tx, id).await?));
+            events.push((id, self.state_event(&mut tx, id).await?));
         }
         tx.commit().await?;
         for (id, event) in events {
@@ -496,26 +543,28 @@ impl JobStore {
         let mut tx = self.begin().await?;
         let lease_id = new_lease_id();
         let now = now_ms();
-        let row: Option<(i64, String, i64)> = sqlx::query_as(
-            "UPDATE jobs SET state = 'running', lease_id = ?, lease_owner = ?, lease_expires_at = ?, attempts = attempts + 1, \
-             started_at = COALESCE(started_at, ?), progress = 0 \
-             WHERE id = (SELECT id FROM jobs WHERE state = 'queued' ORDER BY priority DESC, id LIMIT 1) \
+        let sql = format!(
+            "UPDATE jobs SET state = 'running', lease_id = $1, lease_owner = $2, lease_expires_at = $3, attempts = attempts + 1, \
+             started_at = COALESCE(started_at, $4), progress = 0 \
+             WHERE id = (SELECT id FROM jobs WHERE state = 'queued' ORDER BY priority DESC, id LIMIT 1{}) \
              RETURNING id, scene, attempts",
-        )
-        .bind(&lease_id)
-        .bind(owner)
-        .bind(now + self.lease.ttl.as_millis() as i64)
-        .bind(now)
-        .fetch_optional(&mut *tx)
-        .await?;
+            self.backend.lock_skip()
+        );
+        let row: Option<(i64, String, i64)> = sqlx::query_as(&sql)
+            .bind(&lease_id)
+            .bind(owner)
+            .bind(now + self.lease.ttl.as_millis() as i64)
+            .bind(now)
+            .fetch_optional(&mut *tx)
+            .await?;
         let Some((id, scene, attempts)) = row else {
             tx.rollback().await?;
             return Ok(None);
         };
         // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
-        sqlx::query("DELETE FROM samples WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
-        sqlx::query("DELETE FROM snapshots WHERE job_id = ?").bind(id).execute(&mut *tx).await?;
-        let event = Self::state_event(&mut tx, id).await?;
+        sqlx::query("DELETE FROM samples WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
+        sqlx::query("DELETE FROM snapshots WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
+        let event = self.state_event(&mut tx, id).await?;
         tx.commit().await?;
         self.notify(id, vec![event]);
         let scene = self.resolve_start(scene).await?;
@@ -523,9 +572,9 @@ impl JobStore {
     }
 
     /// Checks the lease inside a transaction; renews it.
-    async fn hold(&self, tx: &mut Transaction<'static, Sqlite>, lease: &Lease) -> Result<bool, StoreError> {
+    async fn hold(&self, tx: &mut Tx, lease: &Lease) -> Result<bool, StoreError> {
         let r: Option<i64> = sqlx::query_scalar(
-            "UPDATE jobs SET lease_expires_at = ? WHERE id = ? AND lease_id = ? AND state = 'running' RETURNING cancel_requested",
+            "UPDATE jobs SET lease_expires_at = $1 WHERE id = $2 AND lease_id = $3 AND state = 'running' RETURNING cancel_requested",
         )
         .bind(now_ms() + self.lease.ttl.as_millis() as i64)
         .bind(lease.job_id)
@@ -539,14 +588,16 @@ impl JobStore {
     pub async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, StoreError> {
         let mut tx = self.begin().await?;
         let cancel = self.hold(&mut tx, lease).await?;
-        let mut seq: i64 =
-            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM samples WHERE job_id = ?").bind(lease.job_id).fetch_one(&mut *tx).await?;
+        let mut seq: i64 = sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM samples WHERE job_id = $1")
+            .bind(lease.job_id)
+            .fetch_one(&mut *tx)
+            .await?;
         for s in &report.samples {
             seq += 1;
             let data = serde_json::to_string(s).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
             sqlx::query(
                 "INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, mu, p, q, inertial_number, kinetic_energy, \
-                 elastic_energy, data) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                 elastic_energy, data) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
             )
             .bind(lease.job_id)
             .bind(seq)
@@ -566,7 +617,7 @@ impl JobStore {
             .await?;
         }
         for f in &report.snapshots {
-            sqlx::query("INSERT INTO snapshots (job_id, idx, step, time, particles, contacts, walls) VALUES (?, ?, ?, ?, ?, ?, ?)")
+            sqlx::query("INSERT INTO snapshots (job_id, idx, step, time, particles, contacts, walls) VALUES ($1, $2, $3, $4, $5, $6, $7)")
                 .bind(lease.job_id)
                 .bind(f.index as i64)
                 .bind(f.step as i64)
@@ -582,9 +633,9 @@ impl JobStore {
         let first = Self::next_seq(&mut tx, lease.job_id).await?;
         for (k, s) in report.samples.iter().enumerate() {
             let payload = serde_json::json!({"fraction": report.fraction, "remaining_seconds": report.remaining_seconds, "sample": s});
-            events.push(Self::insert_event(&mut tx, lease.job_id, first + k as i64, "sample", &payload).await?);
+            events.push(self.insert_event(&mut tx, lease.job_id, first + k as i64, "sample", &payload).await?);
         }
-        sqlx::query("UPDATE jobs SET progress = ?, steps = MAX(steps, ?) WHERE id = ?")
+        sqlx::query("UPDATE jobs SET progress = $1, steps = CASE WHEN steps > $2 THEN steps ELSE $2 END WHERE id = $3")
             .bind(report.fraction.clamp(0.0, 1.0))
             .bind(report.samples.last().map_or(0, |s| s.step as i64))
             .bind(lease.job_id)
@@ -649,10 +700,10 @@ impl JobStore {
         match end {
             Some(End { state, code, message, steps, wall_seconds, cpu_seconds, solver_iterations, result }) => {
                 sqlx::query(&format!(
-                    "UPDATE jobs SET state = ?1, progress = CASE WHEN ?1 = 'succeeded' THEN 1 ELSE progress END, error_code = ?2, \
-                     error_message = ?3, steps = COALESCE(?4, steps), wall_seconds = COALESCE(?5, wall_seconds), finished_at = ?6, \
-                     result = ?8, cpu_seconds = COALESCE(?9, cpu_seconds), solver_iterations = COALESCE(?10, solver_iterations), \
-                     {clear} WHERE id = ?7"
+                    "UPDATE jobs SET state = $1, progress = CASE WHEN $1 = 'succeeded' THEN 1 ELSE progress END, error_code = $2, \
+                     error_message = $3, steps = COALESCE($4, steps), wall_seconds = COALESCE($5, wall_seconds), finished_at = $6, \
+                     result = $8, cpu_seconds = COALESCE($9, cpu_seconds), solver_iterations = COALESCE($10, solver_iterations), \
+                     {clear} WHERE id = $7"
                 ))
                 .bind(state)
                 .bind(code)
@@ -667,24 +718,26 @@ impl JobStore {
                 .execute(&mut *tx)
                 .await?;
                 if let Outcome::Succeeded { state: Some(gz), .. } = outcome {
-                    sqlx::query("INSERT OR REPLACE INTO job_states (job_id, state) VALUES (?, ?)")
-                        .bind(lease.job_id)
-                        .bind(gz)
-                        .execute(&mut *tx)
-                        .await?;
+                    sqlx::query(
+                        "INSERT INTO job_states (job_id, state) VALUES ($1, $2) ON CONFLICT (job_id) DO UPDATE SET state = excluded.state",
+                    )
+                    .bind(lease.job_id)
+                    .bind(gz)
+                    .execute(&mut *tx)
+                    .await?;
                 }
             }
             None => {
                 // Handed back by a worker that is shutting down: not the job's fault.
                 sqlx::query(&format!(
-                    "UPDATE jobs SET state = 'queued', attempts = MAX(attempts - 1, 0), progress = 0, {clear} WHERE id = ?"
+                    "UPDATE jobs SET state = 'queued', attempts = CASE WHEN attempts > 0 THEN attempts - 1 ELSE 0 END, progress = 0, {clear} WHERE id = $1"
                 ))
                 .bind(lease.job_id)
                 .execute(&mut *tx)
                 .await?;
             }
         }
-        let event = Self::state_event(&mut tx, lease.job_id).await?;
+        let event = self.state_event(&mut tx, lease.job_id).await?;
         tx.commit().await?;
         self.notify(lease.job_id, vec![event]);
         if matches!(outcome, Outcome::Released) {

@@ -2,9 +2,7 @@
 //! (one per run: a sweep's point, a search's probe) with their measured value, and the report
 //! the study driver recomputes as they finish (server/src/studies.rs).
 
-use sqlx::{Sqlite, Transaction};
-
-use super::{now_ms, EventRow, JobStore, NewJob, StoreError};
+use super::{now_ms, EventRow, JobStore, NewJob, StoreError, Tx};
 
 /// A run to add to a study, with the job that runs it.
 #[derive(Debug, Clone)]
@@ -86,11 +84,11 @@ const STUDY_SELECT: &str = "SELECT id, name, kind, state, spec, report, error, c
 impl JobStore {
     /// Inserts the jobs of `runs` and their rows in `study_jobs`, in the caller's transaction;
     /// returns the events to announce after the commit.
-    async fn insert_runs(tx: &mut Transaction<'static, Sqlite>, study: i64, runs: &[NewRun]) -> Result<Vec<(i64, EventRow)>, StoreError> {
+    async fn insert_runs(&self, tx: &mut Tx, study: i64, runs: &[NewRun]) -> Result<Vec<(i64, EventRow)>, StoreError> {
         let mut events = Vec::with_capacity(runs.len());
         for run in runs {
-            let (job, event) = Self::insert_job(tx, &run.job).await?;
-            sqlx::query("INSERT INTO study_jobs (study_id, idx, job_id, series, label, value) VALUES (?, ?, ?, ?, ?, ?)")
+            let (job, event) = self.insert_job(tx, &run.job).await?;
+            sqlx::query("INSERT INTO study_jobs (study_id, idx, job_id, series, label, value) VALUES ($1, $2, $3, $4, $5, $6)")
                 .bind(study)
                 .bind(run.idx)
                 .bind(job)
@@ -116,14 +114,14 @@ impl JobStore {
     pub async fn create_study(&self, name: &str, kind: &str, spec: &str, runs: &[NewRun]) -> Result<StudyRow, StoreError> {
         let mut tx = self.begin().await?;
         let id: i64 =
-            sqlx::query_scalar("INSERT INTO studies (name, kind, state, spec, created_at) VALUES (?, ?, 'running', ?, ?) RETURNING id")
+            sqlx::query_scalar("INSERT INTO studies (name, kind, state, spec, created_at) VALUES ($1, $2, 'running', $3, $4) RETURNING id")
                 .bind(name)
                 .bind(kind)
                 .bind(spec)
                 .bind(now_ms())
                 .fetch_one(&mut *tx)
                 .await?;
-        let events = Self::insert_runs(&mut tx, id, runs).await?;
+        let events = self.insert_runs(&mut tx, id, runs).await?;
         tx.commit().await?;
         self.announce(events);
         self.study(id).await
@@ -136,7 +134,7 @@ impl JobStore {
         let mut tx = self.begin().await?;
         let mut fresh = Vec::new();
         for run in runs {
-            let taken: Option<i64> = sqlx::query_scalar("SELECT job_id FROM study_jobs WHERE study_id = ? AND idx = ?")
+            let taken: Option<i64> = sqlx::query_scalar("SELECT job_id FROM study_jobs WHERE study_id = $1 AND idx = $2")
                 .bind(study)
                 .bind(run.idx)
                 .fetch_optional(&mut *tx)
@@ -145,7 +143,7 @@ impl JobStore {
                 fresh.push(run.clone());
             }
         }
-        let events = Self::insert_runs(&mut tx, study, &fresh).await?;
+        let events = self.insert_runs(&mut tx, study, &fresh).await?;
         tx.commit().await?;
         self.announce(events);
         Ok(())
@@ -153,7 +151,7 @@ impl JobStore {
 
     /// One study.
     pub async fn study(&self, id: i64) -> Result<StudyRow, StoreError> {
-        sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} WHERE id = ?"))
+        sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} WHERE id = $1"))
             .bind(id)
             .fetch_optional(&self.reader)
             .await?
@@ -164,14 +162,14 @@ impl JobStore {
     pub async fn studies(&self, state: Option<&str>, limit: i64) -> Result<Vec<StudyRow>, StoreError> {
         Ok(match state {
             Some(s) => {
-                sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} WHERE state = ? ORDER BY id LIMIT ?"))
+                sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} WHERE state = $1 ORDER BY id LIMIT $2"))
                     .bind(s)
                     .bind(limit)
                     .fetch_all(&self.reader)
                     .await?
             }
             None => {
-                sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} ORDER BY id DESC LIMIT ?"))
+                sqlx::query_as::<_, StudyRow>(&format!("{STUDY_SELECT} ORDER BY id DESC LIMIT $1"))
                     .bind(limit)
                     .fetch_all(&self.reader)
                     .await?
@@ -184,7 +182,7 @@ impl JobStore {
         Ok(sqlx::query_as::<_, RunRow>(
             "SELECT r.idx, r.job_id, r.series, r.label, r.value, r.measured, r.measure_note, r.measured_done, j.state, j.error_code, \
              j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.result \
-             FROM study_jobs r JOIN jobs j ON j.id = r.job_id WHERE r.study_id = ? ORDER BY r.idx",
+             FROM study_jobs r JOIN jobs j ON j.id = r.job_id WHERE r.study_id = $1 ORDER BY r.idx",
         )
         .bind(study)
         .fetch_all(&self.reader)
@@ -194,7 +192,7 @@ impl JobStore {
     /// Records a run's measured value (or why there is none).
     pub async fn set_run_measure(&self, study: i64, idx: i64, measured: Option<f64>, note: Option<&str>) -> Result<(), StoreError> {
         let mut tx = self.begin().await?;
-        sqlx::query("UPDATE study_jobs SET measured = ?, measure_note = ?, measured_done = 1 WHERE study_id = ? AND idx = ?")
+        sqlx::query("UPDATE study_jobs SET measured = $1, measure_note = $2, measured_done = 1 WHERE study_id = $3 AND idx = $4")
             .bind(measured)
             .bind(note)
             .bind(study)
@@ -209,8 +207,8 @@ impl JobStore {
     pub async fn set_study_report(&self, id: i64, report: &str, state: &str, error: Option<&str>) -> Result<(), StoreError> {
         let mut tx = self.begin().await?;
         sqlx::query(
-            "UPDATE studies SET report = ?1, state = ?2, error = ?3, \
-             finished_at = CASE WHEN ?2 = 'running' THEN NULL ELSE COALESCE(finished_at, ?4) END WHERE id = ?5",
+            "UPDATE studies SET report = $1, state = $2, error = $3, \
+             finished_at = CASE WHEN $2 = 'running' THEN NULL ELSE COALESCE(finished_at, $4) END WHERE id = $5",
         )
         .bind(report)
         .bind(state)

@@ -1,6 +1,10 @@
 //! Helpers shared by the physics tests.
 #![allow(dead_code)]
 
+/// The throw-away PostgreSQL of the tests (shared with the server's tests).
+#[path = "../../../server/tests/common/postgres.rs"]
+pub mod postgres;
+
 use sable_engine::methods::dem::Dem;
 use sable_engine::scene::{parse_scene, Method, Scene};
 

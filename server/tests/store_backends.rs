@@ -1,0 +1,332 @@
+//! The job store's semantics, the same tests on both back-ends (SQLite and PostgreSQL), and
+//! what only several servers on one PostgreSQL can show: one queue leased by all of them, each
+//! job exactly once; a server hearing of the events another server stored; the study driver
+//! running on one server at a time and moving when its holder goes.
+//!
+//! PostgreSQL comes from `common/postgres.rs` (a throw-away cluster; the tests skip with a
+//! message when the machine has no PostgreSQL, and fail then under `SABLE_REQUIRE_POSTGRES=1`).
+
+mod common;
+
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Duration;
+
+use sable_engine::observe::Sample;
+use sable_server::store::{Backend, DbLocation, JobStore, LeaseConfig, ListFilter, NewJob, NewRun, StoreError};
+use sable_worker::{Lease, Outcome, Report};
+
+use common::postgres;
+
+/// The back-ends to run a test on: SQLite always, PostgreSQL when there is one.
+async fn locations(dir: &tempfile::TempDir) -> Vec<DbLocation> {
+    let mut v = vec![DbLocation::Sqlite(dir.path().join("sable.db"))];
+    if let Some(pg) = postgres::server() {
+        v.push(DbLocation::Postgres(postgres::fresh_database(pg).await));
+    }
+    v
+}
+
+async fn open(at: &DbLocation, ttl_ms: u64) -> JobStore {
+    JobStore::open(at, LeaseConfig { ttl: Duration::from_millis(ttl_ms) }).await.unwrap_or_else(|e| panic!("open {at}: {e}"))
+}
+
+fn job(name: &str, priority: i64, key: Option<&str>) -> NewJob {
+    NewJob {
+        name: name.into(),
+        scene: format!("{{\"name\":\"{name}\"}}"),
+        scene_hash: format!("hash-{name}"),
+        method: "dem".into(),
+        method_reason: "test".into(),
+        seed: 7,
+        priority,
+        max_attempts: 2,
+        idempotency_key: key.map(str::to_string),
+    }
+}
+
+fn sample(step: u64, phi: f64) -> Sample {
+    serde_json::from_value(serde_json::json!({
+        "step": step, "time": step as f64 * 1e-3, "phi": phi, "z": 4.0, "z_no_rattlers": 4.2, "mu": 0.3, "p": 100.0, "q": 30.0,
+        "stress": {"xx": 1.0, "yy": 2.0, "zz": 0.0, "xy": 0.5, "xz": 0.0, "yz": 0.0},
+        "inertial_number": null, "kinetic_energy": 1e-6, "elastic_energy": 2e-6, "walls": []
+    }))
+    .expect("a sample")
+}
+
+fn report(samples: Vec<Sample>, fraction: f64) -> Report {
+    Report { fraction, remaining_seconds: Some(1.0), samples, snapshots: Vec::new() }
+}
+
+fn succeeded(steps: u64) -> Outcome {
+    Outcome::Succeeded {
+        steps,
+        wall_seconds: 0.5,
+        cpu_seconds: 0.4,
+        solver_iterations: 0,
+        result: Some("{\"peak\":1}".into()),
+        state: Some(vec![1, 2, 3]),
+    }
+}
+
+/// Submission, idempotency, the queue's order, reports fenced by the lease, events numbered
+/// without gaps, samples read back whole and downsampled with the events' sequence number,
+/// the end of a job, listing, cancellation, lease expiry and hand-back: on both back-ends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_queue_behaves_the_same_on_both_backends() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for at in locations(&dir).await {
+        let s = open(&at, 60_000).await;
+        let (a, fresh) = s.submit(job("a", 0, Some("key-a"))).await.expect("submit a");
+        assert!(fresh);
+        let (again, fresh) = s.submit(job("a", 0, Some("key-a"))).await.expect("submit a again");
+        assert!(!fresh, "{at}: same key, same scene: the same job");
+        assert_eq!(again.id, a.id);
+        let mut other = job("a", 0, Some("key-a"));
+        other.scene_hash = "another".into();
+        assert!(matches!(s.submit(other).await, Err(StoreError::Conflict(_))), "{at}");
+        let (b, _) = s.submit(job("b", 5, None)).await.expect("submit b");
+        let (c, _) = s.submit(job("c", 0, None)).await.expect("submit c");
+
+        // Highest priority first, then the oldest.
+        let l1 = s.lease_next("w1").await.expect("lease").expect("a job");
+        let l2 = s.lease_next("w1").await.expect("lease").expect("a job");
+        assert_eq!((l1.job_id, l2.job_id), (b.id, a.id), "{at}");
+        assert_eq!(l1.attempt, 1);
+
+        // Reports fenced by the lease id.
+        let cancelled = s.report(&l1, &report((1..=5).map(|k| sample(k * 100, 0.5 + 0.01 * k as f64)).collect(), 0.5)).await;
+        assert!(!cancelled.expect("report"), "{at}");
+        let forged = Lease { lease_id: "not-the-lease".into(), ..l1.clone() };
+        assert!(matches!(s.report(&forged, &report(vec![sample(600, 0.6)], 0.6)).await, Err(StoreError::Conflict(_))), "{at}");
+        s.report(&l1, &report(vec![sample(600, 0.56)], 0.6)).await.expect("second report");
+
+        let all = s.samples(b.id, 0, None).await.expect("samples");
+        assert_eq!(all.iter().map(|x| x.step).collect::<Vec<_>>(), vec![100, 200, 300, 400, 500, 600], "{at}");
+        assert_eq!(all[2], sample(300, 0.53), "{at}: a sample reads back whole");
+        let (few, seq) = s.samples_and_seq(b.id, 200, Some(600), 3).await.expect("downsampled");
+        assert_eq!(few.iter().map(|x| x.step).collect::<Vec<_>>(), vec![200, 400, 600], "{at}");
+        // Events: queued, running, six samples, numbered 1.. without gaps.
+        let events = s.events_after(b.id, 0, 100).await.expect("events");
+        assert_eq!(events.iter().map(|e| e.seq).collect::<Vec<_>>(), (1..=8).collect::<Vec<_>>(), "{at}");
+        assert_eq!(seq, 8, "{at}");
+        assert_eq!(events.iter().filter(|e| e.kind == "sample").count(), 6);
+
+        s.finish(&l1, &succeeded(600)).await.expect("finish");
+        let done = s.get(b.id).await.expect("get");
+        assert_eq!((done.state.as_str(), done.steps, done.sample_count, done.progress), ("succeeded", 600, 6, 1.0), "{at}");
+        assert_eq!(done.result.as_deref(), Some("{\"peak\":1}"));
+        assert_eq!(s.final_state(b.id).await.expect("state"), vec![1, 2, 3], "{at}");
+        assert!(matches!(s.finish(&l1, &succeeded(600)).await, Err(StoreError::Conflict(_))), "{at}: a lease ends once");
+        assert!(matches!(s.final_state(a.id).await, Err(StoreError::Missing(_))), "{at}");
+
+        // Handed back: queued again, the attempt not counted; leased again it starts afresh.
+        s.report(&l2, &report(vec![sample(10, 0.5)], 0.1)).await.expect("report a");
+        s.finish(&l2, &Outcome::Released).await.expect("release");
+        let a_now = s.get(a.id).await.expect("get a");
+        assert_eq!((a_now.state.as_str(), a_now.attempts), ("queued", 0), "{at}");
+        let l3 = s.lease_next("w2").await.expect("lease").expect("a again");
+        assert_eq!((l3.job_id, l3.attempt), (a.id, 1), "{at}");
+        assert_eq!(s.get(a.id).await.expect("get").sample_count, 0, "{at}: a new attempt drops the old samples");
+
+        // Cancellation: a queued job at once; a running one at its next report; an ended one never.
+        let cancelled_c = s.cancel(c.id).await.expect("cancel c");
+        assert_eq!(cancelled_c.state, "cancelled", "{at}");
+        s.cancel(a.id).await.expect("cancel a");
+        assert!(s.report(&l3, &report(Vec::new(), 0.2)).await.expect("report"), "{at}: the worker hears of it");
+        s.finish(&l3, &Outcome::Cancelled).await.expect("finish cancelled");
+        assert!(matches!(s.cancel(b.id).await, Err(StoreError::Conflict(_))), "{at}");
+        assert!(matches!(s.cancel(9_999_999).await, Err(StoreError::NotFound(9_999_999))), "{at}");
+
+        // Listing: filters and pages.
+        for k in 0..5 {
+            s.submit(job(&format!("page-{k}"), 0, None)).await.expect("submit");
+        }
+        let page1 = s.list(&ListFilter { limit: 3, ..Default::default() }).await.expect("list");
+        assert_eq!(page1.len(), 3);
+        let page2 = s.list(&ListFilter { limit: 3, before_id: page1.last().map(|j| j.id), ..Default::default() }).await.expect("list");
+        assert!(page2.iter().all(|j| j.id < page1[2].id) && page2.len() == 3, "{at}");
+        let named = s.list(&ListFilter { name: Some("page-3".into()), limit: 10, ..Default::default() }).await.expect("list");
+        assert_eq!(named.len(), 1, "{at}");
+        let by_state = s
+            .list(&ListFilter {
+                state: Some(sable_server::store::JobState::Cancelled),
+                method: Some("dem".into()),
+                limit: 10,
+                ..Default::default()
+            })
+            .await
+            .expect("list");
+        assert_eq!(by_state.iter().map(|j| j.id).collect::<HashSet<_>>(), HashSet::from([a.id, c.id]), "{at}");
+        let counts: std::collections::HashMap<String, i64> = s.count_by_state().await.expect("counts").into_iter().collect();
+        assert_eq!((counts["queued"], counts["succeeded"], counts["cancelled"]), (5, 1, 2), "{at}");
+        let durations = s.durations().await.expect("durations");
+        assert!(durations.iter().all(|(_, d)| d.is_finite() && *d >= 0.0) && !durations.is_empty(), "{at}");
+        s.close().await;
+
+        // A lease that expires puts the job back (and out of attempts, fails it).
+        let s = open(&at, 50).await;
+        let l = s.lease_next("w3").await.expect("lease").expect("a job");
+        tokio::time::sleep(Duration::from_millis(120)).await;
+        assert!(s.requeue_expired(None).await.expect("requeue") >= 1, "{at}");
+        assert_eq!(s.get(l.job_id).await.expect("get").state, "queued", "{at}");
+        assert!(matches!(s.report(&l, &report(Vec::new(), 0.3)).await, Err(StoreError::Conflict(_))), "{at}: the old lease is fenced");
+        let l = s.lease_next("w3").await.expect("lease").expect("the same job");
+        assert_eq!(l.attempt, 2);
+        tokio::time::sleep(Duration::from_millis(120)).await;
+        s.requeue_expired(None).await.expect("requeue");
+        let failed = s.get(l.job_id).await.expect("get");
+        assert_eq!((failed.state.as_str(), failed.error_code.as_deref()), ("failed", Some("worker_lost")), "{at}");
+        s.close().await;
+    }
+}
+
+/// Studies: created with their jobs in one transaction, runs added once, measures and
+/// reports stored.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn studies_behave_the_same_on_both_backends() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for at in locations(&dir).await {
+        let s = open(&at, 60_000).await;
+        let run = |idx: i64| NewRun {
+            idx,
+            series: "s".into(),
+            label: format!("n={idx}"),
+            value: Some(idx as f64),
+            job: job(&format!("run-{idx}"), 0, None),
+        };
+        let study = s.create_study("sweep", "sweep", "{}", &[run(0), run(1)]).await.expect("create");
+        assert_eq!(study.state, "running");
+        s.add_study_runs(study.id, &[run(1), run(2)]).await.expect("add");
+        let runs = s.study_runs(study.id).await.expect("runs");
+        assert_eq!(runs.iter().map(|r| r.idx).collect::<Vec<_>>(), vec![0, 1, 2], "{at}: run 1 is not added twice");
+        assert_eq!(runs[2].value, Some(2.0));
+        s.set_run_measure(study.id, 1, Some(0.25), None).await.expect("measure");
+        s.set_run_measure(study.id, 2, None, Some("failed")).await.expect("measure");
+        let runs = s.study_runs(study.id).await.expect("runs");
+        assert_eq!((runs[1].measured, runs[1].measured_done), (Some(0.25), 1), "{at}");
+        assert_eq!((runs[2].measured, runs[2].measure_note.as_deref()), (None, Some("failed")), "{at}");
+        s.set_study_report(study.id, "{\"points\":[]}", "succeeded", None).await.expect("report");
+        let ended = s.study(study.id).await.expect("study");
+        assert!(ended.finished_at.is_some() && ended.state == "succeeded", "{at}");
+        assert_eq!(s.studies(None, 10).await.expect("list").len(), 1);
+        assert!(s.studies(Some("running"), 10).await.expect("list").is_empty());
+        assert!(s.is_study_driver().await, "{at}: a lone server drives");
+        s.close().await;
+    }
+}
+
+/// Three servers on one PostgreSQL, each with three workers leasing at once, drain one queue
+/// of 60 jobs: every job is leased and finished exactly once.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn servers_on_one_postgres_share_the_queue() {
+    let Some(pg) = postgres::server() else { return };
+    let at = DbLocation::Postgres(postgres::fresh_database(pg).await);
+    let stores: Vec<JobStore> = futures_join(&at, 3).await;
+    let mut ids = HashSet::new();
+    for k in 0..60 {
+        let (j, _) = stores[k % 3].submit(job(&format!("j{k}"), 0, None)).await.expect("submit");
+        ids.insert(j.id);
+    }
+    let taken = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut tasks = tokio::task::JoinSet::new();
+    for (n, s) in stores.iter().enumerate() {
+        for w in 0..3 {
+            let s = s.clone();
+            let taken = taken.clone();
+            tasks.spawn(async move {
+                while let Some(l) = s.lease_next(&format!("server{n}:w{w}")).await.expect("lease") {
+                    s.report(&l, &report(vec![sample(1, 0.5)], 0.5)).await.expect("report");
+                    s.finish(&l, &succeeded(1)).await.expect("finish");
+                    taken.lock().expect("lock").push(l.job_id);
+                }
+            });
+        }
+    }
+    while let Some(r) = tasks.join_next().await {
+        r.expect("a worker");
+    }
+    let taken = taken.lock().expect("lock").clone();
+    assert_eq!(taken.len(), 60, "each job leased once");
+    assert_eq!(taken.iter().copied().collect::<HashSet<_>>(), ids);
+    for id in ids {
+        let j = stores[0].get(id).await.expect("get");
+        assert_eq!((j.state.as_str(), j.attempts, j.sample_count), ("succeeded", 1, 1));
+    }
+    for s in &stores {
+        s.close().await;
+    }
+}
+
+/// A watcher on one server hears of the samples a worker of another server stores; the study
+/// driver runs on one server and moves to another when that one closes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn servers_on_one_postgres_hear_each_other_and_share_the_driver() {
+    let Some(pg) = postgres::server() else { return };
+    let at = DbLocation::Postgres(postgres::fresh_database(pg).await);
+    let stores = futures_join(&at, 2).await;
+    let (a, b) = (&stores[0], &stores[1]);
+    assert_eq!(a.backend(), Backend::Postgres);
+
+    let mut heard = b.subscribe();
+    let (j, _) = a.submit(job("watched", 0, None)).await.expect("submit");
+    let l = a.lease_next("a:w").await.expect("lease").expect("job");
+    a.report(&l, &report(vec![sample(1, 0.5), sample(2, 0.51)], 0.5)).await.expect("report");
+    // B hears of the job (submitted, leased, sampled) without having written anything.
+    let notice = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            match heard.recv().await {
+                Ok(n) if n.job_id == j.id => return n,
+                Ok(_) => {}
+                Err(e) => panic!("notices: {e}"),
+            }
+        }
+    })
+    .await
+    .expect("server B hears of server A's job within 10 s");
+    assert!(notice.events.is_empty(), "another server's notice says only which job changed");
+    // B's watcher, reading the table, sees every event, the samples included, then the end.
+    a.finish(&l, &succeeded(2)).await.expect("finish");
+    let mut rx = sable_server::watch::watch(b, j.id, 0, Duration::from_millis(200)).await.expect("watch");
+    let mut kinds = Vec::new();
+    loop {
+        let item =
+            tokio::time::timeout(Duration::from_secs(10), rx.recv()).await.expect("events come").expect("stream open").expect("no error");
+        if let sable_server::watch::WatchItem::Event(e) = item {
+            kinds.push(e.kind.clone());
+            if sable_server::watch::is_final(&e) {
+                break;
+            }
+        }
+    }
+    assert_eq!(kinds, vec!["state", "state", "sample", "sample", "state"]);
+
+    // One driver at a time; the role moves when its holder closes.
+    let (da, db) = (a.is_study_driver().await, b.is_study_driver().await);
+    assert!(da ^ db, "exactly one server drives the studies: {da} {db}");
+    let (holder, other) = if da { (a, b) } else { (b, a) };
+    assert!(holder.is_study_driver().await && !other.is_study_driver().await, "the role stays put");
+    holder.close().await;
+    let moved = async {
+        while !other.is_study_driver().await {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(10), moved).await.expect("the other server takes the role over");
+    other.close().await;
+}
+
+/// Opens `n` stores on `at` at once (their migrations race; PostgreSQL's advisory lock orders them).
+async fn futures_join(at: &DbLocation, n: usize) -> Vec<JobStore> {
+    let mut set = tokio::task::JoinSet::new();
+    for k in 0..n {
+        let at = at.clone();
+        set.spawn(async move { (k, open(&at, 60_000).await) });
+    }
+    let mut v = Vec::new();
+    while let Some(r) = set.join_next().await {
+        v.push(r.expect("open"));
+    }
+    v.sort_by_key(|(k, _)| *k);
+    v.into_iter().map(|(_, s)| s).collect()
+}
