@@ -342,6 +342,7 @@ impl pb::workers_server::Workers for WorkersService {
             remaining_seconds: (r.remaining_seconds >= 0.0).then_some(r.remaining_seconds),
             samples,
             snapshots,
+            first_sample: r.first_sample,
         };
         let cancel = self.store.report(&lease_of(r.job_id, r.lease_id), &report).await.map_err(worker_status)?;
         Ok(Response::new(pb::ReportProgressResponse { cancel_requested: cancel }))

@@ -55,7 +55,7 @@ fn sample(step: u64, phi: f64) -> Sample {
 }
 
 fn report(samples: Vec<Sample>, fraction: f64) -> Report {
-    Report { fraction, remaining_seconds: Some(1.0), samples, snapshots: Vec::new() }
+    Report { fraction, remaining_seconds: Some(1.0), samples, snapshots: Vec::new(), first_sample: None }
 }
 
 fn succeeded(steps: u64) -> Outcome {
@@ -99,7 +99,13 @@ async fn the_queue_behaves_the_same_on_both_backends() {
         assert!(!cancelled.expect("report"), "{at}");
         let forged = Lease { lease_id: "not-the-lease".into(), ..l1.clone() };
         assert!(matches!(s.report(&forged, &report(vec![sample(600, 0.6)], 0.6)).await, Err(StoreError::Conflict(_))), "{at}");
-        s.report(&l1, &report(vec![sample(600, 0.56)], 0.6)).await.expect("second report");
+        // A report sent again (its answer lost) stores its samples once; one that overlaps
+        // what is stored adds only what is new.
+        let second = Report { first_sample: Some(5), ..report(vec![sample(600, 0.56)], 0.6) };
+        s.report(&l1, &second).await.expect("second report");
+        s.report(&l1, &second).await.expect("second report again");
+        let overlapping = Report { first_sample: Some(4), ..report(vec![sample(500, 0.55), sample(600, 0.56)], 0.6) };
+        s.report(&l1, &overlapping).await.expect("overlapping report");
 
         let all = s.samples(b.id, 0, None).await.expect("samples");
         assert_eq!(all.iter().map(|x| x.step).collect::<Vec<_>>(), vec![100, 200, 300, 400, 500, 600], "{at}");

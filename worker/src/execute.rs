@@ -244,7 +244,10 @@ pub async fn execute<S: JobSource>(
 /// Sends the pending samples and progress (also when there is no sample: the report renews the
 /// lease and brings back cancellation). Keeps the samples if the call fails.
 async fn flush<S: JobSource>(source: &S, lease: &Lease, pending: &mut Report) -> Result<bool, SourceError> {
+    let before = pending.first_sample.get_or_insert(0);
+    let sent = *before + pending.samples.len() as u64;
     let cancelled = source.report(lease, pending).await?;
+    pending.first_sample = Some(sent);
     pending.samples.clear();
     pending.snapshots.clear();
     Ok(cancelled)

@@ -58,6 +58,7 @@ impl JobSource for RemoteSource {
             fraction: report.fraction,
             remaining_seconds: report.remaining_seconds.unwrap_or(-1.0),
             samples_json,
+            first_sample: report.first_sample,
             snapshots: report
                 .snapshots
                 .iter()

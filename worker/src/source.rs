@@ -30,6 +30,11 @@ pub struct Report {
     pub samples: Vec<Sample>,
     /// New snapshots, in order.
     pub snapshots: Vec<SnapshotFiles>,
+    /// How many samples of this attempt came before `samples[0]` (the workers of this version
+    /// always say; None from older remote workers). With it a report sent again, because its
+    /// answer was lost, stores its samples once: the store numbers them from it and skips
+    /// those it has.
+    pub first_sample: Option<u64>,
 }
 
 /// One snapshot as its three VTK files, each gzip-compressed

@@ -200,7 +200,10 @@ pub(super) async fn connect(at: &DbLocation) -> Result<Pools, StoreError> {
         }
         DbLocation::Postgres(url) => {
             let options = AnyConnectOptions::from_str(url)?;
-            let pool = AnyPoolOptions::new().max_connections(16).acquire_timeout(Duration::from_secs(30)).connect_with(options).await?;
+            // While PostgreSQL is unreachable a request fails after the acquire timeout (a
+            // submission is refused with 503 rather than left hanging); the pool reconnects
+            // when it is back.
+            let pool = AnyPoolOptions::new().max_connections(16).acquire_timeout(Duration::from_secs(10)).connect_with(options).await?;
             // sqlx's PostgreSQL migrator holds an advisory lock: servers starting together
             // apply each migration once.
             POSTGRES_MIGRATOR.run(&pool).await?;

@@ -588,11 +588,16 @@ impl JobStore {
     pub async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, StoreError> {
         let mut tx = self.begin().await?;
         let cancel = self.hold(&mut tx, lease).await?;
+        // The samples of an attempt are numbered 1, 2, ... without gaps. A report sent again
+        // because its answer was lost starts at or before the last one stored: those are
+        // skipped, so every sample is stored once.
         let mut seq: i64 = sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM samples WHERE job_id = $1")
             .bind(lease.job_id)
             .fetch_one(&mut *tx)
             .await?;
-        for s in &report.samples {
+        let skip = report.first_sample.map_or(0, |first| (seq - first.min(i64::MAX as u64) as i64).clamp(0, report.samples.len() as i64));
+        let fresh = &report.samples[skip as usize..];
+        for s in fresh {
             seq += 1;
             let data = serde_json::to_string(s).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
             sqlx::query(
@@ -617,21 +622,25 @@ impl JobStore {
             .await?;
         }
         for f in &report.snapshots {
-            sqlx::query("INSERT INTO snapshots (job_id, idx, step, time, particles, contacts, walls) VALUES ($1, $2, $3, $4, $5, $6, $7)")
-                .bind(lease.job_id)
-                .bind(f.index as i64)
-                .bind(f.step as i64)
-                .bind(f.time)
-                .bind(&f.particles)
-                .bind(&f.contacts)
-                .bind(&f.walls)
-                .execute(&mut *tx)
-                .await?;
+            // A snapshot is numbered by the worker: one sent again is stored once.
+            sqlx::query(
+                "INSERT INTO snapshots (job_id, idx, step, time, particles, contacts, walls) VALUES ($1, $2, $3, $4, $5, $6, $7) \
+                 ON CONFLICT (job_id, idx) DO NOTHING",
+            )
+            .bind(lease.job_id)
+            .bind(f.index as i64)
+            .bind(f.step as i64)
+            .bind(f.time)
+            .bind(&f.particles)
+            .bind(&f.contacts)
+            .bind(&f.walls)
+            .execute(&mut *tx)
+            .await?;
         }
         // One sample event per sample, carrying the progress of the batch.
-        let mut events = Vec::with_capacity(report.samples.len());
+        let mut events = Vec::with_capacity(fresh.len());
         let first = Self::next_seq(&mut tx, lease.job_id).await?;
-        for (k, s) in report.samples.iter().enumerate() {
+        for (k, s) in fresh.iter().enumerate() {
             let payload = serde_json::json!({"fraction": report.fraction, "remaining_seconds": report.remaining_seconds, "sample": s});
             events.push(self.insert_event(&mut tx, lease.job_id, first + k as i64, "sample", &payload).await?);
         }

@@ -68,55 +68,138 @@ fn start() -> Result<Postgres, String> {
         let base = u.to_string().trim_end_matches('/').to_string();
         return Ok(Postgres { base, admin_db: if db.is_empty() { "postgres".into() } else { db } });
     }
-    let bin = binaries().ok_or("no PostgreSQL binaries (initdb, pg_ctl) on this machine: apt-get install postgresql")?;
-    let root = target_dir().join("postgres-test");
-    let data = root.join("data");
-    let port_file = root.join("port");
-    let run_as = run_as()?;
+    // Shared by the test binaries and runs: never stopped by the tests.
+    let mut cluster = Cluster::new(target_dir().join("postgres-test"))?;
+    cluster.keep = true;
     // A cluster left running by an earlier test binary or run.
-    if let Ok(port) = std::fs::read_to_string(&port_file) {
-        let status = as_user(&run_as, &bin.join("pg_ctl"), &["status", "-D", &data.to_string_lossy()])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .status();
-        if status.is_ok_and(|s| s.success()) {
-            return Ok(Postgres { base: format!("postgres://sable@127.0.0.1:{}", port.trim()), admin_db: "postgres".into() });
+    if let Ok(port) = std::fs::read_to_string(cluster.root.join("port")) {
+        if let (Ok(port), true) = (port.trim().parse(), cluster.running()) {
+            cluster.port = port;
+            return Ok(cluster.server());
         }
     }
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).map_err(|e| format!("cannot create {}: {e}", root.display()))?;
-    if let Some((uid, gid)) = run_as.as_ref().map(|u| (u.uid, u.gid)) {
-        std::os::unix::fs::chown(&root, Some(uid), Some(gid)).map_err(|e| format!("cannot hand {} over: {e}", root.display()))?;
+    Ok(cluster.create()?.server())
+}
+
+/// A PostgreSQL cluster of the tests' own, in a directory of `target/`.
+pub struct Cluster {
+    bin: PathBuf,
+    root: PathBuf,
+    run_as: Option<User>,
+    /// The port it listens on (127.0.0.1).
+    pub port: u16,
+    /// Left running when dropped (the shared cluster).
+    keep: bool,
+}
+
+impl Cluster {
+    fn new(root: PathBuf) -> Result<Self, String> {
+        let bin = binaries().ok_or("no PostgreSQL binaries (initdb, pg_ctl) on this machine: apt-get install postgresql")?;
+        Ok(Self { bin, root, run_as: run_as()?, port: 0, keep: false })
     }
-    let out = as_user(
-        &run_as,
-        &bin.join("initdb"),
-        &["-D", &data.to_string_lossy(), "-U", "sable", "--auth=trust", "--no-sync", "-E", "UTF8", "--locale=C"],
-    )
-    .output()
-    .map_err(|e| format!("cannot run initdb: {e}"))?;
-    if !out.status.success() {
-        return Err(format!("initdb failed: {}", String::from_utf8_lossy(&out.stderr)));
+
+    /// A cluster of its own in `target/<name>` (for tests that stop or restart PostgreSQL);
+    /// None when the machine has no PostgreSQL (and `SABLE_REQUIRE_POSTGRES` is not set).
+    /// Stopped when dropped.
+    pub fn private(name: &str) -> Option<Self> {
+        match Cluster::new(target_dir().join(name)).and_then(Cluster::create) {
+            Ok(c) => Some(c),
+            Err(why) => {
+                if std::env::var("SABLE_REQUIRE_POSTGRES").is_ok_and(|v| v == "1") {
+                    panic!("PostgreSQL is required (SABLE_REQUIRE_POSTGRES=1) but not available: {why}");
+                }
+                eprintln!("SKIPPED: this test needs PostgreSQL: {why}");
+                None
+            }
+        }
     }
-    let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map_err(|e| format!("no free port: {e}"))?.port();
-    let options = format!(
-        "-p {port} -k {} -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off -c full_page_writes=off \
-         -c max_connections=300",
-        root.display()
-    );
-    let out = as_user(
-        &run_as,
-        &bin.join("pg_ctl"),
-        &["start", "-w", "-t", "60", "-D", &data.to_string_lossy(), "-l", &root.join("log").to_string_lossy(), "-o", &options],
-    )
-    .output()
-    .map_err(|e| format!("cannot run pg_ctl: {e}"))?;
-    if !out.status.success() {
-        let log = std::fs::read_to_string(root.join("log")).unwrap_or_default();
-        return Err(format!("pg_ctl start failed: {}{log}", String::from_utf8_lossy(&out.stderr)));
+
+    /// The cluster as a [`Postgres`] server.
+    pub fn server(&self) -> Postgres {
+        Postgres { base: format!("postgres://sable@127.0.0.1:{}", self.port), admin_db: "postgres".into() }
     }
-    std::fs::write(&port_file, port.to_string()).map_err(|e| format!("cannot write {}: {e}", port_file.display()))?;
-    Ok(Postgres { base: format!("postgres://sable@127.0.0.1:{port}"), admin_db: "postgres".into() })
+
+    fn data(&self) -> String {
+        self.root.join("data").to_string_lossy().into_owned()
+    }
+
+    fn pg_ctl(&self, args: &[&str]) -> Command {
+        as_user(&self.run_as, &self.bin.join("pg_ctl"), args)
+    }
+
+    /// Whether its postmaster runs.
+    fn running(&self) -> bool {
+        self.pg_ctl(&["status", "-D", &self.data()])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    }
+
+    /// Makes a new cluster in `root` (removing what was there) and starts it on a free port.
+    fn create(mut self) -> Result<Self, String> {
+        let root = &self.root;
+        if self.running() {
+            let _ = self.pg_ctl(&["stop", "-m", "immediate", "-D", &self.data()]).output();
+        }
+        let _ = std::fs::remove_dir_all(root);
+        std::fs::create_dir_all(root).map_err(|e| format!("cannot create {}: {e}", root.display()))?;
+        if let Some((uid, gid)) = self.run_as.as_ref().map(|u| (u.uid, u.gid)) {
+            std::os::unix::fs::chown(root, Some(uid), Some(gid)).map_err(|e| format!("cannot hand {} over: {e}", root.display()))?;
+        }
+        let out = as_user(
+            &self.run_as,
+            &self.bin.join("initdb"),
+            &["-D", &self.data(), "-U", "sable", "--auth=trust", "--no-sync", "-E", "UTF8", "--locale=C"],
+        )
+        .output()
+        .map_err(|e| format!("cannot run initdb: {e}"))?;
+        if !out.status.success() {
+            return Err(format!("initdb failed: {}", String::from_utf8_lossy(&out.stderr)));
+        }
+        self.port =
+            std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map_err(|e| format!("no free port: {e}"))?.port();
+        self.start()?;
+        let port_file = self.root.join("port");
+        std::fs::write(&port_file, self.port.to_string()).map_err(|e| format!("cannot write {}: {e}", port_file.display()))?;
+        Ok(self)
+    }
+
+    /// Starts the postmaster (fsync off: the data is thrown away).
+    pub fn start(&self) -> Result<(), String> {
+        let options = format!(
+            "-p {} -k {} -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off -c full_page_writes=off \
+             -c max_connections=300",
+            self.port,
+            self.root.display()
+        );
+        let log = self.root.join("log").to_string_lossy().into_owned();
+        let out = self
+            .pg_ctl(&["start", "-w", "-t", "60", "-D", &self.data(), "-l", &log, "-o", &options])
+            .output()
+            .map_err(|e| format!("cannot run pg_ctl: {e}"))?;
+        if !out.status.success() {
+            let log = std::fs::read_to_string(&log).unwrap_or_default();
+            return Err(format!("pg_ctl start failed: {}{log}", String::from_utf8_lossy(&out.stderr)));
+        }
+        Ok(())
+    }
+
+    /// Stops the postmaster at once (`-m fast`: open sessions are ended).
+    pub fn stop(&self) {
+        let _ = self.pg_ctl(&["stop", "-m", "fast", "-D", &self.data()]).output();
+    }
+}
+
+impl Drop for Cluster {
+    /// Private clusters are stopped and removed; the shared one is left running.
+    fn drop(&mut self) {
+        if self.keep {
+            return;
+        }
+        self.stop();
+        let _ = std::fs::remove_dir_all(&self.root);
+    }
 }
 
 /// The directory of `initdb` and `pg_ctl`: the newest Debian cluster version, else the PATH.
