@@ -150,6 +150,10 @@ impl Server {
         let http_stop = stop.clone();
         tasks.spawn(async move {
             let shutdown = async move { http_stop.cancelled().await };
+            // No Nagle delay on small answers (axum leaves the accepted sockets as they come).
+            let http = axum::serve::ListenerExt::tap_io(http, |tcp| {
+                let _ = tcp.set_nodelay(true);
+            });
             if let Err(e) = axum::serve(http, app).with_graceful_shutdown(shutdown).await {
                 eprintln!("sable serve: HTTP server: {e}");
             }
@@ -170,7 +174,14 @@ impl Server {
         // Room for the largest scene accepted plus the rest of the request.
         let max_message = cfg.limits.max_body_bytes + 64 * 1024;
         tasks.spawn(async move {
-            let incoming = tokio_stream::wrappers::TcpListenerStream::new(grpc);
+            // tonic ignores its tcp_nodelay setting for incoming streams given to it: without
+            // this each small gRPC answer waited for the peer's delayed ACK, about 40 ms (a
+            // remote worker ran at most 23 tiny jobs a second, whatever their number).
+            let incoming = tokio_stream::StreamExt::map(tokio_stream::wrappers::TcpListenerStream::new(grpc), |s| {
+                s.inspect(|tcp| {
+                    let _ = tcp.set_nodelay(true);
+                })
+            });
             let r = tonic::transport::Server::builder()
                 .http2_keepalive_interval(Some(Duration::from_secs(30)))
                 .add_service(health_service)
