@@ -44,6 +44,9 @@ pub enum ClientError {
         /// Why it is wrong.
         reason: String,
     },
+    /// The bearer token cannot be sent.
+    #[error("bad token: {0}")]
+    Token(String),
     /// The server could not be reached.
     #[error("cannot reach the server at {url}: {reason}")]
     Connect {
@@ -104,13 +107,23 @@ const MAX_STATE_MESSAGE: usize = 1 << 30;
 /// A connected client. Cheap to clone.
 #[derive(Debug, Clone)]
 pub struct Client {
-    inner: SimulationsClient<Channel>,
-    studies: StudiesClient<Channel>,
+    inner: SimulationsClient<Authed>,
+    studies: StudiesClient<Authed>,
 }
+
+/// The channel of the client, with its bearer token.
+type Authed = tonic::service::interceptor::InterceptedService<Channel, sable_proto::Bearer>;
 
 impl Client {
     /// Connects to the server at `url` (e.g. `http://127.0.0.1:50051`).
     pub async fn connect(url: &str) -> Result<Self, ClientError> {
+        Self::connect_with_token(url, None).await
+    }
+
+    /// Connects to the server at `url` sending a user's bearer token with every call (for a
+    /// server started with `--user-tokens`; None: no token).
+    pub async fn connect_with_token(url: &str, token: Option<&str>) -> Result<Self, ClientError> {
+        let bearer = sable_proto::Bearer::new(token).map_err(ClientError::Token)?;
         let endpoint = Endpoint::from_shared(url.to_string())
             .map_err(|e| ClientError::Address { url: url.into(), reason: e.to_string() })?
             .connect_timeout(Duration::from_secs(5))
@@ -119,8 +132,8 @@ impl Client {
         let channel = endpoint.connect().await.map_err(|e| ClientError::Connect { url: url.into(), reason: e.to_string() })?;
         // Final states are large (about 1 MB per 10,000 particles, compressed).
         Ok(Self {
-            inner: SimulationsClient::new(channel.clone()).max_decoding_message_size(MAX_STATE_MESSAGE),
-            studies: StudiesClient::new(channel),
+            inner: SimulationsClient::with_interceptor(channel.clone(), bearer.clone()).max_decoding_message_size(MAX_STATE_MESSAGE),
+            studies: StudiesClient::with_interceptor(channel, bearer),
         })
     }
 

@@ -16,3 +16,32 @@ pub const FILE_DESCRIPTOR_SET: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "
 pub mod v1 {
     include!(concat!(env!("OUT_DIR"), "/sable.v1.rs"));
 }
+
+/// A client-side interceptor that sends a bearer token (`authorization: Bearer TOKEN`) with
+/// every call, or nothing when there is none: how the Rust client and remote workers
+/// authenticate to a server that requires tokens (server/src/auth.rs).
+#[derive(Debug, Clone, Default)]
+pub struct Bearer(Option<tonic::metadata::MetadataValue<tonic::metadata::Ascii>>);
+
+impl Bearer {
+    /// The interceptor for `token` (None or empty: no header). Fails if the token is not
+    /// printable ASCII.
+    pub fn new(token: Option<&str>) -> Result<Self, String> {
+        match token.map(str::trim).filter(|t| !t.is_empty()) {
+            None => Ok(Self(None)),
+            Some(t) => format!("Bearer {t}")
+                .parse()
+                .map(|v| Self(Some(v)))
+                .map_err(|_| "the token must be printable ASCII without spaces".to_string()),
+        }
+    }
+}
+
+impl tonic::service::Interceptor for Bearer {
+    fn call(&mut self, mut req: tonic::Request<()>) -> Result<tonic::Request<()>, tonic::Status> {
+        if let Some(v) = &self.0 {
+            req.metadata_mut().insert("authorization", v.clone());
+        }
+        Ok(req)
+    }
+}

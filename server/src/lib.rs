@@ -6,6 +6,7 @@
 //! runs them with a local worker pool ([`serve`]). The `sable` binary is built from this crate.
 
 pub mod api;
+pub mod auth;
 pub mod charts;
 pub mod dashboard;
 pub mod grpc;

@@ -12,7 +12,9 @@ use sable_worker::{Pool, PoolConfig};
 use tokio::net::TcpListener;
 use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
+use tonic::service::interceptor::InterceptedService;
 
+use crate::auth::{GrpcGuard, Role, Tokens};
 use crate::grpc::{SimulationsService, WorkersService};
 use crate::rest::{router, AppState};
 use crate::store::{Backend, DbLocation, JobStore, LeaseConfig, StoreError};
@@ -38,6 +40,10 @@ pub struct ServeConfig {
     pub heartbeat: Duration,
     /// Request limits.
     pub limits: crate::api::Limits,
+    /// The bearer tokens of users and workers (none: open; `crate::auth`).
+    pub tokens: Arc<Tokens>,
+    /// Serve without tokens on addresses other machines can reach (`--no-auth`).
+    pub no_auth: bool,
 }
 
 impl Default for ServeConfig {
@@ -52,6 +58,8 @@ impl Default for ServeConfig {
             report_interval: Duration::from_millis(250),
             heartbeat: Duration::from_secs(15),
             limits: crate::api::Limits::default(),
+            tokens: Arc::default(),
+            no_auth: false,
         }
     }
 }
@@ -70,6 +78,9 @@ pub enum ServeError {
         /// Why.
         source: std::io::Error,
     },
+    /// Tokens are needed on an address other machines can reach.
+    #[error("{0}")]
+    Exposed(String),
     /// gRPC reflection could not be set up.
     #[error("gRPC reflection: {0}")]
     Reflection(#[from] tonic_reflection::server::Error),
@@ -93,6 +104,7 @@ impl Server {
     /// Opens the store, puts back in the queue the jobs that a previous run of the local pool
     /// left running, starts the workers, the reaper and both listeners.
     pub async fn start(cfg: ServeConfig) -> Result<Self, ServeError> {
+        crate::auth::check_exposure(&cfg.tokens, &[cfg.http, cfg.grpc], cfg.no_auth).map_err(ServeError::Exposed)?;
         let store = JobStore::open(&cfg.db, LeaseConfig { ttl: cfg.lease_ttl }).await?;
         // A local worker of an earlier run of this server cannot be alive any more. (On
         // PostgreSQL other servers' local workers may be: their jobs go back to the queue
@@ -146,7 +158,7 @@ impl Server {
             limits: cfg.limits,
             watchers: watchers.clone(),
         };
-        let app = router(state);
+        let app = router(state).layer(axum::middleware::from_fn_with_state(cfg.tokens.clone(), crate::auth::http_layer));
         let http_stop = stop.clone();
         tasks.spawn(async move {
             let shutdown = async move { http_stop.cancelled().await };
@@ -171,6 +183,8 @@ impl Server {
         let studies = crate::grpc::StudiesService { store: store.clone(), limits: cfg.limits };
         let workers = WorkersService { store: store.clone(), lease_seconds: cfg.lease_ttl.as_secs_f64() };
         let grpc_stop = stop.clone();
+        // Users' tokens guard Simulations and Studies, workers' tokens Workers (crate::auth).
+        let (user, worker) = (GrpcGuard::new(cfg.tokens.clone(), Role::User), GrpcGuard::new(cfg.tokens.clone(), Role::Worker));
         // Room for the largest scene accepted plus the rest of the request.
         let max_message = cfg.limits.max_body_bytes + 64 * 1024;
         tasks.spawn(async move {
@@ -186,9 +200,15 @@ impl Server {
                 .http2_keepalive_interval(Some(Duration::from_secs(30)))
                 .add_service(health_service)
                 .add_service(reflection)
-                .add_service(SimulationsServer::new(sims).max_decoding_message_size(max_message))
-                .add_service(sable_proto::v1::studies_server::StudiesServer::new(studies).max_decoding_message_size(max_message))
-                .add_service(WorkersServer::new(workers).max_decoding_message_size(sable_worker::remote::MAX_REPORT_BYTES))
+                .add_service(InterceptedService::new(SimulationsServer::new(sims).max_decoding_message_size(max_message), user.clone()))
+                .add_service(InterceptedService::new(
+                    sable_proto::v1::studies_server::StudiesServer::new(studies).max_decoding_message_size(max_message),
+                    user,
+                ))
+                .add_service(InterceptedService::new(
+                    WorkersServer::new(workers).max_decoding_message_size(sable_worker::remote::MAX_REPORT_BYTES),
+                    worker,
+                ))
                 .serve_with_incoming_shutdown(incoming, async move { grpc_stop.cancelled().await })
                 .await;
             if let Err(e) = r {

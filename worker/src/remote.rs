@@ -15,19 +15,26 @@ pub const MAX_REPORT_BYTES: usize = 256 << 20;
 /// Leases jobs from a Sable server over gRPC.
 #[derive(Debug, Clone)]
 pub struct RemoteSource {
-    client: WorkersClient<Channel>,
+    client: WorkersClient<tonic::service::interceptor::InterceptedService<Channel, sable_proto::Bearer>>,
 }
 
 impl RemoteSource {
     /// Connects lazily to the server at `url` (e.g. `http://host:50051`).
     pub fn new(url: &str) -> Result<Self, SourceError> {
+        Self::with_token(url, None)
+    }
+
+    /// Connects lazily to the server at `url`, sending a worker's bearer token with every call
+    /// (for a server started with `--worker-tokens`; None: no token).
+    pub fn with_token(url: &str, token: Option<&str>) -> Result<Self, SourceError> {
+        let bearer = sable_proto::Bearer::new(token).map_err(|e| SourceError::Unavailable(format!("bad worker token: {e}")))?;
         let endpoint = Endpoint::from_shared(url.to_string())
             .map_err(|e| SourceError::Unavailable(format!("bad server URL '{url}': {e}")))?
             .connect_timeout(std::time::Duration::from_secs(5))
             .timeout(std::time::Duration::from_secs(30));
         // Snapshots of large scenes make large reports; a scene that starts from a saved state
         // carries it in its lease.
-        let client = WorkersClient::new(endpoint.connect_lazy())
+        let client = WorkersClient::with_interceptor(endpoint.connect_lazy(), bearer)
             .max_encoding_message_size(MAX_REPORT_BYTES)
             .max_decoding_message_size(MAX_REPORT_BYTES);
         Ok(Self { client })

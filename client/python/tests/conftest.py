@@ -5,10 +5,12 @@ otherwise the repository's target/release or target/debug build is used."""
 from __future__ import annotations
 
 import os
+import secrets
 import socket
 import subprocess
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -34,21 +36,21 @@ def _binary() -> Path:
     raise RuntimeError("no sable binary: set SABLE_BIN or run `cargo build --release -p sable-server`")
 
 
-@pytest.fixture(scope="session")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """The base URL of a running service with two workers of one thread."""
-    db = tmp_path_factory.mktemp("sable") / "sable.db"
+@contextmanager
+def _serve(db: Path, *extra: str) -> Iterator[str]:
+    """Runs ``sable serve`` on ``db`` with two workers of one thread (and ``extra`` flags); yields
+    its base URL once it answers."""
     http, grpc = _free_port(), _free_port()
     log = open(db.with_suffix(".log"), "wb")
     proc = subprocess.Popen(
         [str(_binary()), "serve", "--db", str(db), "--http", f"127.0.0.1:{http}", "--grpc", f"127.0.0.1:{grpc}",
-         "--workers", "2", "--threads-per-job", "1"],
+         "--workers", "2", "--threads-per-job", "1", *extra],
         stdout=log,
         stderr=subprocess.STDOUT,
     )
     url = f"http://127.0.0.1:{http}"
     try:
-        with Client(url, timeout=5) as c:
+        with Client(url, timeout=5, token="") as c:
             deadline = time.monotonic() + 60
             while not c.healthy():
                 if proc.poll() is not None:
@@ -64,6 +66,24 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         except subprocess.TimeoutExpired:
             proc.kill()
         log.close()
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The base URL of a running service with two workers of one thread."""
+    with _serve(tmp_path_factory.mktemp("sable") / "sable.db") as url:
+        yield url
+
+
+@pytest.fixture(scope="session")
+def token_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, str, str]]:
+    """A service that needs bearer tokens: its URL, a user's token and a worker's token."""
+    dir = tmp_path_factory.mktemp("sable-tokens")
+    user, worker = "u" + secrets.token_hex(16), "w" + secrets.token_hex(16)
+    (dir / "users").write_text(f"# users\n{user}\n")
+    (dir / "workers").write_text(f"{worker}\n")
+    with _serve(dir / "sable.db", "--user-tokens", str(dir / "users"), "--worker-tokens", str(dir / "workers")) as url:
+        yield url, user, worker
 
 
 @pytest.fixture()

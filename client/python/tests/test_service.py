@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from sable_client import Client, Conflict, Job, JobFailed, NotFound, RejectedScene, load_scene
+from sable_client import Client, Conflict, Job, JobFailed, NotFound, RejectedScene, Unauthorized, load_scene
 
 
 def quickstart(**changes: object) -> dict:
@@ -163,3 +163,25 @@ def test_a_study_runs_and_reports_as_a_dataframe(sable: Client) -> None:
     assert finest["error"] == 0.0
     assert done.id in [s.id for s in sable.studies()]
     assert sable.study_chart_svg(done).lstrip().startswith("<svg")
+
+
+def test_a_service_with_tokens_admits_only_users_tokens(token_server: tuple[str, str, str], monkeypatch: pytest.MonkeyPatch) -> None:
+    url, user, worker = token_server
+    with Client(url, token="") as anonymous:
+        assert anonymous.healthy(), "/healthz stays open"
+        with pytest.raises(Unauthorized) as e:
+            anonymous.jobs()
+        assert (e.value.status, e.value.code) == (401, "unauthenticated")
+    with Client(url, token="not-a-token-of-this-server") as stranger, pytest.raises(Unauthorized) as e:
+        stranger.jobs()
+    assert e.value.status == 401
+    with Client(url, token=worker) as w, pytest.raises(Unauthorized) as e:
+        w.submit(quickstart(stop={"steps": 200}))
+    assert (e.value.status, e.value.code) == (403, "permission_denied"), "a worker's token cannot submit"
+    # A user's token, given or from SABLE_TOKEN: submit, watch the event stream, read samples.
+    monkeypatch.setenv("SABLE_TOKEN", user)
+    with Client(url) as c:
+        job = c.submit(quickstart(stop={"steps": 200}, sampling={"every_steps": 100}))
+        events = [e.kind for e in c.events(job)]
+        assert events[-1] == "state" and "sample" in events
+        assert len(c.samples(c.wait(job))) == 3

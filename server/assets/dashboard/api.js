@@ -10,13 +10,52 @@ export class ApiError extends Error {
   }
 }
 
+// A server started with --user-tokens needs a user's token: asked once, kept in this browser
+// (localStorage), sent as Authorization: Bearer; event streams and images, which cannot send
+// headers, carry it as the access_token query parameter.
+const TOKEN_KEY = "sable.token";
+
+function token() {
+  try { return localStorage.getItem(TOKEN_KEY) || ""; } catch { return ""; }
+}
+
+function authHeaders() {
+  const t = token();
+  return t ? { Authorization: `Bearer ${t}` } : {};
+}
+
+/** `path` with the token as its access_token query parameter (for EventSource and <img>). */
+export function withToken(path) {
+  const t = token();
+  if (!t) return path;
+  return path + (path.includes("?") ? "&" : "?") + "access_token=" + encodeURIComponent(t);
+}
+
+/** Asks for a token after a 401 or 403; true if one was given. */
+function askToken(status) {
+  const why = status === 403
+    ? "This token is not a user's token. Give a user's token (sable serve --user-tokens):"
+    : "This server needs a user's token (sable serve --user-tokens):";
+  const t = window.prompt(why, "");
+  if (!t) return false;
+  try { localStorage.setItem(TOKEN_KEY, t.trim()); } catch { return false; }
+  return true;
+}
+
+async function authFetch(path, init) {
+  const go = () => fetch(path, { ...init, headers: { ...(init.headers || {}), ...authHeaders() } });
+  let r = await go();
+  if ((r.status === 401 || r.status === 403) && askToken(r.status)) r = await go();
+  return r;
+}
+
 async function call(method, path, body) {
   const init = { method, headers: {} };
   if (body !== undefined) {
     init.headers["Content-Type"] = "application/json";
     init.body = typeof body === "string" ? body : JSON.stringify(body);
   }
-  const r = await fetch(path, init);
+  const r = await authFetch(path, init);
   const text = await r.text();
   let data = null;
   try { data = text ? JSON.parse(text) : null; } catch { data = text; }
@@ -31,7 +70,7 @@ export const api = {
   samples: (id, maxPoints) => call("GET", `/v1/jobs/${id}/samples?max_points=${maxPoints}`),
   snapshots: (id) => call("GET", `/v1/jobs/${id}/snapshots`),
   snapshotFile: async (id, index, part) => {
-    const r = await fetch(`/v1/jobs/${id}/snapshots/${index}/${part}`);
+    const r = await authFetch(`/v1/jobs/${id}/snapshots/${index}/${part}`, {});
     if (!r.ok) throw new ApiError(r.status, await r.json().catch(() => null));
     return r.text();
   },
@@ -40,5 +79,5 @@ export const api = {
   submit: (body) => call("POST", "/v1/jobs", body),
   studies: () => call("GET", "/v1/studies"),
   study: (id) => call("GET", `/v1/studies/${id}`),
-  events: (id, after) => new EventSource(`/v1/jobs/${id}/events?after_seq=${after}`),
+  events: (id, after) => new EventSource(withToken(`/v1/jobs/${id}/events?after_seq=${after}`)),
 };

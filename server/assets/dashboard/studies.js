@@ -1,6 +1,6 @@
 // Studies: the list, and one study with its speed-against-accuracy chart and its runs.
 
-import { api } from "./api.js";
+import { api, withToken } from "./api.js";
 import { el, num, show, stateBadge, when } from "./ui.js";
 
 export async function studiesPage() {
@@ -23,7 +23,7 @@ export async function studyPage(id) {
     el("div", { class: "toolbar" }, stateBadge(s.state), `${s.runs_done} of ${s.runs} runs ended`),
     s.error ? el("div", { class: "error-box" }, s.error) : null,
     el("p", {}, `Measure: ${report.measure ?? "—"}; reference: ${report.reference_source ?? "—"} ${report.reference != null ? `(${num(report.reference)})` : ""}`),
-    el("img", { class: "chart", src: `/v1/studies/${id}/chart.svg`, alt: `Error against CPU time of the runs of study ${id}` }),
+    el("img", { class: "chart", src: withToken(`/v1/studies/${id}/chart.svg`), alt: `Error against CPU time of the runs of study ${id}` }),
     el("h2", {}, "Runs"),
     el("table", { id: "runs" },
       el("thead", {}, el("tr", {}, ["series", "run", "job", "state", "measured", "reference", "relative error", "CPU s", "Pareto", "note"].map((h) => el("th", { scope: "col" }, h)))),

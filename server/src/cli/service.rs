@@ -53,6 +53,17 @@ pub struct ServeArgs {
     /// Largest number of event streams open at once.
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_watchers)]
     pub max_watchers: usize,
+    /// File of users' bearer tokens, one per line: the REST API and gRPC Simulations and
+    /// Studies then need one (`Authorization: Bearer TOKEN`).
+    #[arg(long, env = "SABLE_USER_TOKENS")]
+    pub user_tokens: Option<PathBuf>,
+    /// File of workers' bearer tokens, one per line: leasing, reporting and finishing jobs
+    /// (gRPC Workers) then need one, and a user's token cannot.
+    #[arg(long, env = "SABLE_WORKER_TOKENS")]
+    pub worker_tokens: Option<PathBuf>,
+    /// Serve without tokens on an address other machines can reach (refused otherwise).
+    #[arg(long)]
+    pub no_auth: bool,
 }
 
 /// Waits for SIGINT (Ctrl-C) or SIGTERM.
@@ -82,7 +93,16 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     if !(a.lease_seconds.is_finite() && a.lease_seconds >= 1.0) {
         bail!("--lease-seconds: must be at least 1, got {}", a.lease_seconds);
     }
-    let mut cfg = ServeConfig { db: a.db.clone(), http: a.http, grpc: a.grpc, threads_per_job: a.threads_per_job, ..Default::default() };
+    let tokens = sable_server::auth::Tokens::from_files(a.user_tokens.as_deref(), a.worker_tokens.as_deref())?;
+    let mut cfg = ServeConfig {
+        db: a.db.clone(),
+        http: a.http,
+        grpc: a.grpc,
+        threads_per_job: a.threads_per_job,
+        tokens: Arc::new(tokens),
+        no_auth: a.no_auth,
+        ..Default::default()
+    };
     if let Some(w) = a.workers {
         cfg.workers = w;
     }
@@ -121,6 +141,9 @@ pub struct WorkerArgs {
     /// Name of this worker pool, as shown in the job store (default: host name and process id).
     #[arg(long)]
     pub name: Option<String>,
+    /// A worker's bearer token, for a server started with --worker-tokens.
+    #[arg(long, env = "SABLE_WORKER_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
 }
 
 /// `sable worker --server URL`.
@@ -131,7 +154,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         format!("{host}-{}", std::process::id())
     });
     runtime()?.block_on(async move {
-        let source = sable_worker::remote::RemoteSource::new(&a.server)?;
+        let source = sable_worker::remote::RemoteSource::with_token(&a.server, a.token.as_deref())?;
         let mut pc = sable_worker::PoolConfig::new(name.clone(), a.workers.unwrap_or(cores));
         if a.threads_per_job > 0 {
             pc.threads_per_job = a.threads_per_job;
@@ -152,6 +175,16 @@ pub struct ServerArg {
     /// gRPC address of the server.
     #[arg(long, default_value = DEFAULT_SERVER, env = "SABLE_SERVER")]
     pub server: String,
+    /// A user's bearer token, for a server started with --user-tokens.
+    #[arg(long, env = "SABLE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+}
+
+impl ServerArg {
+    /// Connects to the server with the token, if any.
+    pub async fn connect(&self) -> Result<Client, sable_client::ClientError> {
+        Client::connect_with_token(&self.server, self.token.as_deref()).await
+    }
 }
 
 /// Arguments of `sable submit`.
@@ -211,7 +244,7 @@ pub fn submit(a: SubmitArgs) -> anyhow::Result<()> {
     // A state file the scene starts from goes with it: the server never reads client paths.
     let (text, _) = super::run::read_scene_text(&a.scene)?;
     runtime()?.block_on(async move {
-        let mut client = Client::connect(&a.server.server).await?;
+        let mut client = a.server.connect().await?;
         let opts = SubmitOptions { name: a.name.clone(), priority: a.priority, request_id: a.key.clone(), max_attempts: None };
         let job = client.submit(&text, opts).await.with_context(|| format!("{} was not accepted", a.scene.display()))?;
         if !a.watch {
@@ -287,7 +320,7 @@ pub struct StateArgs {
 /// `"start_from": {"file": FILE}` (or, on the same server, `{"job": ID}`).
 pub fn state(a: StateArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let gz = Client::connect(&a.server.server).await?.final_state_gz(a.id).await?;
+        let gz = a.server.connect().await?.final_state_gz(a.id).await?;
         let text = sable_worker::source::gunzip(&gz, sable_server::start_from::MAX_STATE_BYTES)
             .with_context(|| format!("the final state of job {} cannot be read", a.id))?;
         match &a.out {
@@ -313,7 +346,7 @@ pub struct StatusArgs {
 /// `sable show ID`.
 pub fn status(a: StatusArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let job = Client::connect(&a.server.server).await?.get(a.id).await?;
+        let job = a.server.connect().await?.get(a.id).await?;
         if a.json {
             println!("{}", job_json(&job));
         } else {
@@ -339,7 +372,7 @@ pub struct CancelArgs {
 /// `sable cancel ID`.
 pub fn cancel(a: CancelArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let job = Client::connect(&a.server.server).await?.cancel(a.id).await?;
+        let job = a.server.connect().await?.cancel(a.id).await?;
         println!("{}", job_line(&job));
         Ok(())
     })
@@ -382,7 +415,7 @@ pub struct ListArgs {
 /// `sable jobs`.
 pub fn list(a: ListArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let mut client = Client::connect(&a.server.server).await?;
+        let mut client = a.server.connect().await?;
         let state = a.state.map(|s| match s {
             StateArg::Queued => JobState::Queued,
             StateArg::Running => JobState::Running,
@@ -436,7 +469,7 @@ pub struct SamplesArgs {
 /// `sable samples ID`.
 pub fn samples(a: SamplesArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let mut client = Client::connect(&a.server.server).await?;
+        let mut client = a.server.connect().await?;
         let job = client.get(a.id).await?;
         let dim =
             serde_json::from_str::<serde_json::Value>(&job.scene_json).ok().and_then(|v| v["dimension"].as_u64()).unwrap_or(3) as usize;

@@ -49,7 +49,7 @@ fn read_study(path: &PathBuf) -> anyhow::Result<String> {
 pub fn study(a: StudyArgs) -> anyhow::Result<()> {
     let text = a.file.as_ref().map(read_study).transpose()?;
     super::service::runtime()?.block_on(async move {
-        let mut client = sable_client::Client::connect(&a.server.server).await?;
+        let mut client = a.server.connect().await?;
         let mut s = match (a.show, text) {
             (Some(id), _) => client.study(id).await?,
             (None, Some(t)) => {

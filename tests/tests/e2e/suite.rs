@@ -67,6 +67,7 @@ fn config(db: DbLocation, workers: usize) -> ServeConfig {
         report_interval: Duration::from_millis(100),
         heartbeat: Duration::from_millis(500),
         limits: sable_server::api::Limits { max_particles: 10_000, max_steps: 2_000_000_000, max_body_bytes: 64 * 1024, max_watchers: 2 },
+        ..Default::default()
     }
 }
 

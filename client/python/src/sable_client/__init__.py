@@ -15,7 +15,7 @@ package's version is the service's.
 """
 
 from .client import LIVE_FIELDS, Client, JobRef, StudyRef
-from .errors import Conflict, JobFailed, NotFound, RejectedScene, SableError, ServiceBusy, Violation
+from .errors import Conflict, JobFailed, NotFound, RejectedScene, SableError, ServiceBusy, Unauthorized, Violation
 from .frames import flatten, samples_frame, study_frame
 from .models import TERMINAL_STATES, Job, Snapshot, State, Study
 from .routes import ROUTES, Route
@@ -46,6 +46,7 @@ __all__ = [
     "Study",
     "StudyRef",
     "TERMINAL_STATES",
+    "Unauthorized",
     "Violation",
     "flatten",
     "load_scene",

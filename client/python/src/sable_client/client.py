@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -59,6 +60,8 @@ class Client:
         url: The service's REST address (``sable serve --http``).
         timeout: Seconds to wait for an answer (event streams wait longer: see :meth:`events`).
         transport: An httpx transport (tests).
+        token: A user's bearer token, for a service started with ``--user-tokens``; by default
+            the ``SABLE_TOKEN`` environment variable, if set.
 
     Every method raises :class:`~sable_client.errors.SableError` (or a subclass) when the
     service answers with an error: :class:`~sable_client.errors.RejectedScene` carries the field
@@ -72,9 +75,17 @@ class Client:
             df = sable.samples(job)
     """
 
-    def __init__(self, url: str = "http://127.0.0.1:8080", timeout: float = 30.0, transport: httpx.BaseTransport | None = None) -> None:
+    def __init__(
+        self,
+        url: str = "http://127.0.0.1:8080",
+        timeout: float = 30.0,
+        transport: httpx.BaseTransport | None = None,
+        token: str | None = None,
+    ) -> None:
         self.url = url.rstrip("/")
-        self._http = httpx.Client(base_url=self.url, timeout=timeout, transport=transport)
+        token = token if token is not None else os.environ.get("SABLE_TOKEN")
+        headers = {"Authorization": f"Bearer {token.strip()}"} if token and token.strip() else {}
+        self._http = httpx.Client(base_url=self.url, timeout=timeout, transport=transport, headers=headers)
 
     def close(self) -> None:
         """Closes the connections."""

@@ -62,6 +62,11 @@ class Conflict(SableError):
     """The request conflicts with the resource's state (HTTP 409), e.g. cancelling an ended job."""
 
 
+class Unauthorized(SableError):
+    """The service needs a user's token and got none, or one it does not accept (HTTP 401), or
+    a worker's token (403). Give ``Client(url, token=...)`` or set ``SABLE_TOKEN``."""
+
+
 class ServiceBusy(SableError):
     """The service refuses for now (HTTP 429, e.g. too many open event streams); retry later."""
 
@@ -96,6 +101,8 @@ def from_response(status: int, body: Any) -> SableError:
         kind = NotFound
     elif status == 409:
         kind = Conflict
+    elif status in (401, 403):
+        kind = Unauthorized
     elif status == 429:
         kind = ServiceBusy
     return kind(status, code, message, violations)

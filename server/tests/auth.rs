@@ -1,0 +1,110 @@
+//! Bearer tokens (server/src/auth.rs) through both APIs: a user's token for the REST API and
+//! gRPC Simulations, a worker's token for gRPC Workers, neither usable for the other; health
+//! and the dashboard's files open; no server without tokens on an address others can reach.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use sable_server::auth::Tokens;
+use sable_server::serve::ServeError;
+use sable_server::{ServeConfig, Server};
+use sable_worker::JobSource;
+use serde_json::json;
+
+const USER: &str = "user-token-0123456789abcdef";
+const WORKER: &str = "worker-token-0123456789abcdef";
+
+fn config(dir: &tempfile::TempDir, tokens: Tokens) -> ServeConfig {
+    ServeConfig {
+        db: sable_server::store::DbLocation::Sqlite(dir.path().join("sable.db")),
+        http: "127.0.0.1:0".parse().expect("addr"),
+        grpc: "127.0.0.1:0".parse().expect("addr"),
+        workers: 0,
+        tokens: Arc::new(tokens),
+        ..Default::default()
+    }
+}
+
+fn scene() -> String {
+    json!({
+        "name": "tiny", "dimension": 2, "method": "dem",
+        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
+        "stop": {"steps": 100}
+    })
+    .to_string()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn users_and_workers_each_need_their_own_token() {
+    let dir = tempfile::tempdir().expect("dir");
+    let server = Server::start(config(&dir, Tokens::new(vec![USER.into()], vec![WORKER.into()]))).await.expect("starts");
+    let base = format!("http://{}", server.http_addr);
+    let grpc = format!("http://{}", server.grpc_addr);
+    let http = reqwest::Client::new();
+
+    // REST: no token 401 (with WWW-Authenticate), a worker's 403, a user's 200.
+    let r = http.get(format!("{base}/v1/jobs")).send().await.expect("answer");
+    assert_eq!(r.status(), 401);
+    assert_eq!(r.headers().get("www-authenticate").and_then(|v| v.to_str().ok()), Some("Bearer"));
+    let body: serde_json::Value = r.json().await.expect("json");
+    assert_eq!(body["code"], "unauthenticated", "{body}");
+    let r = http.get(format!("{base}/v1/jobs")).bearer_auth(WORKER).send().await.expect("answer");
+    assert_eq!(r.status(), 403);
+    let r = http.get(format!("{base}/v1/jobs")).bearer_auth("some-other-token-0123456789").send().await.expect("answer");
+    assert_eq!(r.status(), 401);
+    let r = http.post(format!("{base}/v1/jobs")).bearer_auth(USER).body(scene()).send().await.expect("answer");
+    assert_eq!(r.status(), 201, "{:?}", r.text().await);
+    // A browser's event stream or image gives the token in the query, on GET only.
+    assert_eq!(http.get(format!("{base}/v1/jobs?access_token={USER}")).send().await.expect("answer").status(), 200);
+    assert_eq!(http.post(format!("{base}/v1/jobs?access_token={USER}")).body(scene()).send().await.expect("answer").status(), 401);
+    assert_eq!(http.get(format!("{base}/metrics")).send().await.expect("answer").status(), 401);
+    // Open: health and the dashboard's files.
+    assert_eq!(http.get(format!("{base}/healthz")).send().await.expect("answer").status(), 200);
+    assert_eq!(http.get(format!("{base}/")).send().await.expect("answer").status(), 200);
+
+    // gRPC Simulations: the same rule.
+    let mut anonymous = sable_client::Client::connect(&grpc).await.expect("connects");
+    let e = anonymous.get(1).await.expect_err("no token");
+    assert_eq!(e.code(), Some(tonic::Code::Unauthenticated), "{e}");
+    let mut as_worker = sable_client::Client::connect_with_token(&grpc, Some(WORKER)).await.expect("connects");
+    assert_eq!(as_worker.get(1).await.expect_err("worker token").code(), Some(tonic::Code::PermissionDenied));
+    let mut user = sable_client::Client::connect_with_token(&grpc, Some(USER)).await.expect("connects");
+    let job = user.submit(&scene(), sable_client::SubmitOptions::default()).await.expect("a user submits");
+
+    // gRPC Workers: only a worker's token leases.
+    for token in [None, Some(USER)] {
+        let source = sable_worker::remote::RemoteSource::with_token(&grpc, token).expect("source");
+        let e = source.lease("intruder").await.expect_err("not a worker").to_string();
+        assert!(e.contains("worker's token"), "{token:?}: {e}");
+    }
+    let source = sable_worker::remote::RemoteSource::with_token(&grpc, Some(WORKER)).expect("source");
+    let lease = source.lease("w").await.expect("a worker leases").expect("a job");
+    let done = sable_worker::Outcome::Succeeded {
+        steps: 100,
+        wall_seconds: 0.0,
+        cpu_seconds: 0.0,
+        solver_iterations: 0,
+        result: None,
+        state: None,
+    };
+    source.finish(&lease, done).await.expect("and finishes");
+    assert!(lease.job_id >= job.id - 1);
+    server.shutdown(Duration::from_secs(2)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn no_server_without_tokens_on_an_address_others_can_reach() {
+    let dir = tempfile::tempdir().expect("dir");
+    let mut cfg = config(&dir, Tokens::default());
+    cfg.http = "0.0.0.0:0".parse().expect("addr");
+    match Server::start(cfg.clone()).await {
+        Err(ServeError::Exposed(why)) => assert!(why.contains("--user-tokens") && why.contains("--no-auth"), "{why}"),
+        Err(e) => panic!("another error: {e}"),
+        Ok(_) => panic!("started without tokens on 0.0.0.0"),
+    }
+    cfg.no_auth = true;
+    let server = Server::start(cfg).await.expect("--no-auth: the operator's choice");
+    server.shutdown(Duration::from_secs(2)).await;
+}
