@@ -91,6 +91,29 @@ async fn users_and_workers_each_need_their_own_token() {
     };
     source.finish(&lease, done).await.expect("and finishes");
     assert!(lease.job_id >= job.id - 1);
+
+    // A `sable worker` with a user's token stops at once with the reason, rather than asking
+    // for jobs forever.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sable"))
+        .args(["worker", "--workers", "1", "--server", &grpc, "--token", USER])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("sable worker runs");
+    let started = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if started.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            panic!("sable worker with a user's token did not stop by itself");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().expect("piped"), &mut stderr).expect("stderr");
+    assert!(!status.success() && stderr.contains("refuses this worker") && stderr.contains("worker's token"), "{stderr}");
     server.shutdown(Duration::from_secs(2)).await;
 }
 

@@ -93,24 +93,36 @@ fn quickstart(changes: Value) -> Value {
     scene
 }
 
-#[tokio::test]
-async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser() {
+/// A browser session on a fresh `sable serve` (one local worker; `extra` flags), with the
+/// processes killed when it is dropped.
+struct Session {
+    c: Client,
+    base: String,
+    http: reqwest::Client,
+    /// The database and the browser's profile, removed at the end.
+    _dir: tempfile::TempDir,
+    _server: Killed,
+    _driver: Killed,
+}
+
+async fn session(extra: &[&str]) -> Session {
     let chromedriver = std::env::var("CHROMEDRIVER").unwrap_or_else(|_| "chromedriver".into());
     let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
     let dir = tempfile::tempdir().expect("temp dir");
     let (http_port, grpc_port, wd_port) = (free_port(), free_port(), free_port());
-    let _server = Killed(
+    let server = Killed(
         Command::new(env!("CARGO_BIN_EXE_sable"))
             .args(["serve", "--workers", "1", "--threads-per-job", "1"])
             .arg("--db")
             .arg(dir.path().join("sable.db"))
             .args(["--http", &format!("127.0.0.1:{http_port}"), "--grpc", &format!("127.0.0.1:{grpc_port}")])
+            .args(extra)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
             .expect("sable serve starts"),
     );
-    let _driver = Killed(
+    let driver = Killed(
         Command::new(&chromedriver)
             .arg(format!("--port={wd_port}"))
             .stdout(Stdio::null())
@@ -143,6 +155,13 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
         .connect(&format!("http://127.0.0.1:{wd_port}"))
         .await
         .expect("a WebDriver session");
+    Session { c, base, http, _dir: dir, _server: server, _driver: driver }
+}
+
+#[tokio::test]
+async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser() {
+    let s = session(&[]).await;
+    let (c, base, http) = (&s.c, &s.base, &s.http);
     let wait = Duration::from_secs(60);
 
     // A rejected scene: every broken field is listed by its path, and nothing is stored.
@@ -153,13 +172,13 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     c.wait().at_most(wait).for_element(Locator::Id("scene-text")).await.expect("the form");
     c.execute("document.getElementById('scene-text').value = arguments[0];", vec![json!(bad.to_string())]).await.expect("fill");
     c.find(Locator::Id("submit")).await.expect("submit button").click().await.expect("click");
-    let listed = until(&c, "the violations", "document.getElementById('violations')?.innerText", wait).await;
+    let listed = until(c, "the violations", "document.getElementById('violations')?.innerText", wait).await;
     let listed = listed.as_str().unwrap_or_default();
     assert!(listed.contains("materials.glass.friction") && listed.contains("particles[0].count"), "{listed}");
     let jobs: Value = http.get(format!("{base}/v1/jobs")).send().await.expect("list").json().await.expect("JSON");
     assert_eq!(jobs["jobs"].as_array().map(Vec::len), Some(0), "a rejected scene stored a job");
     // The browser logs the 422 answer itself as an error; it is the only one expected.
-    let logged = console_errors(&c).await;
+    let logged = console_errors(c).await;
     assert!(logged.len() == 1 && logged[0].contains("/v1/jobs") && logged[0].contains("422"), "console errors: {logged:#?}");
 
     // A valid scene: the advisor's answer, then the job submitted through the form: its page,
@@ -169,45 +188,45 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     );
     c.execute("document.getElementById('scene-text').value = arguments[0];", vec![json!(scene.to_string())]).await.expect("fill");
     c.find(Locator::Id("validate")).await.expect("validate button").click().await.expect("click");
-    let valid = until(&c, "the advisor's answer", "document.getElementById('valid')?.innerText", wait).await;
+    let valid = until(c, "the advisor's answer", "document.getElementById('valid')?.innerText", wait).await;
     assert!(valid.as_str().unwrap_or_default().contains("dem"), "{valid}");
     c.find(Locator::Id("submit")).await.expect("submit button").click().await.expect("click");
-    until(&c, "the job page", "location.hash.startsWith('#/jobs/')", wait).await;
+    until(c, "the job page", "location.hash.startsWith('#/jobs/')", wait).await;
     let id: i64 = c.execute("return Number(location.hash.split('/')[2]);", vec![]).await.expect("id").as_i64().expect("a job id");
-    until(&c, "the job running", "document.querySelector('h1 + .toolbar .state-running')", wait).await;
+    until(c, "the job running", "document.querySelector('h1 + .toolbar .state-running')", wait).await;
     let first = until(
-        &c,
+        c,
         "a first point",
         "Number(document.getElementById('plots')?.dataset.points || 0) >= 2 && Number(document.getElementById('plots').dataset.points)",
         wait,
     )
     .await;
     let first = first.as_i64().unwrap_or_default();
-    let more = until(&c, "more points while running",
+    let more = until(c, "more points while running",
         &format!("document.querySelector('h1 + .toolbar .state-running') && Number(document.getElementById('plots').dataset.points) > {first} + 2 && Number(document.getElementById('plots').dataset.points)"), wait).await;
     assert!(more.as_i64().unwrap_or_default() > first + 2);
-    let paths = until(&c, "drawn lines", "document.querySelectorAll('#plot-phi canvas').length", wait).await;
+    let paths = until(c, "drawn lines", "document.querySelectorAll('#plot-phi canvas').length", wait).await;
     assert!(paths.as_i64().unwrap_or_default() >= 1);
-    screenshot(&c, "job-running.png").await;
+    screenshot(c, "job-running.png").await;
 
     // The job list shows it, running.
     c.goto(&format!("{base}/#/")).await.expect("the job list");
-    let row = until(&c, "the job's row", &format!("document.querySelector('tr[data-job=\"{id}\"] .state')?.textContent"), wait).await;
+    let row = until(c, "the job's row", &format!("document.querySelector('tr[data-job=\"{id}\"] .state')?.textContent"), wait).await;
     assert_eq!(row, json!("running"));
     // Its row follows the job's event stream: the sample count grows within 4 s, before the
     // list is read again (every 5 s).
     let cell = format!("Number(document.querySelector('tr[data-job=\"{id}\"] .samples').dataset.n)");
-    let before = until(&c, "the row's sample count", &cell, wait).await.as_i64().unwrap_or_default();
-    until(&c, "the row updated live", &format!("{cell} > {before}"), Duration::from_secs(4)).await;
-    screenshot(&c, "jobs.png").await;
+    let before = until(c, "the row's sample count", &cell, wait).await.as_i64().unwrap_or_default();
+    until(c, "the row updated live", &format!("{cell} > {before}"), Duration::from_secs(4)).await;
+    screenshot(c, "jobs.png").await;
 
     // Cancelled from its page; the particle view then draws its last snapshot with its contacts.
     c.goto(&format!("{base}/#/jobs/{id}")).await.expect("the job page");
     c.wait().at_most(wait).for_element(Locator::Id("cancel")).await.expect("a cancel button").click().await.expect("cancel");
-    until(&c, "the job cancelled", "document.querySelector('h1 + .toolbar .state-cancelled')", wait).await;
-    let drawn = until(&c, "the particles drawn", "Number(document.getElementById('particles')?.dataset.drawn || 0)", wait).await;
+    until(c, "the job cancelled", "document.querySelector('h1 + .toolbar .state-cancelled')", wait).await;
+    let drawn = until(c, "the particles drawn", "Number(document.getElementById('particles')?.dataset.drawn || 0)", wait).await;
     assert_eq!(drawn, json!(250));
-    let legend = until(&c, "the legend", "document.getElementById('particles-legend')?.innerText", wait).await;
+    let legend = until(c, "the legend", "document.getElementById('particles-legend')?.innerText", wait).await;
     assert!(legend.as_str().unwrap_or_default().contains("contacts"), "{legend}");
     let painted: Value = c
         .execute(
@@ -218,7 +237,7 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
         .await
         .expect("the canvas");
     assert!(painted.as_f64().unwrap_or_default() > 0.3, "the canvas is mostly empty: {painted}");
-    screenshot(&c, "job-cancelled.png").await;
+    screenshot(c, "job-cancelled.png").await;
 
     // A study: its page shows the chart and the runs.
     let study = json!({"name": "browser study", "scene": quickstart(json!({"stop": {"time": 0.01}})),
@@ -236,23 +255,18 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
     c.goto(&format!("{base}/#/studies")).await.expect("the studies");
-    until(&c, "the study listed", &format!("document.querySelector('#studies a[href=\"#/studies/{sid}\"]')"), wait).await;
+    until(c, "the study listed", &format!("document.querySelector('#studies a[href=\"#/studies/{sid}\"]')"), wait).await;
     c.goto(&format!("{base}/#/studies/{sid}")).await.expect("the study");
-    until(
-        &c,
-        "the chart loaded",
-        "document.querySelector('img.chart')?.complete && document.querySelector('img.chart').naturalWidth",
-        wait,
-    )
-    .await;
-    let runs = until(&c, "the runs", "document.querySelectorAll('#runs tbody tr').length", wait).await;
+    until(c, "the chart loaded", "document.querySelector('img.chart')?.complete && document.querySelector('img.chart').naturalWidth", wait)
+        .await;
+    let runs = until(c, "the runs", "document.querySelectorAll('#runs tbody tr').length", wait).await;
     assert_eq!(runs, json!(2));
 
     // Keyboard: from the top of a page, Tab reaches the skip link, then the sections' links;
     // the skip link moves the focus to the content and leaves the page where it is.
     let mut page_errors = vec![c.execute("return window.__sableErrors;", vec![]).await.expect("the page's errors")];
     c.goto(&format!("{base}/?keyboard#/studies")).await.expect("the studies, loaded anew");
-    until(&c, "the studies", "document.getElementById('studies')", wait).await;
+    until(c, "the studies", "document.getElementById('studies')", wait).await;
     let body = c.find(Locator::Css("body")).await.expect("body");
     let mut reached = Vec::new();
     for _ in 0..4 {
@@ -265,9 +279,73 @@ async fn the_dashboard_submits_watches_cancels_and_draws_a_job_in_a_real_browser
     let after: Value = c.execute("return [document.activeElement.id, location.hash];", vec![]).await.expect("focus");
     assert_eq!(after, json!(["main", "#/studies"]));
 
-    let errors = console_errors(&c).await;
+    let errors = console_errors(c).await;
     page_errors.push(c.execute("return window.__sableErrors;", vec![]).await.expect("the page's errors"));
-    c.close().await.expect("close the browser");
+    c.clone().close().await.expect("close the browser");
     assert!(errors.is_empty(), "console errors: {errors:#?}");
     assert_eq!(page_errors, vec![json!([]), json!([])], "errors the pages caught (before and after the reload)");
+}
+
+/// On a server that needs users' tokens the dashboard asks for one, keeps it, and sends it with
+/// its calls, its event streams (the query's access_token) and its chart images: the job list
+/// loads and a job's plots gain points from its event stream.
+#[tokio::test]
+async fn the_dashboard_asks_for_a_token_and_uses_it_everywhere() {
+    let tokens = tempfile::tempdir().expect("dir");
+    let (user, worker) = ("browser-user-token-0123456789", "browser-worker-token-0123456789");
+    std::fs::write(tokens.path().join("users"), format!("{user}\n")).expect("write");
+    std::fs::write(tokens.path().join("workers"), format!("{worker}\n")).expect("write");
+    let users = tokens.path().join("users").display().to_string();
+    let workers = tokens.path().join("workers").display().to_string();
+    let s = session(&["--user-tokens", &users, "--worker-tokens", &workers]).await;
+    let (c, base, http) = (&s.c, &s.base, &s.http);
+    let wait = Duration::from_secs(60);
+    let job: Value = http
+        .post(format!("{base}/v1/jobs"))
+        .bearer_auth(user)
+        .json(&quickstart(json!({"name": "tokens", "stop": {"time": 10.0}, "sampling": {"every_steps": 2000}})))
+        .send()
+        .await
+        .expect("submit")
+        .json()
+        .await
+        .expect("JSON");
+    let id = job["id"].as_i64().expect("a job id");
+
+    // The first call is refused: the page asks; a worker's token is refused again (403), the
+    // user's is kept.
+    c.goto(&format!("{base}/#/")).await.expect("the job list");
+    let start = Instant::now();
+    let mut asked = Vec::new();
+    for token in [worker, user] {
+        loop {
+            if let Ok(text) = c.get_alert_text().await {
+                asked.push(text);
+                c.send_alert_text(token).await.expect("type the token");
+                c.accept_alert().await.expect("accept");
+                break;
+            }
+            assert!(start.elapsed() < wait, "the dashboard did not ask for a token");
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        if token == worker {
+            // The list is read again after the refusal (every 5 s).
+            c.refresh().await.ok();
+        }
+    }
+    assert!(asked.iter().all(|t| t.contains("user's token")), "{asked:?}");
+    let row = until(c, "the job's row", &format!("document.querySelector('tr[data-job=\"{id}\"] .state')?.textContent"), wait).await;
+    assert!(row == json!("running") || row == json!("queued"), "{row}");
+    let kept: Value = c.execute("return localStorage.getItem('sable.token');", vec![]).await.expect("storage");
+    assert_eq!(kept, json!(user));
+    // The job's page: its plots gain points from the event stream, which carries the token.
+    c.goto(&format!("{base}/#/jobs/{id}")).await.expect("the job page");
+    let points =
+        "Number(document.getElementById('plots')?.dataset.points || 0) >= 2 && Number(document.getElementById('plots').dataset.points)";
+    let first = until(c, "the first points", points, wait).await.as_i64().unwrap_or_default();
+    let more = format!(
+        "Number(document.getElementById('plots').dataset.points) > {first} + 2 && Number(document.getElementById('plots').dataset.points)"
+    );
+    until(c, "more points from the event stream", &more, wait).await;
+    c.clone().close().await.expect("close the browser");
 }

@@ -171,7 +171,7 @@ pub async fn execute<S: JobSource>(
                 match flush(source, lease, &mut pending).await {
                     Ok(true) => cancel.store(true, Ordering::Relaxed),
                     Ok(false) => {}
-                    Err(SourceError::LeaseLost { .. }) => {
+                    Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => {
                         lost = true;
                         cancel.store(true, Ordering::Relaxed);
                     }
@@ -233,7 +233,7 @@ pub async fn execute<S: JobSource>(
         for attempt in 0..20 {
             match flush(source, lease, &mut pending).await {
                 Ok(_) => break,
-                Err(SourceError::LeaseLost { .. }) => return None,
+                Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
                 Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
             }
         }
@@ -270,7 +270,7 @@ async fn finish<S: JobSource>(source: &S, lease: &Lease, outcome: Outcome) -> Op
     for attempt in 0..20 {
         match source.finish(lease, outcome.clone()).await {
             Ok(()) => return Some(outcome),
-            Err(SourceError::LeaseLost { .. }) => return None,
+            Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
             Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
         }
     }

@@ -9,7 +9,7 @@ use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
 
 use crate::execute::{execute, ReportTiming};
-use crate::source::JobSource;
+use crate::source::{JobSource, SourceError};
 
 /// Settings of a worker pool.
 #[derive(Debug, Clone)]
@@ -50,6 +50,8 @@ pub struct PoolStats {
     pub busy: AtomicUsize,
     /// Workers in the pool.
     pub workers: AtomicUsize,
+    /// Why the server refused the pool, if it did (the pool then stops).
+    pub refused: std::sync::OnceLock<String>,
 }
 
 /// A running pool; dropping it does not stop it: call [`Pool::shutdown`].
@@ -84,6 +86,12 @@ impl Pool {
                             continue;
                         }
                         Ok(None) => {}
+                        Err(SourceError::Refused(why)) => {
+                            // A wrong token stays wrong: stop the pool rather than ask forever.
+                            let _ = stats.refused.set(why);
+                            shutdown.cancel();
+                            return;
+                        }
                         Err(e) => eprintln!("worker {me}: cannot lease: {e}"),
                     }
                     tokio::select! {
@@ -95,6 +103,12 @@ impl Pool {
             });
         }
         Self { tasks, shutdown, stats }
+    }
+
+    /// Waits until the pool stops by itself (the server refused it: [`PoolStats::refused`]) or
+    /// is shut down.
+    pub async fn stopped(&self) {
+        self.shutdown.cancelled().await;
     }
 
     /// Stops every worker at once, as a crash would: nothing more is written (the engines see

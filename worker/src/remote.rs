@@ -44,6 +44,7 @@ impl RemoteSource {
 fn status_error(s: tonic::Status, lease: Option<&Lease>) -> SourceError {
     match (s.code(), lease) {
         (tonic::Code::FailedPrecondition, Some(l)) => SourceError::LeaseLost { job_id: l.job_id, lease_id: l.lease_id.clone() },
+        (tonic::Code::Unauthenticated | tonic::Code::PermissionDenied, _) => SourceError::Refused(s.message().to_string()),
         _ => SourceError::Unavailable(format!("{}: {}", s.code(), s.message())),
     }
 }

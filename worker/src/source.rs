@@ -142,6 +142,10 @@ pub enum SourceError {
     /// The store or the server could not be reached; the call may be retried.
     #[error("job source unavailable: {0}")]
     Unavailable(String),
+    /// The server refuses this worker (no worker's token, or a wrong one): retrying will not
+    /// help, so the pool stops.
+    #[error("the server refuses this worker: {0}")]
+    Refused(String),
 }
 
 /// A queue of jobs that workers lease from. Implemented by the server's SQLite store and by the

@@ -162,7 +162,14 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         let workers = pc.workers;
         let pool = sable_worker::Pool::start(Arc::new(source), pc, Arc::new(tokio::sync::Notify::new()));
         eprintln!("sable worker {name}: {workers} worker(s) leasing from {}; Ctrl-C to stop", a.server);
-        stop_signal().await;
+        tokio::select! {
+            _ = stop_signal() => {}
+            _ = pool.stopped() => {}
+        }
+        if let Some(why) = pool.stats.refused.get().cloned() {
+            pool.shutdown(Duration::from_secs(5)).await;
+            bail!("the server at {} refuses this worker: {why}", a.server);
+        }
         eprintln!("sable worker: stopping (running jobs go back to the queue)");
         pool.shutdown(Duration::from_secs(5)).await;
         Ok(())
