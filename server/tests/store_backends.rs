@@ -336,3 +336,31 @@ async fn futures_join(at: &DbLocation, n: usize) -> Vec<JobStore> {
     v.sort_by_key(|(k, _)| *k);
     v.into_iter().map(|(_, s)| s).collect()
 }
+
+/// The same idempotency key sent to two servers at once makes one job: the one that loses the
+/// race finds the winner's job instead of failing on the key's uniqueness.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn one_idempotency_key_sent_to_two_servers_at_once_makes_one_job() {
+    let Some(pg) = postgres::server() else { return };
+    let at = DbLocation::Postgres(postgres::fresh_database(pg).await);
+    let stores = futures_join(&at, 2).await;
+    for round in 0..20 {
+        let key = format!("key-{round}");
+        let mut set = tokio::task::JoinSet::new();
+        for k in 0..4 {
+            let (s, key) = (stores[k % 2].clone(), key.clone());
+            set.spawn(async move { s.submit(job("same", 0, Some(&key))).await });
+        }
+        let mut ids = HashSet::new();
+        let mut created = 0;
+        while let Some(r) = set.join_next().await {
+            let (row, fresh) = r.expect("task").expect("every submission answers with the key's job");
+            ids.insert(row.id);
+            created += usize::from(fresh);
+        }
+        assert_eq!((ids.len(), created), (1, 1), "round {round}");
+    }
+    for s in &stores {
+        s.close().await;
+    }
+}

@@ -260,6 +260,17 @@ impl JobStore {
     /// Inserts a job, or returns the job that an earlier request with the same idempotency key
     /// created (`false` as second value). The same key with another scene is a conflict.
     pub async fn submit(&self, new: NewJob) -> Result<(JobRow, bool), StoreError> {
+        match self.try_submit(&new).await {
+            // Another server inserted a job with this key between the lookup and the insert
+            // (PostgreSQL; SQLite's write lock rules it out): that job is the answer.
+            Err(StoreError::Db(sqlx::Error::Database(e))) if e.is_unique_violation() && new.idempotency_key.is_some() => {
+                self.try_submit(&new).await
+            }
+            r => r,
+        }
+    }
+
+    async fn try_submit(&self, new: &NewJob) -> Result<(JobRow, bool), StoreError> {
         let mut tx = self.begin().await?;
         if let Some(key) = &new.idempotency_key {
             let existing: Option<(i64, String)> =
@@ -274,7 +285,7 @@ impl JobStore {
                 return Ok((self.get(id).await?, false));
             }
         }
-        let (id, event) = self.insert_job(&mut tx, &new).await?;
+        let (id, event) = self.insert_job(&mut tx, new).await?;
         // The job as created (a worker may lease it the moment the transaction commits).
         let row = sqlx::query_as::<_, JobRow>(&format!("{} WHERE j.id = $1", rows::JOB_SELECT)).bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
