@@ -111,11 +111,9 @@ pub fn bench(a: ServiceBenchArgs) -> anyhow::Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {
         let dir = tempfile_dir()?;
-        let backend = match (&a.server, a.db.as_str()) {
-            (Some(_), _) => "remote",
-            (None, "sqlite") => "sqlite",
-            (None, url) if url.starts_with("postgres") => "postgres",
-            (None, other) => anyhow::bail!("--db: give sqlite or a postgres:// URL, not '{other}'"),
+        let backend = match &a.server {
+            Some(_) => "remote",
+            None => location(&a, &dir.join("bench.db"))?.backend().name(),
         };
         // In-process: submissions against a server without workers, then a second server with
         // one worker for the fan-out.
@@ -257,12 +255,8 @@ async fn target(a: &ServiceBenchArgs, db: &std::path::Path, workers: usize) -> a
     if let Some(u) = &a.server {
         return Ok((u.clone(), None));
     }
-    let db = match a.db.as_str() {
-        "sqlite" => sable_server::store::DbLocation::Sqlite(db.to_path_buf()),
-        url => url.parse()?,
-    };
     let cfg = ServeConfig {
-        db,
+        db: location(a, db)?,
         http: "127.0.0.1:0".parse()?,
         grpc: "127.0.0.1:0".parse()?,
         workers,
@@ -271,6 +265,15 @@ async fn target(a: &ServiceBenchArgs, db: &std::path::Path, workers: usize) -> a
     };
     let s = Server::start(cfg).await.context("cannot start the in-process server")?;
     Ok((format!("http://{}", s.grpc_addr), Some(s)))
+}
+
+/// The in-process servers' database: `--db sqlite` is a file at `sqlite_file`; anything else
+/// is read as `sable serve --db` reads it (a PostgreSQL URL), with its error.
+fn location(a: &ServiceBenchArgs, sqlite_file: &std::path::Path) -> anyhow::Result<sable_server::store::DbLocation> {
+    Ok(match a.db.as_str() {
+        "sqlite" => sable_server::store::DbLocation::Sqlite(sqlite_file.to_path_buf()),
+        other => other.parse()?,
+    })
 }
 
 /// `clients` workers leasing over gRPC at once, each job reported on once and finished at once,
