@@ -28,7 +28,7 @@ use sable_proto::v1::simulations_client::SimulationsClient;
 use sable_proto::v1::studies_client::StudiesClient;
 pub use sable_proto::v1::{Job, JobEvent, JobState, Study};
 use tokio_stream::Stream;
-use tonic::transport::{Channel, Endpoint};
+use tonic::transport::Channel;
 
 /// Default server address of the client commands.
 pub const DEFAULT_SERVER: &str = "http://127.0.0.1:50051";
@@ -36,8 +36,9 @@ pub const DEFAULT_SERVER: &str = "http://127.0.0.1:50051";
 /// Errors of the client.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
-    /// The server address is malformed.
-    #[error("bad server address '{url}': {reason}")]
+    /// The server address is malformed, or its TLS settings are (a CA for an `http://`
+    /// address, a CA file without a certificate).
+    #[error("cannot use the server address '{url}': {reason}")]
     Address {
         /// The address given.
         url: String,
@@ -123,9 +124,17 @@ impl Client {
     /// Connects to the server at `url` sending a user's bearer token with every call (for a
     /// server started with `--user-tokens`; None: no token).
     pub async fn connect_with_token(url: &str, token: Option<&str>) -> Result<Self, ClientError> {
+        Self::connect_with_access(url, token, None).await
+    }
+
+    /// Connects to the server at `url` with a user's bearer token (None: no token) and, for an
+    /// `https://` address, trusting the certificate authorities in `ca_pem` (PEM) besides the
+    /// system's: a lab's own CA, or the server's self-signed certificate
+    /// ([`sable_proto::endpoint`]).
+    pub async fn connect_with_access(url: &str, token: Option<&str>, ca_pem: Option<&[u8]>) -> Result<Self, ClientError> {
         let bearer = sable_proto::Bearer::new(token).map_err(ClientError::Token)?;
-        let endpoint = Endpoint::from_shared(url.to_string())
-            .map_err(|e| ClientError::Address { url: url.into(), reason: e.to_string() })?
+        let endpoint = sable_proto::endpoint(url, ca_pem)
+            .map_err(|reason| ClientError::Address { url: url.into(), reason })?
             .connect_timeout(Duration::from_secs(5))
             .http2_keep_alive_interval(Duration::from_secs(30))
             .keep_alive_while_idle(true);

@@ -45,3 +45,32 @@ impl tonic::service::Interceptor for Bearer {
         Ok(req)
     }
 }
+
+/// The endpoint of a server at `url`, for the Rust client and remote workers. An `https://`
+/// address is reached over TLS, trusting the system's certificate authorities and, when
+/// `ca_pem` is given, the ones in it (PEM: a lab's own CA, or a server's self-signed
+/// certificate); an `http://` address is plain, and refuses a CA, which would not be used.
+/// Fails with the rule broken: a bad address, a CA without `https://`, or a CA file without a
+/// PEM certificate.
+pub fn endpoint(url: &str, ca_pem: Option<&[u8]>) -> Result<tonic::transport::Endpoint, String> {
+    use rustls_pki_types::pem::PemObject;
+    let endpoint = tonic::transport::Endpoint::from_shared(url.to_string()).map_err(|e| format!("bad server address '{url}': {e}"))?;
+    let https = endpoint.uri().scheme_str() == Some("https");
+    match (https, ca_pem) {
+        (false, Some(_)) => Err(format!("a CA certificate is given, but '{url}' is not an https:// address")),
+        (false, None) => Ok(endpoint),
+        (true, ca) => {
+            let mut tls = tonic::transport::ClientTlsConfig::new().with_native_roots();
+            if let Some(pem) = ca {
+                let certs = rustls_pki_types::CertificateDer::pem_slice_iter(pem)
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|e| format!("the CA certificate is not valid PEM: {e}"))?;
+                if certs.is_empty() {
+                    return Err("the CA certificate file holds no PEM certificate (-----BEGIN CERTIFICATE-----)".into());
+                }
+                tls = tls.ca_certificate(tonic::transport::Certificate::from_pem(pem));
+            }
+            endpoint.tls_config(tls).map_err(|e| format!("cannot set up TLS for '{url}': {e}"))
+        }
+    }
+}

@@ -3,7 +3,8 @@
 //! The Sable service: the SQLite job store ([`store`]), the operations shared by both APIs
 //! ([`api`]), the REST API ([`rest`]), the gRPC API ([`grpc`]), event streams ([`watch`]),
 //! Prometheus metrics ([`metrics`]), studies and their driver ([`studies`]) and the server that
-//! runs them with a local worker pool ([`serve`]). The `sable` binary is built from this crate.
+//! runs them with a local worker pool ([`serve`]), with bearer tokens ([`auth`]) and TLS
+//! ([`tls`]). The `sable` binary is built from this crate.
 
 pub mod api;
 pub mod auth;
@@ -18,6 +19,7 @@ pub mod serve;
 pub mod start_from;
 pub mod store;
 pub mod studies;
+pub mod tls;
 pub mod watch;
 
 pub use serve::{ServeConfig, Server};

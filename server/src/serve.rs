@@ -44,6 +44,8 @@ pub struct ServeConfig {
     pub tokens: Arc<Tokens>,
     /// Serve without tokens on addresses other machines can reach (`--no-auth`).
     pub no_auth: bool,
+    /// The certificate and key to serve REST and gRPC over TLS with (None: plain; `crate::tls`).
+    pub tls: Option<crate::tls::TlsIdentity>,
 }
 
 impl Default for ServeConfig {
@@ -60,6 +62,7 @@ impl Default for ServeConfig {
             limits: crate::api::Limits::default(),
             tokens: Arc::default(),
             no_auth: false,
+            tls: None,
         }
     }
 }
@@ -81,9 +84,18 @@ pub enum ServeError {
     /// Tokens are needed on an address other machines can reach.
     #[error("{0}")]
     Exposed(String),
+    /// TLS could not be set up on a listener.
+    #[error("TLS: {0}")]
+    Tls(String),
     /// gRPC reflection could not be set up.
     #[error("gRPC reflection: {0}")]
     Reflection(#[from] tonic_reflection::server::Error),
+}
+
+/// The REST listener: plain, or over TLS.
+enum Rest {
+    Plain(TcpListener),
+    Tls(crate::tls::TlsListener),
 }
 
 /// A running server.
@@ -160,13 +172,24 @@ impl Server {
         };
         let app = router(state).layer(axum::middleware::from_fn_with_state(cfg.tokens.clone(), crate::auth::http_layer));
         let http_stop = stop.clone();
+        let http = match &cfg.tls {
+            Some(id) => Rest::Tls(id.listener(http, stop.clone()).map_err(|source| ServeError::Bind { addr: cfg.http, source })?),
+            None => Rest::Plain(http),
+        };
         tasks.spawn(async move {
             let shutdown = async move { http_stop.cancelled().await };
-            // No Nagle delay on small answers (axum leaves the accepted sockets as they come).
-            let http = axum::serve::ListenerExt::tap_io(http, |tcp| {
-                let _ = tcp.set_nodelay(true);
-            });
-            if let Err(e) = axum::serve(http, app).with_graceful_shutdown(shutdown).await {
+            let served = match http {
+                Rest::Tls(tls) => axum::serve(tls, app).with_graceful_shutdown(shutdown).await,
+                Rest::Plain(http) => {
+                    // No Nagle delay on small answers (axum leaves the accepted sockets as they
+                    // come).
+                    let http = axum::serve::ListenerExt::tap_io(http, |tcp| {
+                        let _ = tcp.set_nodelay(true);
+                    });
+                    axum::serve(http, app).with_graceful_shutdown(shutdown).await
+                }
+            };
+            if let Err(e) = served {
                 eprintln!("sable serve: HTTP server: {e}");
             }
         });
@@ -187,6 +210,10 @@ impl Server {
         let (user, worker) = (GrpcGuard::new(cfg.tokens.clone(), Role::User), GrpcGuard::new(cfg.tokens.clone(), Role::Worker));
         // Room for the largest scene accepted plus the rest of the request.
         let max_message = cfg.limits.max_body_bytes + 64 * 1024;
+        let mut grpc_server = tonic::transport::Server::builder();
+        if let Some(id) = &cfg.tls {
+            grpc_server = grpc_server.tls_config(id.grpc()).map_err(|e| ServeError::Tls(e.to_string()))?;
+        }
         tasks.spawn(async move {
             // tonic ignores its tcp_nodelay setting for incoming streams given to it: without
             // this each small gRPC answer waited for the peer's delayed ACK, about 40 ms (a
@@ -196,7 +223,7 @@ impl Server {
                     let _ = tcp.set_nodelay(true);
                 })
             });
-            let r = tonic::transport::Server::builder()
+            let r = grpc_server
                 .http2_keepalive_interval(Some(Duration::from_secs(30)))
                 .add_service(health_service)
                 .add_service(reflection)

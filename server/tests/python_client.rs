@@ -43,11 +43,21 @@ fn the_python_client_passes_its_tests_against_this_server() {
             .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-build-isolation", "./client/python[test]"])
             .current_dir(&root),
     );
+    // The TLS service's self-signed certificate (Python's standard library cannot make one).
+    let tls = tempfile::tempdir().expect("dir");
+    let names = vec!["localhost".to_string(), "127.0.0.1".to_string()];
+    let rcgen::CertifiedKey { cert, key_pair } = rcgen::generate_simple_self_signed(names).expect("certificate");
+    let (cert_file, key_file) = (tls.path().join("cert.pem"), tls.path().join("key.pem"));
+    std::fs::write(&cert_file, cert.pem()).expect("write");
+    std::fs::write(&key_file, key_pair.serialize_pem()).expect("write");
     run(
         "pytest client/python/tests",
         Command::new(&python)
             .args(["-m", "pytest", "client/python/tests", "-q", "-p", "no:cacheprovider"])
             .env("SABLE_BIN", env!("CARGO_BIN_EXE_sable"))
+            .env("SABLE_TEST_TLS_CERT", &cert_file)
+            .env("SABLE_TEST_TLS_KEY", &key_file)
+            .env_remove("SABLE_CA_CERT")
             .current_dir(&root),
     );
 }

@@ -3,7 +3,7 @@
 use sable_proto::v1::finish_job_request::Outcome as ProtoOutcome;
 use sable_proto::v1::workers_client::WorkersClient;
 use sable_proto::v1::{FinishJobRequest, LeaseJobRequest, ReportProgressRequest};
-use tonic::transport::{Channel, Endpoint};
+use tonic::transport::Channel;
 
 use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
 
@@ -27,9 +27,16 @@ impl RemoteSource {
     /// Connects lazily to the server at `url`, sending a worker's bearer token with every call
     /// (for a server started with `--worker-tokens`; None: no token).
     pub fn with_token(url: &str, token: Option<&str>) -> Result<Self, SourceError> {
+        Self::with_access(url, token, None)
+    }
+
+    /// Connects lazily to the server at `url` with a worker's bearer token (None: no token)
+    /// and, for an `https://` address, trusting the certificate authorities in `ca_pem` (PEM)
+    /// besides the system's ([`sable_proto::endpoint`]).
+    pub fn with_access(url: &str, token: Option<&str>, ca_pem: Option<&[u8]>) -> Result<Self, SourceError> {
         let bearer = sable_proto::Bearer::new(token).map_err(|e| SourceError::Unavailable(format!("bad worker token: {e}")))?;
-        let endpoint = Endpoint::from_shared(url.to_string())
-            .map_err(|e| SourceError::Unavailable(format!("bad server URL '{url}': {e}")))?
+        let endpoint = sable_proto::endpoint(url, ca_pem)
+            .map_err(|e| SourceError::Unavailable(format!("cannot use the server address '{url}': {e}")))?
             .connect_timeout(std::time::Duration::from_secs(5))
             .timeout(std::time::Duration::from_secs(30));
         // Snapshots of large scenes make large reports; a scene that starts from a saved state

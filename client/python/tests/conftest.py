@@ -37,9 +37,9 @@ def _binary() -> Path:
 
 
 @contextmanager
-def _serve(db: Path, *extra: str) -> Iterator[str]:
+def _serve(db: Path, *extra: str, scheme: str = "http", ca_cert: str | None = None) -> Iterator[str]:
     """Runs ``sable serve`` on ``db`` with two workers of one thread (and ``extra`` flags); yields
-    its base URL once it answers."""
+    its base URL once it answers (``https`` with ``--tls-cert``, trusting ``ca_cert``)."""
     http, grpc = _free_port(), _free_port()
     log = open(db.with_suffix(".log"), "wb")
     proc = subprocess.Popen(
@@ -48,9 +48,9 @@ def _serve(db: Path, *extra: str) -> Iterator[str]:
         stdout=log,
         stderr=subprocess.STDOUT,
     )
-    url = f"http://127.0.0.1:{http}"
+    url = f"{scheme}://127.0.0.1:{http}"
     try:
-        with Client(url, timeout=5, token="") as c:
+        with Client(url, timeout=5, token="", ca_cert=ca_cert) as c:
             deadline = time.monotonic() + 60
             while not c.healthy():
                 if proc.poll() is not None:
@@ -84,6 +84,19 @@ def token_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str
     (dir / "workers").write_text(f"{worker}\n")
     with _serve(dir / "sable.db", "--user-tokens", str(dir / "users"), "--worker-tokens", str(dir / "workers")) as url:
         yield url, user, worker
+
+
+@pytest.fixture(scope="session")
+def tls_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, str]]:
+    """A service over TLS: its https URL and its self-signed certificate's file. The Rust test
+    that runs this suite makes the certificate and key (``SABLE_TEST_TLS_CERT``,
+    ``SABLE_TEST_TLS_KEY``)."""
+    cert, key = os.environ.get("SABLE_TEST_TLS_CERT"), os.environ.get("SABLE_TEST_TLS_KEY")
+    if not (cert and key):
+        pytest.skip("SABLE_TEST_TLS_CERT and SABLE_TEST_TLS_KEY are not set (server/tests/python_client.rs sets them)")
+    db = tmp_path_factory.mktemp("sable-tls") / "sable.db"
+    with _serve(db, "--tls-cert", cert, "--tls-key", key, scheme="https", ca_cert=cert) as url:
+        yield url, cert
 
 
 @pytest.fixture()

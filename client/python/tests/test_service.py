@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import time
 
+import httpx
 import numpy as np
 import pytest
 
@@ -185,3 +186,27 @@ def test_a_service_with_tokens_admits_only_users_tokens(token_server: tuple[str,
         events = [e.kind for e in c.events(job)]
         assert events[-1] == "state" and "sample" in events
         assert len(c.samples(c.wait(job))) == 3
+
+
+def test_a_service_over_tls_is_reached_with_its_certificate_trusted(tls_server: tuple[str, str], monkeypatch: pytest.MonkeyPatch) -> None:
+    url, cert = tls_server
+    assert url.startswith("https://")
+    with Client(url, ca_cert=cert) as c:
+        job = c.submit(quickstart(stop={"steps": 200}, sampling={"every_steps": 100}))
+        events = [e.kind for e in c.events(job)]
+        assert events[-1] == "state" and "sample" in events
+        assert len(c.samples(c.wait(job))) == 3
+    # SABLE_CA_CERT does the same for https:// addresses only.
+    monkeypatch.setenv("SABLE_CA_CERT", cert)
+    with Client(url) as c:
+        assert c.healthy()
+    with Client(url.replace("https://", "http://")) as plain:
+        assert not plain.healthy(), "plain HTTP was answered by the TLS listener"
+    monkeypatch.delenv("SABLE_CA_CERT")
+    # Without the certificate trusted, the client's own TLS refuses the service.
+    with Client(url) as untrusting, pytest.raises(httpx.ConnectError, match="CERTIFICATE_VERIFY_FAILED"):
+        untrusting.jobs()
+    with pytest.raises(ValueError, match="ca_cert: http://127.0.0.1:1 is not an https:// address"):
+        Client("http://127.0.0.1:1", ca_cert=cert)
+    with pytest.raises(ValueError, match="ca_cert: cannot use /nonexistent.pem"):
+        Client("https://127.0.0.1:1", ca_cert="/nonexistent.pem")

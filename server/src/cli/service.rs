@@ -64,6 +64,18 @@ pub struct ServeArgs {
     /// Serve without tokens on an address other machines can reach (refused otherwise).
     #[arg(long)]
     pub no_auth: bool,
+    /// Certificate chain (PEM) to serve REST, the dashboard and gRPC over TLS with; needs
+    /// --tls-key. Clients then use https:// addresses.
+    #[arg(long, env = "SABLE_TLS_CERT", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// Private key (PEM) of --tls-cert.
+    #[arg(long, env = "SABLE_TLS_KEY", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+}
+
+/// Reads the CA certificate file a client or worker trusts besides the system's (`--ca-cert`).
+fn read_ca(path: Option<&std::path::Path>) -> anyhow::Result<Option<Vec<u8>>> {
+    path.map(|p| std::fs::read(p).with_context(|| format!("--ca-cert: cannot read {}", p.display()))).transpose()
 }
 
 /// Waits for SIGINT (Ctrl-C) or SIGTERM.
@@ -94,6 +106,17 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         bail!("--lease-seconds: must be at least 1, got {}", a.lease_seconds);
     }
     let tokens = sable_server::auth::Tokens::from_files(a.user_tokens.as_deref(), a.worker_tokens.as_deref())?;
+    let tls = match (&a.tls_cert, &a.tls_key) {
+        (Some(cert), Some(key)) => Some(sable_server::tls::TlsIdentity::from_files(cert, key).map_err(anyhow::Error::msg)?),
+        _ => None,
+    };
+    let exposed = [a.http, a.grpc].iter().any(|addr| !addr.ip().is_loopback());
+    if exposed && tls.is_none() && (a.user_tokens.is_some() || a.worker_tokens.is_some()) {
+        eprintln!(
+            "sable serve: warning: tokens cross the network in clear without TLS; give --tls-cert and --tls-key, \
+             or keep a TLS-terminating proxy in front of the server"
+        );
+    }
     let mut cfg = ServeConfig {
         db: a.db.clone(),
         http: a.http,
@@ -101,6 +124,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         threads_per_job: a.threads_per_job,
         tokens: Arc::new(tokens),
         no_auth: a.no_auth,
+        tls,
         ..Default::default()
     };
     if let Some(w) = a.workers {
@@ -115,8 +139,9 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     };
     runtime()?.block_on(async move {
         let server = Server::start(cfg.clone()).await.with_context(|| format!("cannot start the server on {}", a.db))?;
+        let scheme = if cfg.tls.is_some() { "https" } else { "http" };
         eprintln!(
-            "sable serve: REST on http://{}, gRPC on {}, database {}, {} local worker(s); Ctrl-C to stop",
+            "sable serve: REST on {scheme}://{}, gRPC on {scheme}://{}, database {}, {} local worker(s); Ctrl-C to stop",
             server.http_addr, server.grpc_addr, a.db, cfg.workers
         );
         stop_signal().await;
@@ -144,6 +169,10 @@ pub struct WorkerArgs {
     /// A worker's bearer token, for a server started with --worker-tokens.
     #[arg(long, env = "SABLE_WORKER_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
+    /// CA certificate (PEM) to trust besides the system's, for an https:// server with a
+    /// certificate of a lab's own CA or a self-signed one.
+    #[arg(long, env = "SABLE_CA_CERT")]
+    pub ca_cert: Option<PathBuf>,
 }
 
 /// `sable worker --server URL`.
@@ -154,7 +183,8 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         format!("{host}-{}", std::process::id())
     });
     runtime()?.block_on(async move {
-        let source = sable_worker::remote::RemoteSource::with_token(&a.server, a.token.as_deref())?;
+        let ca = read_ca(a.ca_cert.as_deref())?;
+        let source = sable_worker::remote::RemoteSource::with_access(&a.server, a.token.as_deref(), ca.as_deref())?;
         let mut pc = sable_worker::PoolConfig::new(name.clone(), a.workers.unwrap_or(cores));
         if a.threads_per_job > 0 {
             pc.threads_per_job = a.threads_per_job;
@@ -185,12 +215,17 @@ pub struct ServerArg {
     /// A user's bearer token, for a server started with --user-tokens.
     #[arg(long, env = "SABLE_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
+    /// CA certificate (PEM) to trust besides the system's, for an https:// server with a
+    /// certificate of a lab's own CA or a self-signed one.
+    #[arg(long, env = "SABLE_CA_CERT")]
+    pub ca_cert: Option<PathBuf>,
 }
 
 impl ServerArg {
-    /// Connects to the server with the token, if any.
-    pub async fn connect(&self) -> Result<Client, sable_client::ClientError> {
-        Client::connect_with_token(&self.server, self.token.as_deref()).await
+    /// Connects to the server with the token and the CA certificate, if any.
+    pub async fn connect(&self) -> anyhow::Result<Client> {
+        let ca = read_ca(self.ca_cert.as_deref())?;
+        Ok(Client::connect_with_access(&self.server, self.token.as_deref(), ca.as_deref()).await?)
     }
 }
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import ssl
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -62,6 +63,10 @@ class Client:
         transport: An httpx transport (tests).
         token: A user's bearer token, for a service started with ``--user-tokens``; by default
             the ``SABLE_TOKEN`` environment variable, if set.
+        ca_cert: A CA certificate file (PEM) to trust besides the system's, for an ``https://``
+            service whose certificate is a lab's own or self-signed (``sable serve
+            --tls-cert``); by default the ``SABLE_CA_CERT`` environment variable, for
+            ``https://`` addresses only.
 
     Every method raises :class:`~sable_client.errors.SableError` (or a subclass) when the
     service answers with an error: :class:`~sable_client.errors.RejectedScene` carries the field
@@ -81,11 +86,22 @@ class Client:
         timeout: float = 30.0,
         transport: httpx.BaseTransport | None = None,
         token: str | None = None,
+        ca_cert: str | os.PathLike[str] | None = None,
     ) -> None:
         self.url = url.rstrip("/")
         token = token if token is not None else os.environ.get("SABLE_TOKEN")
         headers = {"Authorization": f"Bearer {token.strip()}"} if token and token.strip() else {}
-        self._http = httpx.Client(base_url=self.url, timeout=timeout, transport=transport, headers=headers)
+        https = self.url.startswith("https://")
+        if ca_cert is not None and not https:
+            raise ValueError(f"ca_cert: {self.url} is not an https:// address; a CA certificate is for https only")
+        ca = ca_cert if ca_cert is not None else (os.environ.get("SABLE_CA_CERT") if https else None)
+        verify: ssl.SSLContext | bool = True
+        if ca:
+            try:
+                verify = ssl.create_default_context(cafile=os.fspath(ca))
+            except (OSError, ssl.SSLError) as e:
+                raise ValueError(f"ca_cert: cannot use {os.fspath(ca)} as a CA certificate: {e}") from e
+        self._http = httpx.Client(base_url=self.url, timeout=timeout, transport=transport, headers=headers, verify=verify)
 
     def close(self) -> None:
         """Closes the connections."""
