@@ -9,10 +9,11 @@
 //! request carries one as `Authorization: Bearer TOKEN` (gRPC: the `authorization` metadata);
 //! the browser's event streams and chart images, which cannot set headers, may give it as the
 //! `access_token` query parameter of a GET request (RFC 6750 §2.3).
-//! `/healthz`, the dashboard's files, gRPC health and reflection stay open.
+//! `/healthz`, the dashboard's files, gRPC health and reflection stay open. The server reads
+//! the files again every few seconds ([`Tokens::reload`]): editing them grants and revokes.
 
 use std::net::SocketAddr;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use axum::extract::{Request, State};
@@ -33,11 +34,32 @@ pub enum Role {
     Worker,
 }
 
-/// The tokens a server accepts; a role without tokens is open.
-#[derive(Debug, Clone, Default)]
+/// The tokens a server accepts; a role without tokens is open. Read from files, they are read
+/// again by [`Tokens::reload`] (the server does so every few seconds): a line added grants, a
+/// line removed revokes, without a restart. A file that has become unusable (unreadable,
+/// empty, a bad line) leaves the tokens as they were, so a role that needs tokens never
+/// becomes open by a reload.
+#[derive(Debug, Default)]
 pub struct Tokens {
+    sets: std::sync::RwLock<Sets>,
+    users_file: Option<PathBuf>,
+    workers_file: Option<PathBuf>,
+}
+
+/// The tokens of each role.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+struct Sets {
     users: Vec<String>,
     workers: Vec<String>,
+}
+
+impl Sets {
+    fn of(&self, role: Role) -> &[String] {
+        match role {
+            Role::User => &self.users,
+            Role::Worker => &self.workers,
+        }
+    }
 }
 
 /// Why a token file cannot be used.
@@ -81,35 +103,52 @@ pub enum TokenError {
 impl Tokens {
     /// Tokens of both roles, as given (no check: tests and embedding).
     pub fn new(users: Vec<String>, workers: Vec<String>) -> Self {
-        Self { users, workers }
+        Self { sets: std::sync::RwLock::new(Sets { users, workers }), users_file: None, workers_file: None }
     }
 
     /// Reads the users' and workers' token files (either may be absent: that role is open).
     pub fn from_files(users: Option<&Path>, workers: Option<&Path>) -> Result<Self, TokenError> {
-        let users = users.map(|p| read("--user-tokens", p)).transpose()?.unwrap_or_default();
-        let workers = workers.map(|p| read("--worker-tokens", p)).transpose()?.unwrap_or_default();
-        if users.iter().any(|u| workers.contains(u)) {
-            return Err(TokenError::Shared);
+        let (users_file, workers_file) = (users.map(Path::to_path_buf), workers.map(Path::to_path_buf));
+        let sets = read_both(users_file.as_deref(), workers_file.as_deref())?;
+        Ok(Self { sets: std::sync::RwLock::new(sets), users_file, workers_file })
+    }
+
+    /// Reads the token files again, if the tokens came from files. `Ok(true)`: the tokens
+    /// changed; `Err`: a file cannot be used, and the tokens stay as they were.
+    pub fn reload(&self) -> Result<bool, TokenError> {
+        if self.users_file.is_none() && self.workers_file.is_none() {
+            return Ok(false);
         }
-        Ok(Self { users, workers })
+        let fresh = read_both(self.users_file.as_deref(), self.workers_file.as_deref())?;
+        let mut sets = self.sets.write().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if *sets == fresh {
+            return Ok(false);
+        }
+        *sets = fresh;
+        Ok(true)
+    }
+
+    /// How many tokens each role has: (users, workers).
+    pub fn counts(&self) -> (usize, usize) {
+        let sets = self.sets();
+        (sets.users.len(), sets.workers.len())
+    }
+
+    fn sets(&self) -> std::sync::RwLockReadGuard<'_, Sets> {
+        // The lock guards plain data that a panic cannot leave half-written.
+        self.sets.read().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Whether requests of `role` need a token.
     pub fn required(&self, role: Role) -> bool {
-        !self.of(role).is_empty()
-    }
-
-    fn of(&self, role: Role) -> &[String] {
-        match role {
-            Role::User => &self.users,
-            Role::Worker => &self.workers,
-        }
+        !self.sets().of(role).is_empty()
     }
 
     /// Whether `given` (the bearer token of a request, if any) lets it act as `role`.
     /// `Err` says why not, for the answer.
     pub fn check(&self, role: Role, given: Option<&str>) -> Result<(), Refusal> {
-        let accepted = self.of(role);
+        let sets = self.sets();
+        let accepted = sets.of(role);
         if accepted.is_empty() {
             return Ok(());
         }
@@ -123,7 +162,7 @@ impl Tokens {
             Role::User => Role::Worker,
             Role::Worker => Role::User,
         };
-        if self.of(other).iter().any(|t| same(t.as_bytes(), token.as_bytes())) {
+        if sets.of(other).iter().any(|t| same(t.as_bytes(), token.as_bytes())) {
             return Err(Refusal::WrongRole(role));
         }
         Err(Refusal::Unknown)
@@ -167,6 +206,16 @@ impl Refusal {
 /// Equal in time independent of where they differ (the length is not secret).
 fn same(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |d, (x, y)| d | (x ^ y)) == 0
+}
+
+/// Both roles' token files (an absent one: that role is open).
+fn read_both(users: Option<&Path>, workers: Option<&Path>) -> Result<Sets, TokenError> {
+    let users = users.map(|p| read("--user-tokens", p)).transpose()?.unwrap_or_default();
+    let workers = workers.map(|p| read("--worker-tokens", p)).transpose()?.unwrap_or_default();
+    if users.iter().any(|u| workers.contains(u)) {
+        return Err(TokenError::Shared);
+    }
+    Ok(Sets { users, workers })
 }
 
 fn read(flag: &'static str, path: &Path) -> Result<Vec<String>, TokenError> {

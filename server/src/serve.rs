@@ -42,6 +42,8 @@ pub struct ServeConfig {
     pub limits: crate::api::Limits,
     /// The bearer tokens of users and workers (none: open; `crate::auth`).
     pub tokens: Arc<Tokens>,
+    /// How often the token files are read again (`crate::auth::Tokens::reload`).
+    pub token_reload: Duration,
     /// Serve without tokens on addresses other machines can reach (`--no-auth`).
     pub no_auth: bool,
     /// The certificate and key to serve REST and gRPC over TLS with (None: plain; `crate::tls`).
@@ -61,6 +63,7 @@ impl Default for ServeConfig {
             heartbeat: Duration::from_secs(15),
             limits: crate::api::Limits::default(),
             tokens: Arc::default(),
+            token_reload: Duration::from_secs(5),
             no_auth: false,
             tls: None,
         }
@@ -141,6 +144,34 @@ impl Server {
                 }
                 if let Err(e) = reaper_store.requeue_expired(None).await {
                     eprintln!("sable serve: lease reaper: {e}");
+                }
+            }
+        });
+
+        // Token files edited while the server runs: granted and revoked within `token_reload`.
+        let (tokens, every, reload_stop) = (cfg.tokens.clone(), cfg.token_reload, stop.clone());
+        tasks.spawn(async move {
+            let mut last_error = String::new();
+            loop {
+                tokio::select! {
+                    _ = reload_stop.cancelled() => return,
+                    _ = tokio::time::sleep(every) => {}
+                }
+                match tokens.reload() {
+                    Ok(changed) => {
+                        if changed {
+                            let (users, workers) = tokens.counts();
+                            eprintln!("sable serve: token files read again: {users} user token(s), {workers} worker token(s)");
+                        }
+                        last_error.clear();
+                    }
+                    Err(e) => {
+                        let e = e.to_string();
+                        if e != last_error {
+                            eprintln!("sable serve: token files not read again, the tokens stay as they were: {e}");
+                            last_error = e;
+                        }
+                    }
                 }
             }
         });

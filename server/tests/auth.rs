@@ -131,3 +131,50 @@ async fn no_server_without_tokens_on_an_address_others_can_reach() {
     let server = Server::start(cfg).await.expect("--no-auth: the operator's choice");
     server.shutdown(Duration::from_secs(2)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn edited_token_files_grant_and_revoke_without_a_restart() {
+    let dir = tempfile::tempdir().expect("dir");
+    let (users, workers) = (dir.path().join("users"), dir.path().join("workers"));
+    let (alice, bob, worker2) = ("alice-token-0123456789abcdef", "bob-token-0123456789abcdef", "worker2-token-0123456789abcdef");
+    std::fs::write(&users, format!("{alice}\n")).expect("write");
+    std::fs::write(&workers, format!("{WORKER}\n")).expect("write");
+    let mut cfg = config(&dir, Tokens::from_files(Some(&users), Some(&workers)).expect("token files"));
+    cfg.token_reload = Duration::from_millis(100);
+    let server = Server::start(cfg).await.expect("starts");
+    let base = format!("http://{}", server.http_addr);
+    let grpc = format!("http://{}", server.grpc_addr);
+    let http = reqwest::Client::new();
+    let status = |token: &'static str| {
+        let (http, url) = (http.clone(), format!("{base}/v1/jobs"));
+        async move { http.get(url).bearer_auth(token).send().await.expect("answer").status().as_u16() }
+    };
+    let lease_refused = |token: &'static str| {
+        let grpc = grpc.clone();
+        async move {
+            let source = sable_worker::remote::RemoteSource::with_token(&grpc, Some(token)).expect("source");
+            matches!(source.lease("w").await, Err(sable_worker::SourceError::Refused(_)))
+        }
+    };
+    assert_eq!((status(alice).await, status(bob).await), (200, 401));
+    assert!(!lease_refused(WORKER).await);
+
+    // Alice revoked and Bob granted; the worker's token replaced.
+    std::fs::write(&users, format!("# alice left\n{bob}\n")).expect("write");
+    std::fs::write(&workers, format!("{worker2}\n")).expect("write");
+    let started = std::time::Instant::now();
+    while (status(alice).await, status(bob).await) != (401, 200) {
+        assert!(started.elapsed() < Duration::from_secs(5), "the edited users' file was not read again within 5 s");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    assert!(lease_refused(WORKER).await && !lease_refused(worker2).await, "the workers' file was not read again");
+
+    // A file made unusable keeps the tokens as they were: the users' role does not open.
+    std::fs::write(&users, "tooshort\n").expect("write");
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!((status(bob).await, status(alice).await), (200, 401));
+    std::fs::remove_file(&users).expect("remove");
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(http.get(format!("{base}/v1/jobs")).send().await.expect("answer").status(), 401, "a removed file opened the API");
+    server.shutdown(Duration::from_secs(2)).await;
+}
