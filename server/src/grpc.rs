@@ -385,7 +385,7 @@ impl pb::workers_server::Workers for WorkersService {
                 wall_seconds: r.wall_seconds,
                 cpu_seconds: r.cpu_seconds,
             },
-            PbOutcome::Cancelled => Outcome::Cancelled,
+            PbOutcome::Cancelled => Outcome::Cancelled { steps: r.steps, wall_seconds: r.wall_seconds, cpu_seconds: r.cpu_seconds },
             PbOutcome::Released => Outcome::Released,
             PbOutcome::Unspecified => return Err(Status::invalid_argument("outcome: must be set")),
         };

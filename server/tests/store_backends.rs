@@ -140,7 +140,10 @@ async fn the_queue_behaves_the_same_on_both_backends() {
         assert_eq!(cancelled_c.state, "cancelled", "{at}");
         s.cancel(a.id).await.expect("cancel a");
         assert!(s.report(&l3, &report(Vec::new(), 0.2)).await.expect("report"), "{at}: the worker hears of it");
-        s.finish(&l3, &Outcome::Cancelled).await.expect("finish cancelled");
+        s.finish(&l3, &Outcome::Cancelled { steps: 700, wall_seconds: 1.5, cpu_seconds: 1.25 }).await.expect("finish cancelled");
+        let ended = s.get(a.id).await.expect("get");
+        assert_eq!(ended.state, "cancelled", "{at}");
+        assert_eq!((ended.steps, ended.wall_seconds, ended.cpu_seconds), (700, 1.5, 1.25), "{at}: a cancelled run's time is kept");
         assert!(matches!(s.cancel(b.id).await, Err(StoreError::Conflict(_))), "{at}");
         assert!(matches!(s.cancel(9_999_999).await, Err(StoreError::NotFound(9_999_999))), "{at}");
 

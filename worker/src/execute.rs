@@ -208,7 +208,7 @@ pub async fn execute<S: JobSource>(
             }
         }
         Ok(Ok((Err(EngineError::Cancelled { .. }), _))) if released => Outcome::Released,
-        Ok(Ok((Err(EngineError::Cancelled { .. }), _))) => Outcome::Cancelled,
+        Ok(Ok((Err(EngineError::Cancelled { step }), cpu_seconds))) => Outcome::Cancelled { steps: step, wall_seconds, cpu_seconds },
         Ok(Ok((Err(e), cpu_seconds))) => {
             // The step the engine stopped at, or the last one sampled.
             let steps = match &e {

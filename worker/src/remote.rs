@@ -111,7 +111,12 @@ impl JobSource for RemoteSource {
                 req.wall_seconds = wall_seconds;
                 req.cpu_seconds = cpu_seconds;
             }
-            Outcome::Cancelled => req.set_outcome(ProtoOutcome::Cancelled),
+            Outcome::Cancelled { steps, wall_seconds, cpu_seconds } => {
+                req.set_outcome(ProtoOutcome::Cancelled);
+                req.steps = steps;
+                req.wall_seconds = wall_seconds;
+                req.cpu_seconds = cpu_seconds;
+            }
             Outcome::Released => req.set_outcome(ProtoOutcome::Released),
         }
         self.client.clone().finish_job(req).await.map_err(|s| status_error(s, Some(lease)))?;

@@ -122,7 +122,14 @@ pub enum Outcome {
         cpu_seconds: f64,
     },
     /// Stopped because the user cancelled it.
-    Cancelled,
+    Cancelled {
+        /// Steps done before it stopped.
+        steps: u64,
+        /// Wall-clock seconds of the run.
+        wall_seconds: f64,
+        /// CPU seconds of the job's threads.
+        cpu_seconds: f64,
+    },
     /// Handed back to the queue unfinished (the worker is shutting down); does not count as an
     /// attempt.
     Released,

@@ -704,13 +704,13 @@ impl JobStore {
                 solver_iterations: None,
                 result: None,
             }),
-            Outcome::Cancelled => Some(End {
+            Outcome::Cancelled { steps, wall_seconds, cpu_seconds } => Some(End {
                 state: "cancelled",
                 code: Some("cancelled"),
                 message: Some("cancelled by the user"),
-                steps: None,
-                wall_seconds: None,
-                cpu_seconds: None,
+                steps: Some(*steps),
+                wall_seconds: Some(*wall_seconds),
+                cpu_seconds: Some(*cpu_seconds),
                 solver_iterations: None,
                 result: None,
             }),

@@ -286,6 +286,9 @@ async fn cancelling_a_running_job_stops_it_within_a_second() {
     let took = asked.elapsed();
     assert!(took < Duration::from_secs(1), "cancellation took {took:?}");
     assert_eq!(job["error"]["code"], "cancelled");
+    // The time it ran is kept, as for a job that ends by itself.
+    let (wall, cpu) = (job["wall_seconds"].as_f64().unwrap_or(0.0), job["cpu_seconds"].as_f64().unwrap_or(0.0));
+    assert!(wall > 0.0 && cpu > 0.0 && wall < 30.0, "a cancelled job's times: wall {wall} s, CPU {cpu} s");
     // A finished job cannot be cancelled again.
     let (status, err) = h.post(&format!("/v1/jobs/{id}:cancel"), &json!({}), None).await;
     assert_eq!(status, 409, "{err}");
