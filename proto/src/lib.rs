@@ -50,14 +50,14 @@ impl tonic::service::Interceptor for Bearer {
 /// address is reached over TLS, trusting the system's certificate authorities and, when
 /// `ca_pem` is given, the ones in it (PEM: a lab's own CA, or a server's self-signed
 /// certificate); an `http://` address is plain, and refuses a CA, which would not be used.
-/// Fails with the rule broken: a bad address, a CA without `https://`, or a CA file without a
-/// PEM certificate.
+/// Fails with the rule broken (the caller names the address): a bad address, a CA without
+/// `https://`, or a CA file without a PEM certificate.
 pub fn endpoint(url: &str, ca_pem: Option<&[u8]>) -> Result<tonic::transport::Endpoint, String> {
     use rustls_pki_types::pem::PemObject;
-    let endpoint = tonic::transport::Endpoint::from_shared(url.to_string()).map_err(|e| format!("bad server address '{url}': {e}"))?;
+    let endpoint = tonic::transport::Endpoint::from_shared(url.to_string()).map_err(|e| format!("not a valid address: {e}"))?;
     let https = endpoint.uri().scheme_str() == Some("https");
     match (https, ca_pem) {
-        (false, Some(_)) => Err(format!("a CA certificate is given, but '{url}' is not an https:// address")),
+        (false, Some(_)) => Err("a CA certificate is given, but this is not an https:// address".into()),
         (false, None) => Ok(endpoint),
         (true, ca) => {
             let mut tls = tonic::transport::ClientTlsConfig::new().with_native_roots();
@@ -70,7 +70,7 @@ pub fn endpoint(url: &str, ca_pem: Option<&[u8]>) -> Result<tonic::transport::En
                 }
                 tls = tls.ca_certificate(tonic::transport::Certificate::from_pem(pem));
             }
-            endpoint.tls_config(tls).map_err(|e| format!("cannot set up TLS for '{url}': {e}"))
+            endpoint.tls_config(tls).map_err(|e| format!("cannot set up TLS: {e}"))
         }
     }
 }
