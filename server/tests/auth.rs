@@ -9,7 +9,6 @@ use sable_server::auth::Tokens;
 use sable_server::serve::ServeError;
 use sable_server::{ServeConfig, Server};
 use sable_worker::JobSource;
-use serde_json::json;
 
 const USER: &str = "user-token-0123456789abcdef";
 const WORKER: &str = "worker-token-0123456789abcdef";
@@ -25,16 +24,9 @@ fn config(dir: &tempfile::TempDir, tokens: Tokens) -> ServeConfig {
     }
 }
 
-fn scene() -> String {
-    json!({
-        "name": "tiny", "dimension": 2, "method": "dem",
-        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
-        "stop": {"steps": 100}
-    })
-    .to_string()
-}
+#[path = "common/scenes.rs"]
+mod scenes;
+use scenes::tiny as scene;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn users_and_workers_each_need_their_own_token() {

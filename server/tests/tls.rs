@@ -10,7 +10,6 @@ use std::time::{Duration, Instant};
 use sable_server::auth::Tokens;
 use sable_server::tls::TlsIdentity;
 use sable_server::{ServeConfig, Server};
-use serde_json::json;
 
 const USER: &str = "user-token-0123456789abcdef";
 const WORKER: &str = "worker-token-0123456789abcdef";
@@ -22,16 +21,9 @@ fn self_signed() -> (String, String) {
     (cert.pem(), key_pair.serialize_pem())
 }
 
-fn scene() -> String {
-    json!({
-        "name": "tiny", "dimension": 2, "method": "dem",
-        "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
-        "stop": {"steps": 100}
-    })
-    .to_string()
-}
+#[path = "common/scenes.rs"]
+mod scenes;
+use scenes::tiny as scene;
 
 fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
     let p = dir.join(name);
