@@ -72,6 +72,11 @@ pub struct Field {
     assembled: Vec<Real>,
     /// The Newton correction of the current iteration, two entries a node, m/s.
     pub correction: Vec<Real>,
+    /// Each point's flow at the last iterate: plastic (its history moved) or elastic.
+    plastic: Vec<bool>,
+    /// Points whose flow changed, elastic to plastic or back, between the last two iterates
+    /// (at the step's first iterate: the points that flow).
+    pub switches: usize,
 }
 
 impl Field {
@@ -122,6 +127,7 @@ impl Field {
             + self.matrix.heap_bytes()
             + self.assembled.capacity() * std::mem::size_of::<Real>()
             + self.correction.capacity() * std::mem::size_of::<Real>()
+            + self.plastic.capacity()
     }
 
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
@@ -160,6 +166,7 @@ impl Field {
         }
         self.f_new.clear();
         self.history_new.clear();
+        self.plastic.clear();
         for (k, p) in range.enumerate() {
             let s = self.stencils[k];
             let nodes = self.stencil_nodes(&s);
@@ -177,6 +184,7 @@ impl Field {
             }
             self.f_new.push(*fp);
             self.history_new.push(pts.history[p]);
+            self.plastic.push(false);
         }
         for (v, &m) in self.v0.iter_mut().zip(&self.mass) {
             if m > 0.0 {
@@ -376,6 +384,19 @@ impl Field {
             }
         }
         Ok(f)
+    }
+
+    /// Counts the points `range` whose flow changed since the last iterate (into
+    /// [`Field::switches`]): plastic where the iterate's history moved from the step's start.
+    pub fn count_switches(&mut self, pts: &Points, range: std::ops::Range<usize>) {
+        self.switches = 0;
+        for (k, p) in range.enumerate() {
+            let plastic = self.history_new[k].alpha > pts.history[p].alpha;
+            if plastic != self.plastic[k] {
+                self.plastic[k] = plastic;
+                self.switches += 1;
+            }
+        }
     }
 
     /// Solves the factorised Newton matrix for `rhs` (two entries a node) in place.

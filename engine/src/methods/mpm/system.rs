@@ -18,7 +18,9 @@
 //!    divides the correction by four or more (a modified Newton: the fixed point, where the
 //!    residual balances the contact impulses, does not depend on the matrix, and the contact
 //!    problem uses the same `A⁻¹` as the update, so the two stay consistent). The tangent and
-//!    the factorisation were two thirds of an iteration's cost;
+//!    the factorisation were two thirds of an iteration's cost. While points switch between
+//!    elastic and plastic and the correction does not shrink, only a fraction of it is taken
+//!    ([`CYCLE_RATE`]);
 //! 4. the points move with their nodes: displacement `Σ N_i u_i`, deformation gradient
 //!    `(I + Σ u_i ⊗ ∇N_i) F`, history from the law, velocity by a FLIP/PIC blend.
 //!
@@ -64,6 +66,23 @@ const STALL_AFTER: u32 = 6;
 
 /// See [`STALL_AFTER`].
 const STALL_RATIO: Real = 0.5;
+
+/// A Newton iteration that shrinks the correction by less than this factor while points
+/// switch between elastic and plastic halves the fraction of the next corrections taken (down
+/// to [`MIN_FRACTION`]); one that shrinks it below 0.6 doubles it back (up to 1). With a
+/// perfectly plastic law (hardening 0) a few points sit on the yield surface at the solution,
+/// and Newton on the return mapping's two branches jumped between them: measured on a 60-grain
+/// compaction with `H = 0`, 8 points switching at each iterate, the correction alternating
+/// 0.62 / 0.64 of the velocity scale for 48 iterations at a sixteenth of the step, and the run
+/// stopped at Φ 0.935; with the damping it went on to Φ 0.951 (where the contact solver ran over
+/// its budget). The fraction scales the update only, so the fixed point is unchanged, and every
+/// grain takes the same fraction, so momentum stays conserved. Damping without the switching
+/// condition slowed iterations stalled for another reason (a grain on its positive-part
+/// tangent) to a crawl: that run stopped at Φ 0.92.
+const CYCLE_RATE: Real = 0.9;
+
+/// See [`CYCLE_RATE`].
+const MIN_FRACTION: Real = 1.0 / 16.0;
 
 /// Settings of the method.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -287,6 +306,8 @@ impl System {
         self.nlgs.settings.tolerance = self.settings.contact.tolerance;
         // Iterations in a row with a matrix assembled at their own iterate.
         let mut fresh_in_a_row = 0;
+        // The fraction of each correction taken ([`CYCLE_RATE`]).
+        let mut fraction: Real = 1.0;
         for it in 1..=self.settings.max_newton {
             report.newton = it;
             fresh_in_a_row = if refresh { fresh_in_a_row + 1 } else { 0 };
@@ -299,7 +320,7 @@ impl System {
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
-            let (dv2, m) = self.newton_update();
+            let (dv2, m) = self.newton_update(fraction);
             let correction = (dv2 / m.max(Real::MIN_POSITIVE)).sqrt();
             if it == 1 {
                 scale = scale.max(correction);
@@ -321,6 +342,15 @@ impl System {
                         tolerance: self.settings.newton_tolerance,
                     }));
                 }
+            }
+            // Points switching between elastic and plastic while the correction does not
+            // shrink: a cycle between the return mapping's two branches, which a shorter step
+            // does not break ([`CYCLE_RATE`]).
+            let switching = it > 1 && self.fields.iter().any(|f| f.switches > 0);
+            if rate >= CYCLE_RATE && switching {
+                fraction = (0.5 * fraction).max(MIN_FRACTION);
+            } else if rate < 0.6 {
+                fraction = (2.0 * fraction).min(1.0);
             }
             // The matrix is kept while it contracts the correction fast enough.
             refresh = relative > REFRESH_RATIO * last;
@@ -492,6 +522,7 @@ impl System {
                 } else {
                     f.assemble_residual(points, grain.points.clone(), law, sc).map_err(|e| (g, Some(e)))?;
                 }
+                f.count_switches(points, grain.points.clone());
                 let mut dv = std::mem::take(&mut f.correction);
                 dv.clear();
                 dv.extend(f.residual.iter().flat_map(|r| [-r.x, -r.y]));
@@ -518,9 +549,9 @@ impl System {
         super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d)
     }
 
-    /// Adds each grain's correction with the contact impulses to its iterate; returns the
-    /// mass-weighted squared correction and the mass.
-    fn newton_update(&mut self) -> (Real, Real) {
+    /// Adds `fraction` of each grain's correction with the contact impulses to its iterate;
+    /// returns the mass-weighted squared (whole) correction and the mass.
+    fn newton_update(&mut self, fraction: Real) -> (Real, Real) {
         let contacts = &self.contacts;
         self.fields
             .par_iter_mut()
@@ -540,7 +571,7 @@ impl System {
                 for i in 0..f.nodes() {
                     let d = V2::new(dv[2 * i], dv[2 * i + 1]);
                     if f.mass[i] > 0.0 {
-                        f.v[i] += d;
+                        f.v[i] += d * fraction;
                         s += f.mass[i] * d.norm_squared();
                         m += f.mass[i];
                     }

@@ -540,3 +540,39 @@ fn the_newton_matrix_is_the_derivative_of_the_residual() {
         }
     }
 }
+
+/// The count of points switching between elastic and plastic from one Newton iterate to the
+/// next (what damps a cycle between the return mapping's branches, [`super::system`]): a
+/// perfectly plastic disk at rest just below its yield stress, then iterates that squeeze it
+/// along x (the points yield), the same iterate again (none switches), and back to rest (the
+/// same points switch back).
+#[test]
+fn switches_count_points_changing_flow_between_iterates() {
+    use crate::constitutive::Mat2;
+    let sc = crate::methods::soft::Scheme { dt: 1.0, theta: 1.0, gravity: V2::zeros() };
+    let law = build(&LawSpec::Elastoplastic { young: 1e7, poisson: 0.45, yield_stress: 2e5, hardening: 0.0 });
+    let mut points = Points::default();
+    let h = 0.3;
+    let range = points.fill_disk(V2::zeros(), 1.0, h / 2.0, V2::zeros(), 1000.0);
+    // Uniaxial strain 0.5% along x: von Mises stress about 2μ ε = 3.4e4 Pa, below yield.
+    for p in range.clone() {
+        points.f[p] = Mat2::new(0.995, 0.0, 0.0, 1.0);
+    }
+    let grid = Grid::covering(V2::new(-1.0, -1.0), V2::new(1.0, 1.0), h, 4);
+    let mut field = Field::default();
+    field.begin(&grid, &points, range.clone(), law.as_ref()).expect("on the grid");
+    let at = |field: &mut Field, rate: Real| {
+        for i in 0..field.nodes() {
+            let (gi, _) = field.grid_node(i);
+            field.v[i] = V2::new(-rate * grid.h * gi as Real, 0.0);
+        }
+        field.assemble_residual(&points, range.clone(), law.as_ref(), &sc).expect("not inverted");
+        field.count_switches(&points, range.clone());
+        field.switches
+    };
+    // A further 5% along x: about 2μ × 0.056 = 3.9e5 Pa, above yield everywhere.
+    let first = at(&mut field, 0.05);
+    assert_eq!(first, range.len(), "every point yields at the first squeezing iterate");
+    assert_eq!(at(&mut field, 0.05), 0, "the same iterate again: no point switches");
+    assert_eq!(at(&mut field, 0.0), range.len(), "back to rest: every point is elastic again");
+}
