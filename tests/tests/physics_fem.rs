@@ -48,7 +48,9 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// Not asserted, a known defect (issue 26): the energy balance. The dissipated energy (work in
 /// less the energy stored and moving) dips below zero as the packing rearranges: not in this
-/// run (it ends at +0.21 J/m), but to −0.14 J/m at Φ 0.87 on the study's 30 grains.
+/// run (it ends at +0.21 J/m), but to −0.11 J/m at Φ 0.81 on the study's 30 grains. The work
+/// comes from contacts whose drift pushes their grains apart (measured in the module
+/// documentation of `sable_engine::methods::soft::contact`).
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let fem = common::run_file_with("scenes/fem_compaction_2d.json", |_| {});

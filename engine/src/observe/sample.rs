@@ -109,7 +109,9 @@ pub struct DeformableSample {
     /// work is their end-of-step force over each step, so that with backward Euler (θ = 1)
     /// it includes the scheme's numerical dissipation (a third of the stored energy over three
     /// equal steps of a linear ramp; less as steps are finer), besides plasticity, the
-    /// inelastic contacts and PIC's velocity averaging.
+    /// inelastic contacts and PIC's velocity averaging. It can fall below zero where contacts
+    /// push their grains apart to keep them from overlapping further, which does work
+    /// (`methods::soft::contact`; issue 26).
     pub dissipated_energy: f64,
     /// The area the grains' outlines cover twice or that lies beyond the walls, as a fraction
     /// of the box's area: how far touching grains interpenetrate. `phi` less it is the packing
