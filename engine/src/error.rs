@@ -22,7 +22,8 @@ pub enum InstabilityCause {
     SolverBudget {
         /// Sweeps done (the budget).
         iterations: u32,
-        /// Relative change of the impulses over the last sweep.
+        /// Relative change over the last sweep (of the impulses; for soft grains, of the
+        /// grains' velocities the impulses give).
         change: f64,
         /// Mean violation after the last sweep (fraction of the mean diameter per step).
         violation: f64,
@@ -131,7 +132,7 @@ impl std::fmt::Display for InstabilityCause {
             }
             Self::SolverBudget { iterations, change, violation, tolerance, violation_tolerance, worst, worst_tolerance } => write!(
                 f,
-                "the contact solver did not converge in {iterations} iterations (relative change of the impulses {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
+                "the contact solver did not converge in {iterations} iterations (relative change over the last sweep {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
             ),
             Self::NewtonBudget { iterations, correction, tolerance } => write!(
                 f,

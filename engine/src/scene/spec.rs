@@ -602,7 +602,8 @@ pub struct MpmParamsSpec {
     /// Newton iterations allowed per step. Default 25.
     #[serde(default)]
     pub max_newton: Option<u32>,
-    /// Contact solver: tolerance on the relative change of the impulses. Default 1e-6.
+    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
+    /// Newton's velocity scale. Default 1e-6.
     #[serde(default)]
     pub tolerance: Option<f64>,
     /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
@@ -615,6 +616,10 @@ pub struct MpmParamsSpec {
     /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
     #[serde(default)]
     pub acceleration: Option<f64>,
+    /// Contacts between grains hold the vertices of both grains' outlines outside the other's
+    /// (true), or only those of the grain of lower index (false). Default false.
+    #[serde(default)]
+    pub symmetric_contact: Option<bool>,
     /// Threads; 0 = rayon's global pool. Default 0.
     #[serde(default)]
     pub threads: Option<usize>,
@@ -646,7 +651,8 @@ pub struct FemParamsSpec {
     /// Newton iterations allowed per step. Default 25.
     #[serde(default)]
     pub max_newton: Option<u32>,
-    /// Contact solver: tolerance on the relative change of the impulses. Default 1e-6.
+    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
+    /// Newton's velocity scale. Default 1e-6.
     #[serde(default)]
     pub tolerance: Option<f64>,
     /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
@@ -659,6 +665,10 @@ pub struct FemParamsSpec {
     /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
     #[serde(default)]
     pub acceleration: Option<f64>,
+    /// Contacts between grains hold the nodes of both grains' boundaries outside the other's
+    /// (true), or only those of the grain of lower index (false). Default true.
+    #[serde(default)]
+    pub symmetric_contact: Option<bool>,
     /// Threads; 0 = rayon's global pool. Default 0.
     #[serde(default)]
     pub threads: Option<usize>,

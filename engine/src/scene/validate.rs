@@ -464,6 +464,7 @@ fn check_fem_params(c: &mut Checker, s: &FemParamsSpec) -> FemParams {
         violation_tolerance: m.violation_tolerance,
         max_iterations: m.max_iterations,
         acceleration: m.acceleration,
+        symmetric_contact: s.symmetric_contact.unwrap_or(FemParams::default().symmetric_contact),
         threads: m.threads,
         ..FemParams::default()
     };
@@ -482,6 +483,9 @@ fn check_fem_params(c: &mut Checker, s: &FemParamsSpec) -> FemParams {
 
 fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
     let mut p = MpmParams::default();
+    if let Some(both) = s.symmetric_contact {
+        p.symmetric_contact = both;
+    }
     if let Some(dt) = s.time_step {
         if c.positive("method.time_step", dt) {
             p.time_step = Some(dt);

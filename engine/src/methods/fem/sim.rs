@@ -14,6 +14,7 @@ use super::system::{Grain, Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
+use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
 use crate::methods::soft::parts::Cost;
@@ -255,6 +256,7 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
             relaxation: 1.0,
             acceleration: params.acceleration,
         },
+        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
     };
     let sys = System::new(grains, laws, planes, settings);
     SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.threads)

@@ -2,20 +2,21 @@
 //! N 1.2.3, as LMGC90 does it): each grain a [`Body`], the contacts between their boundaries
 //! and with walls those of every soft-grain method ([`crate::methods::soft::contact`]).
 //!
-//! **Contacts.** A boundary node of one grain within `reach` of the boundary of a grain of
-//! higher index (the nearest segment, its outward normal and the signed gap; at a reflex corner
-//! of that boundary, the segment beyond the corner too: [`contact::candidates`]), as for the
-//! material point method's outlines. A node acts through itself, a place on a segment through
-//! the segment's two nodes with the weights of its position: the contact moves exactly as the
+//! **Contacts.** A boundary node of one grain within `reach` of the boundary of another grain
+//! (the nearest segment, its outward normal and the signed gap; at a reflex corner of that
+//! boundary, the segment beyond the corner too: [`contact::candidates`]), as for the material
+//! point method's outlines. A node acts through itself, a place on a segment through the
+//! segment's two nodes with the weights of its position: the contact moves exactly as the
 //! nodes do. A boundary node within `reach` of a wall touches it. `reach` is the longest
-//! boundary segment of any grain. Both grains' nodes against the other's segments (the
-//! symmetric two-pass treatment) was tried on the two colliding disks: where the boundaries lie
-//! flat on each other the two sets of contacts are redundant, the solver's impulses slid between
-//! them without end (relative change 2.2e-6 after 20,000 sweeps, against 1e-6, the velocities
-//! converged to 4e-10) and the step failed at every split; one-sided, the same collision takes
-//! 870 sweeps in all. A node of the other grain can then cross a segment by at most the
-//! sagitta of the boundary's chord, `s²/8R` for segments `s` on a radius `R`: 3% of an element
-//! with eight across the diameter.
+//! boundary segment of any grain. By default both grains' nodes are held outside the other's
+//! boundary (the symmetric two-pass treatment, [`contact::Sides::Both`]); where the boundaries
+//! lie flat on each other the two sets of contacts are redundant, and the contact solves
+//! measure their change in the grains' velocities ([`contact::solve`]). One-sided
+//! (`symmetric_contact: false`, only the nodes of the grain of lower index) the other grain's
+//! nodes cross the first's segments by the sagitta of the boundary's chord, `s²/8R` for
+//! segments `s` on a radius `R` (3% of an element with eight across the diameter), and further
+//! once boundaries are dented, and the contacts that push the first grain's nodes back out of
+//! the dents do work ([`contact`]'s module documentation).
 //!
 //! **A step** ([`System::step`]) is that of the material point method
 //! ([`crate::methods::mpm::system`]) on meshed grains: each grain's residual and matrix at the
@@ -63,7 +64,7 @@ use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
 use crate::math::Real;
 use crate::methods::soft::contact::{
-    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Support, VertexContact, Wall, Warm,
+    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Sides, Support, VertexContact, Wall, Warm,
 };
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
@@ -100,6 +101,8 @@ pub struct Settings {
     pub max_newton: u32,
     /// The contact solver's settings.
     pub contact: Convergence,
+    /// Which grains' vertices the contacts between grains hold outside the other's outline.
+    pub sides: Sides,
 }
 
 /// A meshed grain.
@@ -326,7 +329,8 @@ impl System {
                 self.measure_drifts(&sc);
             }
             let d = self.mean_diameter();
-            let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d);
+            let mass = self.grains.iter().map(|g| g.body.mass.iter().sum::<Real>()).sum::<Real>();
+            let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, (mass, scale));
             report.sweeps += solved.iterations;
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
@@ -378,7 +382,7 @@ impl System {
         }
         self.contacts.clear();
         let node = |g: usize, k: usize| self.grains[g].body.mesh.boundary[k];
-        for candidate in candidates(&shapes, &self.walls, self.reach) {
+        for candidate in candidates(&shapes, &self.walls, self.reach, self.settings.sides) {
             let e = match candidate {
                 Candidate::Grain { a, k, b, near, line } => {
                     let next = (near.segment + 1) % shapes[b].len();

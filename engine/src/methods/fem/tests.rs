@@ -10,7 +10,7 @@ use crate::constitutive::linear_elastic::LinearElastic;
 use crate::constitutive::neo_hookean::NeoHookean;
 use crate::constitutive::{build, ConstitutiveLaw, History, LawSpec, Mat2};
 use crate::math::Real;
-use crate::methods::soft::contact::Wall;
+use crate::methods::soft::contact::{Sides, Wall};
 use crate::methods::soft::Scheme;
 
 type V2 = Vector2<Real>;
@@ -247,7 +247,15 @@ fn a_free_vibrating_grain_keeps_its_energy() {
 }
 
 fn settings(dt: Real, theta: Real) -> Settings {
-    Settings { dt, theta, gravity: V2::zeros(), newton_tolerance: 1e-6, max_newton: 20, contact: crate::methods::soft::tests_convergence() }
+    Settings {
+        dt,
+        theta,
+        gravity: V2::zeros(),
+        newton_tolerance: 1e-6,
+        max_newton: 20,
+        contact: crate::methods::soft::tests_convergence(),
+        sides: Sides::One,
+    }
 }
 
 fn disk_grain(c: V2, r: Real, size: Real, rho: Real, v: V2) -> Grain {
@@ -263,6 +271,22 @@ fn disk_grain(c: V2, r: Real, size: Real, rho: Real, v: V2) -> Grain {
 /// left in the grains' vibration; the material point method's disks part at 0.76).
 #[test]
 fn two_meshed_disks_collide_and_part() {
+    disks_collide_and_part(Sides::One);
+}
+
+/// The same collision with both disks' boundary nodes held outside the other's boundary
+/// ([`Sides::Both`]): where the boundaries lie flat on each other the two sets of contacts are
+/// redundant, their impulses are not unique, and the contact solves measure their change in the
+/// grains' velocities ([`crate::methods::soft::contact::solve`]; measured on the impulses, the
+/// first solve of the collision ran out of its 20,000 sweeps with its change stalled at 2.2e-6
+/// against 1e-6). Measured: 0.87 of the approach speed kept (0.88 one-sided), the energy never
+/// above its start, 340,000 sweeps in all (73,000 one-sided) and one step split.
+#[test]
+fn two_meshed_disks_collide_and_part_with_both_sides_held() {
+    disks_collide_and_part(Sides::Both);
+}
+
+fn disks_collide_and_part(sides: Sides) {
     let (r, rho) = (0.2, 1000.0);
     let size = 0.05;
     let grains = vec![
@@ -270,7 +294,7 @@ fn two_meshed_disks_collide_and_part() {
         disk_grain(V2::new(0.8, 0.8), r, size, rho, V2::new(-0.1, -0.1)),
     ];
     let law = build(&LawSpec::LinearElastic { young: 1000.0, poisson: 0.3 });
-    let mut sys = System::new(grains, vec![law], Vec::<Wall>::new(), settings(0.01, 0.5));
+    let mut sys = System::new(grains, vec![law], Vec::<Wall>::new(), Settings { sides, ..settings(0.01, 0.5) });
     let mass: Real = sys.grains.iter().flat_map(|g| g.body.mass.iter()).sum();
     let centre_velocity = |g: &Grain| g.body.mass.iter().zip(&g.body.v).map(|(m, v)| v * *m).sum::<V2>() / g.body.mass.iter().sum::<Real>();
     let approach = |s: &System| (centre_velocity(&s.grains[0]) - centre_velocity(&s.grains[1])).dot(&V2::new(1.0, 1.0).normalize());
@@ -290,7 +314,7 @@ fn two_meshed_disks_collide_and_part() {
     let after = approach(&sys);
     let energy = sys.kinetic_energy() + sys.strain_energy();
     eprintln!(
-        "meshed disks: approach {before:.4} before, {after:.4} after; energy {e0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps, {} split)",
+        "meshed disks ({sides:?}): approach {before:.4} before, {after:.4} after; energy {e0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps, {} split)",
         sys.totals.newton, sys.totals.sweeps, sys.splitting.substeps
     );
     assert!(touched, "the disks never touched");

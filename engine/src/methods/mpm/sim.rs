@@ -16,6 +16,7 @@ use super::system::{Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::Real;
+use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
@@ -199,6 +200,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             relaxation: 1.0,
             acceleration: params.acceleration,
         },
+        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
     };
     let sys = System::new(grid, points, grains, laws, planes, settings);
     SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.threads)

@@ -38,7 +38,7 @@
 use rayon::prelude::*;
 
 use super::contact::{
-    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Support, VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
+    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Sides, Support, VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
 };
 use super::field::{Field, PointFailure, Scheme};
 use super::grain::Grain;
@@ -102,6 +102,8 @@ pub struct Settings {
     pub max_newton: u32,
     /// The contact solver's settings.
     pub contact: Convergence,
+    /// Which grains' vertices the contacts between grains hold outside the other's outline.
+    pub sides: Sides,
 }
 
 /// The whole state of the method (module documentation).
@@ -315,7 +317,7 @@ impl System {
             if it <= DRIFT_ITERATIONS {
                 self.measure_drifts(&sc);
             }
-            let solved = self.solve_contacts(&sc);
+            let solved = self.solve_contacts(&sc, scale);
             report.sweeps += solved.iterations;
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
@@ -386,8 +388,8 @@ impl System {
 
     /// Finds the contacts of the step, their frames, gaps, laws and warm starts, and each
     /// grain's samples: every vertex of a grain's outline within a cell of a wall, and of a
-    /// grain's outline within a cell of a grain of higher index's (module documentation of
-    /// [`super::contact`]).
+    /// grain's outline within a cell of a grain of higher index's — of any other grain's with
+    /// [`Sides::Both`] — (module documentation of [`super::contact`]).
     fn detect(&mut self) {
         let h = self.grid.h;
         let mut shapes = std::mem::take(&mut self.outlines);
@@ -399,7 +401,7 @@ impl System {
         }
         self.contacts.clear();
         let mut entries = Vec::with_capacity(2 * 9);
-        for candidate in candidates(&shapes, &self.walls, h) {
+        for candidate in candidates(&shapes, &self.walls, h, self.settings.sides) {
             let e = match candidate {
                 Candidate::Grain { a, k, b, near, line } => {
                     // Each side moves as its vertices do over the step (module documentation of
@@ -543,10 +545,12 @@ impl System {
         }
     }
 
-    /// Sets each contact's Delassus block and impulse scale and solves the contact problem.
-    fn solve_contacts(&mut self, sc: &Scheme) -> NlgsReport {
+    /// Sets each contact's Delassus block and impulse scale and solves the contact problem,
+    /// its change measured against Newton's velocity scale `scale` (m/s).
+    fn solve_contacts(&mut self, sc: &Scheme, scale: Real) -> NlgsReport {
         let d = self.mean_diameter();
-        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d)
+        let mass = self.fields.iter().map(|f| f.mass.iter().sum::<Real>()).sum::<Real>();
+        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d, (mass, scale))
     }
 
     /// Adds `fraction` of each grain's correction with the contact impulses to its iterate;

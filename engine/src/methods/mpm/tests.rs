@@ -1,6 +1,6 @@
 //! Verification of the method on problems with known answers (REFERENCES.md §G).
 
-use super::contact::Wall;
+use super::contact::{Sides, Wall};
 use super::field::Field;
 use super::grain::Grain;
 use super::grid::{Grid, V2};
@@ -19,6 +19,7 @@ fn settings(dt: Real) -> Settings {
         newton_tolerance: 1e-6,
         max_newton: 20,
         contact: crate::methods::soft::tests_convergence(),
+        sides: Sides::One,
     }
 }
 
@@ -96,6 +97,18 @@ fn the_vibrating_bar_keeps_its_amplitude_and_period() {
 /// makes them stick (0 after).
 #[test]
 fn two_disks_collide_and_part() {
+    disks_collide_and_part(Sides::One);
+}
+
+/// The same collision with both disks' outlines held outside the other's ([`Sides::Both`]):
+/// momentum, energy and parting as one-sided. Measured: they part at 0.77 of their approach
+/// speed (0.77 one-sided), in 1.7 times the sweeps.
+#[test]
+fn two_disks_collide_and_part_with_both_sides_held() {
+    disks_collide_and_part(Sides::Both);
+}
+
+fn disks_collide_and_part(sides: Sides) {
     let (rho, r) = (1000.0, 0.2);
     let h = 0.05;
     let mut points = Points::default();
@@ -108,7 +121,7 @@ fn two_disks_collide_and_part() {
         Grain { points: b.clone(), law: 0, friction: 0.0, radius: r, outline: ob },
     ];
     let law = build(&LawSpec::LinearElastic { young: 1000.0, poisson: 0.3 });
-    let mut sys = System::new(grid, points, grains, vec![law], Vec::<Wall>::new(), settings(0.01));
+    let mut sys = System::new(grid, points, grains, vec![law], Vec::<Wall>::new(), Settings { sides, ..settings(0.01) });
     let mass: Real = sys.points.mass.iter().sum();
     let approach = |s: &System| {
         let d = mean_velocity(&s.points, a.clone()) - mean_velocity(&s.points, b.clone());
@@ -128,7 +141,7 @@ fn two_disks_collide_and_part() {
     let after = approach(&sys);
     let energy = sys.kinetic_energy() + sys.strain_energy();
     eprintln!(
-        "two disks: approach speed {before:.4} before, {after:.4} after; energy {energy0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps)",
+        "two disks ({sides:?}): approach speed {before:.4} before, {after:.4} after; energy {energy0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps)",
         sys.totals.newton, sys.totals.sweeps
     );
     // The trapezoidal rule adds no energy; the contact (inelastic at the nodes) takes some.

@@ -18,20 +18,33 @@
 //! energy below zero (issue 26). By MPM (10 cells) the pushes did +0.08 J/m against 2.4 J/m. In
 //! the FEM run the worst pushes came from vertices 0.1 mm inside the other grain, whose
 //! supports slid 50 µm along them within a sixteenth of a step. Capping the target at zero
-//! removed the dips but left 3.9% of the box covered twice at Φ 0.90 instead of 0.6%. The
-//! contacts between grains are one-sided ([`candidates`]): only the vertices of the grain of
-//! lower index are held outside the other's outline, so the other's vertices may enter it.
-//! Checking both orders of every pair (a throw-away change, same run) brought the pushes' work
-//! from +8.1 to +0.02 J/m by Φ 0.86; to the end (Φ 0.900) the kinetic energy stayed below
-//! 0.006 J/m, the dissipated energy never fell below zero (+0.39 J/m at the end), the outlines
-//! covered no measurable part of the box twice (0.6% one-sided) and the top wall carried
-//! 657 kPa (564 kPa at Φ 0.89 one-sided), for 2.7 times the wall-clock time (459 s against
-//! 170 s). It is not yet the method: where two outlines lie flat on each other the two sets of
-//! contacts are redundant, their impulses are not unique, and the solver's change stalls
-//! (two meshed disks colliding, [`crate::methods::fem`]'s tests: 2.2e-6 after 20,000 sweeps
-//! against 1e-6). Measuring the change in the bodies' metric instead, `ΔPᵀ W ΔP` against
-//! `Pᵀ W P`, let that collision pass at Newton's tolerance 1e-5 (0.87 of the approach speed
-//! kept, as one-sided), but this run then stopped at step 1,417 on Newton's budget.
+//! removed the dips but left 3.9% of the box covered twice at Φ 0.90 instead of 0.6%.
+//!
+//! **Sides.** The cause was one-sided contact ([`Sides::One`]): only the vertices of the grain
+//! of lower index were held outside the other's outline, so the other's vertices entered it,
+//! and the first grain's vertices then sat in the dents they left and were pushed out. With
+//! both grains' vertices held ([`Sides::Both`]) the same FEM run compacts to Φ 0.900 with the
+//! dissipated energy never below zero (+0.24 J/m at the end), the kinetic energy below
+//! 0.015 J/m, no measurable part of the box covered twice (0.6% one-sided) and 707 kPa on the
+//! top wall, in 305 s. Both is `fem`'s default. `mpm` keeps one side by default: its pushes are
+//! small (above), its outlines overlap by 0.1% of the box at Φ 0.90 on the 30 grains (0.000%
+//! with both sides, the top wall within 2%: 489 against 488 kPa), and both sides cost it 2.6
+//! times the time (426 s against 164 s), four to six times the sweeps a step in the dense part.
+//!
+//! **Criterion.** Where two outlines lie flat on each other the two sets of contacts are
+//! redundant: an impulse moved from one grain's vertex to the other's nearby changes no node's
+//! force, so the impulses are not unique, and a change measured on them stalls (two meshed
+//! disks colliding, [`crate::methods::fem`]'s tests: 2.2e-6 after 20,000 sweeps against
+//! 1e-6, the velocities converged to 4e-10). The solves therefore measure a sweep's change in
+//! the grains' velocities, in the units of the correction of the Newton iteration they serve:
+//! `√(ΔPᵀ W ΔP / M)` for the impulses' change `ΔP` over the sweep, the Delassus operator
+//! `W = H A⁻¹ Hᵀ` and the grains' mass `M` (an upper bound of the mass-weighted root mean
+//! square of the nodes' velocity change, since `A ≥ M`), relative to Newton's velocity scale.
+//! [`FORCING`] then asks each solve for a hundredth of Newton's last correction in the same
+//! units. Measured against the impulses' own relative change, the tolerance meant nothing in
+//! Newton's units: on the 30 grains by FEM with both sides the solves stopped after one sweep
+//! each, every Newton correction was the change of that one sweep (5.7e-5 of the scale, falling
+//! by 0.2% an iteration), and the run stopped on Newton's budget at step 1,417 (Φ 0.80).
 //!
 //! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
 //! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
@@ -55,12 +68,13 @@ use crate::nscd::{ContactFrame, Nlgs, NlgsReport};
 
 type V2 = Vector2<Real>;
 
-/// The contact solve of a Newton iteration stops at a relative change of the impulses below
-/// this fraction of the last iteration's relative correction (or below the settings'
-/// tolerance, if smaller). Gauss-Seidel's last change understates its error when it converges
-/// slowly, as it does on a dense packing: with the settings' 1e-6 alone, the Newton iterations
-/// of a dense compaction converged only as fast as the sweeps they added (a ratio of 0.4 an
-/// iteration, twelve iterations a step); with this forcing, 5 to 7.
+/// The contact solve of a Newton iteration stops when a sweep changes the grains' velocities
+/// by less than this fraction of the iteration's last correction, both relative to Newton's
+/// velocity scale (module documentation; or below the settings' tolerance, if smaller).
+/// Gauss-Seidel's last change understates its error when it converges slowly, as it does on a
+/// dense packing: with the settings' 1e-6 alone, the Newton iterations of a dense compaction
+/// converged only as fast as the sweeps they added (a ratio of 0.4 an iteration, twelve
+/// iterations a step); with this forcing, 5 to 7.
 pub const FORCING: Real = 0.01;
 
 /// A plane rigid wall: the points `x` with `(x − point)·normal >= 0` are on the grains' side.
@@ -332,6 +346,19 @@ pub struct Problem<'a> {
     pub grains: &'a mut [GrainContacts],
     /// The walls.
     pub walls: &'a [Wall],
+    /// The sweeps' change measured in the grains' velocities ([`solve`]).
+    pub metric: Metric,
+}
+
+/// What the change of a sweep in the grains' velocities needs ([`solve`]).
+#[derive(Debug, Default)]
+pub struct Metric {
+    /// The grains' mass, kg/m.
+    pub mass: Real,
+    /// Newton's velocity scale, m/s.
+    pub speed: Real,
+    /// Each contact's impulse (global, N·s/m) and relative velocity (m/s) after the last sweep.
+    last: Vec<(V2, V2)>,
 }
 
 impl Problem<'_> {
@@ -376,18 +403,29 @@ impl ContactProblem for Problem<'_> {
                 self.apply(c, &k.frame.to_global(&k.r));
             }
         }
+        let mut last = std::mem::take(&mut self.metric.last);
+        last.clear();
+        last.extend((0..self.contacts.len()).map(|c| self.state(c)));
+        self.metric.last = last;
     }
 
     fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
-        let u_now = self.contacts[c].frame.to_local(&self.velocity(c));
-        let k = self.contacts[c];
-        let turn = Turn { omega, near: k.law.target < 0.0, scale: k.scale, lever: k.lever };
-        let (r, _) = visit_local(u_now, &k.w, &k.law, k.r, turn, sums);
-        let dr = r - k.r;
-        if dr != Vec3::zeros() {
-            self.apply(c, &k.frame.to_global(&dr));
+        self.visit_one(c, omega, sums);
+        if c + 1 == self.contacts.len() {
+            // `ΔPᵀ W ΔP` over the iterate's change since the last sweep (the momentum's carry
+            // included): the free velocities do not change within a solve, so the change of
+            // the contacts' velocities is `W ΔP`.
+            let mut change2 = 0.0;
+            let mut last = std::mem::take(&mut self.metric.last);
+            for (c, (p0, u0)) in last.iter_mut().enumerate() {
+                let (p, u) = self.state(c);
+                change2 += (p - *p0).dot(&(u - *u0));
+                (*p0, *u0) = (p, u);
+            }
+            self.metric.last = last;
+            sums.change2 = change2.max(0.0);
+            sums.size2 = self.metric.mass * self.metric.speed * self.metric.speed;
         }
-        self.contacts[c].r = r;
     }
 
     fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real) {
@@ -399,12 +437,36 @@ impl ContactProblem for Problem<'_> {
     }
 }
 
+impl Problem<'_> {
+    /// Contact `c`'s impulse (global, N·s/m) and relative velocity (m/s).
+    fn state(&self, c: usize) -> (V2, V2) {
+        let k = &self.contacts[c];
+        let (p, u) = (k.frame.to_global(&k.r), self.velocity(c));
+        (V2::new(p.x, p.y), V2::new(u.x, u.y))
+    }
+
+    /// Contact `c`'s turn in a sweep ([`visit_local`]).
+    fn visit_one(&mut self, c: usize, omega: Real, sums: &mut Sums) {
+        let u_now = self.contacts[c].frame.to_local(&self.velocity(c));
+        let k = self.contacts[c];
+        let turn = Turn { omega, near: k.law.target < 0.0, scale: k.scale, lever: k.lever };
+        let (r, _) = visit_local(u_now, &k.w, &k.law, k.r, turn, sums);
+        let dr = r - k.r;
+        if dr != Vec3::zeros() {
+            self.apply(c, &k.frame.to_global(&dr));
+        }
+        self.contacts[c].r = r;
+    }
+}
+
 /// Solves the contact problem of a Newton iteration: sets each contact's Signorini target from
 /// its gap and drift (a contact with a positive gap may close it within the step and no more,
 /// one that overlaps may not overlap more, beyond the contact's linear prediction by its drift,
 /// which may push them apart: module documentation), its Delassus diagonal and impulse scale
 /// from its grains' blocks and sample velocities, then sweeps ([`Nlgs::solve_problem`],
-/// `mean_diameter` in m the violations' unit).
+/// `mean_diameter` in m the violations' unit). A sweep's change is measured in the grains'
+/// velocities (module documentation): `√(ΔPᵀ W ΔP / mass)` relative to `speed`, for the
+/// grains' total `mass` (kg/m) and Newton's velocity scale `speed` (m/s).
 pub fn solve(
     contacts: &mut [VertexContact],
     sides: &mut [GrainContacts],
@@ -412,6 +474,7 @@ pub fn solve(
     nlgs: &mut Nlgs,
     sc: &Scheme,
     mean_diameter: Real,
+    (mass, speed): (Real, Real),
 ) -> NlgsReport {
     let g = sc.gravity.norm() * sc.dt;
     for c in contacts.iter_mut() {
@@ -435,14 +498,16 @@ pub fn solve(
         let u_n = (ua - ub).dot(&n);
         c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
     }
-    let mut problem = Problem { contacts, grains: sides, walls };
+    let metric = Metric { mass, speed, last: Vec::new() };
+    let mut problem = Problem { contacts, grains: sides, walls, metric };
     nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
 }
 
 /// Where a contact may act at the start of a step (found by [`candidates`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Candidate {
-    /// Vertex `k` of grain `a`'s outline near the outline of grain `b` (`b > a`).
+    /// Vertex `k` of grain `a`'s outline near the outline of grain `b` (`b > a` unless
+    /// [`Sides::Both`]).
     Grain {
         /// The vertex's grain.
         a: usize,
@@ -470,11 +535,24 @@ pub enum Candidate {
     },
 }
 
+/// Which grain's vertices a pair of grains holds outside the other's outline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sides {
+    /// The grain of lower index's only (one pass): between two convex outlines the other
+    /// grain's vertices can cross a segment by at most the sagitta of the segment's chord,
+    /// but once outlines are dented they go in further, and the contacts then push back
+    /// with work (module documentation).
+    One,
+    /// Both grains' vertices against the other's outline (two passes; no grain privileged).
+    /// Where the outlines lie flat on each other the two sets of contacts are redundant: their
+    /// impulses are not unique (the solve's change is measured on the velocities, [`solve`]).
+    Both,
+}
+
 /// The step's candidates, in a fixed order: every vertex of an outline within `reach` (m) of the
-/// outline of a grain of higher index (the nearest segment; pairs whose boxes come within
-/// `reach`, by a sweep along x), then every vertex within `reach` of a wall. One side only
-/// between grains: between two convex outlines the other grain's vertices can cross a segment
-/// by at most the sagitta of the segment's chord.
+/// outline of a grain of higher index — and, with [`Sides::Both`], of lower index — (the
+/// nearest segment; pairs whose boxes come within `reach`, by a sweep along x), then every
+/// vertex within `reach` of a wall.
 ///
 /// Where the nearest segment ends at a reflex corner of the other outline (a dent: the
 /// outline turns towards the vertex by more than [`REFLEX_TURN`]) and the vertex is within
@@ -486,7 +564,7 @@ pub enum Candidate {
 /// before the converged-gap check of [`crate::methods::fem::system`]; the material points'
 /// 0.30% instead of 0.38%, at the same cost.) At a convex corner the outside is the union of
 /// the half-planes, and the nearest segment alone is right.
-pub fn candidates(shapes: &[Vec<V2>], walls: &[Wall], reach: Real) -> Vec<Candidate> {
+pub fn candidates(shapes: &[Vec<V2>], walls: &[Wall], reach: Real, sides: Sides) -> Vec<Candidate> {
     let boxes: Vec<(V2, V2)> = shapes.iter().map(|x| bounding_box(x)).collect();
     let mut order: Vec<usize> = (0..shapes.len()).filter(|&g| !shapes[g].is_empty()).collect();
     order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x).then(a.cmp(&b)));
@@ -502,6 +580,9 @@ pub fn candidates(shapes: &[Vec<V2>], walls: &[Wall], reach: Real) -> Vec<Candid
         }
     }
     pairs.sort_unstable();
+    if sides == Sides::Both {
+        pairs = pairs.into_iter().flat_map(|(a, b)| [(a, b), (b, a)]).collect();
+    }
     let mut out = Vec::new();
     for (a, b) in pairs {
         let (lo, hi) = (boxes[b].0 - V2::repeat(reach), boxes[b].1 + V2::repeat(reach));
@@ -719,7 +800,7 @@ mod tests {
         // Grain 0: a triangle with a vertex in the dent, one by the convex corner (2, 1) and
         // one out of reach.
         let probe = vec![V2::new(0.2, 0.3), V2::new(2.3, 1.3), V2::new(1.0, 3.0)];
-        let found = candidates(&[probe, dented], &[], 1.0);
+        let found = candidates(&[probe, dented], &[], 1.0, Sides::One);
         let of = |k: usize| -> Vec<(Nearest, bool)> {
             found
                 .iter()
@@ -739,5 +820,35 @@ mod tests {
         assert_eq!(of(1).len(), 1, "a convex corner: {:?}", of(1));
         assert!(of(2).is_empty());
         assert_eq!(found.len(), 3);
+    }
+
+    /// One side holds only the vertices of the grain of lower index outside the other; both
+    /// sides the other's vertices too, each against the nearest segment of the first.
+    #[test]
+    fn both_sides_hold_the_vertices_of_either_grain() {
+        // Two unit squares, grain 1 shifted by (0.9, 0.2): each has one corner 0.1 inside the
+        // other, and one 0.2 outside it.
+        let square = |x0: Real, y0: Real| vec![V2::new(x0, y0), V2::new(x0 + 1.0, y0), V2::new(x0 + 1.0, y0 + 1.0), V2::new(x0, y0 + 1.0)];
+        let shapes = [square(0.0, 0.0), square(0.9, 0.2)];
+        let pairs = |sides| -> Vec<(usize, usize, usize, Real)> {
+            candidates(&shapes, &[], 0.5, sides)
+                .into_iter()
+                .filter_map(|c| match c {
+                    Candidate::Grain { a, k, b, near, line: false } => Some((a, k, b, near.gap)),
+                    _ => None,
+                })
+                .collect()
+        };
+        let close = |x: Real, y: Real| (x - y).abs() < 1e-12;
+        let one = pairs(Sides::One);
+        assert!(one.iter().all(|&(a, _, b, _)| (a, b) == (0, 1)), "{one:?}");
+        assert!(one.iter().any(|&(_, k, _, gap)| k == 2 && close(gap, -0.1)), "{one:?}");
+        assert!(one.iter().any(|&(_, k, _, gap)| k == 1 && close(gap, 0.2)), "{one:?}");
+        let both = pairs(Sides::Both);
+        let back: Vec<_> = both.iter().filter(|&&(a, _, b, _)| (a, b) == (1, 0)).collect();
+        assert_eq!(back.len(), 2, "{both:?}");
+        assert!(back.iter().any(|&&(_, k, _, gap)| k == 0 && close(gap, -0.1)), "{back:?}");
+        assert!(back.iter().any(|&&(_, k, _, gap)| k == 3 && close(gap, 0.2)), "{back:?}");
+        assert_eq!(both.len(), one.len() + back.len());
     }
 }
