@@ -41,8 +41,8 @@
 //! `W = H A⁻¹ Hᵀ` and the grains' mass `M` (an upper bound of the mass-weighted root mean
 //! square of the nodes' velocity change, since `A ≥ M`), relative to Newton's velocity scale.
 //! [`FORCING`] then asks each solve for a hundredth of Newton's last correction in the same
-//! units. Measured against the impulses' own relative change, the tolerance meant nothing in
-//! Newton's units: on the 30 grains by FEM with both sides the solves stopped after one sweep
+//! units. Measured relative to the impulses' own size (their change, or `ΔPᵀ W ΔP` against
+//! `Pᵀ W P`), the tolerance meant nothing in Newton's units: on the 30 grains by FEM with both sides the solves stopped after one sweep
 //! each, every Newton correction was the change of that one sweep (5.7e-5 of the scale, falling
 //! by 0.2% an iteration), and the run stopped on Newton's budget at step 1,417 (Φ 0.80).
 //!
