@@ -1683,12 +1683,25 @@ mod tests {
         assert!(grid.iter().any(|g| g.starts_with("method.points_per_cell: unknown field")), "{grid:?}");
         let rigid = rules(&scene_with(serde_json::json!("fem"), 0.5));
         assert!(rigid.iter().any(|g| g.starts_with("particles[0].material: method fem needs deformable grains")), "{rigid:?}");
-        let scene = parse_scene(&soft_scene(serde_json::json!({"kind": "fem", "elements_per_diameter": 6}), law, serde_json::json!({})))
-            .expect("valid");
+        let scene =
+            parse_scene(&soft_scene(serde_json::json!({"kind": "fem", "elements_per_diameter": 6}), law.clone(), serde_json::json!({})))
+                .expect("valid");
         match scene.method {
-            Method::Fem(p) => assert_eq!((p.elements_per_diameter, p.theta), (6.0, 1.0)),
+            Method::Fem(p) => assert_eq!((p.elements_per_diameter, p.theta, p.symmetric_contact), (6.0, 1.0, true)),
             other => panic!("method {}", other.name()),
         }
+        // Both grains' boundaries are held by default for fem, one side for mpm; each may be set.
+        let sides =
+            |method: serde_json::Value| match parse_scene(&soft_scene(method, law.clone(), serde_json::json!({}))).expect("valid").method {
+                Method::Fem(p) => p.symmetric_contact,
+                Method::Mpm(p) => p.symmetric_contact,
+                other => panic!("method {}", other.name()),
+            };
+        assert!(!sides(serde_json::json!({"kind": "fem", "symmetric_contact": false})));
+        assert!(!sides(serde_json::json!({"kind": "mpm"})));
+        assert!(sides(serde_json::json!({"kind": "mpm", "symmetric_contact": true})));
+        let bad = rules(&soft_scene(serde_json::json!({"kind": "mpm", "symmetric_contact": 1}), law, serde_json::json!({})));
+        assert!(bad.iter().any(|g| g.starts_with("method.symmetric_contact: invalid type: integer `1`, expected a boolean")), "{bad:?}");
     }
 
     /// Deformable grains need mpm, mpm needs deformable grains in a 2D box with walls; a contact

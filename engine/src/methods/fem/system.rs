@@ -312,6 +312,7 @@ impl System {
         // solve's error set, and the compaction stopped on the Newton budget at Φ 0.82–0.89.
         let speed = |grains: &[Grain]| grains.iter().flat_map(|g| g.body.v.iter().map(|v| v.norm())).fold(0.0, Real::max);
         let mut scale = v_ref.max(speed(&self.grains));
+        let mass = self.grains.iter().map(|g| g.body.mass.iter().sum::<Real>()).sum::<Real>();
         let tolerance = self.settings.newton_tolerance;
         self.nlgs.settings.tolerance = self.settings.contact.tolerance;
         let mut last = Real::INFINITY;
@@ -329,7 +330,6 @@ impl System {
                 self.measure_drifts(&sc);
             }
             let d = self.mean_diameter();
-            let mass = self.grains.iter().map(|g| g.body.mass.iter().sum::<Real>()).sum::<Real>();
             let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, (mass, scale));
             report.sweeps += solved.iterations;
             if !solved.converged {

@@ -305,6 +305,7 @@ impl System {
             (s / m.max(Real::MIN_POSITIVE)).sqrt()
         };
         let mut scale = v_ref.max(rms(&self.fields, |f, i| f.v0[i]));
+        let mass = self.fields.iter().map(|f| f.mass.iter().sum::<Real>()).sum::<Real>();
         let mut converged = false;
         let mut last = Real::INFINITY;
         let mut refresh = true;
@@ -320,7 +321,7 @@ impl System {
             if it <= DRIFT_ITERATIONS {
                 self.measure_drifts(&sc);
             }
-            let solved = self.solve_contacts(&sc, scale);
+            let solved = self.solve_contacts(&sc, (mass, scale));
             report.sweeps += solved.iterations;
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
@@ -549,11 +550,11 @@ impl System {
     }
 
     /// Sets each contact's Delassus block and impulse scale and solves the contact problem,
-    /// its change measured against Newton's velocity scale `scale` (m/s).
-    fn solve_contacts(&mut self, sc: &Scheme, scale: Real) -> NlgsReport {
+    /// its change measured for the grains' mass (kg/m) against Newton's velocity scale (m/s),
+    /// `mass_scale`.
+    fn solve_contacts(&mut self, sc: &Scheme, mass_scale: (Real, Real)) -> NlgsReport {
         let d = self.mean_diameter();
-        let mass = self.fields.iter().map(|f| f.mass.iter().sum::<Real>()).sum::<Real>();
-        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d, (mass, scale))
+        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d, mass_scale)
     }
 
     /// Adds `fraction` of each grain's correction with the contact impulses to its iterate;
