@@ -64,7 +64,7 @@ use crate::constitutive::ConstitutiveLaw;
 use crate::error::InstabilityCause;
 use crate::math::Real;
 use crate::methods::soft::contact::{
-    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Sides, Support, VertexContact, Wall, Warm,
+    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Metric, Sides, Support, VertexContact, Wall, Warm,
 };
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
@@ -162,6 +162,8 @@ pub struct System {
     pub reach: Real,
     last_dt: Real,
     sides: Vec<GrainContacts>,
+    /// The contact solves' measure of their change (kept between solves).
+    metric: Metric,
     corrections: Vec<Vec<Real>>,
     warm: Warm,
     nlgs: Nlgs,
@@ -234,6 +236,7 @@ impl System {
             reach,
             last_dt: settings.dt,
             sides: vec![GrainContacts::default(); n],
+            metric: Metric::default(),
             corrections: vec![Vec::new(); n],
             warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
@@ -259,6 +262,7 @@ impl System {
                 .sum::<usize>()
             + self.corrections.iter().map(|c| c.capacity() * 8).sum::<usize>()
             + self.contacts.capacity() * std::mem::size_of::<VertexContact>()
+            + self.metric.heap_bytes()
             + self.outlines.iter().map(|o| o.capacity() * std::mem::size_of::<V2>()).sum::<usize>()
     }
 
@@ -330,7 +334,8 @@ impl System {
                 self.measure_drifts(&sc);
             }
             let d = self.mean_diameter();
-            let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, (mass, scale));
+            (self.metric.mass, self.metric.speed) = (mass, scale);
+            let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, &mut self.metric);
             report.sweeps += solved.iterations;
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));

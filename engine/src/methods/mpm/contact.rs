@@ -71,8 +71,8 @@ use super::field::Field;
 use crate::math::Real;
 
 pub use crate::methods::soft::contact::{
-    candidates, enter, measure_drifts, solve, wall_impulses, Against, Candidate, Entry, GrainContacts, Other, Problem, Sides, Support,
-    VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
+    candidates, enter, measure_drifts, solve, wall_impulses, Against, Candidate, Entry, GrainContacts, Metric, Other, Problem, Sides,
+    Support, VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
 };
 
 /// Computes a grain's [`GrainContacts::inverse`] from its field's factorised matrix `A = L Lᵀ`: for each unknown of

@@ -38,7 +38,8 @@
 use rayon::prelude::*;
 
 use super::contact::{
-    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Sides, Support, VertexContact, Wall, Warm, FORCING, SUPPORT_NODES,
+    self, candidates, enter, Against, Candidate, Entry, GrainContacts, Metric, Sides, Support, VertexContact, Wall, Warm, FORCING,
+    SUPPORT_NODES,
 };
 use super::field::{Field, PointFailure, Scheme};
 use super::grain::Grain;
@@ -148,6 +149,8 @@ pub struct System {
     last_dt: Real,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
+    /// The contact solves' measure of their change (kept between solves).
+    metric: Metric,
     warm: Warm,
     nlgs: Nlgs,
     /// Each grain's outline at the step's start, and where an iterate moves it (scratch kept
@@ -192,6 +195,7 @@ impl System {
             pair_friction: None,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
+            metric: Metric::default(),
             warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
             outlines: vec![Vec::new(); n],
@@ -219,6 +223,7 @@ impl System {
                 .sum::<usize>()
             + self.contacts.capacity() * std::mem::size_of::<VertexContact>()
             + self.nlgs.heap_bytes()
+            + self.metric.heap_bytes()
             + self.grains.iter().map(|g| g.outline.vertices.capacity() * std::mem::size_of::<super::outline::Vertex>()).sum::<usize>()
             + self.outlines.iter().chain(&self.moved).map(|v| v.capacity() * std::mem::size_of::<V2>()).sum::<usize>()
     }
@@ -550,11 +555,11 @@ impl System {
     }
 
     /// Sets each contact's Delassus block and impulse scale and solves the contact problem,
-    /// its change measured for the grains' mass (kg/m) against Newton's velocity scale (m/s),
-    /// `mass_scale`.
-    fn solve_contacts(&mut self, sc: &Scheme, mass_scale: (Real, Real)) -> NlgsReport {
+    /// its change measured for the grains' mass (kg/m) against Newton's velocity scale (m/s).
+    fn solve_contacts(&mut self, sc: &Scheme, (mass, speed): (Real, Real)) -> NlgsReport {
         let d = self.mean_diameter();
-        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d, mass_scale)
+        (self.metric.mass, self.metric.speed) = (mass, speed);
+        super::contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, sc, d, &mut self.metric)
     }
 
     /// Adds `fraction` of each grain's correction with the contact impulses to its iterate;

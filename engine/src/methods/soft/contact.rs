@@ -347,10 +347,11 @@ pub struct Problem<'a> {
     /// The walls.
     pub walls: &'a [Wall],
     /// The sweeps' change measured in the grains' velocities ([`solve`]).
-    pub metric: Metric,
+    pub metric: &'a mut Metric,
 }
 
-/// What the change of a sweep in the grains' velocities needs ([`solve`]).
+/// What the change of a sweep in the grains' velocities needs ([`solve`]); a method keeps one
+/// between solves, so that its buffer is not allocated again at every Newton iteration.
 #[derive(Debug, Default)]
 pub struct Metric {
     /// The grains' mass, kg/m.
@@ -359,6 +360,13 @@ pub struct Metric {
     pub speed: Real,
     /// Each contact's impulse (global, N·s/m) and relative velocity (m/s) after the last sweep.
     last: Vec<(V2, V2)>,
+}
+
+impl Metric {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.last.capacity() * std::mem::size_of::<(V2, V2)>()
+    }
 }
 
 impl Problem<'_> {
@@ -465,8 +473,8 @@ impl Problem<'_> {
 /// which may push them apart: module documentation), its Delassus diagonal and impulse scale
 /// from its grains' blocks and sample velocities, then sweeps ([`Nlgs::solve_problem`],
 /// `mean_diameter` in m the violations' unit). A sweep's change is measured in the grains'
-/// velocities (module documentation): `√(ΔPᵀ W ΔP / mass)` relative to `speed`, for the
-/// grains' total `mass` (kg/m) and Newton's velocity scale `speed` (m/s).
+/// velocities (module documentation): `√(ΔPᵀ W ΔP / M)` relative to Newton's velocity scale,
+/// both in `metric`.
 pub fn solve(
     contacts: &mut [VertexContact],
     sides: &mut [GrainContacts],
@@ -474,7 +482,7 @@ pub fn solve(
     nlgs: &mut Nlgs,
     sc: &Scheme,
     mean_diameter: Real,
-    (mass, speed): (Real, Real),
+    metric: &mut Metric,
 ) -> NlgsReport {
     let g = sc.gravity.norm() * sc.dt;
     for c in contacts.iter_mut() {
@@ -498,7 +506,6 @@ pub fn solve(
         let u_n = (ua - ub).dot(&n);
         c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
     }
-    let metric = Metric { mass, speed, last: Vec::new() };
     let mut problem = Problem { contacts, grains: sides, walls, metric };
     nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
 }
