@@ -67,6 +67,13 @@ pub trait Simulation: Send {
     fn grain_scales(&self) -> (Real, Real);
     /// The current particles and box, to start another run from ([`crate::scene::state`]).
     fn saved_state(&self) -> StateFile;
+    /// Sends a record of every Newton iteration to `sink` from now on
+    /// ([`crate::methods::soft::trace`]); false (and nothing sent) for a method without Newton
+    /// iterations.
+    fn trace_newton(&mut self, sink: crate::methods::soft::trace::NewtonSink) -> bool {
+        drop(sink);
+        false
+    }
 }
 
 /// Distance from static equilibrium ([`Simulation::balance`]).

@@ -4,6 +4,7 @@ use std::panic::AssertUnwindSafe;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
+use sable_engine::methods::soft::trace::NewtonSink;
 use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, RunSummary, Runner};
 use sable_engine::scene::{format_violations, parse_scene, Method, Scene, StateFile};
@@ -24,7 +25,22 @@ pub fn run_scene_with_snapshots(
     on_sample: &mut dyn FnMut(&Sample, &Progress),
     on_snapshot: &mut dyn FnMut(&Snapshot),
 ) -> Result<(RunSummary, StateFile), EngineError> {
+    run_scene_traced(scene, runner, on_sample, on_snapshot, None)
+}
+
+/// As [`run_scene_with_snapshots`], the method's Newton iterations sent to `trace` when given
+/// (`sable run --trace`; methods without Newton iterations ignore it).
+pub fn run_scene_traced(
+    scene: &Scene,
+    runner: &Runner,
+    on_sample: &mut dyn FnMut(&Sample, &Progress),
+    on_snapshot: &mut dyn FnMut(&Snapshot),
+    trace: Option<NewtonSink>,
+) -> Result<(RunSummary, StateFile), EngineError> {
     let mut sim = sable_engine::methods::build(scene)?;
+    if let Some(sink) = trace {
+        sim.trace_newton(sink);
+    }
     let summary = runner.run_with_snapshots(sim.as_mut(), on_sample, on_snapshot)?;
     Ok((summary, sim.saved_state()))
 }

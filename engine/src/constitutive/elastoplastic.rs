@@ -65,6 +65,10 @@ impl ConstitutiveLaw for Elastoplastic {
         self.lame
     }
 
+    fn plastic(&self) -> bool {
+        true
+    }
+
     fn response(&self, f: &Mat2, h: &History) -> Option<Response> {
         if f.determinant() <= 0.0 {
             return None;

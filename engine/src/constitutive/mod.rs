@@ -103,6 +103,12 @@ pub trait ConstitutiveLaw: Send + Sync + std::fmt::Debug {
         Some((plane::first_piola(&r.tau, f)?, r.history))
     }
 
+    /// Whether the law yields (its grains keep the dents their contacts press in). `mpm` holds
+    /// both grains' outlines by default for such grains ([`crate::scene::MpmParams`]).
+    fn plastic(&self) -> bool {
+        false
+    }
+
     /// `A = ∂P/∂F` at `f` for the history `h` at the start of the step (plastic flow
     /// included). By default central differences of [`ConstitutiveLaw::first_piola`] with a
     /// step of 1e-6 on each component of `F`: the algorithmic tangent to about 1e-9.

@@ -617,7 +617,8 @@ pub struct MpmParamsSpec {
     #[serde(default)]
     pub acceleration: Option<f64>,
     /// Contacts between grains hold the vertices of both grains' outlines outside the other's
-    /// (true), or only those of the grain of lower index (false). Default false.
+    /// (true), or only those of the grain of lower index (false). Default: true when a grain's
+    /// law is plastic (`elastoplastic`), false otherwise.
     #[serde(default)]
     pub symmetric_contact: Option<bool>,
     /// Threads; 0 = rayon's global pool. Default 0.

@@ -482,10 +482,7 @@ fn check_fem_params(c: &mut Checker, s: &FemParamsSpec) -> FemParams {
 }
 
 fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
-    let mut p = MpmParams::default();
-    if let Some(both) = s.symmetric_contact {
-        p.symmetric_contact = both;
-    }
+    let mut p = MpmParams { symmetric_contact: s.symmetric_contact, ..MpmParams::default() };
     if let Some(dt) = s.time_step {
         if c.positive("method.time_step", dt) {
             p.time_step = Some(dt);
@@ -1694,12 +1691,17 @@ mod tests {
         let sides =
             |method: serde_json::Value| match parse_scene(&soft_scene(method, law.clone(), serde_json::json!({}))).expect("valid").method {
                 Method::Fem(p) => p.symmetric_contact,
-                Method::Mpm(p) => p.symmetric_contact,
+                Method::Mpm(p) => p.symmetric_contact.expect("mpm given symmetric_contact"),
                 other => panic!("method {}", other.name()),
             };
         assert!(!sides(serde_json::json!({"kind": "fem", "symmetric_contact": false})));
-        assert!(!sides(serde_json::json!({"kind": "mpm"})));
         assert!(sides(serde_json::json!({"kind": "mpm", "symmetric_contact": true})));
+        assert!(!sides(serde_json::json!({"kind": "mpm", "symmetric_contact": false})));
+        // mpm left to choose: it decides by the grains' law when it is built.
+        match parse_scene(&soft_scene(serde_json::json!({"kind": "mpm"}), law.clone(), serde_json::json!({}))).expect("valid").method {
+            Method::Mpm(p) => assert_eq!(p.symmetric_contact, None),
+            other => panic!("method {}", other.name()),
+        }
         let bad = rules(&soft_scene(serde_json::json!({"kind": "mpm", "symmetric_contact": 1}), law, serde_json::json!({})));
         assert!(bad.iter().any(|g| g.starts_with("method.symmetric_contact: invalid type: integer `1`, expected a boolean")), "{bad:?}");
     }

@@ -7,6 +7,7 @@
 //! at two stiffness numbers, with the ζ each finds. Never a pass/fail test.
 
 use super::bench_prepare::prepare;
+use super::trace::TraceFile;
 use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
 use sable_engine::methods::soft::parts::Cost;
@@ -75,6 +76,10 @@ pub struct MpmBenchArgs {
     /// steps since the last line): where the time goes as the packing densifies.
     #[arg(long)]
     pub progress: Option<u64>,
+    /// Write a record of every Newton iteration to this file, one JSON object per line (as
+    /// `sable run --trace`).
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Serialize)]
@@ -132,7 +137,12 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
     let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
     let mut sim = pool.install(|| sable_engine::methods::mpm::sim::mpm(&scene, params))?;
-    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost())?;
+    let trace = traced(&mut sim, a.trace.as_deref(), &scene.method)?;
+    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost());
+    if let Some(t) = trace {
+        t.finish()?;
+    }
+    let run = run?;
     let r = MpmBenchResult {
         method: "mpm",
         grains: sim.particle_count(),
@@ -150,6 +160,14 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The trace file of `--trace`, if given, its sink set on `sim`.
+fn traced(sim: &mut impl Simulation, path: Option<&std::path::Path>, method: &Method) -> anyhow::Result<Option<TraceFile>> {
+    let Some(path) = path else { return Ok(None) };
+    let t = TraceFile::create(path, method)?;
+    sim.trace_newton(t.sink());
+    Ok(Some(t))
 }
 
 /// Steps a soft-grain simulation until `phi` or `steps` inside `pool` (of `threads`), printing
@@ -244,6 +262,9 @@ pub struct FemBenchArgs {
     /// Every this many steps, print the progress to stderr (as `sable bench mpm --progress`).
     #[arg(long)]
     pub progress: Option<u64>,
+    /// Write a record of every Newton iteration to this file (as `sable bench mpm --trace`).
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Serialize)]
@@ -267,7 +288,12 @@ pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
     })?;
     let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
     let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;
-    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost())?;
+    let trace = traced(&mut sim, a.trace.as_deref(), &scene.method)?;
+    let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost());
+    if let Some(t) = trace {
+        t.finish()?;
+    }
+    let run = run?;
     let r = FemBenchResult {
         method: "fem",
         grains: sim.particle_count(),

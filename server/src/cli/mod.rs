@@ -10,3 +10,4 @@ pub mod bench_service;
 pub mod run;
 pub mod service;
 pub mod study;
+mod trace;

@@ -52,6 +52,12 @@ pub struct RunArgs {
     /// it with `"start_from": {"file": FILE}`.
     #[arg(long, value_name = "FILE")]
     pub save_state: Option<PathBuf>,
+    /// Write a record of every Newton iteration of a soft-grain method (`mpm`, `fem`) to this
+    /// file, one JSON object per line: the step, the part's time and duration, the iteration's
+    /// correction (relative, as compared with `newton_tolerance`), its contact sweeps and
+    /// contacts, and how each part ended (converged, or the failure that split it).
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
 }
 
 /// Arguments of `sable validate`.
@@ -134,6 +140,7 @@ impl SampleWriter {
 /// `sable run`.
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&a.scene)?;
+    let trace = a.trace.as_deref().map(|path| super::trace::TraceFile::create(path, &scene.method)).transpose()?;
     let out: Option<Box<dyn Write + Send>> = match (&a.out, a.final_json || a.result_json) {
         (Some(p), _) => {
             Some(Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?)))
@@ -193,7 +200,11 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
             b.set_message(format!("{stage}t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
         }
     };
-    let result = pool.install(|| sable_worker::execute::run_scene_with_snapshots(&scene, &runner, &mut on_sample, &mut on_snapshot));
+    let sink = trace.as_ref().map(|t| t.sink());
+    let result = pool.install(|| sable_worker::execute::run_scene_traced(&scene, &runner, &mut on_sample, &mut on_snapshot, sink));
+    if let Some(t) = trace {
+        t.finish()?;
+    }
     if let Some(b) = &bar {
         b.finish_and_clear();
     }

@@ -20,6 +20,7 @@ use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::polygon::second_moments;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
+use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
@@ -190,6 +191,10 @@ impl SoftSystem for System {
             }
             _ => "take a smaller method.time_step",
         }
+    }
+
+    fn tracer(&mut self) -> &mut Tracer {
+        &mut self.tracer
     }
 }
 

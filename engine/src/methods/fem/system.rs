@@ -68,6 +68,7 @@ use crate::methods::soft::contact::{
 };
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
+use crate::methods::soft::trace::{NewtonRecord, Tracer};
 use crate::methods::soft::{Scheme, REFRESH_RATIO};
 use crate::nscd::{Convergence, Nlgs};
 
@@ -164,6 +165,10 @@ pub struct System {
     sides: Vec<GrainContacts>,
     /// The contact solves' measure of their change (kept between solves).
     metric: Metric,
+    /// The Newton iterations' trace (off unless a sink is set).
+    pub tracer: Tracer,
+    /// The current part's Newton iterations, sweeps and contacts so far (for the trace).
+    traced: (u32, u32, usize),
     corrections: Vec<Vec<Real>>,
     warm: Warm,
     nlgs: Nlgs,
@@ -195,7 +200,14 @@ struct Pace {
 
 impl StepParts for System {
     fn try_part(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
-        self.try_step(dt, last_chance)
+        let (step, time) = (self.steps + 1, self.time);
+        self.traced = (0, 0, 0);
+        let done = self.try_step(dt, last_chance);
+        if self.tracer.on() {
+            let traced = self.traced;
+            self.tracer.end((step, time, dt), traced, done.as_ref().err().map(|f| &f.cause));
+        }
+        done
     }
 
     /// A failed part leaves the velocities where its iterations took them.
@@ -237,6 +249,8 @@ impl System {
             last_dt: settings.dt,
             sides: vec![GrainContacts::default(); n],
             metric: Metric::default(),
+            tracer: Tracer::default(),
+            traced: (0, 0, 0),
             corrections: vec![Vec::new(); n],
             warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
@@ -337,12 +351,31 @@ impl System {
             (self.metric.mass, self.metric.speed) = (mass, scale);
             let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, &mut self.metric);
             report.sweeps += solved.iterations;
+            self.traced = (it, report.sweeps, report.contacts);
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
             let correction = self.newton_update();
             scale = scale.max(speed(&self.grains));
             let relative = correction / scale.max(Real::MIN_POSITIVE);
+            if self.tracer.on() {
+                let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
+                let (step, time, dt, contacts) = (self.steps + 1, self.time, sc.dt, report.contacts);
+                self.tracer.emit(|| NewtonRecord {
+                    step,
+                    time,
+                    dt,
+                    iteration: it,
+                    correction: Some(relative),
+                    sweeps: solved.iterations,
+                    contacts,
+                    switching: None,
+                    fraction: None,
+                    refreshed: None,
+                    refreshed_grains: Some(refreshed),
+                    end: None,
+                });
+            }
             if relative <= tolerance {
                 // Where Newton converged, the gaps between the moved outlines are measured
                 // again: contacts that moved on from where their drifts were measured make the

@@ -20,6 +20,7 @@ use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
+use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
@@ -126,6 +127,10 @@ impl SoftSystem for System {
             _ => "take a smaller method.time_step",
         }
     }
+
+    fn tracer(&mut self) -> &mut Tracer {
+        &mut self.tracer
+    }
 }
 
 /// Builds the method on a validated 2D scene whose grains are all deformable.
@@ -200,7 +205,11 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             relaxation: 1.0,
             acceleration: params.acceleration,
         },
-        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
+        sides: if params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic())) {
+            Sides::Both
+        } else {
+            Sides::One
+        },
     };
     let sys = System::new(grid, points, grains, laws, planes, settings);
     SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.threads)

@@ -50,6 +50,7 @@ use crate::error::InstabilityCause;
 use crate::math::Real;
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
+use crate::methods::soft::trace::{NewtonRecord, Tracer};
 use crate::methods::soft::REFRESH_RATIO;
 use crate::nscd::{Convergence, Nlgs, NlgsReport};
 
@@ -157,11 +158,22 @@ pub struct System {
     /// between steps).
     outlines: Vec<Vec<V2>>,
     moved: Vec<Vec<V2>>,
+    /// The Newton iterations' trace (off unless a sink is set).
+    pub tracer: Tracer,
+    /// The current part's Newton iterations, sweeps and contacts so far (for the trace).
+    traced: (u32, u32, usize),
 }
 
 impl StepParts for System {
     fn try_part(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
-        self.try_step(dt, !last_chance)
+        let (step, time) = (self.steps + 1, self.time);
+        self.traced = (0, 0, 0);
+        let done = self.try_step(dt, !last_chance);
+        if self.tracer.on() {
+            let traced = self.traced;
+            self.tracer.end((step, time, dt), traced, done.as_ref().err().map(|f| &f.cause));
+        }
+        done
     }
 }
 
@@ -200,6 +212,8 @@ impl System {
             nlgs: Nlgs::new(settings.contact),
             outlines: vec![Vec::new(); n],
             moved: vec![Vec::new(); n],
+            tracer: Tracer::default(),
+            traced: (0, 0, 0),
         }
     }
 
@@ -328,6 +342,7 @@ impl System {
             }
             let solved = self.solve_contacts(&sc, (mass, scale));
             report.sweeps += solved.iterations;
+            self.traced = (it, report.sweeps, report.contacts);
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
@@ -338,6 +353,24 @@ impl System {
             }
             scale = scale.max(rms(&self.fields, |f, i| f.v[i]));
             let relative = correction / scale.max(Real::MIN_POSITIVE);
+            if self.tracer.on() {
+                let switching = self.fields.iter().map(|f| f.switches).sum();
+                let (step, time, dt, contacts) = (self.steps + 1, self.time, sc.dt, report.contacts);
+                self.tracer.emit(|| NewtonRecord {
+                    step,
+                    time,
+                    dt,
+                    iteration: it,
+                    correction: Some(relative),
+                    sweeps: solved.iterations,
+                    contacts,
+                    switching: Some(switching),
+                    fraction: Some(fraction),
+                    refreshed: Some(refresh),
+                    refreshed_grains: None,
+                    end: None,
+                });
+            }
             if relative <= self.settings.newton_tolerance {
                 converged = true;
                 break;

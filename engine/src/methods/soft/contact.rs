@@ -26,10 +26,12 @@
 //! both grains' vertices held ([`Sides::Both`]) the same FEM run compacts to Φ 0.900 with the
 //! dissipated energy never below zero (+0.24 J/m at the end), the kinetic energy below
 //! 0.015 J/m, no measurable part of the box covered twice (0.6% one-sided) and 707 kPa on the
-//! top wall, in 305 s. Both is `fem`'s default. `mpm` keeps one side by default: its pushes are
-//! small (above), its outlines overlap by 0.1% of the box at Φ 0.90 on the 30 grains (0.000%
-//! with both sides, the top wall within 2%: 489 against 488 kPa), and both sides cost it 2.6
-//! times the time (426 s against 164 s), four to six times the sweeps a step in the dense part.
+//! top wall, in 305 s. Both is `fem`'s default. `mpm` keeps one side by default for elastic
+//! grains: its pushes are small (above), its outlines overlap by 0.1% of the box at Φ 0.90 on
+//! the 30 grains (0.000% with both sides, the top wall within 2%: 489 against 488 kPa), and
+//! both sides cost it 2.6 times the time (426 s against 164 s), four to six times the sweeps a
+//! step in the dense part. For plastic grains both sides are its default
+//! ([`crate::scene::MpmParams::symmetric_contact`]).
 //!
 //! **Criterion.** Where two outlines lie flat on each other the two sets of contacts are
 //! redundant: an impulse moved from one grain's vertex to the other's nearby changes no node's

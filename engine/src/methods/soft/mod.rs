@@ -6,7 +6,8 @@
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
 //!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
-//! - [`parts`]: a step done in parts, split where it fails.
+//! - [`parts`]: a step done in parts, split where it fails;
+//! - [`trace`]: a record of every Newton iteration, for a run that asks.
 
 pub mod contact;
 #[cfg(test)]
@@ -15,6 +16,7 @@ pub mod measure;
 pub mod parts;
 pub mod polygon;
 pub mod sim;
+pub mod trace;
 
 use nalgebra::Vector2;
 

@@ -16,6 +16,7 @@ use nalgebra::Vector2;
 
 use super::contact::Wall as PlaneWall;
 use super::measure::GrainState;
+use super::trace::{NewtonSink, Tracer};
 use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::Domain;
 use crate::loading::Wall;
@@ -75,6 +76,8 @@ pub trait SoftSystem: Send {
     fn center_of_mass(&self) -> (Real, V2);
     /// What to change when a step fails for `cause`.
     fn suggestion(&self, cause: &InstabilityCause) -> &'static str;
+    /// The Newton iterations' trace ([`super::trace`]).
+    fn tracer(&mut self) -> &mut Tracer;
 }
 
 fn v2(v: &Vec3) -> V2 {
@@ -378,5 +381,9 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
         let grains = self.sys.grain_states();
         let disks = self.disks(&grains);
         world::saved_state(self.sys.time(), self.sys.steps(), &self.domain, &self.materials, &disks)
+    }
+    fn trace_newton(&mut self, sink: NewtonSink) -> bool {
+        self.sys.tracer().set(sink);
+        true
     }
 }

@@ -1,0 +1,154 @@
+//! A trace of the soft-grain methods' Newton iterations: one record per iteration of every step
+//! part and one where each part ends, converged or failed and why. Where a run's time goes and
+//! why a step fails are in these records, not in the samples: a period-2 cycle of points
+//! switching between elastic and plastic, a correction that stalls, contact solves that take
+//! thousands of sweeps (`sable run --trace FILE`, `sable bench mpm|fem --trace FILE`).
+//!
+//! A method without a sink set pays one branch per iteration.
+
+use serde::Serialize;
+
+use crate::error::InstabilityCause;
+use crate::math::Real;
+
+/// One record of the trace.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NewtonRecord {
+    /// The step being done (1 for the first).
+    pub step: u64,
+    /// Time at the part's start, s.
+    pub time: Real,
+    /// The part's duration, s (the step's, or a fraction of it when the step was split).
+    pub dt: Real,
+    /// The Newton iteration (from 1); on the record that ends a part, the iterations it took.
+    pub iteration: u32,
+    /// The iteration's velocity correction relative to Newton's velocity scale (the quantity
+    /// compared with `newton_tolerance`); `None` where the part ends.
+    pub correction: Option<Real>,
+    /// The iteration's contact-solver sweeps (on the end record, the part's).
+    pub sweeps: u32,
+    /// Contacts in the part.
+    pub contacts: usize,
+    /// Material points that switched between elastic and plastic since the previous iterate
+    /// (`mpm` with a plastic law; `None` elsewhere).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub switching: Option<usize>,
+    /// The fraction of the correction taken (`mpm`: smaller while points switch and the
+    /// correction does not shrink).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fraction: Option<Real>,
+    /// Whether the iteration assembled and factorised the matrices anew (`mpm`: all grains';
+    /// `fem`: the number that did is in `refreshed_grains`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refreshed: Option<bool>,
+    /// `fem`: grains whose matrices the iteration assembled anew.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refreshed_grains: Option<usize>,
+    /// On the record that ends a part: `"converged"`, or the failure's kind and message.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub end: Option<String>,
+}
+
+/// Where a method sends its records.
+pub type NewtonSink = Box<dyn FnMut(&NewtonRecord) + Send>;
+
+/// A method's trace: off until a sink is set.
+#[derive(Default)]
+pub struct Tracer {
+    sink: Option<NewtonSink>,
+}
+
+impl std::fmt::Debug for Tracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tracer").field("on", &self.sink.is_some()).finish()
+    }
+}
+
+impl Tracer {
+    /// Sends the records to `sink` from now on.
+    pub fn set(&mut self, sink: NewtonSink) {
+        self.sink = Some(sink);
+    }
+
+    /// Whether records are wanted.
+    #[inline(always)]
+    pub fn on(&self) -> bool {
+        self.sink.is_some()
+    }
+
+    /// Sends the record `make` builds, if a sink is set.
+    #[inline(always)]
+    pub fn emit(&mut self, make: impl FnOnce() -> NewtonRecord) {
+        if let Some(sink) = self.sink.as_mut() {
+            sink(&make());
+        }
+    }
+
+    /// Sends the record that ends a part of `dt` (s) started at `time` (s) in step `step`,
+    /// after `iterations` Newton iterations and `sweeps` sweeps: converged, or failed for
+    /// `cause`.
+    pub fn end(
+        &mut self,
+        (step, time, dt): (u64, Real, Real),
+        (iterations, sweeps, contacts): (u32, u32, usize),
+        cause: Option<&InstabilityCause>,
+    ) {
+        self.emit(|| NewtonRecord {
+            step,
+            time,
+            dt,
+            iteration: iterations,
+            correction: None,
+            sweeps,
+            contacts,
+            switching: None,
+            fraction: None,
+            refreshed: None,
+            refreshed_grains: None,
+            end: Some(cause.map_or_else(|| "converged".to_string(), |c| format!("{}: {c}", c.kind()))),
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Mutex};
+
+    /// Records reach the sink only once it is set, and the end record names the failure.
+    #[test]
+    fn records_reach_the_sink_once_set() {
+        let mut t = Tracer::default();
+        let mut built = 0;
+        t.emit(|| {
+            built += 1;
+            NewtonRecord {
+                step: 1,
+                time: 0.0,
+                dt: 1e-3,
+                iteration: 1,
+                correction: Some(0.5),
+                sweeps: 3,
+                contacts: 2,
+                switching: None,
+                fraction: None,
+                refreshed: None,
+                refreshed_grains: None,
+                end: None,
+            }
+        });
+        assert_eq!(built, 0, "no record is built without a sink");
+        let got = Arc::new(Mutex::new(Vec::new()));
+        let into = got.clone();
+        t.set(Box::new(move |r| into.lock().expect("lock").push(serde_json::to_value(r).expect("json"))));
+        t.end((3, 0.1, 5e-5), (7, 40, 12), Some(&InstabilityCause::NotPositiveDefinite { grain: 4 }));
+        t.end((4, 0.2, 5e-5), (2, 1, 12), None);
+        let got = got.lock().expect("lock");
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[0]["step"], 3);
+        assert_eq!(got[0]["iteration"], 7);
+        assert!(got[0]["end"].as_str().is_some_and(|e| e.starts_with("not_positive_definite: ")), "{}", got[0]);
+        assert!(got[0].get("switching").is_none());
+        assert_eq!(got[1]["end"], "converged");
+    }
+}
