@@ -221,7 +221,7 @@ pub struct MpmParams {
     /// ([`crate::methods::soft::contact::Sides::Both`]: `Some(true)`), or only the lower
     /// index's (`Some(false)`). `None` (the default): both when a grain's law is plastic
     /// ([`crate::constitutive::ConstitutiveLaw::plastic`]), one side otherwise. One-sided, plastic
-    /// outlines dent deeply and the contact solves break down (300 grains, H = 0: 0.94% of the
+    /// outlines dent deeply and the contact solves break down (60 grains, H = 0: 0.94% of the
     /// box covered twice and the solver's budget at Φ 0.91); elastic grains overlap by 0.1% of
     /// the box at Φ 0.9 one-sided, and both sides cost them 2.6 times the time
     /// ([`crate::methods::mpm::contact`]).
