@@ -176,7 +176,7 @@ fn plastic_grains_hold_both_outlines_by_default() {
     let (one, _, _) = plastic_compaction(Some(false), false);
     let overlap = |s: &Sample| s.deformable.as_ref().expect("deformable sample").interpenetration;
     eprintln!(
-        "plastic CI compaction: default Φ {:.4} overlap {:.5}, top σ {:.4e}; one-sided Φ {:.4} overlap {:.5}",
+        "plastic CI compaction: default Φ {:.4} overlap {:.5}, Love–Weber σ_yy {:.4e} Pa; one-sided Φ {:.4} overlap {:.5}",
         both.phi,
         overlap(both),
         both.stress.yy,

@@ -360,20 +360,10 @@ impl System {
             let relative = correction / scale.max(Real::MIN_POSITIVE);
             if self.tracer.on() {
                 let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
-                let (step, time, dt, contacts) = (self.steps + 1, self.time, sc.dt, report.contacts);
+                let part = (self.steps + 1, self.time, sc.dt);
                 self.tracer.emit(|| NewtonRecord {
-                    step,
-                    time,
-                    dt,
-                    iteration: it,
-                    correction: Some(relative),
-                    sweeps: solved.iterations,
-                    contacts,
-                    switching: None,
-                    fraction: None,
-                    refreshed: None,
                     refreshed_grains: Some(refreshed),
-                    end: None,
+                    ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
                 });
             }
             if relative <= tolerance {

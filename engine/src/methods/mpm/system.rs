@@ -355,20 +355,12 @@ impl System {
             let relative = correction / scale.max(Real::MIN_POSITIVE);
             if self.tracer.on() {
                 let switching = self.fields.iter().map(|f| f.switches).sum();
-                let (step, time, dt, contacts) = (self.steps + 1, self.time, sc.dt, report.contacts);
+                let part = (self.steps + 1, self.time, sc.dt);
                 self.tracer.emit(|| NewtonRecord {
-                    step,
-                    time,
-                    dt,
-                    iteration: it,
-                    correction: Some(relative),
-                    sweeps: solved.iterations,
-                    contacts,
                     switching: Some(switching),
                     fraction: Some(fraction),
                     refreshed: Some(refresh),
-                    refreshed_grains: None,
-                    end: None,
+                    ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
                 });
             }
             if relative <= self.settings.newton_tolerance {

@@ -49,6 +49,28 @@ pub struct NewtonRecord {
     pub end: Option<String>,
 }
 
+impl NewtonRecord {
+    /// The record of Newton iteration `iteration` of the part of `dt` (s) started at `time` (s)
+    /// in step `step`: its relative `correction`, `sweeps` and `contacts`; the method's own
+    /// fields unset.
+    pub fn iteration((step, time, dt): (u64, Real, Real), iteration: u32, correction: Real, sweeps: u32, contacts: usize) -> Self {
+        Self {
+            step,
+            time,
+            dt,
+            iteration,
+            correction: Some(correction),
+            sweeps,
+            contacts,
+            switching: None,
+            fraction: None,
+            refreshed: None,
+            refreshed_grains: None,
+            end: None,
+        }
+    }
+}
+
 /// Where a method sends its records.
 pub type NewtonSink = Box<dyn FnMut(&NewtonRecord) + Send>;
 
@@ -94,18 +116,9 @@ impl Tracer {
         cause: Option<&InstabilityCause>,
     ) {
         self.emit(|| NewtonRecord {
-            step,
-            time,
-            dt,
-            iteration: iterations,
             correction: None,
-            sweeps,
-            contacts,
-            switching: None,
-            fraction: None,
-            refreshed: None,
-            refreshed_grains: None,
             end: Some(cause.map_or_else(|| "converged".to_string(), |c| format!("{}: {c}", c.kind()))),
+            ..NewtonRecord::iteration((step, time, dt), iterations, 0.0, sweeps, contacts)
         });
     }
 }
@@ -122,20 +135,7 @@ mod tests {
         let mut built = 0;
         t.emit(|| {
             built += 1;
-            NewtonRecord {
-                step: 1,
-                time: 0.0,
-                dt: 1e-3,
-                iteration: 1,
-                correction: Some(0.5),
-                sweeps: 3,
-                contacts: 2,
-                switching: None,
-                fraction: None,
-                refreshed: None,
-                refreshed_grains: None,
-                end: None,
-            }
+            NewtonRecord::iteration((1, 0.0, 1e-3), 1, 0.5, 3, 2)
         });
         assert_eq!(built, 0, "no record is built without a sink");
         let got = Arc::new(Mutex::new(Vec::new()));
