@@ -203,3 +203,127 @@ fn a_state_that_does_not_fit_the_scene_is_rejected_with_its_fields() {
         assert!(fields.contains(&want), "no violation of {want}: {violations:?}");
     }
 }
+
+/// The CI soft compaction (`scenes/mpm_compaction_2d.json`) with elastoplastic grains (σ_y
+/// 0.4 MPa, H 1 MPa, so that the points' plastic history matters), or the same scene started
+/// from `start`.
+fn soft_compaction(start: Option<Value>) -> sable_engine::scene::Scene {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json");
+    let mut scene: Value = serde_json::from_str(&std::fs::read_to_string(path).expect("scene file")).expect("json");
+    scene["materials"]["rubber"]["deformable"] =
+        json!({"law": "elastoplastic", "young_modulus": 1.0e7, "poisson_ratio": 0.45, "yield_stress": 4.0e5, "hardening": 1.0e6});
+    if let Some(state) = start {
+        scene["start_from"] = json!({"state": state});
+        scene["particles"] = json!([]);
+        scene["container"].as_object_mut().expect("container").retain(|k, _| k != "min" && k != "max");
+    }
+    common::scene(scene)
+}
+
+/// What the restored run and the run that saved its state must agree on: packing fraction, the
+/// stored energy (which depends on every point's deformation gradient and plastic history), the
+/// grains' mean aspect ratio and the top wall's stress.
+fn soft_measures(s: &Sample) -> [f64; 4] {
+    let d = s.deformable.as_ref().expect("deformable sample");
+    let top = s.walls.iter().find(|w| w.name == "y_max").expect("top wall");
+    [s.phi, s.elastic_energy, d.mean_aspect_ratio, top.normal_stress]
+}
+
+/// A state saved by `mpm` past jamming holds its material points: a run started from it begins
+/// with exactly the saved grains (packing fraction, stored energy and shape to rounding) and
+/// follows the run that saved it. The two differ only in what the state does not keep (the
+/// contact impulses the first solve starts from, the matrices Newton keeps), which moves the
+/// converged iterate within the solver's and Newton's tolerances: measured over the next 10
+/// steps, Φ within 1e-7 and the stored energy, the shape and the top wall's stress within 2e-4
+/// (the first step) and 2e-5 (the tenth). Such differences are amplified where the packing
+/// rearranges (1e-3 twenty steps on), so the test stops at 10 steps: Φ within 1e-5, the rest
+/// within 1e-3. A point's history or outline restored wrong shows at once, in the first
+/// comparison (exact) or the first step.
+#[test]
+fn an_mpm_state_goes_on_from_its_material_points() {
+    let scene = soft_compaction(None);
+    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    while sim.packing_fraction() < 0.86 {
+        sim.step().expect("stable");
+    }
+    let saved = sim.sample().expect("sample");
+    let text = serde_json::to_string(&sim.saved_state()).expect("state to JSON");
+    let state: Value = serde_json::from_str(&text).expect("state from JSON");
+    let points = &state["material_points"];
+    assert!(points["plastic_strain"].as_array().expect("points").iter().any(|a| a.as_f64() > Some(0.0)), "no point yielded");
+    let mut restored = sable_engine::methods::build(&soft_compaction(Some(state))).expect("build from the state");
+    let first = restored.sample().expect("sample");
+    let (a, b) = (soft_measures(&saved), soft_measures(&first));
+    for k in 0..3 {
+        assert!((a[k] - b[k]).abs() <= 1e-12 * a[k].abs(), "measure {k}: saved {} restored {}", a[k], b[k]);
+    }
+    for _ in 0..10 {
+        sim.step().expect("stable");
+        restored.step().expect("stable");
+    }
+    let (a, b) = (soft_measures(&sim.sample().expect("sample")), soft_measures(&restored.sample().expect("sample")));
+    eprintln!("after 10 steps: went on {a:?}, restored {b:?}");
+    assert!(a[3] > 1e4, "the top wall carries {} Pa: not past jamming", a[3]);
+    for (k, tolerance) in [1e-5, 1e-3, 1e-3, 1e-3].into_iter().enumerate() {
+        assert!((a[k] - b[k]).abs() <= tolerance * a[k].abs(), "measure {k}: went on {} restored {}", a[k], b[k]);
+    }
+}
+
+/// Without its material points the same state is a packing of disks: `mpm` fills them afresh
+/// (their solid area within the point lattice's error of the disks'), and a rigid method that
+/// starts from a state of deformable grains, or a state whose points break a rule, is refused
+/// with every field named.
+#[test]
+fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
+    let scene = soft_compaction(None);
+    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    for _ in 0..200 {
+        sim.step().expect("stable");
+    }
+    let phi = sim.packing_fraction();
+    let mut state = serde_json::to_value(sim.saved_state()).expect("state");
+    let points = state.as_object_mut().expect("state").remove("material_points").expect("mpm saves its points");
+
+    let fresh = sable_engine::methods::build(&soft_compaction(Some(state.clone()))).expect("build from disks");
+    assert!((fresh.packing_fraction() - phi).abs() < 0.03 * phi, "disks filled afresh: phi {} against {phi}", fresh.packing_fraction());
+
+    let rigid = json!({"dimension": 2, "method": "dem", "materials": {"rubber": {"density": 990.0, "friction": 0.0,
+        "deformable": {"law": "linear_elastic", "young_modulus": 1.0e7, "poisson_ratio": 0.45}}},
+        "start_from": {"state": state.clone()}, "container": {"wall_material": "rubber"}, "stop": {"steps": 10}});
+    let violations = parse_scene(&rigid.to_string()).expect_err("a rigid method on deformable grains");
+    assert!(violations.iter().any(|v| v.field == "start_from.state.materials" && v.rule.contains("deformable")), "{violations:?}");
+
+    let mut bad = points.clone();
+    // Grain 0 gives all but 3 of its points to grain 1 (the total stays).
+    let (c0, c1) = (bad["count"][0].as_u64().expect("count"), bad["count"][1].as_u64().expect("count"));
+    bad["count"][0] = json!(3);
+    bad["count"][1] = json!(c1 + c0 - 3);
+    bad["deformation"][5] = json!([1.0, 0.0, 0.0, -1.0]);
+    bad["plastic_strain"][7] = json!(-0.1);
+    bad["outline_point"][0] = json!(100000);
+    bad["velocity"].as_array_mut().expect("velocity").pop();
+    state["material_points"] = bad;
+    let mut spec: Value = serde_json::from_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json")).expect("scene file"),
+    )
+    .expect("json");
+    spec["start_from"] = json!({"state": state.clone()});
+    spec["particles"] = json!([]);
+    spec["container"].as_object_mut().expect("container").retain(|k, _| k != "min" && k != "max");
+    let violations = parse_scene(&spec.to_string()).expect_err("bad points");
+    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
+    // A length that does not match stops the per-entry rules (their indices would mislead).
+    assert_eq!(fields, ["start_from.state.material_points.velocity"], "{violations:?}");
+    state["material_points"]["velocity"] = points["velocity"].clone();
+    spec["start_from"] = json!({"state": state});
+    let violations = parse_scene(&spec.to_string()).expect_err("bad points");
+    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
+    for want in [
+        "start_from.state.material_points.count[0]",
+        "start_from.state.material_points.deformation[5]",
+        "start_from.state.material_points.plastic_strain[7]",
+        "start_from.state.material_points.outline_point[0]",
+    ] {
+        assert!(fields.contains(&want), "no violation of {want}: {violations:?}");
+    }
+}

@@ -34,7 +34,10 @@ pub(crate) fn initial_particles(scene: &Scene) -> Result<(Particles, Domain), En
             v.x += rate * (x.y - ymid);
         }
     }
-    sort_by_cell(&mut p, &domain);
+    // A state's material points follow its particles' order (`mpm` goes on from them).
+    if scene.initial.as_ref().is_none_or(|st| st.points.is_none()) {
+        sort_by_cell(&mut p, &domain);
+    }
     // A state saved from a sheared Lees-Edwards cell keeps its image offset.
     domain.le_offset = scene.initial.as_ref().map_or(0.0, |st| st.lees_edwards_offset);
     Ok((p, domain))
@@ -304,6 +307,7 @@ pub(crate) fn saved_state(time: Real, steps: u64, domain: &Domain, materials: &[
                 friction: b.friction,
             })
             .collect(),
+        material_points: None,
     };
     // Only the materials the particles use (walls' and unused ones need not exist where the
     // state goes), numbered in order of first use.

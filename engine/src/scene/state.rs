@@ -11,6 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::state_points::{check_points, StatePoints};
 use super::violation::Checker;
 use crate::contact::attraction_lj::AttractionLj;
 use crate::math::{Real, Vec3, AXES};
@@ -59,6 +60,11 @@ pub struct StateFile {
     /// [`StateParticles::aggregate`]; empty: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub bondings: Vec<StateBonding>,
+    /// The grains' material points, when a run of method `mpm` saved the state
+    /// ([`super::state_points`]); a run of `mpm` goes on from them, every other method starts
+    /// from the disks in `particles`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material_points: Option<StatePoints>,
 }
 
 /// The laws between primaries of one aggregate, in a [`StateFile`]
@@ -120,6 +126,9 @@ pub struct InitialState {
     pub aggregate: Vec<u32>,
     /// The laws within each aggregate.
     pub bondings: Vec<Bonding>,
+    /// The grains' material points (checked), in the order of the particles: a run of `mpm`
+    /// goes on from them.
+    pub points: Option<StatePoints>,
 }
 
 impl InitialState {
@@ -245,9 +254,18 @@ pub(crate) fn check_state(
         wet: Vec::new(),
         aggregate: Vec::new(),
         bondings,
+        points: None,
     };
     if !lengths_ok {
         return out;
+    }
+    if let Some(points) = &s.material_points {
+        let field = format!("{path}.material_points");
+        if dim != 2 {
+            c.fail(field, "only in 2D (material points are a plane-strain method's)");
+        } else if ok_box && check_points(c, &field, points, n, [lo.x, lo.y], [hi.x, hi.y]) {
+            out.points = Some(points.clone());
+        }
     }
     {
         let mut rule = ParticleRule { field: format!("{pp}.radius"), seen: 0, c };

@@ -3,7 +3,7 @@
 use super::experiments::{check_experiment, GrainScales};
 use super::model::*;
 use super::spec::*;
-use super::state::{check_state, StateFile};
+use super::state::{check_state, InitialState, StateFile};
 use super::violation::{Checker, Violation};
 use crate::constitutive::LawSpec;
 use crate::contact::attraction_lj::AttractionLj;
@@ -124,7 +124,9 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         })
         .collect();
 
-    let any_deformable = sets.iter().any(|s| materials.get(s.material).is_some_and(|m| m.deformable.is_some()));
+    let deformable = |m: usize| materials.get(m).is_some_and(|m| m.deformable.is_some());
+    let any_deformable =
+        sets.iter().any(|s| deformable(s.material)) || initial.as_ref().is_some_and(|st| st.material.iter().any(|&m| deformable(m)));
     // The soft-grain method the scene runs (or `auto` will pick), if any.
     let soft = match &method {
         Method::Mpm(_) | Method::Fem(_) => Some(method.name()),
@@ -136,7 +138,7 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         Method::Fem(p) => p.time_step.is_some(),
         _ => false,
     };
-    check_deformable_fit(&mut c, spec, (soft, time_step_given), method.name(), dim, &materials, &sets, &container);
+    check_deformable_fit(&mut c, spec, (soft, time_step_given), method.name(), dim, &materials, (&sets, initial.as_deref()), &container);
     // Aggregates of bonded primaries, from a set or the state the scene starts from.
     let aggregates = match sets.iter().position(|s| s.aggregate.is_some()) {
         Some(k) => Some(format!("particles[{k}] are")),
@@ -577,10 +579,33 @@ fn check_deformable_fit(
     method: &str,
     dim: usize,
     materials: &[Material],
-    sets: &[ParticleSet],
+    (sets, initial): (&[ParticleSet], Option<&InitialState>),
     container: &Container,
 ) {
     let name = soft.unwrap_or("mpm");
+    // The grains of a state the scene starts from, by material (the scene's numbering).
+    if let Some(st) = initial {
+        let mut used: Vec<usize> = st.material.clone();
+        used.sort_unstable();
+        used.dedup();
+        for m in used.into_iter().filter_map(|m| materials.get(m)) {
+            let field = "start_from.state.materials";
+            match (soft.is_some(), m.deformable.is_some()) {
+                (true, false) => c.fail(
+                    field,
+                    format!("method {name} needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
+                ),
+                (false, true) => c.fail(
+                    field,
+                    format!("'{}' is deformable: its grains need method mpm or fem (method {method} moves rigid grains)", m.name),
+                ),
+                _ => {}
+            }
+        }
+        if soft.is_some() && st.wet.iter().any(|&w| w) {
+            c.fail("start_from.state.particles.wet", format!("not with method {name} (no capillary law between deformable grains)"));
+        }
+    }
     for (i, set) in sets.iter().enumerate() {
         let Some(m) = materials.get(set.material) else { continue };
         match (soft.is_some(), m.deformable.is_some()) {
@@ -603,9 +628,6 @@ fn check_deformable_fit(
     }
     if dim != 2 {
         c.fail("dimension", format!("method {name} is 2D (plane strain) in this version"));
-    }
-    if spec.start_from.is_some() {
-        c.fail("start_from", format!("not with method {name}: a saved state holds rigid grains, not deformable ones"));
     }
     if container.periodic.iter().any(|&p| p) {
         c.fail("container.periodic", format!("not with method {name}: its grains meet walls only"));

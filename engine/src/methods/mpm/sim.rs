@@ -5,15 +5,17 @@
 //! Grains are placed as rigid disks are (the scene's sizes and placements), then each disk is
 //! filled with points on a square lattice of spacing `h / points_per_cell`, the grid's cell
 //! `h` being the smallest diameter over `cells_per_diameter`. The grid covers the container
-//! with a margin of four cells.
+//! with a margin of four cells. A scene that starts from a state an `mpm` run saved goes on
+//! from its material points instead ([`crate::scene::state_points`]; the cell from the disks
+//! the grains were cut from).
 
 use super::grain::Grain;
 use super::grid::{Grid, V2};
 use super::measure::GrainState;
-use super::outline::Outline;
+use super::outline::{Outline, Vertex};
 use super::points::Points;
 use super::system::{Settings, System};
-use crate::constitutive::{build, ConstitutiveLaw};
+use crate::constitutive::{build, ConstitutiveLaw, History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::Real;
 use crate::methods::soft::contact::Sides;
@@ -24,7 +26,9 @@ use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
+use crate::scene::state_points::StatePoints;
 use crate::scene::{MpmParams, Scene};
+use std::ops::Range;
 
 /// Nodes of margin around the container.
 const MARGIN: usize = 4;
@@ -131,6 +135,10 @@ impl SoftSystem for System {
     fn tracer(&mut self) -> &mut Tracer {
         &mut self.tracer
     }
+
+    fn saved_points(&self) -> Option<StatePoints> {
+        Some(saved_points(self))
+    }
 }
 
 /// Builds the method on a validated 2D scene whose grains are all deformable.
@@ -139,7 +147,11 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
         return Err(EngineError::Build { field: "dimension".into(), reason: "method mpm is 2D (plane strain)".into() });
     }
     let (particles, domain) = world::initial_particles(scene)?;
-    let dmin = particles.radius.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
+    let saved = scene.initial.as_ref().and_then(|st| st.points.as_ref());
+    // The grid's cell comes from the disks the grains were cut from (a saved state's grains
+    // have deformed since).
+    let radii = saved.map_or(&particles.radius, |s| &s.radius0);
+    let dmin = radii.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
     let h = dmin / params.cells_per_diameter;
     let spacing = h / params.points_per_cell as Real;
     // One law per deformable material.
@@ -161,6 +173,11 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
                 reason: format!("grain {k}'s material is not deformable: method mpm needs deformable grains"),
             });
         };
+        if let Some(saved) = saved {
+            let (range, outline) = restore_grain(&mut points, saved, k);
+            grains.push(Grain { points: range, law, friction: mat.friction, radius: saved.radius0[k], outline });
+            continue;
+        }
         let c = particles.pos[k];
         let range =
             points.fill_disk(V2::new(c.x, c.y), particles.radius[k], spacing, V2::new(particles.vel[k].x, particles.vel[k].y), mat.density);
@@ -211,8 +228,65 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             Sides::One
         },
     };
-    let sys = System::new(grid, points, grains, laws, planes, settings);
+    let mut sys = System::new(grid, points, grains, laws, planes, settings);
+    if let Some(saved) = saved {
+        sys.splitting.resume(saved.split_depth, saved.split_calm);
+    }
     SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.threads)
+}
+
+/// Grain `k`'s points and outline from a saved state (checked: its arrays agree), appended to
+/// `points`.
+fn restore_grain(points: &mut Points, saved: &StatePoints, k: usize) -> (Range<usize>, Outline) {
+    let at = |counts: &[u32]| counts[..k].iter().map(|&c| c as usize).sum::<usize>();
+    let (first, vertex) = (at(&saved.count), at(&saved.outline_count));
+    let start = points.len();
+    for i in first..first + saved.count[k] as usize {
+        let v2 = |v: &[f64]| V2::new(v[0], v[1]);
+        let (f, c) = (&saved.deformation[i], &saved.plastic[i]);
+        points.mass.push(saved.mass[i]);
+        points.vol0.push(saved.area0[i]);
+        points.side0.push(saved.side0[i]);
+        points.x.push(v2(&saved.position[i]));
+        points.v.push(v2(&saved.velocity[i]));
+        points.f.push(Mat2::new(f[0], f[1], f[2], f[3]));
+        points.history.push(History { inv_plastic: PlaneSym { xx: c[0], xy: c[1], yy: c[2], zz: c[3] }, alpha: saved.plastic_strain[i] });
+    }
+    let vertices = (vertex..vertex + saved.outline_count[k] as usize)
+        .map(|j| {
+            let o = &saved.outline_offset[j];
+            Vertex { point: (start + saved.outline_point[j] as usize) as u32, offset: V2::new(o[0], o[1]) }
+        })
+        .collect();
+    (start..points.len(), Outline { vertices })
+}
+
+/// The grains' material points as a saved state holds them ([`StatePoints`]).
+pub(crate) fn saved_points(sys: &System) -> StatePoints {
+    let p = &sys.points;
+    let mut s = StatePoints {
+        count: sys.grains.iter().map(|g| g.points.len() as u32).collect(),
+        radius0: sys.grains.iter().map(|g| g.radius).collect(),
+        mass: p.mass.clone(),
+        area0: p.vol0.clone(),
+        side0: p.side0.clone(),
+        position: p.x.iter().map(|x| vec![x.x, x.y]).collect(),
+        velocity: p.v.iter().map(|v| vec![v.x, v.y]).collect(),
+        deformation: p.f.iter().map(|f| vec![f[(0, 0)], f[(0, 1)], f[(1, 0)], f[(1, 1)]]).collect(),
+        plastic: p.history.iter().map(|h| vec![h.inv_plastic.xx, h.inv_plastic.xy, h.inv_plastic.yy, h.inv_plastic.zz]).collect(),
+        plastic_strain: p.history.iter().map(|h| h.alpha).collect(),
+        outline_count: sys.grains.iter().map(|g| g.outline.len() as u32).collect(),
+        split_depth: sys.splitting.level().0,
+        split_calm: sys.splitting.level().1,
+        ..StatePoints::default()
+    };
+    for g in &sys.grains {
+        for v in &g.outline.vertices {
+            s.outline_point.push(v.point - g.points.start as u32);
+            s.outline_offset.push(vec![v.offset.x, v.offset.y]);
+        }
+    }
+    s
 }
 
 impl Mpm {

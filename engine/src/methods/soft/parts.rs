@@ -121,6 +121,19 @@ pub struct Splitting {
 }
 
 impl Splitting {
+    /// The level the next step starts at (`2^depth` parts) and the steps since the last failure
+    /// there: what a saved state keeps so that a run started from it splits its steps alike.
+    pub fn level(&self) -> (u32, u32) {
+        (self.depth, self.calm)
+    }
+
+    /// Starts the next step at `depth` (at most [`MAX_DEPTH`]), `calm` steps after the last
+    /// failure there ([`Splitting::level`]).
+    pub fn resume(&mut self, depth: u32, calm: u32) {
+        self.depth = depth.min(MAX_DEPTH);
+        self.calm = calm.min(CALM_STEPS);
+    }
+
     /// Advances `sys` by one step of `dt` (s) as `2^depth` equal parts (module documentation).
     pub fn step<S: StepParts>(&mut self, sys: &mut S, dt: Real) -> Result<StepReport, StepFailure> {
         let start = self.depth;

@@ -27,6 +27,7 @@ use crate::observe::{
 };
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
+use crate::scene::state_points::StatePoints;
 use crate::scene::{Controls, Material, Scene, StateFile, WallMotion};
 
 type V2 = Vector2<Real>;
@@ -78,6 +79,11 @@ pub trait SoftSystem: Send {
     fn suggestion(&self, cause: &InstabilityCause) -> &'static str;
     /// The Newton iterations' trace ([`super::trace`]).
     fn tracer(&mut self) -> &mut Tracer;
+    /// The grains' material points for a saved state, in the order of
+    /// [`SoftSystem::grain_states`] (none: the state holds the grains as disks only).
+    fn saved_points(&self) -> Option<StatePoints> {
+        None
+    }
 }
 
 fn v2(v: &Vec3) -> V2 {
@@ -375,13 +381,16 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
         (self.mean_diameter, self.density)
     }
 
-    /// The grains as rigid disks of their current area (a state holds no mesh or points): a
-    /// rigid-grain run may start from it.
+    /// The grains as disks of their current area, which any method may start from, and the
+    /// system's material points if it has them (a run of `mpm` goes on from those).
     fn saved_state(&self) -> StateFile {
         let grains = self.sys.grain_states();
         let disks = self.disks(&grains);
-        world::saved_state(self.sys.time(), self.sys.steps(), &self.domain, &self.materials, &disks)
+        let mut st = world::saved_state(self.sys.time(), self.sys.steps(), &self.domain, &self.materials, &disks);
+        st.material_points = self.sys.saved_points();
+        st
     }
+
     fn trace_newton(&mut self, sink: NewtonSink) -> bool {
         self.sys.tracer().set(sink);
         true
