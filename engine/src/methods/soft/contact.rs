@@ -261,15 +261,18 @@ impl GrainContacts {
         nalgebra::Matrix2::new(at(2 * k, 2 * l), at(2 * k, 2 * l + 1), at(2 * k + 1, 2 * l), at(2 * k + 1, 2 * l + 1))
     }
 
-    /// Adds to the samples' velocities what an impulse `p` at sample `l` does to them.
+    /// Adds to the samples' velocities what an impulse `p` at sample `l` does to them: the
+    /// columns of sample `l` in [`GrainContacts::inverse`], read as its rows (the matrix is
+    /// symmetric, built so to the last bit). Read down the columns, a stride of a row apart,
+    /// this was two thirds of a dense plastic compaction's time (the contact sweeps' `visit`
+    /// and `carry`); along the rows the same sums come out bit for bit.
     #[inline(always)]
     pub fn apply(&mut self, l: usize, p: &V2) {
         let n = 2 * self.samples.len();
-        let (c0, c1) = (2 * l, 2 * l + 1);
-        for (k, u) in self.u.iter_mut().enumerate() {
-            let (r0, r1) = (2 * k * n, (2 * k + 1) * n);
-            u.x += self.inverse[r0 + c0] * p.x + self.inverse[r0 + c1] * p.y;
-            u.y += self.inverse[r1 + c0] * p.x + self.inverse[r1 + c1] * p.y;
+        let (row0, row1) = self.inverse[2 * l * n..(2 * l + 2) * n].split_at(n);
+        for ((u, a), b) in self.u.iter_mut().zip(row0.chunks_exact(2)).zip(row1.chunks_exact(2)) {
+            u.x += a[0] * p.x + b[0] * p.y;
+            u.y += a[1] * p.x + b[1] * p.y;
         }
     }
 
