@@ -8,9 +8,10 @@
 //! side when placed, position, velocity, deformation gradient and constitutive history (the
 //! inverse plastic right Cauchy-Green tensor and the equivalent plastic strain), and each
 //! grain's outline (the points its vertices ride on, and their offsets), and the level the run
-//! split its steps at. The contact impulses of the last step are not kept: the new run's
-//! first contact solve starts from none, so it is not a bitwise continuation of the one that
-//! saved the state.
+//! split its steps at, and the contact impulses of the last step that the next one's solve
+//! starts from. A run started from the state goes on as the saving run would have, bit for bit
+//! (`tests/tests/saved_state.rs`); only the energy balance starts afresh (the work done before
+//! is not kept).
 
 use serde::{Deserialize, Serialize};
 
@@ -61,6 +62,27 @@ pub struct StatePoints {
     /// Steps done at `split_depth` without a failure.
     #[serde(default)]
     pub split_calm: u32,
+    /// The contacts' impulses of the saving run's last step, which the next step's contact
+    /// solve starts from (its warm start): with them, and the rest above, the new run goes on
+    /// as the saving run would have, bit for bit.
+    #[serde(default)]
+    pub impulses: Vec<StateImpulse>,
+}
+
+/// One contact's impulse in a saved state ([`StatePoints::impulses`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateImpulse {
+    /// The grain whose outline's vertex the contact is measured from.
+    pub grain: u32,
+    /// That vertex, numbered along the grain's outline.
+    pub vertex: u32,
+    /// The other side: a grain's index, that index plus 2³² for the second side of a reflex
+    /// corner of its outline, or `−1 − w` for wall `w`.
+    pub other: i64,
+    /// The impulse over the step's last part in the contact's frame `[normal, tangent]`,
+    /// N·s/m.
+    pub impulse: Vec<f64>,
 }
 
 /// Reports the first violations of an array's rule, then how many more there were.
@@ -187,6 +209,16 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
                 rule.fail(i, "must have a positive determinant (an inverted point cannot go on)".to_string());
             } else if name == "plastic" && !(v[0] > 0.0 && v[0] * v[2] - v[1] * v[1] > 0.0 && v[3] > 0.0) {
                 rule.fail(i, "must be positive definite".to_string());
+            }
+        }
+    }
+    {
+        let mut rule = Rule { field: format!("{path}.impulses"), seen: 0, c };
+        for (i, e) in s.impulses.iter().enumerate() {
+            if e.grain as usize >= grains {
+                rule.fail(i, format!("grain must number a particle of the state (0..{grains}), got {}", e.grain));
+            } else if e.impulse.len() != 2 || e.impulse.iter().any(|x| !x.is_finite()) {
+                rule.fail(i, format!("impulse must be 2 finite numbers (normal, tangent), got {:?}", e.impulse));
             }
         }
     }

@@ -17,7 +17,7 @@ use super::points::Points;
 use super::system::{Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw, History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::parts::Cost;
@@ -26,7 +26,7 @@ use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
-use crate::scene::state_points::StatePoints;
+use crate::scene::state_points::{StateImpulse, StatePoints};
 use crate::scene::{MpmParams, Scene};
 use std::ops::Range;
 
@@ -231,6 +231,8 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     let mut sys = System::new(grid, points, grains, laws, planes, settings);
     if let Some(saved) = saved {
         sys.splitting.resume(saved.split_depth, saved.split_calm);
+        sys.warm
+            .restore(saved.impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
     }
     SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.threads)
 }
@@ -278,6 +280,12 @@ pub(crate) fn saved_points(sys: &System) -> StatePoints {
         outline_count: sys.grains.iter().map(|g| g.outline.len() as u32).collect(),
         split_depth: sys.splitting.level().0,
         split_calm: sys.splitting.level().1,
+        impulses: sys
+            .warm
+            .entries()
+            .into_iter()
+            .map(|((vertex, grain, other), r)| StateImpulse { grain, vertex: vertex as u32, other, impulse: vec![r.x, r.y] })
+            .collect(),
         ..StatePoints::default()
     };
     for g in &sys.grains {

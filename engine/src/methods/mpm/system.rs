@@ -152,7 +152,8 @@ pub struct System {
     sides: Vec<GrainContacts>,
     /// The contact solves' measure of their change (kept between solves).
     metric: Metric,
-    warm: Warm,
+    /// The contacts' impulses of the last step, which the next one's solve starts from.
+    pub warm: Warm,
     nlgs: Nlgs,
     /// Each grain's outline at the step's start, and where an iterate moves it (scratch kept
     /// between steps).

@@ -681,6 +681,19 @@ impl Warm {
     pub fn start(&self, contact: &VertexContact) -> Vec3 {
         self.0.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros)
     }
+
+    /// Every kept impulse with its key ([`VertexContact::key`]), in the keys' order (a saved
+    /// state's).
+    pub fn entries(&self) -> Vec<((usize, u32, i64), Vec3)> {
+        let mut all: Vec<_> = self.0.iter().map(|(k, r)| (*k, *r)).collect();
+        all.sort_unstable_by_key(|e| e.0);
+        all
+    }
+
+    /// Keeps `entries` ([`Warm::entries`]) for the next step.
+    pub fn restore(&mut self, entries: impl IntoIterator<Item = ((usize, u32, i64), Vec3)>) {
+        self.0 = entries.into_iter().collect();
+    }
 }
 
 /// The second member of a contact being entered: a grain with the support its place has on
