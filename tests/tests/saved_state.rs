@@ -187,27 +187,27 @@ fn a_state_that_does_not_fit_the_scene_is_rejected_with_its_fields() {
         "stop": {"steps": 10}
     });
     let violations = parse_scene(&scene.to_string()).expect_err("invalid");
-    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
-    for want in [
-        "start_from",
-        "particles",
-        "start_from.job",
-        "container.min",
-        "container.periodic",
-        "start_from.state.dimension",
-        "start_from.state.materials[0]",
-        "start_from.state.particles.radius[1]",
-        "start_from.state.particles.material[1]",
-        "start_from.state.particles.position[1]",
-    ] {
-        assert!(fields.contains(&want), "no violation of {want}: {violations:?}");
-    }
+    assert_fields(
+        &violations,
+        &[
+            "start_from",
+            "particles",
+            "start_from.job",
+            "container.min",
+            "container.periodic",
+            "start_from.state.dimension",
+            "start_from.state.materials[0]",
+            "start_from.state.particles.radius[1]",
+            "start_from.state.particles.material[1]",
+            "start_from.state.particles.position[1]",
+        ],
+    );
 }
 
 /// The CI soft compaction (`scenes/mpm_compaction_2d.json`) with elastoplastic grains (σ_y
 /// 0.4 MPa, H 1 MPa, so that the points' plastic history matters), or the same scene started
-/// from `start`.
-fn soft_compaction(start: Option<Value>) -> sable_engine::scene::Scene {
+/// from `start`, as JSON.
+fn soft_compaction_json(start: Option<Value>) -> Value {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json");
     let mut scene: Value = serde_json::from_str(&std::fs::read_to_string(path).expect("scene file")).expect("json");
     scene["materials"]["rubber"]["deformable"] =
@@ -217,7 +217,20 @@ fn soft_compaction(start: Option<Value>) -> sable_engine::scene::Scene {
         scene["particles"] = json!([]);
         scene["container"].as_object_mut().expect("container").retain(|k, _| k != "min" && k != "max");
     }
-    common::scene(scene)
+    scene
+}
+
+/// [`soft_compaction_json`], parsed.
+fn soft_compaction(start: Option<Value>) -> sable_engine::scene::Scene {
+    common::scene(soft_compaction_json(start))
+}
+
+/// Asserts that `violations` name every field of `want`.
+fn assert_fields(violations: &[sable_engine::scene::Violation], want: &[&str]) {
+    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
+    for w in want {
+        assert!(fields.contains(w), "no violation of {w}: {violations:?}");
+    }
 }
 
 /// What the restored run and the run that saved its state must agree on: packing fraction, the
@@ -300,13 +313,7 @@ fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
     bad["impulses"] = json!([{"grain": 0, "vertex": 0, "other": 1, "impulse": [1.0]}]);
     bad["velocity"].as_array_mut().expect("velocity").pop();
     state["material_points"] = bad;
-    let mut spec: Value = serde_json::from_str(
-        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json")).expect("scene file"),
-    )
-    .expect("json");
-    spec["start_from"] = json!({"state": state.clone()});
-    spec["particles"] = json!([]);
-    spec["container"].as_object_mut().expect("container").retain(|k, _| k != "min" && k != "max");
+    let mut spec = soft_compaction_json(Some(state.clone()));
     let violations = parse_scene(&spec.to_string()).expect_err("bad points");
     let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
     // A length that does not match stops the per-entry rules (their indices would mislead).
@@ -314,14 +321,14 @@ fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
     state["material_points"]["velocity"] = points["velocity"].clone();
     spec["start_from"] = json!({"state": state});
     let violations = parse_scene(&spec.to_string()).expect_err("bad points");
-    let fields: Vec<&str> = violations.iter().map(|v| v.field.as_str()).collect();
-    for want in [
-        "start_from.state.material_points.count[0]",
-        "start_from.state.material_points.deformation[5]",
-        "start_from.state.material_points.plastic_strain[7]",
-        "start_from.state.material_points.outline_point[0]",
-        "start_from.state.material_points.impulses[0]",
-    ] {
-        assert!(fields.contains(&want), "no violation of {want}: {violations:?}");
-    }
+    assert_fields(
+        &violations,
+        &[
+            "start_from.state.material_points.count[0]",
+            "start_from.state.material_points.deformation[5]",
+            "start_from.state.material_points.plastic_strain[7]",
+            "start_from.state.material_points.outline_point[0]",
+            "start_from.state.material_points.impulses[0]",
+        ],
+    );
 }

@@ -12,7 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::state_points::{check_points, StatePoints};
-use super::violation::Checker;
+use super::violation::{Checker, EntryRule};
 use crate::contact::attraction_lj::AttractionLj;
 use crate::math::{Real, Vec3, AXES};
 use crate::particles::aggregate::{Bonding, NO_AGGREGATE};
@@ -21,8 +21,6 @@ use crate::particles::aggregate::{Bonding, NO_AGGREGATE};
 pub const STATE_FORMAT: &str = "sable-state";
 /// Version of the state format written by this engine.
 pub const STATE_VERSION: u32 = 1;
-/// Violations reported per particle array before the rest are summarised.
-const MAX_PARTICLE_VIOLATIONS: usize = 5;
 
 /// A saved state, as written to and read from JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -138,30 +136,6 @@ impl InitialState {
     }
 }
 
-/// Reports the first violations of a per-particle rule, then how many more there were.
-struct ParticleRule<'a> {
-    field: String,
-    seen: usize,
-    c: &'a mut Checker,
-}
-
-impl ParticleRule<'_> {
-    fn fail(&mut self, index: usize, rule: String) {
-        self.seen += 1;
-        if self.seen <= MAX_PARTICLE_VIOLATIONS {
-            self.c.fail(format!("{}[{index}]", self.field), rule);
-        }
-    }
-}
-
-impl Drop for ParticleRule<'_> {
-    fn drop(&mut self) {
-        if self.seen > MAX_PARTICLE_VIOLATIONS {
-            self.c.fail(self.field.clone(), format!("{} more particles break a rule", self.seen - MAX_PARTICLE_VIOLATIONS));
-        }
-    }
-}
-
 fn vec3(v: &[f64]) -> Vec3 {
     let mut out = Vec3::zeros();
     for (k, x) in v.iter().take(3).enumerate() {
@@ -268,7 +242,7 @@ pub(crate) fn check_state(
         }
     }
     {
-        let mut rule = ParticleRule { field: format!("{pp}.radius"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{pp}.radius"), "particles");
         for (i, r) in p.radius.iter().enumerate() {
             if !(r.is_finite() && *r > 0.0) {
                 rule.fail(i, format!("must be > 0, got {r}"));
@@ -276,7 +250,7 @@ pub(crate) fn check_state(
         }
     }
     {
-        let mut rule = ParticleRule { field: format!("{pp}.material"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{pp}.material"), "particles");
         for (i, m) in p.material.iter().enumerate() {
             if *m as usize >= materials.len() {
                 rule.fail(i, format!("must index {path}.materials (0..{}), got {m}", materials.len()));
@@ -287,7 +261,7 @@ pub(crate) fn check_state(
     for (name, arrays, want) in
         [("position", &p.position, dim), ("velocity", &p.velocity, dim), ("angular_velocity", &p.angular_velocity, omega_len)]
     {
-        let mut rule = ParticleRule { field: format!("{pp}.{name}"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{pp}.{name}"), "particles");
         for (i, v) in arrays.iter().enumerate() {
             if v.len() != want {
                 rule.fail(i, format!("must have {want} components, got {}", v.len()));
@@ -297,7 +271,7 @@ pub(crate) fn check_state(
         }
     }
     if ok_box {
-        let mut rule = ParticleRule { field: format!("{pp}.position"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{pp}.position"), "particles");
         for (i, v) in p.position.iter().enumerate() {
             if v.len() == dim && v.iter().all(|x| x.is_finite()) {
                 if let Some(a) = (0..dim).find(|&a| !(v[a] >= lo[a] && if periodic[a] { v[a] < hi[a] } else { v[a] <= hi[a] })) {
@@ -317,7 +291,7 @@ pub(crate) fn check_state(
     out.material = p.material.iter().map(|&m| materials.get(m as usize).copied().unwrap_or(0)).collect();
     out.wet = if p.wet.is_empty() { vec![false; n] } else { p.wet.clone() };
     {
-        let mut rule = ParticleRule { field: format!("{pp}.aggregate"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{pp}.aggregate"), "particles");
         for (i, a) in p.aggregate.iter().enumerate() {
             if a.is_some_and(|a| a as usize >= s.bondings.len()) {
                 rule.fail(i, format!("must index {path}.bondings (0..{}) or be null, got {a:?}", s.bondings.len()));

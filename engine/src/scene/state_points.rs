@@ -15,11 +15,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::violation::Checker;
+use super::violation::{Checker, EntryRule};
 use crate::methods::soft::parts::MAX_DEPTH;
-
-/// Violations reported per array before the rest are summarised.
-const MAX_REPORTED: usize = 5;
 
 /// The material points of a state's grains, in the order of its `particles` (grain `k`'s points
 /// follow grain `k − 1`'s). Vectors are in-plane (2 components); tensors list their
@@ -85,30 +82,6 @@ pub struct StateImpulse {
     pub impulse: Vec<f64>,
 }
 
-/// Reports the first violations of an array's rule, then how many more there were.
-struct Rule<'a> {
-    field: String,
-    seen: usize,
-    c: &'a mut Checker,
-}
-
-impl Rule<'_> {
-    fn fail(&mut self, index: usize, rule: String) {
-        self.seen += 1;
-        if self.seen <= MAX_REPORTED {
-            self.c.fail(format!("{}[{index}]", self.field), rule);
-        }
-    }
-}
-
-impl Drop for Rule<'_> {
-    fn drop(&mut self) {
-        if self.seen > MAX_REPORTED {
-            self.c.fail(self.field.clone(), format!("{} more entries break a rule", self.seen - MAX_REPORTED));
-        }
-    }
-}
-
 /// Checks the points of a state with `grains` particles in the box `[lo, hi]` (2D); `path` is
 /// their field path (`start_from.state.material_points`). True when every rule holds.
 pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains: usize, lo: [f64; 2], hi: [f64; 2]) -> bool {
@@ -153,7 +126,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         return false;
     }
     {
-        let mut rule = Rule { field: format!("{path}.count"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.count"), "entries");
         for (k, &m) in s.count.iter().enumerate() {
             if m < 4 {
                 rule.fail(k, format!("a grain needs at least 4 points, got {m}"));
@@ -161,7 +134,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         }
     }
     {
-        let mut rule = Rule { field: format!("{path}.outline_count"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.outline_count"), "entries");
         for (k, &m) in s.outline_count.iter().enumerate() {
             if m != 0 && m < 3 {
                 rule.fail(k, format!("an outline needs at least 3 vertices (or 0: none), got {m}"));
@@ -169,7 +142,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         }
     }
     for (name, values) in [("radius0", &s.radius0), ("mass", &s.mass), ("area0", &s.area0), ("side0", &s.side0)] {
-        let mut rule = Rule { field: format!("{path}.{name}"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.{name}"), "entries");
         for (i, v) in values.iter().enumerate() {
             if !(v.is_finite() && *v > 0.0) {
                 rule.fail(i, format!("must be > 0, got {v}"));
@@ -177,7 +150,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         }
     }
     {
-        let mut rule = Rule { field: format!("{path}.plastic_strain"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.plastic_strain"), "entries");
         for (i, v) in s.plastic_strain.iter().enumerate() {
             if !(v.is_finite() && *v >= 0.0) {
                 rule.fail(i, format!("must be >= 0, got {v}"));
@@ -194,7 +167,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         ("plastic", &s.plastic, 4),
         ("outline_offset", &s.outline_offset, 2),
     ] {
-        let mut rule = Rule { field: format!("{path}.{name}"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.{name}"), "entries");
         for (i, v) in values.iter().enumerate() {
             if v.len() != want {
                 rule.fail(i, format!("must have {want} components, got {}", v.len()));
@@ -213,7 +186,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         }
     }
     {
-        let mut rule = Rule { field: format!("{path}.impulses"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.impulses"), "entries");
         for (i, e) in s.impulses.iter().enumerate() {
             if e.grain as usize >= grains {
                 rule.fail(i, format!("grain must number a particle of the state (0..{grains}), got {}", e.grain));
@@ -223,7 +196,7 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         }
     }
     {
-        let mut rule = Rule { field: format!("{path}.outline_point"), seen: 0, c };
+        let mut rule = EntryRule::new(c, format!("{path}.outline_point"), "entries");
         let mut at = 0usize;
         for (&points, &vertices) in s.count.iter().zip(&s.outline_count) {
             for i in at..at + vertices as usize {

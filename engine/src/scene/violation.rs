@@ -78,3 +78,39 @@ impl Checker {
         true
     }
 }
+
+/// Violations reported per array of a saved state before the rest are summarised.
+const MAX_ENTRY_VIOLATIONS: usize = 5;
+
+/// Reports the first violations of a rule over the entries of an array (a saved state's
+/// particles or points), then how many more there were: a state of a million bad entries gives
+/// a readable list.
+pub(crate) struct EntryRule<'a> {
+    field: String,
+    what: &'static str,
+    seen: usize,
+    c: &'a mut Checker,
+}
+
+impl<'a> EntryRule<'a> {
+    /// A rule over the array at `field`, whose entries are `what` (plural: "particles").
+    pub(crate) fn new(c: &'a mut Checker, field: String, what: &'static str) -> Self {
+        Self { field, what, seen: 0, c }
+    }
+
+    /// Entry `index` breaks the rule.
+    pub(crate) fn fail(&mut self, index: usize, rule: String) {
+        self.seen += 1;
+        if self.seen <= MAX_ENTRY_VIOLATIONS {
+            self.c.fail(format!("{}[{index}]", self.field), rule);
+        }
+    }
+}
+
+impl Drop for EntryRule<'_> {
+    fn drop(&mut self) {
+        if self.seen > MAX_ENTRY_VIOLATIONS {
+            self.c.fail(self.field.clone(), format!("{} more {} break a rule", self.seen - MAX_ENTRY_VIOLATIONS, self.what));
+        }
+    }
+}
