@@ -165,6 +165,8 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     }
     let mut points = Points::default();
     let mut grains = Vec::with_capacity(particles.len());
+    // Where the next grain's points and outline vertices start in a saved state's arrays.
+    let mut restored = (0usize, 0usize);
     for k in 0..particles.len() {
         let m = particles.material[k] as usize;
         let (Some(law), Some(mat)) = (law_of.get(m).copied().flatten(), scene.materials.get(m)) else {
@@ -174,7 +176,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             });
         };
         if let Some(saved) = saved {
-            let (range, outline) = restore_grain(&mut points, saved, k);
+            let (range, outline) = restore_grain(&mut points, saved, k, &mut restored);
             grains.push(Grain { points: range, law, friction: mat.friction, radius: saved.radius0[k], outline });
             continue;
         }
@@ -238,10 +240,11 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
 }
 
 /// Grain `k`'s points and outline from a saved state (checked: its arrays agree), appended to
-/// `points`.
-fn restore_grain(points: &mut Points, saved: &StatePoints, k: usize) -> (Range<usize>, Outline) {
-    let at = |counts: &[u32]| counts[..k].iter().map(|&c| c as usize).sum::<usize>();
-    let (first, vertex) = (at(&saved.count), at(&saved.outline_count));
+/// `points`; `from`: where grain `k`'s points and outline vertices start in the state's arrays,
+/// moved on to grain `k + 1`'s.
+fn restore_grain(points: &mut Points, saved: &StatePoints, k: usize, from: &mut (usize, usize)) -> (Range<usize>, Outline) {
+    let (first, vertex) = *from;
+    *from = (first + saved.count[k] as usize, vertex + saved.outline_count[k] as usize);
     let start = points.len();
     for i in first..first + saved.count[k] as usize {
         let v2 = |v: &[f64]| V2::new(v[0], v[1]);
