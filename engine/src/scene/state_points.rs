@@ -9,7 +9,7 @@
 //! inverse plastic right Cauchy-Green tensor and the equivalent plastic strain), and each
 //! grain's outline (the points its vertices ride on, and their offsets), and the level the run
 //! split its steps at, and the contact impulses of the last step that the next one's solve
-//! starts from. A run started from the state goes on as the saving run would have, bit for bit
+//! starts from. A run started from the state goes on as the saving run would have, to round-off
 //! (`tests/tests/saved_state.rs`); only the energy balance starts afresh (the work done before
 //! is not kept).
 
@@ -61,7 +61,7 @@ pub struct StatePoints {
     pub split_calm: u32,
     /// The contacts' impulses of the saving run's last step, which the next step's contact
     /// solve starts from (its warm start): with them, and the rest above, the new run goes on
-    /// as the saving run would have, bit for bit.
+    /// as the saving run would have, to round-off.
     #[serde(default)]
     pub impulses: Vec<StateImpulse>,
 }
