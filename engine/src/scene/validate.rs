@@ -583,24 +583,24 @@ fn check_deformable_fit(
     container: &Container,
 ) {
     let name = soft.unwrap_or("mpm");
+    // A soft method needs deformable grains and a rigid one rigid grains.
+    let kind_rule = |c: &mut Checker, field: &str, m: &Material| match (soft.is_some(), m.deformable.is_some()) {
+        (true, false) => c.fail(
+            field,
+            format!("method {name} needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
+        ),
+        (false, true) => {
+            c.fail(field, format!("'{}' is deformable: its grains need method mpm or fem (method {method} moves rigid grains)", m.name))
+        }
+        _ => {}
+    };
     // The grains of a state the scene starts from, by material (the scene's numbering).
     if let Some(st) = initial {
         let mut used: Vec<usize> = st.material.clone();
         used.sort_unstable();
         used.dedup();
         for m in used.into_iter().filter_map(|m| materials.get(m)) {
-            let field = "start_from.state.materials";
-            match (soft.is_some(), m.deformable.is_some()) {
-                (true, false) => c.fail(
-                    field,
-                    format!("method {name} needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
-                ),
-                (false, true) => c.fail(
-                    field,
-                    format!("'{}' is deformable: its grains need method mpm or fem (method {method} moves rigid grains)", m.name),
-                ),
-                _ => {}
-            }
+            kind_rule(c, "start_from.state.materials", m);
         }
         if soft.is_some() && st.wet.iter().any(|&w| w) {
             c.fail("start_from.state.particles.wet", format!("not with method {name} (no capillary law between deformable grains)"));
@@ -608,17 +608,7 @@ fn check_deformable_fit(
     }
     for (i, set) in sets.iter().enumerate() {
         let Some(m) = materials.get(set.material) else { continue };
-        match (soft.is_some(), m.deformable.is_some()) {
-            (true, false) => c.fail(
-                format!("particles[{i}].material"),
-                format!("method {name} needs deformable grains: give material '{}' a deformable law instead of a contact law", m.name),
-            ),
-            (false, true) => c.fail(
-                format!("particles[{i}].material"),
-                format!("'{}' is deformable: its grains need method mpm or fem (method {method} moves rigid grains)", m.name),
-            ),
-            _ => {}
-        }
+        kind_rule(c, &format!("particles[{i}].material"), m);
         if soft.is_some() && set.wet_fraction > 0.0 {
             c.fail(format!("particles[{i}].wet_fraction"), format!("not with method {name} (no capillary law between deformable grains)"));
         }
