@@ -192,16 +192,26 @@ fn plastic_grains_hold_both_outlines_by_default() {
 /// splitting counted), the iterations and sweeps of the converged parts sum to the method's
 /// totals, a converged part's last correction is within Newton's tolerance (1e-5) and the
 /// earlier ones are not, and the points' switching between elastic and plastic is reported.
+/// The grains whose matrices were damped to make them definite are counted at every
+/// iteration, at most the twelve grains, and an iteration that keeps the matrices keeps the
+/// count of the one before.
 #[test]
 fn the_newton_trace_accounts_for_every_iteration() {
     let (_, cost, records) = plastic_compaction_by_default();
     let (mut newton, mut sweeps, mut parts, mut failed) = (0u64, 0u64, 0u64, std::collections::BTreeMap::<String, u64>::new());
     let mut part: Vec<&sable_engine::methods::soft::trace::NewtonRecord> = Vec::new();
-    let mut switched = 0usize;
+    let (mut switched, mut damped) = (0usize, 0usize);
     for r in records {
         let Some(end) = &r.end else {
             assert_eq!(r.iteration as usize, part.len() + 1, "iterations numbered within a part: {r:?}");
             switched += r.switching.expect("mpm reports switching points");
+            let d = r.damped_grains.expect("mpm reports damped grains");
+            assert!(d <= 12, "{r:?}");
+            if r.refreshed == Some(false) {
+                let before = part.last().expect("the first iteration assembles the matrices");
+                assert_eq!(before.damped_grains, Some(d), "kept matrices, another count: {r:?}");
+            }
+            damped += d;
             part.push(r);
             continue;
         };
@@ -222,7 +232,7 @@ fn the_newton_trace_accounts_for_every_iteration() {
         part.clear();
     }
     eprintln!(
-        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches",
+        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches, {damped} damped grain-iterations",
         records.len()
     );
     assert!(part.is_empty(), "a part without its end record");

@@ -77,6 +77,10 @@ pub struct Field {
     /// Points whose flow changed, elastic to plastic or back, between the last two iterates
     /// (at the step's first iterate: the points that flow).
     pub switches: usize,
+    /// Its current matrix is not Newton's own: the diagonal was scaled, or the points'
+    /// tangents replaced by their positive parts, to make it definite ([`Field::assemble`]).
+    /// While any grain's is, the iterations converge linearly at best.
+    pub damped: bool,
 }
 
 impl Field {
@@ -233,22 +237,24 @@ impl Field {
         sc: &Scheme,
     ) -> Result<(), Option<PointFailure>> {
         self.assemble_matrix(pts, range.clone(), law, sc, false)?;
+        if self.matrix.factorise().is_ok() {
+            self.damped = false;
+            return Ok(());
+        }
+        self.damped = true;
         if self.factorise_damped() {
             return Ok(());
         }
         self.assemble_matrix(pts, range, law, sc, true)?;
-        if self.factorise_damped() {
+        if self.matrix.factorise().is_ok() || self.factorise_damped() {
             return Ok(());
         }
         Err(None)
     }
 
-    /// Factorises the assembled matrix, then with its diagonal scaled by `1 + ε` for growing
-    /// ε ([`Field::assemble`]); whether one of them is positive definite.
+    /// Factorises the assembled matrix with its diagonal scaled by `1 + ε` for growing ε
+    /// ([`Field::assemble`]); whether one of them is positive definite.
     fn factorise_damped(&mut self) -> bool {
-        if self.matrix.factorise().is_ok() {
-            return true;
-        }
         for damping in [1e-3, 1e-2, 1e-1, 1.0] {
             self.matrix.restore(&self.assembled);
             self.matrix.scale_diagonal(damping);

@@ -356,11 +356,13 @@ impl System {
             let relative = correction / scale.max(Real::MIN_POSITIVE);
             if self.tracer.on() {
                 let switching = self.fields.iter().map(|f| f.switches).sum();
+                let damped = self.fields.iter().filter(|f| f.damped).count();
                 let part = (self.steps + 1, self.time, sc.dt);
                 self.tracer.emit(|| NewtonRecord {
                     switching: Some(switching),
                     fraction: Some(fraction),
                     refreshed: Some(refresh),
+                    damped_grains: Some(damped),
                     ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
                 });
             }

@@ -44,6 +44,11 @@ pub struct NewtonRecord {
     /// `fem`: grains whose matrices the iteration assembled anew.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refreshed_grains: Option<usize>,
+    /// `mpm`: grains whose current matrix is not Newton's own (its diagonal scaled, or its
+    /// points' tangents replaced by their positive parts, to make it definite); while any
+    /// is, the iterations converge linearly at best.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damped_grains: Option<usize>,
     /// On the record that ends a part: `"converged"`, or the failure's kind and message.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub end: Option<String>,
@@ -66,6 +71,7 @@ impl NewtonRecord {
             fraction: None,
             refreshed: None,
             refreshed_grains: None,
+            damped_grains: None,
             end: None,
         }
     }
