@@ -45,6 +45,11 @@ pub enum InstabilityCause {
         correction: f64,
         /// Its tolerance.
         tolerance: f64,
+        /// The grain whose correction was the largest at the last iteration, when known.
+        grain: Option<usize>,
+        /// That grain's matrix was not Newton's own but damped to make it definite (`mpm`:
+        /// the iterations then converge linearly at best).
+        damped: bool,
     },
     /// A material point of a deformable grain turned inside out (`J = det F <= 0`) or left the
     /// domain its constitutive law is defined on.
@@ -134,10 +139,17 @@ impl std::fmt::Display for InstabilityCause {
                 f,
                 "the contact solver did not converge in {iterations} iterations (relative change over the last sweep {change:.2e}, tolerance {tolerance:.1e}; mean violation {violation:.2e}, tolerance {violation_tolerance:.1e}; largest violation {worst:.2e} of the radius per step, tolerance {worst_tolerance:.1e})"
             ),
-            Self::NewtonBudget { iterations, correction, tolerance } => write!(
-                f,
-                "the Newton iterations did not converge in {iterations} iterations (last velocity correction {correction:.2e} of the velocity scale, tolerance {tolerance:.1e})"
-            ),
+            Self::NewtonBudget { iterations, correction, tolerance, grain, damped } => {
+                write!(
+                    f,
+                    "the Newton iterations did not converge in {iterations} iterations (last velocity correction {correction:.2e} of the velocity scale, tolerance {tolerance:.1e}"
+                )?;
+                match (grain, damped) {
+                    (Some(g), true) => write!(f, "; the largest is grain {g}'s, whose matrix was damped to make it definite)"),
+                    (Some(g), false) => write!(f, "; the largest is grain {g}'s)"),
+                    (None, _) => write!(f, ")"),
+                }
+            }
             Self::Inverted { grain, point, jacobian } => {
                 write!(f, "material point {point} of grain {grain} inverted (det F = {jacobian:.3e})")
             }

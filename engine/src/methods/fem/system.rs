@@ -69,7 +69,7 @@ use crate::methods::soft::contact::{
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
 use crate::methods::soft::trace::{NewtonRecord, Tracer};
-use crate::methods::soft::{Scheme, REFRESH_RATIO};
+use crate::methods::soft::{largest, Scheme, REFRESH_RATIO};
 use crate::nscd::{Convergence, Nlgs};
 
 type V2 = Vector2<Real>;
@@ -126,7 +126,9 @@ fn body_failure(grain: usize, f: BodyFailure, tolerance: Real) -> StepFailure {
             InstabilityCause::InvertedElement { grain, element, jacobian }
         }
         BodyFailure::NotPositiveDefinite => InstabilityCause::NotPositiveDefinite { grain },
-        BodyFailure::NewtonBudget { iterations, correction } => InstabilityCause::NewtonBudget { iterations, correction, tolerance },
+        BodyFailure::NewtonBudget { iterations, correction } => {
+            InstabilityCause::NewtonBudget { iterations, correction, tolerance, grain: Some(grain), damped: false }
+        }
     })
 }
 
@@ -393,7 +395,14 @@ impl System {
             self.nlgs.settings.tolerance = (contact::FORCING * relative).clamp(1e-12, self.settings.contact.tolerance);
             last = relative;
         }
-        Err(fail(InstabilityCause::NewtonBudget { iterations: self.settings.max_newton, correction: last, tolerance }))
+        let grain = largest(self.pace.iter().map(|p| p.correction));
+        Err(fail(InstabilityCause::NewtonBudget {
+            iterations: self.settings.max_newton,
+            correction: last,
+            tolerance,
+            grain,
+            damped: false,
+        }))
     }
 
     /// Each grain's boundary at the step's start, and the step's contacts (module

@@ -81,6 +81,8 @@ pub struct Field {
     /// tangents replaced by their positive parts, to make it definite ([`Field::assemble`]).
     /// While any grain's is, the iterations converge linearly at best.
     pub damped: bool,
+    /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
+    pub last_correction: Real,
 }
 
 impl Field {

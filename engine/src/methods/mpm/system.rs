@@ -51,7 +51,7 @@ use crate::math::Real;
 use crate::methods::soft::parts::{fail, Splitting, StepParts};
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
 use crate::methods::soft::trace::{NewtonRecord, Tracer};
-use crate::methods::soft::REFRESH_RATIO;
+use crate::methods::soft::{largest, REFRESH_RATIO};
 use crate::nscd::{Convergence, Nlgs, NlgsReport};
 
 /// The Newton iterations of a step that measure the contacts' drifts at their iterate; later
@@ -375,11 +375,7 @@ impl System {
             if stall_check && fresh_in_a_row >= 2 && it >= STALL_AFTER && rate > STALL_RATIO {
                 let needed = if rate < 1.0 { (self.settings.newton_tolerance / relative).ln() / rate.ln() } else { Real::INFINITY };
                 if Real::from(it) + needed > Real::from(self.settings.max_newton) {
-                    return Err(fail(InstabilityCause::NewtonBudget {
-                        iterations: it,
-                        correction: relative,
-                        tolerance: self.settings.newton_tolerance,
-                    }));
+                    return Err(fail(self.newton_budget(it, relative)));
                 }
             }
             // Points switching between elastic and plastic while the correction does not
@@ -399,11 +395,7 @@ impl System {
             last = relative;
         }
         if !converged {
-            return Err(fail(InstabilityCause::NewtonBudget {
-                iterations: self.settings.max_newton,
-                correction: last,
-                tolerance: self.settings.newton_tolerance,
-            }));
+            return Err(fail(self.newton_budget(self.settings.max_newton, last)));
         }
         // 4. The points.
         self.move_points(&sc)?;
@@ -421,6 +413,14 @@ impl System {
         self.warm.remember(&self.contacts);
         self.time += sc.dt;
         Ok(report)
+    }
+
+    /// Newton's budget spent after `iterations` with the last relative `correction`, naming
+    /// the grain whose correction was the largest and whether its matrix was damped.
+    fn newton_budget(&self, iterations: u32, correction: Real) -> InstabilityCause {
+        let grain = largest(self.fields.iter().map(|f| f.last_correction));
+        let damped = grain.is_some_and(|g| self.fields[g].damped);
+        InstabilityCause::NewtonBudget { iterations, correction, tolerance: self.settings.newton_tolerance, grain, damped }
     }
 
     /// Finds the contacts of the step, their frames, gaps, laws and warm starts, and each
@@ -617,6 +617,7 @@ impl System {
                         m += f.mass[i];
                     }
                 }
+                f.last_correction = (s / m.max(Real::MIN_POSITIVE)).sqrt();
                 f.correction = dv;
                 (s, m)
             })

@@ -589,3 +589,35 @@ fn switches_count_points_changing_flow_between_iterates() {
     assert_eq!(at(&mut field, 0.05), 0, "the same iterate again: no point switches");
     assert_eq!(at(&mut field, 0.0), range.len(), "back to rest: every point is elastic again");
 }
+
+/// A step that spends Newton's budget names the grain whose correction was the largest: of a
+/// block at rest and a vibrating bar (the bar of
+/// [`the_vibrating_bar_keeps_its_amplitude_and_period`]), with one iteration allowed and a
+/// tolerance of 1e-12, the bar (grain 1); the block's correction is zero. Its matrix is Newton's
+/// own (mass and a positive stiffness), so it is not called damped.
+#[test]
+fn a_newton_failure_names_the_grain_with_the_largest_correction() {
+    let (e, rho, l, v0) = (100.0, 1.0, 25.0, 0.1);
+    let dx = l / 16.0;
+    let beta = std::f64::consts::PI / (2.0 * l);
+    let mut points = Points::default();
+    let block = points.fill_rectangle(V2::new(-l, 4.0 * dx), V2::new(-l + 4.0 * dx, 8.0 * dx), dx / 2.0, |_| V2::zeros(), rho);
+    let bar = points.fill_rectangle(V2::new(-l, 0.0), V2::new(l, dx), dx / 2.0, |x| V2::new(v0 * (beta * x.x).sin(), 0.0), rho);
+    let grid = Grid::covering(V2::new(-l, 0.0), V2::new(l, 8.0 * dx), dx, 4);
+    let grains = vec![
+        Grain { points: block, law: 0, friction: 0.0, radius: 2.0 * dx, outline: Outline::default() },
+        Grain { points: bar, law: 0, friction: 0.0, radius: l, outline: Outline::default() },
+    ];
+    let mut s = settings(0.2 * dx / (e / rho as Real).sqrt());
+    s.max_newton = 1;
+    s.newton_tolerance = 1e-12;
+    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: e, poisson: 0.0 })], vec![], s);
+    let failure = sys.step().expect_err("one iteration cannot reach 1e-12");
+    match failure.cause {
+        crate::error::InstabilityCause::NewtonBudget { grain, damped, .. } => {
+            assert_eq!((grain, damped), (Some(1), false), "{}", failure.cause);
+        }
+        other => panic!("expected Newton's budget, got {other}"),
+    }
+    assert!(failure.cause.to_string().contains("the largest is grain 1's)"), "{}", failure.cause);
+}

@@ -53,3 +53,9 @@ pub fn tests_convergence() -> crate::nscd::Convergence {
         acceleration: 0.0,
     }
 }
+
+/// The index of the largest of `values` (the grain a Newton failure names); `None` when there
+/// are none or all are NaN.
+pub fn largest(values: impl Iterator<Item = Real>) -> Option<usize> {
+    values.enumerate().filter(|(_, v)| !v.is_nan()).max_by(|a, b| a.1.total_cmp(&b.1)).map(|(i, _)| i)
+}
