@@ -194,13 +194,15 @@ fn plastic_grains_hold_both_outlines_by_default() {
 /// earlier ones are not, and the points' switching between elastic and plastic is reported.
 /// The grains whose matrices were damped to make them definite are counted at every
 /// iteration, at most the twelve grains, and an iteration that keeps the matrices keeps the
-/// count of the one before.
+/// count of the one before. Each iteration says whether its correction turned back on the
+/// previous one (never the first), and one that did without shrinking it by 0.9 halves the
+/// fraction the next takes (down to 1/16; `mpm`'s `CYCLE_RATE`, `MIN_FRACTION`).
 #[test]
 fn the_newton_trace_accounts_for_every_iteration() {
     let (_, cost, records) = plastic_compaction_by_default();
     let (mut newton, mut sweeps, mut parts, mut failed) = (0u64, 0u64, 0u64, std::collections::BTreeMap::<String, u64>::new());
     let mut part: Vec<&sable_engine::methods::soft::trace::NewtonRecord> = Vec::new();
-    let (mut switched, mut damped) = (0usize, 0usize);
+    let (mut switched, mut damped, mut reversed) = (0usize, 0usize, 0usize);
     for r in records {
         let Some(end) = &r.end else {
             assert_eq!(r.iteration as usize, part.len() + 1, "iterations numbered within a part: {r:?}");
@@ -212,6 +214,16 @@ fn the_newton_trace_accounts_for_every_iteration() {
                 assert_eq!(before.damped_grains, Some(d), "kept matrices, another count: {r:?}");
             }
             damped += d;
+            let turned = r.reversed.expect("mpm reports reversals");
+            assert!(!(turned && r.iteration == 1), "the first iteration has nothing to turn back on: {r:?}");
+            reversed += usize::from(turned);
+            if let [.., before2, before] = part.as_slice() {
+                let rate = before.correction.unwrap_or(0.0) / before2.correction.unwrap_or(f64::INFINITY);
+                if before.reversed == Some(true) && rate >= 0.9 {
+                    let halved = (0.5 * before.fraction.unwrap_or(1.0)).max(1.0 / 16.0);
+                    assert_eq!(r.fraction, Some(halved), "after a reversal at rate {rate}: {r:?}");
+                }
+            }
             part.push(r);
             continue;
         };
@@ -232,7 +244,7 @@ fn the_newton_trace_accounts_for_every_iteration() {
         part.clear();
     }
     eprintln!(
-        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches, {damped} damped grain-iterations",
+        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches, {damped} damped grain-iterations, {reversed} reversals",
         records.len()
     );
     assert!(part.is_empty(), "a part without its end record");

@@ -83,6 +83,9 @@ pub struct Field {
     pub damped: bool,
     /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
     pub last_correction: Real,
+    /// The grain's whole Newton correction of the previous iteration of the step (two entries
+    /// a node, m/s; empty at the step's first), to tell a correction that turns back on it.
+    pub previous: Vec<Real>,
 }
 
 impl Field {
@@ -132,7 +135,7 @@ impl Field {
             + self.history_new.capacity() * std::mem::size_of::<History>()
             + self.matrix.heap_bytes()
             + self.assembled.capacity() * std::mem::size_of::<Real>()
-            + self.correction.capacity() * std::mem::size_of::<Real>()
+            + (self.correction.capacity() + self.previous.capacity()) * std::mem::size_of::<Real>()
             + self.plastic.capacity()
     }
 
@@ -173,6 +176,7 @@ impl Field {
         self.f_new.clear();
         self.history_new.clear();
         self.plastic.clear();
+        self.previous.clear();
         for (k, p) in range.enumerate() {
             let s = self.stencils[k];
             let nodes = self.stencil_nodes(&s);

@@ -49,6 +49,10 @@ pub struct NewtonRecord {
     /// is, the iterations converge linearly at best.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damped_grains: Option<usize>,
+    /// `mpm`: the iteration's correction turned back on the previous one (their mass-weighted
+    /// cosine below −½), the mark of a two-cycle that only a partial correction breaks.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reversed: Option<bool>,
     /// On the record that ends a part: `"converged"`, or the failure's kind and message.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub end: Option<String>,
@@ -72,6 +76,7 @@ impl NewtonRecord {
             refreshed: None,
             refreshed_grains: None,
             damped_grains: None,
+            reversed: None,
             end: None,
         }
     }
