@@ -195,14 +195,19 @@ fn plastic_grains_hold_both_outlines_by_default() {
 /// The grains whose matrices were damped to make them definite are counted at every
 /// iteration, at most the twelve grains, and an iteration that keeps the matrices keeps the
 /// count of the one before. Each iteration says whether its correction turned back on the
-/// previous one (never the first), and one that did without shrinking it by 0.9 halves the
-/// fraction the next takes (down to 1/16; `mpm`'s `CYCLE_RATE`, `MIN_FRACTION`).
+/// previous one (never the first). The fraction of the correction each iteration takes follows
+/// `mpm`'s rule (`CYCLE_RATE`, `REVERSAL`, `MIN_FRACTION`): halved (down to 1/16) after one
+/// that shrank the correction by less than 0.9 while points switched or, in the deepest split,
+/// while it turned back; doubled (up to 1) after one that shrank it below 0.6; else kept.
 #[test]
 fn the_newton_trace_accounts_for_every_iteration() {
     let (_, cost, records) = plastic_compaction_by_default();
     let (mut newton, mut sweeps, mut parts, mut failed) = (0u64, 0u64, 0u64, std::collections::BTreeMap::<String, u64>::new());
     let mut part: Vec<&sable_engine::methods::soft::trace::NewtonRecord> = Vec::new();
-    let (mut switched, mut damped, mut reversed) = (0usize, 0usize, 0usize);
+    let (mut switched, mut damped, mut reversed, mut halved_on_reversal) = (0usize, 0usize, 0usize, 0usize);
+    // The parts of the deepest split, the last chance ([`sable_engine::methods::soft::parts`]).
+    let longest = records.iter().map(|r| r.dt).fold(0.0, f64::max);
+    let deepest = longest / f64::from(1u32 << sable_engine::methods::soft::parts::MAX_DEPTH);
     for r in records {
         let Some(end) = &r.end else {
             assert_eq!(r.iteration as usize, part.len() + 1, "iterations numbered within a part: {r:?}");
@@ -218,11 +223,20 @@ fn the_newton_trace_accounts_for_every_iteration() {
             assert!(!(turned && r.iteration == 1), "the first iteration has nothing to turn back on: {r:?}");
             reversed += usize::from(turned);
             if let [.., before2, before] = part.as_slice() {
+                // The fraction the iteration after `before` takes.
                 let rate = before.correction.unwrap_or(0.0) / before2.correction.unwrap_or(f64::INFINITY);
-                if before.reversed == Some(true) && rate >= 0.9 {
-                    let halved = (0.5 * before.fraction.unwrap_or(1.0)).max(1.0 / 16.0);
-                    assert_eq!(r.fraction, Some(halved), "after a reversal at rate {rate}: {r:?}");
-                }
+                let was = before.fraction.expect("mpm reports the fraction");
+                let last_chance = r.dt <= deepest * (1.0 + 1e-12);
+                let cycle = before.switching.unwrap_or(0) > 0 || (before.reversed == Some(true) && last_chance);
+                let expected = if rate >= 0.9 && cycle {
+                    (0.5 * was).max(1.0 / 16.0)
+                } else if rate < 0.6 {
+                    (2.0 * was).min(1.0)
+                } else {
+                    was
+                };
+                assert_eq!(r.fraction, Some(expected), "after rate {rate}, last chance {last_chance}: {before:?} then {r:?}");
+                halved_on_reversal += usize::from(expected < was && before.switching == Some(0));
             }
             part.push(r);
             continue;
@@ -244,7 +258,7 @@ fn the_newton_trace_accounts_for_every_iteration() {
         part.clear();
     }
     eprintln!(
-        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches, {damped} damped grain-iterations, {reversed} reversals",
+        "trace: {} records, {parts} parts, {newton} Newton iterations, {sweeps} sweeps, failed {failed:?}, {switched} switches, {damped} damped grain-iterations, {reversed} reversals ({halved_on_reversal} halved the fraction)",
         records.len()
     );
     assert!(part.is_empty(), "a part without its end record");
