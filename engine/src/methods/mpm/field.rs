@@ -84,7 +84,8 @@ pub struct Field {
     /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
     pub last_correction: Real,
     /// The grain's whole Newton correction of the previous iteration of the step (two entries
-    /// a node, m/s; empty at the step's first), to tell a correction that turns back on it.
+    /// a node, m/s; empty at the step's first), to tell a correction that turns back on it:
+    /// `correction` moves here when the next iteration begins.
     pub previous: Vec<Real>,
 }
 
@@ -176,7 +177,7 @@ impl Field {
         self.f_new.clear();
         self.history_new.clear();
         self.plastic.clear();
-        self.previous.clear();
+        self.correction.clear();
         for (k, p) in range.enumerate() {
             let s = self.stencils[k];
             let nodes = self.stencil_nodes(&s);

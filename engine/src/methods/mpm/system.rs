@@ -582,6 +582,9 @@ impl System {
                     f.assemble_residual(points, grain.points.clone(), law, sc).map_err(|e| (g, Some(e)))?;
                 }
                 f.count_switches(points, grain.points.clone());
+                // The last correction becomes the previous one, and the previous one's buffer
+                // takes the new correction.
+                std::mem::swap(&mut f.correction, &mut f.previous);
                 let mut dv = std::mem::take(&mut f.correction);
                 dv.clear();
                 dv.extend(f.residual.iter().flat_map(|r| [-r.x, -r.y]));
@@ -644,8 +647,6 @@ impl System {
                     }
                 }
                 f.last_correction = (s / m.max(Real::MIN_POSITIVE)).sqrt();
-                f.previous.clear();
-                f.previous.extend_from_slice(&dv);
                 f.correction = dv;
                 (s, m, dot)
             })
