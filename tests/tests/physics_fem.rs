@@ -39,8 +39,9 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six: over the dense part (Φ 0.78 to 0.91) the mean top-wall stress is
-/// 524 kPa by FEM and 415 kPa by MPM, FEM 1.26 times stiffer (1.81 with one-sided FEM
-/// contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
+/// 527 kPa by FEM and 376 kPa by MPM, FEM 1.40 times stiffer (measured 2026-11-29; 1.26
+/// before the soft contacts' groups and sliding gaps, engine `methods::soft::contact`; 1.81 with
+/// one-sided FEM contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
 /// its top wall at Φ 0.90 was 487 kPa with 6 cells, 663 kPa with 10 and 819 kPa with 14 (dense
 /// mean 314, 418 and 418 kPa).
 #[test]

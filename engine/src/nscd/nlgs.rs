@@ -924,14 +924,31 @@ pub(crate) struct Turn {
 /// the caller applies the change of impulse to the bodies.
 #[inline(always)]
 pub(crate) fn visit_local(u_now: Vec3, w: &Delassus, law: &LocalLaw, r_old: Vec3, turn: Turn, sums: &mut Sums) -> (Vec3, Vec3) {
-    let violation = (law.target - u_now.x).max(0.0);
-    sums.violation += violation;
-    sums.worst = sums.worst.max(violation / turn.lever);
+    measure_violation(u_now.x, law, &turn, sums);
     let u_free = u_now - w.apply(&r_old);
     let mut r = local::solve(w, &u_free, law);
     if turn.omega != 1.0 {
         r = r_old + (r - r_old) * turn.omega;
     }
+    tally_change(r_old, r, &turn, sums);
+    (r, u_free)
+}
+
+/// The criterion's violation of a contact at the normal velocity `u_n` (m/s) it has when its
+/// turn comes ([`visit_local`]; a method that solves several contacts at once measures each
+/// with this before it solves them).
+#[inline(always)]
+pub(crate) fn measure_violation(u_n: Real, law: &LocalLaw, turn: &Turn, sums: &mut Sums) {
+    let violation = (law.target - u_n).max(0.0);
+    sums.violation += violation;
+    sums.worst = sums.worst.max(violation / turn.lever);
+}
+
+/// The criterion's change and size of a contact whose turn took its impulse from `r_old` to
+/// `r` ([`visit_local`]; with [`measure_violation`], for a method that solves several contacts
+/// at once).
+#[inline(always)]
+pub(crate) fn tally_change(r_old: Vec3, r: Vec3, turn: &Turn, sums: &mut Sums) {
     let dr = r - r_old;
     if dr != Vec3::zeros() {
         sums.change2 += dr.norm_squared();
@@ -940,7 +957,6 @@ pub(crate) fn visit_local(u_now: Vec3, w: &Delassus, law: &LocalLaw, r_old: Vec3
         sums.size2 += r.norm_squared().max(turn.scale * turn.scale);
         sums.count += 1;
     }
-    (r, u_free)
 }
 
 /// The law of a contact whose normal velocity at the start of the step is `u_n` (m/s), for the

@@ -436,6 +436,7 @@ impl System {
                         friction: self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt()),
                         lever: self.grains[a].radius,
                         line: line.then_some(near.segment as u32),
+                        segment: near.segment as u32,
                     }
                 }
                 Candidate::Wall { g, k, w, gap } => {
@@ -452,6 +453,7 @@ impl System {
                         friction: (self.grains[g].friction * wall.friction).sqrt(),
                         lever: self.grains[g].radius,
                         line: None,
+                        segment: 0,
                     }
                 }
             };

@@ -56,6 +56,11 @@
 //! solver's local problems see the diagonal of each contact's block in its frame, and its
 //! sweeps converge to the solution of the full coupled problem (each visit reads the
 //! velocities the other contacts left).
+//!
+//! **Groups.** The contacts one vertex holds against one grain (the nearest segment's and the
+//! lines of a dent's other sides) take their turn together: their normal impulses are solved
+//! exactly as one small complementarity problem ([`GROUP`]), where Gauss-Seidel crawled
+//! between their nearly parallel normals.
 
 use std::collections::HashMap;
 
@@ -64,8 +69,9 @@ use nalgebra::Vector2;
 use super::polygon::{bounding_box, nearest, Nearest};
 use super::Scheme;
 use crate::math::{Real, Vec3};
+use crate::nscd::local::within_disk;
 use crate::nscd::local::{Delassus, LocalLaw};
-use crate::nscd::nlgs::{carry_local, visit_local, ContactProblem, Sums, Turn};
+use crate::nscd::nlgs::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Sums, Turn};
 use crate::nscd::{ContactFrame, Nlgs, NlgsReport};
 
 type V2 = Vector2<Real>;
@@ -189,6 +195,9 @@ pub struct VertexContact {
     /// a reflex corner ([`candidates`]); `None` for a contact with the nearest segment or a
     /// wall.
     pub line: Option<u32>,
+    /// The segment of the other outline the contact was found against (the nearest one, or
+    /// the line's; 0 for a wall): where [`measure_drifts`] measures its gap again.
+    pub segment: u32,
 }
 
 impl VertexContact {
@@ -365,12 +374,16 @@ pub struct Metric {
     pub speed: Real,
     /// Each contact's impulse (global, N·s/m) and relative velocity (m/s) after the last sweep.
     last: Vec<(V2, V2)>,
+    /// Each contact's group ([`GROUP`]): how many contacts, from it on, a vertex holds against
+    /// one grain and the solve takes together (1 for a contact on its own, 0 for one taken
+    /// with a contact before it).
+    groups: Vec<u8>,
 }
 
 impl Metric {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.last.capacity() * std::mem::size_of::<(V2, V2)>()
+        self.last.capacity() * std::mem::size_of::<(V2, V2)>() + self.groups.capacity()
     }
 }
 
@@ -423,7 +436,11 @@ impl ContactProblem for Problem<'_> {
     }
 
     fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
-        self.visit_one(c, omega, sums);
+        match self.metric.groups.get(c).copied().unwrap_or(1) {
+            0 => {}
+            1 => self.visit_one(c, omega, sums),
+            len => self.visit_group(c, len as usize, omega, sums),
+        }
         if c + 1 == self.contacts.len() {
             // `ΔPᵀ W ΔP` over the iterate's change since the last sweep (the momentum's carry
             // included): the free velocities do not change within a solve, so the change of
@@ -470,6 +487,132 @@ impl Problem<'_> {
         }
         self.contacts[c].r = r;
     }
+
+    /// `n_iᵀ W n_j` between contacts `i` and `j` of one group (same vertex, same other grain),
+    /// 1/kg·m: the normal velocity of `i` an impulse along the normal of `j` makes.
+    fn normal_coupling(&self, i: usize, j: usize) -> Real {
+        let (ki, kj) = (&self.contacts[i], &self.contacts[j]);
+        let mut m = self.grains[ki.a as usize].block(ki.slot as usize, kj.slot as usize);
+        if let (Other::Grain { grain, slot: si }, Other::Grain { slot: sj, .. }) = (ki.b, kj.b) {
+            m += self.grains[grain as usize].block(si as usize, sj as usize);
+        }
+        V2::new(ki.frame.n.x, ki.frame.n.y).dot(&(m * V2::new(kj.frame.n.x, kj.frame.n.y)))
+    }
+
+    /// The turn of the `len` contacts of a group from `c` on ([`GROUP`]): their normal
+    /// impulses solved together, exactly, with the rest frozen ([`complementary`]), then each
+    /// one's tangential impulse on its own with the new normal impulse's bound. Where the
+    /// exact solve finds no solution (rounding on a singular block) each takes its own turn.
+    fn visit_group(&mut self, c: usize, len: usize, omega: Real, sums: &mut Sums) {
+        let mut w = [[0.0; GROUP]; GROUP];
+        let (mut free, mut target, mut old, mut u) = ([0.0; GROUP], [0.0; GROUP], [Vec3::zeros(); GROUP], [Vec3::zeros(); GROUP]);
+        for (i, row) in w.iter_mut().enumerate().take(len) {
+            for (j, entry) in row.iter_mut().enumerate().take(len) {
+                *entry = self.normal_coupling(c + i, c + j);
+            }
+        }
+        for i in 0..len {
+            let k = &self.contacts[c + i];
+            u[i] = k.frame.to_local(&self.velocity(c + i));
+            old[i] = k.r;
+            target[i] = k.law.target;
+        }
+        for i in 0..len {
+            free[i] = u[i].x - (0..len).map(|j| w[i][j] * old[j].x).sum::<Real>();
+        }
+        let Some(normal) = complementary(&w, &free, &target, len) else {
+            for i in 0..len {
+                self.visit_one(c + i, omega, sums);
+            }
+            return;
+        };
+        let turn = |k: &VertexContact| Turn { omega, near: k.law.target < 0.0, scale: k.scale, lever: k.lever };
+        for (i, (r_old, r_new)) in old.iter().zip(normal).enumerate().take(len) {
+            let k = self.contacts[c + i];
+            measure_violation(u[i].x, &k.law, &turn(&k), sums);
+            let r_n = r_old.x + (r_new - r_old.x) * omega;
+            if r_n != r_old.x {
+                self.apply(c + i, &k.frame.to_global(&Vec3::new(r_n - r_old.x, 0.0, 0.0)));
+            }
+            self.contacts[c + i].r.x = r_n;
+        }
+        for (i, r_old) in old.iter().enumerate().take(len) {
+            let k = self.contacts[c + i];
+            let u_t = k.frame.to_local(&self.velocity(c + i)).y - k.w.t * k.r.y;
+            let (sticking, _) = within_disk(-u_t / k.w.t, 0.0, k.law.friction * k.law.contact_part(k.r.x, k.law.target).max(0.0));
+            let r_t = k.r.y + (sticking - k.r.y) * omega;
+            if r_t != k.r.y {
+                self.apply(c + i, &k.frame.to_global(&Vec3::new(0.0, r_t - k.r.y, 0.0)));
+            }
+            self.contacts[c + i].r.y = r_t;
+            tally_change(*r_old, self.contacts[c + i].r, &turn(&k), sums);
+        }
+    }
+}
+
+/// Most contacts a vertex holds against one other grain that the solve takes together: the
+/// nearest segment's and the lines of the reflex corners at its two ends ([`candidates`]).
+/// Gauss-Seidel crawls on them: their normals differ by little more than [`REFLEX_TURN`], so
+/// an impulse moved from one to the other changes the vertex's normal velocity by almost
+/// nothing, and each sweep moves it by a fraction `1 − cos²` of the way. In the full-size
+/// compaction of plastic grains (`H = 0`, both sides held) one such vertex, in a dent of its
+/// neighbour at step 4,810 (Φ 0.929), made 86% of the last sweep's change and the solve
+/// stopped after 20,000 sweeps at a change of 3.5e-5 against 1e-6.
+pub const GROUP: usize = 3;
+
+/// The normal impulses `x >= 0` (N·s/m) of a group of `len` contacts ([`GROUP`]) whose normal
+/// velocities are `free + w x` (m/s, `w` their normal block, 1/kg·m) with `free + w x >=
+/// target` and `x_i (free + w x − target)_i = 0`: the linear complementarity problem, by
+/// enumeration of the contacts that push, fewest first. `None` when rounding leaves none
+/// admissible (a singular block with inconsistent targets).
+pub fn complementary(w: &[[Real; GROUP]; GROUP], free: &[Real; GROUP], target: &[Real; GROUP], len: usize) -> Option<[Real; GROUP]> {
+    let mut masks: Vec<u32> = (0..1u32 << len).collect();
+    masks.sort_by_key(|m| m.count_ones());
+    let largest = (0..len).map(|i| w[i][i].abs()).fold(0.0, Real::max);
+    'mask: for mask in masks {
+        let set: Vec<usize> = (0..len).filter(|&i| mask & (1 << i) != 0).collect();
+        let m = set.len();
+        // Gauss elimination with partial pivoting on w_SS x_S = target_S − free_S.
+        let mut a = [[0.0; GROUP + 1]; GROUP];
+        for (r, &i) in set.iter().enumerate() {
+            for (col, &j) in set.iter().enumerate() {
+                a[r][col] = w[i][j];
+            }
+            a[r][m] = target[i] - free[i];
+        }
+        for col in 0..m {
+            let pivot = (col..m).max_by(|&p, &q| a[p][col].abs().total_cmp(&a[q][col].abs())).unwrap_or(col);
+            if a[pivot][col].abs() <= 1e-12 * largest {
+                continue 'mask;
+            }
+            a.swap(col, pivot);
+            let top = a[col];
+            for row in a.iter_mut().take(m).skip(col + 1) {
+                let f = row[col] / top[col];
+                for (e, t) in row.iter_mut().zip(top).take(m + 1).skip(col) {
+                    *e -= f * t;
+                }
+            }
+        }
+        let mut x = [0.0; GROUP];
+        for col in (0..m).rev() {
+            let rest: Real = (col + 1..m).map(|k| a[col][k] * x[set[k]]).sum();
+            x[set[col]] = (a[col][m] - rest) / a[col][col];
+        }
+        let size: Real = x.iter().map(|v| v.abs()).sum();
+        if set.iter().any(|&i| x[i] < -1e-12 * size) {
+            continue;
+        }
+        for i in (0..len).filter(|i| mask & (1 << i) == 0) {
+            let push: Real = (0..len).map(|j| w[i][j] * x[j]).sum();
+            let scale = free[i].abs() + target[i].abs() + (0..len).map(|j| (w[i][j] * x[j]).abs()).sum::<Real>();
+            if free[i] + push - target[i] < -1e-12 * scale {
+                continue 'mask;
+            }
+        }
+        return Some(x.map(|v| v.max(0.0)));
+    }
+    None
 }
 
 /// Solves the contact problem of a Newton iteration: sets each contact's Signorini target from
@@ -511,8 +654,34 @@ pub fn solve(
         let u_n = (ua - ub).dot(&n);
         c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
     }
+    group(contacts, &mut metric.groups);
     let mut problem = Problem { contacts, grains: sides, walls, metric };
     nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
+}
+
+/// Each contact's group ([`Metric::groups`]): a contact with the nearest segment and the line
+/// contacts of the same vertex against the same grain that follow it ([`enter`]'s order, that
+/// of [`candidates`]).
+fn group(contacts: &[VertexContact], groups: &mut Vec<u8>) {
+    groups.clear();
+    groups.resize(contacts.len(), 1);
+    let mut c = 0;
+    while c < contacts.len() {
+        let k = &contacts[c];
+        let mut len = 1;
+        if let (None, Other::Grain { grain, .. }) = (k.line, k.b) {
+            while len < GROUP
+                && contacts.get(c + len).is_some_and(|f| {
+                    f.line.is_some() && f.a == k.a && f.vertex == k.vertex && matches!(f.b, Other::Grain { grain: g, .. } if g == grain)
+                })
+            {
+                len += 1;
+            }
+        }
+        groups[c] = len as u8;
+        groups[c + 1..c + len].iter_mut().for_each(|g| *g = 0);
+        c += len;
+    }
 }
 
 /// Where a contact may act at the start of a step (found by [`candidates`]).
@@ -734,6 +903,8 @@ pub struct Entry {
     pub lever: Real,
     /// The segment whose line alone holds the vertex ([`VertexContact::line`]).
     pub line: Option<u32>,
+    /// The segment of the other outline it was found against ([`VertexContact::segment`]).
+    pub segment: u32,
 }
 
 /// Adds a contact of the step, warm-started, with its samples on its grains' sides.
@@ -760,6 +931,7 @@ pub fn enter(contacts: &mut Vec<VertexContact>, sides: &mut [GrainContacts], war
         scale: 0.0,
         lever: e.lever,
         line: e.line,
+        segment: e.segment,
     };
     contact.r = warm.start(&contact);
     contacts.push(contact);
@@ -787,7 +959,7 @@ pub fn measure_drifts(
                 let outline = &moved[grain as usize];
                 let now = match c.line {
                     Some(k) => on_segment(outline, k as usize, &x).map(|s| s.0.gap),
-                    None => nearest(outline, &x).map(|near| near.gap),
+                    None => sliding(outline, c.segment as usize, &x),
                 };
                 (ub, now.unwrap_or(c.gap))
             }
@@ -799,6 +971,32 @@ pub fn measure_drifts(
         };
         c.drift = now - (c.gap + (ua - ub).dot(&n));
     }
+}
+
+/// The gap (m) of a vertex at `x` from `outline` (moved by the iterate), for a contact found
+/// against segment `own` ([`measure_drifts`]): from that segment or from a neighbour across a
+/// convex corner, whichever is nearer (the outline sliding under the vertex). Not from any
+/// other segment: at a reflex corner the vertex's second contact holds it on the other side's
+/// line ([`candidates`]), and the gap from the outline's nearest segment jumps there. Measured
+/// on the full-size compaction with `H = 0`, both sides, at step 4,811 (Φ 0.929): a vertex of
+/// grain 87 at 68 µm from its nearest segment of grain 118 and 162 µm behind the line of the
+/// dent's other side; the iterate moved it nearer that side, the gap from the nearest segment
+/// fell to −158 µm, a drift of −226 µm in a sixteenth of a step, and the contact pushed at
+/// 51 m/s: Newton diverged and a point of grain 87 inverted.
+fn sliding(outline: &[V2], own: usize, x: &V2) -> Option<Real> {
+    let n = outline.len();
+    let mut best = on_segment(outline, own % n, x);
+    for (corner, side) in [(own % n, (own + n - 1) % n), ((own + 1) % n, (own + 1) % n)] {
+        if side == own % n || reflex(outline, corner) {
+            continue;
+        }
+        if let Some(s) = on_segment(outline, side, x) {
+            if best.is_none_or(|b| s.1 < b.1) {
+                best = Some(s);
+            }
+        }
+    }
+    best.map(|s| s.0.gap)
 }
 
 /// The impulse the grains gave each wall through `contacts` (N·s/m), into `out` (one a wall).
@@ -845,6 +1043,64 @@ mod tests {
         assert_eq!(of(1).len(), 1, "a convex corner: {:?}", of(1));
         assert!(of(2).is_empty());
         assert_eq!(found.len(), 3);
+    }
+
+    /// A contact's gap is measured again on its own segment, or on a neighbour across a convex
+    /// corner, never across a reflex one, where the outline's nearest segment would jump.
+    #[test]
+    fn the_gap_slides_across_convex_corners_only() {
+        let dented = vec![V2::new(-2.0, -2.0), V2::new(2.0, -2.0), V2::new(2.0, 1.0), V2::new(0.0, 0.0), V2::new(-2.0, 1.0)];
+        // Past the reflex corner (0, 0) the nearest segment is the dent's other side, whose
+        // line the vertex is behind; the contact keeps its own segment's line.
+        let x = V2::new(-0.3, 0.05);
+        let near = nearest(&dented, &x).expect("nearest");
+        assert!(near.segment == 3 && near.gap < 0.0, "{near:?}");
+        let gap = sliding(&dented, 2, &x).expect("gap");
+        assert!((gap - 0.4 / 5f64.sqrt()).abs() < 1e-12, "{gap}");
+        // Past the convex corner (2, 1) it slides on to the side x = 2.
+        let gap = sliding(&dented, 2, &V2::new(2.3, 0.5)).expect("gap");
+        assert!((gap - 0.3).abs() < 1e-12, "{gap}");
+    }
+
+    /// The group's exact solve satisfies Signorini's conditions on every contact of random
+    /// groups, nearly redundant ones (normals 0.02 apart, as at a shallow reflex corner)
+    /// among them.
+    #[test]
+    fn a_group_of_contacts_is_solved_exactly() {
+        let mut state = 11u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as Real / (1u64 << 53) as Real
+        };
+        let mut pushing = [0usize; GROUP + 1];
+        for case in 0..3000 {
+            let len = 1 + case % GROUP;
+            // W = J Jᵀ + εI from the contacts' normals on one vertex and two samples.
+            let spread = if case % 2 == 0 { 0.02 } else { 1.5 };
+            let angles: Vec<Real> = (0..len).map(|_| spread * (next() - 0.5)).collect();
+            let (m_a, m_b) = (0.5 + next(), 0.5 + next());
+            let mut w = [[0.0; GROUP]; GROUP];
+            for i in 0..len {
+                for j in 0..len {
+                    let cos = (angles[i] - angles[j]).cos();
+                    w[i][j] = cos / m_a + if i == j { 1.0 / m_b } else { 0.3 * cos / m_b };
+                }
+            }
+            let (mut free, mut target) = ([0.0; GROUP], [0.0; GROUP]);
+            for i in 0..len {
+                free[i] = 2.0 * next() - 1.2;
+                target[i] = if case % 3 == 0 { 0.0 } else { 0.2 * (next() - 0.5) };
+            }
+            let x = complementary(&w, &free, &target, len).expect("a positive definite block has a solution");
+            pushing[(0..len).filter(|&i| x[i] > 0.0).count()] += 1;
+            for i in 0..len {
+                let u = free[i] + (0..len).map(|j| w[i][j] * x[j]).sum::<Real>();
+                assert!(x[i] >= 0.0, "case {case}: {x:?}");
+                assert!(u - target[i] >= -1e-9, "case {case}: contact {i} violated by {:e}", target[i] - u);
+                assert!(x[i] * (u - target[i]).abs() <= 1e-9, "case {case}: contact {i} pushes while apart: {x:?}");
+            }
+        }
+        assert!(pushing.iter().all(|&n| n > 0), "every number of pushing contacts met: {pushing:?}");
     }
 
     /// One side holds only the vertices of the grain of lower index outside the other; both
