@@ -566,12 +566,17 @@ pub const GROUP: usize = 3;
 /// enumeration of the contacts that push, fewest first. `None` when rounding leaves none
 /// admissible (a singular block with inconsistent targets).
 pub fn complementary(w: &[[Real; GROUP]; GROUP], free: &[Real; GROUP], target: &[Real; GROUP], len: usize) -> Option<[Real; GROUP]> {
-    let mut masks: Vec<u32> = (0..1u32 << len).collect();
-    masks.sort_by_key(|m| m.count_ones());
+    // The sets of pushing contacts, fewest first (no allocation: this runs at every visit).
+    const MASKS: [u32; 1 << GROUP] = [0b000, 0b001, 0b010, 0b100, 0b011, 0b101, 0b110, 0b111];
     let largest = (0..len).map(|i| w[i][i].abs()).fold(0.0, Real::max);
-    'mask: for mask in masks {
-        let set: Vec<usize> = (0..len).filter(|&i| mask & (1 << i) != 0).collect();
-        let m = set.len();
+    'mask: for mask in MASKS.into_iter().filter(|&mask| mask < 1 << len) {
+        let mut set = [0usize; GROUP];
+        let mut m = 0;
+        for i in (0..len).filter(|&i| mask & (1 << i) != 0) {
+            set[m] = i;
+            m += 1;
+        }
+        let set = &set[..m];
         // Gauss elimination with partial pivoting on w_SS x_S = target_S − free_S.
         let mut a = [[0.0; GROUP + 1]; GROUP];
         for (r, &i) in set.iter().enumerate() {
@@ -1075,7 +1080,8 @@ mod tests {
         let mut pushing = [0usize; GROUP + 1];
         for case in 0..3000 {
             let len = 1 + case % GROUP;
-            // W = J Jᵀ + εI from the contacts' normals on one vertex and two samples.
+            // The normal block as `normal_coupling` builds it: the cosines between the
+            // contacts' normals through the vertex's grain, and the other grain's places.
             let spread = if case % 2 == 0 { 0.02 } else { 1.5 };
             let angles: Vec<Real> = (0..len).map(|_| spread * (next() - 0.5)).collect();
             let (m_a, m_b) = (0.5 + next(), 0.5 + next());
