@@ -700,16 +700,7 @@ impl Nlgs {
         problem.warm_start();
         let n = problem.len();
         self.prime((0..n).map(|c| problem.impulse(c)));
-        self.iterate(n, (h, mean_diameter), |last, pass| {
-            let mut sums = Sums::default();
-            for (c, slot) in last.iter_mut().enumerate() {
-                match pass {
-                    Pass::Solve { omega } => problem.visit(c, omega, &mut sums),
-                    Pass::Carry { beta } => problem.carry(c, slot, beta),
-                }
-            }
-            sums
-        })
+        self.iterate(n, (h, mean_diameter), |last, pass| problem.sweep(last, pass))
     }
 
     /// Sets the momentum's previous impulses for a solve starting from `impulses`.
@@ -784,12 +775,12 @@ pub(crate) trait ContactProblem {
     fn impulse(&self, c: usize) -> Vec3;
     /// Adds the contacts' warm-start impulses to their bodies.
     fn warm_start(&mut self);
-    /// Contact `c`'s turn in a sweep at relaxation `omega` ([`visit_local`]), its impulse's
-    /// change applied to its bodies.
-    fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums);
-    /// The accelerated sweep's momentum on contact `c` ([`carry_local`]), whose impulse after
-    /// the previous sweep is in `last`.
-    fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real);
+    /// One pass over the contacts, each with its impulse after the previous sweep in `last`:
+    /// at [`Pass::Solve`] each contact's turn ([`visit_local`], its impulse's change applied to
+    /// its bodies) with what it adds to the criterion; at [`Pass::Carry`] the accelerated
+    /// sweep's momentum ([`carry_local`]). The problem chooses the order (and may take
+    /// contacts that share no body at once, on several threads).
+    fn sweep(&mut self, last: &mut [Vec3], pass: Pass) -> Sums;
 }
 
 /// One pass of the solver over the contacts.

@@ -65,13 +65,15 @@
 use std::collections::HashMap;
 
 use nalgebra::Vector2;
+use rayon::prelude::*;
 
 use super::polygon::{bounding_box, nearest, Nearest};
+use super::schedule::Schedule;
 use super::Scheme;
 use crate::math::{Real, Vec3};
 use crate::nscd::local::within_disk;
 use crate::nscd::local::{Delassus, LocalLaw};
-use crate::nscd::nlgs::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Sums, Turn};
+use crate::nscd::nlgs::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Pass, Sums, Turn};
 use crate::nscd::{ContactFrame, Nlgs, NlgsReport};
 
 type V2 = Vector2<Real>;
@@ -277,12 +279,7 @@ impl GrainContacts {
     /// and `carry`); along the rows the same sums come out bit for bit.
     #[inline(always)]
     pub fn apply(&mut self, l: usize, p: &V2) {
-        let n = 2 * self.samples.len();
-        let (row0, row1) = self.inverse[2 * l * n..(2 * l + 2) * n].split_at(n);
-        for ((u, a), b) in self.u.iter_mut().zip(row0.chunks_exact(2)).zip(row1.chunks_exact(2)) {
-            u.x += a[0] * p.x + b[0] * p.y;
-            u.y += a[1] * p.x + b[1] * p.y;
-        }
+        apply_rows(&self.inverse, &mut self.u, l, p);
     }
 
     /// The samples' velocities for the nodal velocities `v` plus the correction `dv` (two
@@ -352,20 +349,22 @@ impl GrainContacts {
     }
 }
 
-/// The contact problem of a Newton iteration, as the shared solver sweeps it.
+/// The contact problem of a Newton iteration, as the shared solver sweeps it: colour by colour,
+/// the tasks of a colour at once ([`Schedule`]).
 pub struct Problem<'a> {
-    /// The contacts.
+    /// The contacts, in the schedule's order.
     pub contacts: &'a mut [VertexContact],
     /// Each grain's side.
     pub grains: &'a mut [GrainContacts],
     /// The walls.
     pub walls: &'a [Wall],
-    /// The sweeps' change measured in the grains' velocities ([`solve`]).
+    /// The sweeps' change measured in the grains' velocities ([`solve`]), and the schedule.
     pub metric: &'a mut Metric,
 }
 
-/// What the change of a sweep in the grains' velocities needs ([`solve`]); a method keeps one
-/// between solves, so that its buffer is not allocated again at every Newton iteration.
+/// What the change of a sweep in the grains' velocities needs ([`solve`]), and the order of the
+/// sweeps; a method keeps one between solves, so that its buffers are not allocated again at
+/// every Newton iteration.
 #[derive(Debug, Default)]
 pub struct Metric {
     /// The grains' mass, kg/m.
@@ -378,38 +377,52 @@ pub struct Metric {
     /// one grain and the solve takes together (1 for a contact on its own, 0 for one taken
     /// with a contact before it).
     groups: Vec<u8>,
+    /// The contacts' order in a sweep.
+    schedule: Schedule,
 }
 
 impl Metric {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.last.capacity() * std::mem::size_of::<(V2, V2)>() + self.groups.capacity()
+        self.last.capacity() * std::mem::size_of::<(V2, V2)>() + self.groups.capacity() + self.schedule.heap_bytes()
+    }
+}
+
+/// A colour of a sweep with fewer contacts than this takes its turns on one thread.
+const PARALLEL_CONTACTS: usize = 256;
+
+/// Fewest tasks of a colour a thread is handed at once.
+const TASKS_PER_THREAD_JOB: usize = 4;
+
+/// A grain's sample velocities `u` changed by an impulse `p` at sample `l` (`inverse`, the grain's
+/// [`GrainContacts::inverse`] over `u.len()` samples; [`GrainContacts::apply`]).
+#[inline(always)]
+fn apply_rows(inverse: &[Real], u: &mut [V2], l: usize, p: &V2) {
+    let n = 2 * u.len();
+    let (row0, row1) = inverse[2 * l * n..(2 * l + 2) * n].split_at(n);
+    for ((u, a), b) in u.iter_mut().zip(row0.chunks_exact(2)).zip(row1.chunks_exact(2)) {
+        u.x += a[0] * p.x + b[0] * p.y;
+        u.y += a[1] * p.x + b[1] * p.y;
     }
 }
 
 impl Problem<'_> {
     /// Relative velocity of contact `c` (global), m/s.
-    #[inline(always)]
-    fn velocity(&self, c: usize) -> Vec3 {
+    fn velocity(&self, c: usize) -> V2 {
         let k = &self.contacts[c];
         let ua = self.grains[k.a as usize].u[k.slot as usize];
         let ub = match k.b {
             Other::Grain { grain, slot } => self.grains[grain as usize].u[slot as usize],
             Other::Wall(w) => self.walls[w as usize].velocity,
         };
-        let d = ua - ub;
-        Vec3::new(d.x, d.y, 0.0)
+        ua - ub
     }
 
-    /// Applies the global impulse `p` (on `a`, `−p` on `b`).
-    #[inline(always)]
-    fn apply(&mut self, c: usize, p: &Vec3) {
-        let k = self.contacts[c];
-        let p2 = V2::new(p.x, p.y);
-        self.grains[k.a as usize].apply(k.slot as usize, &p2);
-        if let Other::Grain { grain, slot } = k.b {
-            self.grains[grain as usize].apply(slot as usize, &(-p2));
-        }
+    /// Contact `c`'s impulse (global, N·s/m) and relative velocity (m/s).
+    fn state(&self, c: usize) -> (V2, V2) {
+        let k = &self.contacts[c];
+        let p = k.frame.to_global(&k.r);
+        (V2::new(p.x, p.y), self.velocity(c))
     }
 }
 
@@ -423,10 +436,14 @@ impl ContactProblem for Problem<'_> {
     }
 
     fn warm_start(&mut self) {
-        for c in 0..self.contacts.len() {
-            let k = self.contacts[c];
+        for k in self.contacts.iter() {
             if k.r != Vec3::zeros() {
-                self.apply(c, &k.frame.to_global(&k.r));
+                let p = k.frame.to_global(&k.r);
+                let p = V2::new(p.x, p.y);
+                self.grains[k.a as usize].apply(k.slot as usize, &p);
+                if let Other::Grain { grain, slot } = k.b {
+                    self.grains[grain as usize].apply(slot as usize, &(-p));
+                }
             }
         }
         let mut last = std::mem::take(&mut self.metric.last);
@@ -435,13 +452,56 @@ impl ContactProblem for Problem<'_> {
         self.metric.last = last;
     }
 
-    fn visit(&mut self, c: usize, omega: Real, sums: &mut Sums) {
-        match self.metric.groups.get(c).copied().unwrap_or(1) {
-            0 => {}
-            1 => self.visit_one(c, omega, sums),
-            len => self.visit_group(c, len as usize, omega, sums),
+    /// The colours one after the other, the tasks of a colour at once on the solve's threads,
+    /// each with its grains' sample velocities taken out of their sides for the colour; what
+    /// they add to the criterion is summed in the tasks' order, whatever the threads.
+    fn sweep(&mut self, last: &mut [Vec3], pass: Pass) -> Sums {
+        let schedule = std::mem::take(&mut self.metric.schedule);
+        let mut sums = Sums::default();
+        for colour in &schedule.colours {
+            let tasks = &schedule.tasks[colour.clone()];
+            let (Some(first), Some(end)) = (tasks.first(), tasks.last()) else { continue };
+            let span = first.contacts.start..end.contacts.end;
+            let colour_contacts = span.len();
+            let mut contacts = &mut self.contacts[span.clone()];
+            let mut lasts = &mut last[span.clone()];
+            let mut groups = &self.metric.groups[span];
+            let mut jobs = Vec::with_capacity(tasks.len());
+            for t in tasks {
+                let len = t.contacts.len();
+                let (mine, rest) = std::mem::take(&mut contacts).split_at_mut(len);
+                contacts = rest;
+                let (slots, rest) = std::mem::take(&mut lasts).split_at_mut(len);
+                lasts = rest;
+                let (group, rest) = groups.split_at(len);
+                groups = rest;
+                let ua = std::mem::take(&mut self.grains[t.a as usize].u);
+                let ub = t.b.map(|b| std::mem::take(&mut self.grains[b as usize].u)).unwrap_or_default();
+                jobs.push((Pair { a: t.a, b: t.b, ua, ub }, mine, slots, group));
+            }
+            let (sides, walls) = (&*self.grains, self.walls);
+            let run = |(pair, contacts, slots, groups): &mut (Pair, &mut [VertexContact], &mut [Vec3], &[u8])| {
+                Turns { sides, walls, pair, contacts, groups }.pass(slots, pass)
+            };
+            // A colour of few contacts is done on the calling thread: handing it out costs more
+            // than it saves (the loose part of a compaction sweeps a few times a Newton iteration).
+            let done: Vec<Sums> = if colour_contacts < PARALLEL_CONTACTS {
+                jobs.iter_mut().map(run).collect()
+            } else {
+                jobs.par_iter_mut().with_min_len(TASKS_PER_THREAD_JOB).map(run).collect()
+            };
+            for (Pair { a, b, ua, ub }, ..) in jobs {
+                self.grains[a as usize].u = ua;
+                if let Some(b) = b {
+                    self.grains[b as usize].u = ub;
+                }
+            }
+            for d in done {
+                sums += d;
+            }
         }
-        if c + 1 == self.contacts.len() {
+        self.metric.schedule = schedule;
+        if let Pass::Solve { .. } = pass {
             // `ΔPᵀ W ΔP` over the iterate's change since the last sweep (the momentum's carry
             // included): the free velocities do not change within a solve, so the change of
             // the contacts' velocities is `W ΔP`.
@@ -456,23 +516,92 @@ impl ContactProblem for Problem<'_> {
             sums.change2 = change2.max(0.0);
             sums.size2 = self.metric.mass * self.metric.speed * self.metric.speed;
         }
-    }
-
-    fn carry(&mut self, c: usize, last: &mut Vec3, beta: Real) {
-        let k = self.contacts[c];
-        if let Some(y) = carry_local(k.r, last, beta, &k.law, || 0.0) {
-            self.apply(c, &k.frame.to_global(&(y - k.r)));
-            self.contacts[c].r = y;
-        }
+        sums
     }
 }
 
-impl Problem<'_> {
-    /// Contact `c`'s impulse (global, N·s/m) and relative velocity (m/s).
-    fn state(&self, c: usize) -> (V2, V2) {
+/// A task's grains during a colour of a sweep: grain `a`'s sample velocities and, for a task
+/// between two grains, the other's (empty against the walls), taken out of their sides.
+struct Pair {
+    a: u32,
+    b: Option<u32>,
+    ua: Vec<V2>,
+    ub: Vec<V2>,
+}
+
+/// One task's contacts taking their turns ([`Problem::sweep`]): `contacts` and `groups` the
+/// task's own, its grains' velocities in `pair`, their blocks read from `sides`.
+struct Turns<'s, 'p> {
+    sides: &'s [GrainContacts],
+    walls: &'s [Wall],
+    pair: &'p mut Pair,
+    contacts: &'p mut [VertexContact],
+    groups: &'p [u8],
+}
+
+impl Turns<'_, '_> {
+    /// The pass over the task's contacts, `slots` their impulses after the previous sweep.
+    fn pass(&mut self, slots: &mut [Vec3], pass: Pass) -> Sums {
+        let mut sums = Sums::default();
+        match pass {
+            Pass::Solve { omega } => {
+                for c in 0..self.contacts.len() {
+                    match self.groups[c] {
+                        0 => {}
+                        1 => self.visit_one(c, omega, &mut sums),
+                        len => self.visit_group(c, len as usize, omega, &mut sums),
+                    }
+                }
+            }
+            Pass::Carry { beta } => {
+                for (c, slot) in slots.iter_mut().enumerate() {
+                    let k = self.contacts[c];
+                    if let Some(y) = carry_local(k.r, slot, beta, &k.law, || 0.0) {
+                        self.apply(c, &k.frame.to_global(&(y - k.r)));
+                        self.contacts[c].r = y;
+                    }
+                }
+            }
+        }
+        sums
+    }
+
+    /// The sample velocities of grain `g` (one of the task's two).
+    #[inline(always)]
+    fn u(&self, g: u32) -> &[V2] {
+        if g == self.pair.a {
+            &self.pair.ua
+        } else {
+            &self.pair.ub
+        }
+    }
+
+    /// Relative velocity of contact `c` (global), m/s.
+    #[inline(always)]
+    fn velocity(&self, c: usize) -> Vec3 {
         let k = &self.contacts[c];
-        let (p, u) = (k.frame.to_global(&k.r), self.velocity(c));
-        (V2::new(p.x, p.y), V2::new(u.x, u.y))
+        let ua = self.u(k.a)[k.slot as usize];
+        let ub = match k.b {
+            Other::Grain { grain, slot } => self.u(grain)[slot as usize],
+            Other::Wall(w) => self.walls[w as usize].velocity,
+        };
+        let d = ua - ub;
+        Vec3::new(d.x, d.y, 0.0)
+    }
+
+    /// Applies the global impulse `p` (on `a`, `−p` on `b`).
+    #[inline(always)]
+    fn apply(&mut self, c: usize, p: &Vec3) {
+        let k = self.contacts[c];
+        let p2 = V2::new(p.x, p.y);
+        let pair = &mut *self.pair;
+        let a = pair.a;
+        let (ua, ub) = (&mut pair.ua, &mut pair.ub);
+        apply_rows(&self.sides[k.a as usize].inverse, if k.a == a { ua } else { ub }, k.slot as usize, &p2);
+        if let Other::Grain { grain, slot } = k.b {
+            let u = if grain == a { &mut pair.ua } else { &mut pair.ub };
+            apply_rows(&self.sides[grain as usize].inverse, u, slot as usize, &(-p2));
+        }
     }
 
     /// Contact `c`'s turn in a sweep ([`visit_local`]).
@@ -492,9 +621,9 @@ impl Problem<'_> {
     /// 1/kg·m: the normal velocity of `i` an impulse along the normal of `j` makes.
     fn normal_coupling(&self, i: usize, j: usize) -> Real {
         let (ki, kj) = (&self.contacts[i], &self.contacts[j]);
-        let mut m = self.grains[ki.a as usize].block(ki.slot as usize, kj.slot as usize);
+        let mut m = self.sides[ki.a as usize].block(ki.slot as usize, kj.slot as usize);
         if let (Other::Grain { grain, slot: si }, Other::Grain { slot: sj, .. }) = (ki.b, kj.b) {
-            m += self.grains[grain as usize].block(si as usize, sj as usize);
+            m += self.sides[grain as usize].block(si as usize, sj as usize);
         }
         V2::new(ki.frame.n.x, ki.frame.n.y).dot(&(m * V2::new(kj.frame.n.x, kj.frame.n.y)))
     }
@@ -624,7 +753,8 @@ pub fn complementary(w: &[[Real; GROUP]; GROUP], free: &[Real; GROUP], target: &
 /// its gap and drift (a contact with a positive gap may close it within the step and no more,
 /// one that overlaps may not overlap more, beyond the contact's linear prediction by its drift,
 /// which may push them apart: module documentation), its Delassus diagonal and impulse scale
-/// from its grains' blocks and sample velocities, then sweeps ([`Nlgs::solve_problem`],
+/// from its grains' blocks and sample velocities, then sweeps in the order of a [`Schedule`]
+/// (which reorders `contacts` and renumbers `sides`' entries) ([`Nlgs::solve_problem`],
 /// `mean_diameter` in m the violations' unit). A sweep's change is measured in the grains'
 /// velocities (module documentation): `√(ΔPᵀ W ΔP / M)` relative to Newton's velocity scale,
 /// both in `metric`.
@@ -637,6 +767,7 @@ pub fn solve(
     mean_diameter: Real,
     metric: &mut Metric,
 ) -> NlgsReport {
+    metric.schedule.order(contacts, sides);
     let g = sc.gravity.norm() * sc.dt;
     for c in contacts.iter_mut() {
         let n = V2::new(c.frame.n.x, c.frame.n.y);

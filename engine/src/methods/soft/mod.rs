@@ -6,6 +6,7 @@
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
 //!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
+//! - [`schedule`]: the order of the contact solve's sweeps, tasks that share no grain at once;
 //! - [`parts`]: a step done in parts, split where it fails;
 //! - [`trace`]: a record of every Newton iteration, for a run that asks.
 
@@ -15,6 +16,7 @@ pub mod hertz;
 pub mod measure;
 pub mod parts;
 pub mod polygon;
+pub mod schedule;
 pub mod sim;
 pub mod trace;
 
