@@ -52,7 +52,7 @@ impl Schedule {
     /// Orders `contacts` colour by colour and task by task (each task's contacts kept in their
     /// order, so that a vertex's group stays together), renumbers the grains' entries in
     /// `sides` (one for each grain) to match, and sets the tasks and colours; leaves them as
-    /// they are when the schedule still fits the contacts ([`Schedule::fits`]).
+    /// they are when the schedule still fits the contacts (`fits`).
     pub fn order(&mut self, contacts: &mut [VertexContact], sides: &mut [GrainContacts]) {
         if self.fits(contacts) {
             return;
