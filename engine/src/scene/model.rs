@@ -271,7 +271,10 @@ pub struct FemParams {
     /// Newton iterations allowed per step.
     pub max_newton: u32,
     /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale (`methods::soft::contact`).
+    /// Newton's velocity scale (`methods::soft::contact`), of a step's first Newton iteration;
+    /// each further one is asked for a hundredth of the last correction as well
+    /// ([`crate::methods::soft::contact::FORCING`]), and Newton converges only on a solve asked
+    /// for Newton's tolerance or less.
     pub tolerance: Real,
     /// Contact solver: tolerance on the mean violation.
     pub violation_tolerance: Real,

@@ -36,6 +36,7 @@ pub struct SparseSpd {
     symbolic: SymbolicCholesky<usize>,
     factor: Vec<Real>,
     factorised: bool,
+    generation: u64,
     scratch: MemBuffer,
 }
 
@@ -78,7 +79,7 @@ impl SparseSpd {
         let scratch = MemBuffer::try_new(req).map_err(|e| SparseError::Pattern(format!("{e:?}")))?;
         let factor = vec![0.0; symbolic.len_val()];
         let values = vec![0.0; row_idx.len()];
-        Ok(Self { n, col_ptr, row_idx, values, symbolic, factor, factorised: false, scratch })
+        Ok(Self { n, col_ptr, row_idx, values, symbolic, factor, factorised: false, generation: 0, scratch })
     }
 
     /// Size.
@@ -144,6 +145,7 @@ impl SparseSpd {
     /// Factorises the current values.
     pub fn factorise(&mut self) -> Result<(), SparseError> {
         self.factorised = false;
+        self.generation += 1;
         let pattern = SymbolicSparseColMatRef::new_checked(self.n, self.n, &self.col_ptr, None, &self.row_idx);
         let a = SparseColMatRef::new(pattern, &self.values);
         self.symbolic
@@ -159,6 +161,11 @@ impl SparseSpd {
             .map_err(|_| SparseError::NotPositiveDefinite)?;
         self.factorised = true;
         Ok(())
+    }
+
+    /// How many factorisations were begun: a factor is the same as long as this count is.
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Solves `A x = b` in place with the last factorisation, for the `b.len() / size` right-hand

@@ -67,6 +67,7 @@ use std::collections::HashMap;
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
+use super::node_block::NodeBlock;
 use super::polygon::{bounding_box, nearest, Nearest};
 use super::schedule::Schedule;
 use super::Scheme;
@@ -233,11 +234,15 @@ pub struct GrainContacts {
     pub inverse: Vec<Real>,
     /// Velocities of the samples during the solve, m/s.
     pub u: Vec<V2>,
-    /// Scratch of the grain's size in unknowns, kept between solves (the columns of
-    /// [`GrainContacts::invert`], the impulses' right-hand side of a Newton update).
+    /// Scratch of the grain's size in unknowns, kept between solves (the columns of `mpm`'s
+    /// `invert` and of [`GrainContacts::invert_by_nodes`], the impulses' right-hand side of a
+    /// Newton update).
     pub work: Vec<Real>,
-    /// Where each column of [`GrainContacts::invert`] starts in `work`, and its first row.
+    /// Where each column of `mpm`'s `invert` starts in `work`, and its first row.
     pub offsets: Vec<(usize, usize)>,
+    /// `A⁻¹` between the samples' nodes, kept while the grain's factor is
+    /// ([`GrainContacts::invert_by_nodes`]).
+    pub nodes: NodeBlock,
 }
 
 impl GrainContacts {
@@ -287,52 +292,6 @@ impl GrainContacts {
     pub fn sample_velocities(&mut self, v: &[V2], dv: &[Real]) {
         self.u.clear();
         self.u.extend(self.samples.iter().map(|s| s.iter().map(|(k, w)| (v[k] + V2::new(dv[2 * k], dv[2 * k + 1])) * w).sum::<V2>()));
-    }
-
-    /// [`GrainContacts::inverse`] from halves of solves: `forward(cols)` replaces the columns
-    /// `b` (each `unknowns` long, a sample's weights on one component) by `y = L⁻¹ Pᵀ b` for a
-    /// factorisation `A = P L Lᵀ Pᵀ`; the entries are then the dot products `y_r · y_s`
-    /// (`b_rᵀ A⁻¹ b_s`), the product `Yᵀ Y`. Full solves for `A⁻¹ b` were 35% of the dense
-    /// part of a 60-grain finite-element compaction; the halves made a Newton iteration 18%
-    /// cheaper (measured: `sable bench fem --grains 40 --phi 0.9`).
-    pub fn invert_by_forward(&mut self, unknowns: usize, forward: impl FnOnce(&mut [Real])) {
-        let m = 2 * self.samples.len();
-        let cols = &mut self.work;
-        cols.clear();
-        cols.resize(m * unknowns, 0.0);
-        for col in 0..m {
-            let (s, d) = (col / 2, col % 2);
-            for (k, w) in self.samples[s].iter() {
-                cols[col * unknowns + 2 * k + d] += w;
-            }
-        }
-        forward(cols);
-        self.inverse.clear();
-        self.inverse.resize(m * m, 0.0);
-        // Yᵀ Y row by row of Y, over the columns not zero on the row: the halves are sparse
-        // (a column of the lower factor reaches only the rows below it on its elimination
-        // path), and a loop of whole dot products took as long as the halves themselves.
-        // (faer's dense product was tried: once it had run, the whole program ran 2.5 times
-        // slower, the steps without a contact too — measured, the cause not found.)
-        let mut nz: Vec<(usize, Real)> = Vec::with_capacity(m);
-        for k in 0..unknowns {
-            nz.clear();
-            nz.extend((0..m).filter_map(|x| {
-                let v = cols[x * unknowns + k];
-                (v != 0.0).then_some((x, v))
-            }));
-            for (i, &(x, vx)) in nz.iter().enumerate() {
-                let row = &mut self.inverse[x * m..(x + 1) * m];
-                for &(y, vy) in &nz[..=i] {
-                    row[y] += vx * vy;
-                }
-            }
-        }
-        for x in 0..m {
-            for y in 0..x {
-                self.inverse[y * m + x] = self.inverse[x * m + y];
-            }
-        }
     }
 
     /// Adds the step's impulses of the grain's contacts to the nodal right-hand side `rhs` (two

@@ -6,6 +6,7 @@
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
 //!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
+//! - [`node_block`]: a grain's `A⁻¹` between its contacts' nodes, kept with its factor (fem);
 //! - [`schedule`]: the order of the contact solve's sweeps, tasks that share no grain at once;
 //! - [`parts`]: a step done in parts, split where it fails;
 //! - [`trace`]: a record of every Newton iteration, for a run that asks.
@@ -14,6 +15,7 @@ pub mod contact;
 #[cfg(test)]
 pub mod hertz;
 pub mod measure;
+pub mod node_block;
 pub mod parts;
 pub mod polygon;
 pub mod schedule;
