@@ -29,9 +29,10 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// never falls below −0.1% of the strain energy at the end (backward Euler and inelastic
 /// contacts only take energy out; on the study's 30 grains one-sided contacts pushed it to
 /// −0.11 J/m at Φ 0.81). Measured (release build, one thread, 115 s for this test with the
-/// MPM run below): Φ 0.9003 at 1.00 MPa, Love–Weber 1.00 MPa, Z 3.17, aspect 1.142, smallest
-/// J 0.913, no measurable overlap, the dissipated energy never below 0 (+0.146 J/m at the
-/// end), the kinetic energy at most 2.6e-3 J/m. One-sided it ended at 1.35 MPa (Z 3.67,
+/// MPM run below; 2026-11-29 with the node blocks, engine `methods::soft::node_block`): Φ 0.9004
+/// at 1.00 MPa, Love–Weber 1.00 MPa, Z 3.17, aspect 1.142, smallest J 0.914, 0.01% of the box
+/// covered twice, the dissipated energy never below 0 (+0.144 J/m at the end), the kinetic
+/// energy at most 3.4e-3 J/m. One-sided it ended at 1.35 MPa (Z 3.67,
 /// aspect 1.206, 0.08% covered twice). The twelve grains stand in columns that carry the wall
 /// and buckle at a moment round-off decides (one-sided, variants of the matrices' reuse ended
 /// between 729 kPa and 1.35 MPa), and the 30 random grains of
@@ -39,8 +40,9 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six: over the dense part (Φ 0.78 to 0.91) the mean top-wall stress is
-/// 526 kPa by FEM and 369 kPa by MPM, FEM 1.42 times stiffer (measured 2026-11-29 with the
-/// sweeps' coloured order, engine `methods::soft::schedule`; 1.40 before it, 1.26
+/// 526 kPa by FEM and 369 kPa by MPM, FEM 1.43 times stiffer (measured 2026-11-29 with the
+/// node blocks; 1.42 with the sweeps' coloured order alone, engine `methods::soft::schedule`;
+/// 1.40 before it, 1.26
 /// before the soft contacts' groups and sliding gaps, engine `methods::soft::contact`; 1.81 with
 /// one-sided FEM contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
 /// its top wall at Φ 0.90 was 487 kPa with 6 cells, 663 kPa with 10 and 819 kPa with 14 (dense
