@@ -37,6 +37,8 @@ pub struct NodeBlock {
     index: Vec<u32>,
     /// `(2H)x(2H)`, row-major, for `H` held nodes, two unknowns a node.
     inverse: Vec<Real>,
+    /// The nodes the samples need, then those of them not held (scratch kept between calls).
+    needed: Vec<u32>,
 }
 
 const NOT_HELD: u32 = u32::MAX;
@@ -44,7 +46,7 @@ const NOT_HELD: u32 = u32::MAX;
 impl NodeBlock {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.inverse.capacity() * 8 + (self.nodes.capacity() + self.index.capacity()) * 4
+        self.inverse.capacity() * 8 + (self.nodes.capacity() + self.index.capacity() + self.needed.capacity()) * 4
     }
 
     /// Nodes held.
@@ -70,23 +72,27 @@ impl NodeBlock {
         if self.index.len() < nodes {
             self.index.resize(nodes, NOT_HELD);
         }
-        let mut needed: Vec<u32> = samples.iter().flat_map(|s| s.nodes[..s.len as usize].iter().copied()).collect();
+        let mut needed = std::mem::take(&mut self.needed);
+        needed.clear();
+        needed.extend(samples.iter().flat_map(|s| s.nodes[..s.len as usize].iter().copied()));
         needed.sort_unstable();
         needed.dedup();
         if self.factor != Some(factor) {
             self.factor = Some(factor);
             self.set(&needed);
             self.by_forward(unknowns, work, &mut solve);
-            return;
+        } else {
+            let unused = self.nodes.iter().filter(|&&k| needed.binary_search(&k).is_err()).count();
+            if unused > needed.len() {
+                self.keep(&needed);
+            }
+            let index = &self.index;
+            needed.retain(|&k| index[k as usize] == NOT_HELD);
+            if !needed.is_empty() {
+                self.add_by_solves(&needed, unknowns, work, &mut solve);
+            }
         }
-        let unused = self.nodes.iter().filter(|&&k| needed.binary_search(&k).is_err()).count();
-        if unused > needed.len() {
-            self.keep(&needed);
-        }
-        let new: Vec<u32> = needed.into_iter().filter(|&k| self.index[k as usize] == NOT_HELD).collect();
-        if !new.is_empty() {
-            self.add_by_solves(&new, unknowns, work, &mut solve);
-        }
+        self.needed = needed;
     }
 
     /// Holds exactly `nodes`, the block not computed.
@@ -208,7 +214,7 @@ impl NodeBlock {
 /// whole dot products took as long as the halves themselves. (faer's dense product was tried:
 /// once it had run, the whole program ran 2.5 times slower, the steps without a contact too —
 /// measured, the cause not found.) The lower triangle is summed, the upper is its mirror.
-pub fn gram(cols: &[Real], unknowns: usize, m: usize, out: &mut Vec<Real>) {
+fn gram(cols: &[Real], unknowns: usize, m: usize, out: &mut Vec<Real>) {
     out.clear();
     out.resize(m * m, 0.0);
     let mut nz: Vec<(usize, Real)> = Vec::with_capacity(m);
