@@ -34,8 +34,9 @@ pub(crate) fn initial_particles(scene: &Scene) -> Result<(Particles, Domain), En
             v.x += rate * (x.y - ymid);
         }
     }
-    // A state's material points follow its particles' order (`mpm` goes on from them).
-    if scene.initial.as_ref().is_none_or(|st| st.points.is_none()) {
+    // A state's material points and meshes follow its particles' order (`mpm` and `fem` go on
+    // from them).
+    if scene.initial.as_ref().is_none_or(|st| st.points.is_none() && st.meshes.is_none()) {
         sort_by_cell(&mut p, &domain);
     }
     // A state saved from a sheared Lees-Edwards cell keeps its image offset.
@@ -308,6 +309,7 @@ pub(crate) fn saved_state(time: Real, steps: u64, domain: &Domain, materials: &[
             })
             .collect(),
         material_points: None,
+        meshes: None,
     };
     // Only the materials the particles use (walls' and unused ones need not exist where the
     // state goes), numbered in order of first use.

@@ -7,6 +7,7 @@ pub mod model;
 pub mod presets;
 pub mod spec;
 pub mod state;
+pub mod state_meshes;
 pub mod state_points;
 pub mod validate;
 mod violation;

@@ -11,6 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::state_meshes::{check_meshes, StateMeshes};
 use super::state_points::{check_points, StatePoints};
 use super::violation::{Checker, EntryRule};
 use crate::contact::attraction_lj::AttractionLj;
@@ -63,6 +64,11 @@ pub struct StateFile {
     /// from the disks in `particles`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material_points: Option<StatePoints>,
+    /// The grains' meshes, when a run of method `fem` saved the state
+    /// ([`super::state_meshes`]); a run of `fem` goes on from them, every other method starts
+    /// from the disks in `particles`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meshes: Option<StateMeshes>,
 }
 
 /// The laws between primaries of one aggregate, in a [`StateFile`]
@@ -127,6 +133,9 @@ pub struct InitialState {
     /// The grains' material points (checked), in the order of the particles: a run of `mpm`
     /// goes on from them.
     pub points: Option<StatePoints>,
+    /// The grains' meshes (checked), in the order of the particles: a run of `fem` goes on from
+    /// them.
+    pub meshes: Option<StateMeshes>,
 }
 
 impl InitialState {
@@ -229,6 +238,7 @@ pub(crate) fn check_state(
         aggregate: Vec::new(),
         bondings,
         points: None,
+        meshes: None,
     };
     if !lengths_ok {
         return out;
@@ -239,6 +249,14 @@ pub(crate) fn check_state(
             c.fail(field, "only in 2D (material points are a plane-strain method's)");
         } else if ok_box && check_points(c, &field, points, n, [lo.x, lo.y], [hi.x, hi.y]) {
             out.points = Some(points.clone());
+        }
+    }
+    if let Some(meshes) = &s.meshes {
+        let field = format!("{path}.meshes");
+        if dim != 2 {
+            c.fail(field, "only in 2D (meshed grains are a plane-strain method's)");
+        } else if ok_box && check_meshes(c, &field, meshes, n, [lo.x, lo.y], [hi.x, hi.y]) {
+            out.meshes = Some(meshes.clone());
         }
     }
     {

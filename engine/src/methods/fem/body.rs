@@ -341,6 +341,25 @@ impl Body {
         std::mem::swap(&mut self.states, &mut self.trial);
     }
 
+    /// Puts the body where a saved state left it: nodal displacements `u` (m) and velocities
+    /// `v` (m/s), one a node, and each element's Gauss points' histories (`history`, four an
+    /// element in their order; `None`: at rest). The elements' states are evaluated again at
+    /// `u` from those histories: a plastic point on its yield surface stays there, so the
+    /// stresses are the saving run's to round-off.
+    pub fn restore(&mut self, law: &dyn ConstitutiveLaw, u: &[V2], v: &[V2], history: Option<&[History]>) -> Result<(), BodyFailure> {
+        self.u.copy_from_slice(u);
+        self.v.copy_from_slice(v);
+        if let Some(h) = history {
+            for (s, h) in self.states.iter_mut().zip(h.chunks_exact(4)) {
+                s.history.copy_from_slice(h);
+            }
+        }
+        let total = self.u.clone();
+        self.evaluate(law, &total, None, false)?;
+        std::mem::swap(&mut self.states, &mut self.trial);
+        Ok(())
+    }
+
     /// A step of `sc.dt` without contact: Newton on the velocities to a correction below
     /// `tolerance` times the velocity scale (the largest nodal speed, at least `floor`), at most
     /// `max_newton` iterations; returns the iterations.

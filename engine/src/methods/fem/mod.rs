@@ -6,11 +6,10 @@
 //! - [`mesh`]: the grains' meshes (a disk's O-grid, a rectangle);
 //! - [`element`]: the four-node F-bar quadrilateral at finite strain, its forces and tangent;
 //! - [`sparse`]: a grain's Newton matrix and its sparse Cholesky factor (faer);
-//! - [`body`]: one meshed body, its θ-method step and its static equilibrium.
-//!
-//! Contact between grains and the method on scenes come next (issue 26): the bodies already
-//! expose what the shared contact layer needs (their boundary loops, their factorised
-//! matrices, their iterates).
+//! - [`body`]: one meshed body, its θ-method step and its static equilibrium;
+//! - [`system`]: the meshed grains' step with their contacts (the shared
+//!   [`crate::methods::soft::contact`], solved by [`crate::nscd`]);
+//! - [`sim`]: `"method": "fem"` on a scene, and its saved states' meshes.
 
 // The kernels index small fixed arrays (2x2 blocks, 8x8 element matrices) by their axes.
 #![allow(clippy::needless_range_loop)]

@@ -4,14 +4,17 @@
 //!
 //! Grains are placed as rigid disks are (the scene's sizes and placements), then each disk is
 //! meshed ([`super::mesh::Mesh::disk`]) with boundary segments of the smallest diameter over
-//! `elements_per_diameter`, F-bar elements ([`super::element`]).
+//! `elements_per_diameter`, F-bar elements ([`super::element`]). A scene that starts from a
+//! state a `fem` run saved goes on from its meshes instead ([`crate::scene::state_meshes`]:
+//! the same deformed, stressed grains, the steps' splitting level and the contacts' warm
+//! start).
 
 use nalgebra::Vector2;
 
 use super::body::Body;
 use super::mesh::Mesh;
 use super::system::{Grain, Settings, System};
-use crate::constitutive::{build, ConstitutiveLaw};
+use crate::constitutive::{build, ConstitutiveLaw, History, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
 use crate::methods::soft::contact::Sides;
@@ -24,7 +27,9 @@ use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
-use crate::scene::{FemParams, Scene};
+use crate::scene::state_meshes::{StateMeshes, GAUSS_POINTS};
+use crate::scene::state_points::StateImpulse;
+use crate::scene::{FemParams, Scene, StateFile};
 
 type V2 = Vector2<Real>;
 
@@ -196,6 +201,10 @@ impl SoftSystem for System {
     fn tracer(&mut self) -> &mut Tracer {
         &mut self.tracer
     }
+
+    fn save_grains(&self, state: &mut StateFile) {
+        state.meshes = Some(saved_meshes(self));
+    }
 }
 
 /// Builds the method on a validated 2D scene whose grains are all deformable.
@@ -204,7 +213,11 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
         return Err(EngineError::Build { field: "dimension".into(), reason: "method fem is 2D (plane strain)".into() });
     }
     let (particles, domain) = world::initial_particles(scene)?;
-    let dmin = particles.radius.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
+    let saved = scene.initial.as_ref().and_then(|st| st.meshes.as_ref());
+    // The element size comes from the disks the grains were meshed from (a saved state's
+    // grains are disks of their current area in `particles`).
+    let radii = saved.map_or(&particles.radius, |s| &s.radius0);
+    let dmin = radii.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
     let size = dmin / params.elements_per_diameter;
     let mut law_of: Vec<Option<usize>> = vec![None; scene.materials.len()];
     let mut laws: Vec<Box<dyn ConstitutiveLaw>> = Vec::new();
@@ -216,6 +229,8 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
     }
     let mut grains = Vec::with_capacity(particles.len());
     let mut elements = 0;
+    // Where the next grain's nodes, elements and boundary start in a saved state's arrays.
+    let mut from = Restored::default();
     for k in 0..particles.len() {
         let m = particles.material[k] as usize;
         let (Some(law), Some(mat)) = (law_of.get(m).copied().flatten(), scene.materials.get(m)) else {
@@ -224,16 +239,22 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
                 reason: format!("grain {k}'s material is not deformable: method fem needs deformable grains"),
             });
         };
-        let c = particles.pos[k];
-        let mesh = Mesh::disk(V2::new(c.x, c.y), particles.radius[k], size);
-        elements += mesh.quads.len();
-        let mut body = Body::new(mesh, mat.density, true).map_err(|e| EngineError::Build {
-            field: "method.elements_per_diameter".into(),
-            reason: format!("grain {k} could not be meshed ({e})"),
-        })?;
-        let v = V2::new(particles.vel[k].x, particles.vel[k].y);
-        body.v.iter_mut().for_each(|x| *x = v);
-        grains.push(Grain { body, law, friction: mat.friction, radius: particles.radius[k] });
+        let grain = match saved {
+            Some(saved) => restore_grain(saved, k, &mut from, law, laws[law].as_ref(), mat.density, mat.friction)?,
+            None => {
+                let c = particles.pos[k];
+                let mesh = Mesh::disk(V2::new(c.x, c.y), particles.radius[k], size);
+                let mut body = Body::new(mesh, mat.density, true).map_err(|e| EngineError::Build {
+                    field: "method.elements_per_diameter".into(),
+                    reason: format!("grain {k} could not be meshed ({e})"),
+                })?;
+                let v = V2::new(particles.vel[k].x, particles.vel[k].y);
+                body.v.iter_mut().for_each(|x| *x = v);
+                Grain { body, law, friction: mat.friction, radius: particles.radius[k] }
+            }
+        };
+        elements += grain.body.mesh.quads.len();
+        grains.push(grain);
     }
     const MAX_ELEMENTS: usize = 5_000_000;
     if elements > MAX_ELEMENTS {
@@ -263,8 +284,97 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
         },
         sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
     };
-    let sys = System::new(grains, laws, planes, settings);
+    let mut sys = System::new(grains, laws, planes, settings);
+    if let Some(saved) = saved {
+        sys.splitting.resume(saved.split_depth, saved.split_calm);
+        sys.warm
+            .restore(saved.impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
+    }
     SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.threads)
+}
+
+/// Where grain `k`'s nodes, elements and boundary nodes start in a saved state's arrays
+/// ([`StateMeshes`]).
+#[derive(Debug, Default, Clone, Copy)]
+struct Restored {
+    node: usize,
+    element: usize,
+    boundary: usize,
+}
+
+/// Grain `k` from a saved state's meshes (checked by validation: its arrays agree, its node
+/// numbers are its own and its elements are neither degenerate nor inverted), its law `law`
+/// (index and law), density (kg/m³) and friction those of the new scene's material.
+fn restore_grain(
+    saved: &StateMeshes,
+    k: usize,
+    from: &mut Restored,
+    law: usize,
+    constitutive: &dyn ConstitutiveLaw,
+    density: Real,
+    friction: Real,
+) -> Result<Grain, EngineError> {
+    let (n, e, b) = (saved.node_count[k] as usize, saved.element_count[k] as usize, saved.boundary_count[k] as usize);
+    let at = *from;
+    *from = Restored { node: at.node + n, element: at.element + e, boundary: at.boundary + b };
+    let v2 = |v: &Vec<f64>| V2::new(v[0], v[1]);
+    let nodes = at.node..at.node + n;
+    let mesh = Mesh {
+        nodes: saved.reference[nodes.clone()].iter().map(v2).collect(),
+        quads: saved.elements[at.element..at.element + e].iter().map(|q| [q[0], q[1], q[2], q[3]]).collect(),
+        boundary: saved.boundary[at.boundary..at.boundary + b].to_vec(),
+    };
+    let failed = |reason: String| EngineError::Build { field: "start_from.state.meshes".into(), reason: format!("grain {k}: {reason}") };
+    let mut body = Body::new(mesh, density, true).map_err(|f| failed(f.to_string()))?;
+    let u: Vec<V2> = saved.displacement[nodes.clone()].iter().map(v2).collect();
+    let v: Vec<V2> = saved.velocity[nodes].iter().map(v2).collect();
+    let points = at.element * GAUSS_POINTS..(at.element + e) * GAUSS_POINTS;
+    let history: Option<Vec<History>> = (!saved.plastic.is_empty()).then(|| {
+        points
+            .map(|p| {
+                let c = &saved.plastic[p];
+                History { inv_plastic: PlaneSym { xx: c[0], xy: c[1], yy: c[2], zz: c[3] }, alpha: saved.plastic_strain[p] }
+            })
+            .collect()
+    });
+    body.restore(constitutive, &u, &v, history.as_deref()).map_err(|f| failed(f.to_string()))?;
+    Ok(Grain { body, law, friction, radius: saved.radius0[k] })
+}
+
+/// The grains' meshes as a saved state holds them ([`StateMeshes`]); the Gauss points'
+/// histories only when one of them is not at rest.
+fn saved_meshes(sys: &System) -> StateMeshes {
+    let bodies = || sys.grains.iter().map(|g| &g.body);
+    let pair = |v: &V2| vec![v.x, v.y];
+    let mut s = StateMeshes {
+        radius0: sys.grains.iter().map(|g| g.radius).collect(),
+        node_count: bodies().map(|b| b.nodes() as u32).collect(),
+        element_count: bodies().map(|b| b.mesh.quads.len() as u32).collect(),
+        boundary_count: bodies().map(|b| b.mesh.boundary.len() as u32).collect(),
+        reference: bodies().flat_map(|b| b.mesh.nodes.iter().map(pair)).collect(),
+        displacement: bodies().flat_map(|b| b.u.iter().map(pair)).collect(),
+        velocity: bodies().flat_map(|b| b.v.iter().map(pair)).collect(),
+        elements: bodies().flat_map(|b| b.mesh.quads.iter().map(|q| q.to_vec())).collect(),
+        boundary: bodies().flat_map(|b| b.mesh.boundary.iter().copied()).collect(),
+        split_depth: sys.splitting.level().0,
+        split_calm: sys.splitting.level().1,
+        impulses: sys
+            .warm
+            .entries()
+            .into_iter()
+            .map(|((vertex, grain, other), r)| StateImpulse { grain, vertex: vertex as u32, other, impulse: vec![r.x, r.y] })
+            .collect(),
+        ..StateMeshes::default()
+    };
+    let histories = || bodies().flat_map(|b| b.states.iter().flat_map(|st| st.history.iter()));
+    if histories().any(|h| *h != History::default()) {
+        for h in histories() {
+            let c = &h.inv_plastic;
+            s.plastic.push(vec![c.xx, c.xy, c.yy, c.zz]);
+            s.plastic_strain.push(h.alpha);
+        }
+    }
+    s
 }
 
 impl Fem {

@@ -174,7 +174,9 @@ pub struct System {
     /// The current part's Newton iterations, sweeps and contacts so far (for the trace).
     traced: (u32, u32, usize),
     corrections: Vec<Vec<Real>>,
-    warm: Warm,
+    /// The contacts' impulses of the last step, by key, from which the next step's contact
+    /// solve starts.
+    pub warm: Warm,
     nlgs: Nlgs,
     outlines: Vec<Vec<V2>>,
     /// The contacts' drifts before they are measured again (scratch kept between steps).

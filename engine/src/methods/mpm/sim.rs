@@ -27,7 +27,7 @@ use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
 use crate::scene::state_points::{StateImpulse, StatePoints};
-use crate::scene::{MpmParams, Scene};
+use crate::scene::{MpmParams, Scene, StateFile};
 use std::ops::Range;
 
 /// Nodes of margin around the container.
@@ -136,8 +136,8 @@ impl SoftSystem for System {
         &mut self.tracer
     }
 
-    fn saved_points(&self) -> Option<StatePoints> {
-        Some(saved_points(self))
+    fn save_grains(&self, state: &mut StateFile) {
+        state.material_points = Some(saved_points(self));
     }
 }
 

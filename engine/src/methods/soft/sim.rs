@@ -27,7 +27,6 @@ use crate::observe::{
 };
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
-use crate::scene::state_points::StatePoints;
 use crate::scene::{Controls, Material, Scene, StateFile, WallMotion};
 
 type V2 = Vector2<Real>;
@@ -79,11 +78,11 @@ pub trait SoftSystem: Send {
     fn suggestion(&self, cause: &InstabilityCause) -> &'static str;
     /// The Newton iterations' trace ([`super::trace`]).
     fn tracer(&mut self) -> &mut Tracer;
-    /// The grains' material points for a saved state, in the order of
-    /// [`SoftSystem::grain_states`] (none: the state holds the grains as disks only).
-    fn saved_points(&self) -> Option<StatePoints> {
-        None
-    }
+    /// Adds to a saved state (which holds the grains as disks of their current area) what the
+    /// method needs to go on from the same deformed grains: `mpm` its material points
+    /// ([`StateFile::material_points`]), `fem` its meshes ([`StateFile::meshes`]), in the order
+    /// of [`SoftSystem::grain_states`]. By default nothing: the state holds disks only.
+    fn save_grains(&self, _state: &mut StateFile) {}
 }
 
 fn v2(v: &Vec3) -> V2 {
@@ -387,7 +386,7 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
         let grains = self.sys.grain_states();
         let disks = self.disks(&grains);
         let mut st = world::saved_state(self.sys.time(), self.sys.steps(), &self.domain, &self.materials, &disks);
-        st.material_points = self.sys.saved_points();
+        self.sys.save_grains(&mut st);
         st
     }
 
