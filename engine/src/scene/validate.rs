@@ -562,7 +562,7 @@ fn check_mpm_params(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
         if !(a.is_finite() && (0.0..1.0).contains(&a)) {
             c.fail("method.acceleration", format!("must be >= 0 and < 1, got {a}"));
         } else {
-            p.acceleration = a;
+            p.acceleration = Some(a);
         }
     }
     p.threads = s.threads.unwrap_or(0);

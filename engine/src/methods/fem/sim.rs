@@ -29,7 +29,7 @@ use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
 use crate::scene::state_meshes::{StateMeshes, GAUSS_POINTS};
 use crate::scene::state_points::StateImpulse;
-use crate::scene::{FemParams, Scene, StateFile};
+use crate::scene::{soft_momentum, FemParams, Scene, StateFile};
 
 type V2 = Vector2<Real>;
 
@@ -280,7 +280,7 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
             worst_tolerance: 1e-4,
             max_iterations: params.max_iterations,
             relaxation: 1.0,
-            acceleration: params.acceleration,
+            acceleration: soft_momentum(params.acceleration, params.symmetric_contact),
         },
         sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
     };

@@ -27,7 +27,7 @@ use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
 use crate::scene::state_points::{StateImpulse, StatePoints};
-use crate::scene::{MpmParams, Scene, StateFile};
+use crate::scene::{soft_momentum, MpmParams, Scene, StateFile};
 use std::ops::Range;
 
 /// Nodes of margin around the container.
@@ -209,6 +209,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     // The time step: the fastest imposed motion covers `max_displacement` of a cell.
     let speed = world::imposed_speed(scene, &particles, true).max(1e-3 * h);
     let dt = params.time_step.unwrap_or(params.max_displacement * h / speed);
+    let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
     let settings = Settings {
         dt,
         theta: params.theta,
@@ -222,13 +223,9 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             worst_tolerance: 1e-4,
             max_iterations: params.max_iterations,
             relaxation: 1.0,
-            acceleration: params.acceleration,
+            acceleration: soft_momentum(params.acceleration, both),
         },
-        sides: if params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic())) {
-            Sides::Both
-        } else {
-            Sides::One
-        },
+        sides: if both { Sides::Both } else { Sides::One },
     };
     let mut sys = System::new(grid, points, grains, laws, planes, settings);
     if let Some(saved) = saved {
