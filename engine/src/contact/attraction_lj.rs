@@ -40,7 +40,7 @@ impl AttractionLj {
         if gap < 0.0 {
             -self.f0
         } else if gap <= self.cutoff {
-            -self.f0 * (1.0 + gap / (ri + rj)).powf(-self.gamma)
+            -self.f0 * decay(1.0 + gap / (ri + rj), self.gamma)
         } else {
             0.0
         }
@@ -63,6 +63,19 @@ impl AttractionLj {
     /// Gap within which the pair attracts, m.
     pub fn range(&self) -> f64 {
         self.cutoff
+    }
+}
+
+/// `base^(−γ)`: by multiplications for a whole `γ` up to 16 (the sources' 7), by `powf`
+/// otherwise (which took 40% of a 3D DEM step of aggregates, whose primaries have some 60
+/// neighbours within the cut-off).
+#[inline(always)]
+fn decay(base: f64, gamma: f64) -> f64 {
+    let n = gamma as i32;
+    if f64::from(n) == gamma && (1..=16).contains(&n) {
+        base.powi(-n)
+    } else {
+        base.powf(-gamma)
     }
 }
 

@@ -213,7 +213,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
         solver: None,
         deformable: v.deformable.map(|d| Box::new(d.sample)),
-        grains: if dim == 2 { super::grains::measure_grains(p, v.contacts, v.volume).map(Box::new) } else { None },
+        grains: super::grains::measure_grains(p, dim, v.contacts, v.volume).map(Box::new),
     }
 }
 

@@ -7,7 +7,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::aggregate::grow_disk;
+use super::aggregate::{grow_ball, grow_disk};
 use super::Particles;
 use crate::error::EngineError;
 use crate::geometry::Domain;
@@ -138,7 +138,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
 
 /// The particles of `grains` (the placed grains, those of set `k` from `starts[k]` to
 /// `starts[k + 1]`), with each grain of an aggregate set replaced by its primaries
-/// ([`grow_disk`]), which move with the grain's velocity.
+/// ([`grow_disk`], [`grow_ball`] in 3D), which move with the grain's velocity.
 fn fill_aggregates(scene: &Scene, grains: &Particles, starts: &[usize], rng: &mut ChaCha8Rng) -> Result<Particles, EngineError> {
     let mut out = Particles::default();
     for (k, set) in scene.sets.iter().enumerate() {
@@ -149,7 +149,8 @@ fn fill_aggregates(scene: &Scene, grains: &Particles, starts: &[usize], rng: &mu
                 out.push(scene.dim, pos, vel, r, density, material, wet);
                 continue;
             };
-            let primaries = grow_disk(pos, r, &model.primaries, rng);
+            let primaries =
+                if scene.dim == 3 { grow_ball(pos, r, &model.primaries, rng) } else { grow_disk(pos, r, &model.primaries, rng) };
             if primaries.len() < model.min_primaries {
                 return Err(EngineError::Build {
                     field: format!("particles[{k}].model.primaries"),

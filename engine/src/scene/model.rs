@@ -485,16 +485,19 @@ impl ParticleSet {
     /// (estimated, [`AggregateModel::estimated_primaries`]).
     pub fn particle_count(&self) -> usize {
         match &self.aggregate {
-            Some(a) => self.count * a.estimated_primaries(self.size.mean_power(2.0)),
+            Some(a) => self.count * a.estimated_primaries(self.size.mean_power(a.dim as Real)),
             None => self.count,
         }
     }
 }
 
 /// Grains that are aggregates of rigid primaries bonded by an attraction: the bonded particle
-/// method (PHYSICS.md §4; N 1.2.1), in 2D. The set's own size distribution is the grains'.
+/// method (PHYSICS.md §4; N 1.2.1), in 2D and 3D. The set's own size distribution is the
+/// grains'.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AggregateModel {
+    /// The scene's dimension, 2 or 3: disks in disks, or balls in balls.
+    pub dim: usize,
     /// Diameters of the primaries, m.
     pub primaries: SizeDist,
     /// Fewest primaries a grain may be made of.
@@ -503,10 +506,11 @@ pub struct AggregateModel {
     pub bonding: crate::particles::aggregate::Bonding,
 }
 
-/// Area fraction of a grain's disk that its grown aggregate covers
-/// ([`crate::particles::aggregate::grow_disk`]; measured 0.70 and 0.73 in grains of 1.6 and
-/// 1.8 mm with primaries of 0.07–0.13 mm).
-pub const AGGREGATE_FILL: Real = 0.70;
+/// Fraction of a grain's disk (2D) or ball (3D) that its grown aggregate fills
+/// ([`crate::particles::aggregate::grow_disk`], measured 0.70 and 0.73 in grains of 1.6 and
+/// 1.8 mm with primaries of 0.07–0.13 mm; [`crate::particles::aggregate::grow_ball`], 0.39, 0.43
+/// and 0.46 in balls of 0.8, 1 and 1.2 mm, whose ragged outer shell is a larger part).
+pub const AGGREGATE_FILL: [Real; 2] = [0.70, 0.39];
 
 /// Contact dynamics' default solver tolerance (relative change of the impulses) in a scene with
 /// aggregates. Their primaries carry the attraction's internal forces, balanced by their
@@ -517,10 +521,12 @@ pub const AGGREGATE_FILL: Real = 0.70;
 pub const AGGREGATE_TOLERANCE: Real = 1e-6;
 
 impl AggregateModel {
-    /// Primaries in a grain whose squared diameter is `grain_d2` (m²): the disk's area times
-    /// [`AGGREGATE_FILL`] over a primary's mean area.
-    pub fn estimated_primaries(&self, grain_d2: Real) -> usize {
-        (AGGREGATE_FILL * grain_d2 / self.primaries.mean_power(2.0)).floor() as usize
+    /// Primaries in a grain whose diameter to the power of the dimension is `grain_power`
+    /// (m² in 2D, m³ in 3D): the disk's area (ball's volume) times [`AGGREGATE_FILL`] over a
+    /// primary's mean area (volume).
+    pub fn estimated_primaries(&self, grain_power: Real) -> usize {
+        let fill = AGGREGATE_FILL[usize::from(self.dim == 3)];
+        (fill * grain_power / self.primaries.mean_power(self.dim as Real)).floor() as usize
     }
 }
 

@@ -1157,9 +1157,6 @@ fn check_grain_model(
     material: Option<&Material>,
 ) -> AggregateModel {
     let GrainModelSpec::BondedPrimaries { primaries, min_primaries, attraction, friction } = m;
-    if dim != 2 {
-        c.fail(format!("{path}.kind"), "bonded_primaries aggregates are 2D for now (dimension 2)");
-    }
     if material.is_some_and(|m| m.deformable.is_some()) {
         c.fail(format!("{path}.kind"), "bonded_primaries are rigid primaries: give the set a material without `deformable`");
     }
@@ -1192,10 +1189,11 @@ fn check_grain_model(
     }
     let friction = friction.unwrap_or(0.0);
     c.non_negative(&format!("{path}.friction"), friction);
-    let model = AggregateModel { primaries, min_primaries, bonding: Bonding { attraction: AttractionLj { f0, gamma, cutoff }, friction } };
+    let model =
+        AggregateModel { dim, primaries, min_primaries, bonding: Bonding { attraction: AttractionLj { f0, gamma, cutoff }, friction } };
     let grain = size.min_diameter();
     if d_max.is_finite() && d_max > 0.0 && grain > 0.0 {
-        let holds = model.estimated_primaries(grain * grain);
+        let holds = model.estimated_primaries(grain.powi(dim as i32));
         if holds < min_primaries {
             c.fail(
                 format!("{path}.primaries"),
@@ -1537,6 +1535,26 @@ mod tests {
         let r = rules(&aggregate_scene(serde_json::json!("cd"), small, false));
         assert!(
             r.iter().any(|x| x.starts_with("particles[0].model.primaries: the smallest grain (0.0018 m) holds about 56 primaries")),
+            "{r:#?}"
+        );
+        // In 3D the estimate is 0.39 × D³/⟨d³⟩: a grain of 0.9 mm holds about 260 of the
+        // sources' primaries (⟨d³⟩ 1.09e-12 m³), one of 0.5 mm about 44, fewer than 200.
+        let in_3d = |diameter: f64| {
+            serde_json::json!({
+                "dimension": 3, "method": "dem",
+                "materials": {"primary": {"density": 2000, "contact": {"law": "linear", "k_n": 3e4}, "restitution": 0.2, "friction": 0.0}},
+                "particles": [{"material": "primary", "size": {"kind": "monodisperse", "diameter": diameter},
+                    "placement": {"kind": "list", "positions": [[1e-3, 1e-3, 1e-3]]},
+                    "model": {"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4}, "attraction": {"force": 0.01}}}],
+                "container": {"min": [0.0, 0.0, 0.0], "max": [2e-3, 2e-3, 2e-3], "wall_material": "primary"},
+                "stop": {"steps": 10}
+            })
+            .to_string()
+        };
+        assert_eq!(parse_scene(&in_3d(0.9e-3)).map(|s| s.particle_count()), Ok(260));
+        let r = rules(&in_3d(0.5e-3));
+        assert!(
+            r.iter().any(|x| x.starts_with("particles[0].model.primaries: the smallest grain (0.0005 m) holds about 44 primaries")),
             "{r:#?}"
         );
         // The method name `bpm` points to the model.

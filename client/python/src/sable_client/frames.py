@@ -23,7 +23,7 @@ column                                     meaning
 ``deformable.*``                           deformable grains: aspect ratios, ``min_jacobian``,
                                            ``interpenetration``, ``dissipated_energy`` (J)
 ``grains.*``                               aggregates: the grains' ``phi``, ``z``, ``pressure``
-                                           (Pa), aspect ratios, ``mean_area`` (m²)
+                                           (Pa), aspect ratios, ``mean_area`` (m²; m³ in 3D)
 ``drum.*``                                 rotating drum: angles (degrees), fill, torque (N·m)
 =========================================  =====================================================
 
