@@ -6,10 +6,12 @@
 //! An aggregate is grown compact and round in its grain's disk ([`grow_disk`]; its ball in 3D,
 //! [`grow_ball`]): each primary in turn, its diameter drawn from the set's primary
 //! distribution, goes to the free place in the disk touching two placed primaries (the ball:
-//! three) that lies nearest the grain's centre, until the next one fits nowhere. The primaries start touching, at rest relative to their grain: a dense random
-//! packing of the disk (measured for primaries of 0.07–0.13 mm in a 1.6 mm grain: 0.85 of the
-//! area inside the outer two rings, 0.70 of the whole disk's, whose rim the outer ring leaves
-//! ragged), which the attraction then holds once relaxed (`methods::cd`'s relaxation).
+//! three) that lies nearest the grain's centre, until the next one fits nowhere. The primaries
+//! start touching, at rest relative to their grain: a dense random packing of the disk
+//! (measured for primaries of 0.07–0.13 mm in a 1.6 mm grain: 0.85 of the area inside the outer
+//! two rings, 0.70 of the whole disk's, whose rim the outer ring leaves ragged; in a 1 mm ball,
+//! 0.67 and 0.43), which the attraction then holds once relaxed (`methods::cd`'s and
+//! `methods::dem`'s relaxation).
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
