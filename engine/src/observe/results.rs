@@ -165,6 +165,11 @@ pub struct CompactionResult {
     /// The largest aspect ratio of a grain at the end (deformable grains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_aspect_ratio: Option<f64>,
+    /// `"grains"` when the grains are aggregates of primaries (the bonded particle method): Φ,
+    /// Z and the aspect ratios above are then the grains' own ([`Sample::grains`]), not the
+    /// primaries'; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
 }
 
 /// Results of a deposition under gravity.
@@ -524,29 +529,37 @@ impl Analysis {
                 let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
                 let final_stress = stress_of(last);
                 let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
-                let phi_onset = onset.map(|k| run[k].phi);
+                // Aggregates of primaries are judged by their grains' Φ, Z and shapes.
+                let grains = last.grains.is_some();
+                let phi = |s: &Sample| s.grains.as_ref().map_or(s.phi, |g| g.phi);
+                let z = |s: &Sample| s.grains.as_ref().map_or(s.z, |g| g.z);
+                let phi_onset = onset.map(|k| phi(run[k]));
                 let strain = last.strain.as_ref().and_then(|e| e.axes.get(*axis).copied()).unwrap_or(0.0);
                 let (coordination_fit, stress_fit) = match onset {
                     Some(k) => {
                         let (jammed, beyond) = (run[k], &run[k + 1..]);
                         (
-                            power_fit(beyond.iter().map(|s| (s.phi - jammed.phi, s.z - jammed.z))),
-                            power_fit(beyond.iter().map(|s| (s.phi - jammed.phi, stress_of(s)))),
+                            power_fit(beyond.iter().map(|s| (phi(s) - phi(jammed), z(s) - z(jammed)))),
+                            power_fit(beyond.iter().map(|s| (phi(s) - phi(jammed), stress_of(s)))),
                         )
                     }
                     None => (None, None),
                 };
-                let shape = last.deformable.as_ref().map(|d| (d.mean_aspect_ratio, d.max_aspect_ratio));
+                let shape = match &last.grains {
+                    Some(g) => Some((g.mean_aspect_ratio, g.max_aspect_ratio)),
+                    None => last.deformable.as_ref().map(|d| (d.mean_aspect_ratio, d.max_aspect_ratio)),
+                };
                 r.compaction = Some(CompactionResult {
                     phi_onset,
-                    phi_final: last.phi,
+                    phi_final: phi(last),
                     wall_stress: final_stress,
                     strain,
-                    phi_max: run.iter().map(|s| s.phi).fold(last.phi, f64::max),
+                    phi_max: run.iter().map(|s| phi(s)).fold(phi(last), f64::max),
                     coordination_fit,
                     stress_fit,
                     mean_aspect_ratio: shape.map(|s| s.0),
                     max_aspect_ratio: shape.map(|s| s.1),
+                    level: grains.then(|| "grains".to_string()),
                 });
                 r.stiffness_number = self.stiffness_number(final_stress, mean_diameter);
                 if let CompactionDrive::Velocity { speed, .. } = drive {
@@ -624,7 +637,7 @@ fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
 mod tests {
     use super::*;
     use crate::observe::drum::{drum_regime, ProfileBin};
-    use crate::observe::{StrainSample, Stress};
+    use crate::observe::{GrainSample, StrainSample, Stress, WallSample};
     use crate::scene::parse_scene;
 
     fn sample(step: u64, stage: &str, axial: f64, zeta: f64, ev: f64) -> Sample {
@@ -813,5 +826,52 @@ mod tests {
             ),
             "{w:?}"
         );
+    }
+
+    /// A hand-made compaction of aggregates: the primaries' Φ and Z follow one course, the
+    /// grains' another, `Z_g − Z_J = 5 (Φ_g − Φ_J)^½` past the wall's first load. The results
+    /// are the grains': Φ at the onset, at the end and the largest, the coordination fit
+    /// (exponent ½, prefactor 5), the shapes, and `level` says so.
+    #[test]
+    fn a_compaction_of_aggregates_is_judged_by_its_grains() {
+        let s = serde_json::json!({
+            "dimension": 2, "method": "dem",
+            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e7}, "restitution": 0.5}},
+            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
+            "experiment": {"kind": "compaction", "velocity": 0.01, "strain": 0.5}
+        });
+        let mut a = Analysis::new(&parse_scene(&s.to_string()).expect("valid"));
+        for k in 0..=40u64 {
+            let phi_g = 0.6 + 0.008 * k as f64;
+            let beyond = (phi_g - 0.68).max(0.0);
+            let mut x = sample(k, "compaction", 0.0, 0.0, 0.0);
+            x.phi = 0.5 + 0.004 * k as f64;
+            x.z = 6.0;
+            x.walls = vec![WallSample {
+                name: "y_max".into(),
+                position: 0.01,
+                force: vec![0.0, 0.0],
+                normal_stress: if k >= 10 { 1e5 + 1e6 * beyond } else { 0.0 },
+            }];
+            x.grains = Some(Box::new(GrainSample {
+                count: 10,
+                phi: phi_g,
+                z: 2.0 + 5.0 * beyond.sqrt(),
+                pressure: 0.0,
+                mean_aspect_ratio: 1.1 + 0.001 * k as f64,
+                max_aspect_ratio: 1.3,
+                mean_area: 1e-6,
+            }));
+            a.push(&x);
+        }
+        let r = a.finish(1e-3, 2500.0).expect("result");
+        let c = r.compaction.expect("a compaction result");
+        assert_eq!(c.level.as_deref(), Some("grains"));
+        assert!((c.phi_onset.expect("an onset") - 0.68).abs() < 1e-12, "{c:?}");
+        assert!((c.phi_final - 0.92).abs() < 1e-12 && (c.phi_max - 0.92).abs() < 1e-12, "{c:?}");
+        let fit = c.coordination_fit.clone().expect("a coordination fit");
+        assert!((fit.exponent - 0.5).abs() < 1e-9 && (fit.prefactor - 5.0).abs() < 1e-8, "{fit:?}");
+        assert!(c.mean_aspect_ratio.is_some_and(|m| (m - 1.14).abs() < 1e-12) && c.max_aspect_ratio == Some(1.3), "{c:?}");
     }
 }
