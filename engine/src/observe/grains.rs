@@ -9,6 +9,9 @@
 //!   (a cubic one of `d_min / 4` in 3D: a lone ball comes out 1% too large at cells of a
 //!   sixteenth of its radius, 0.4% at a thirty-second; a grain of the sources' primaries 1 mm
 //!   across is about 60 cells wide).
+//! - **Periodic boxes**: a grain across a periodic boundary is taken whole, each primary at its
+//!   image nearest the grain's first primary (the period is more than twice a grain, which
+//!   validation checks).
 //! - **Coordination** between grains: pairs of aggregates with at least one force-bearing
 //!   contact between their primaries.
 //! - **Shape**: the aspect ratio `sqrt(λ_max / λ_min)` of the primaries' second moments about
@@ -22,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::metrics::ContactRecord;
+use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
 use crate::particles::aggregate::NO_AGGREGATE;
 use crate::particles::Particles;
@@ -62,8 +66,10 @@ pub struct GrainShape {
 }
 
 /// The grains' measures of `p` in `dim` dimensions in a box of area (volume) `volume`, from the
-/// `contacts` of the sample, or `None` if `p` has no aggregate.
-pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], volume: Real) -> Option<GrainSample> {
+/// `contacts` of the sample, or `None` if `p` has no aggregate. Across the periodic boundaries
+/// of `domain` each grain is taken whole: its primaries at their images nearest its first one
+/// (a grain less than half the period across).
+pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], volume: Real, domain: &Domain) -> Option<GrainSample> {
     let n = p.aggregate_count();
     if n == 0 {
         return None;
@@ -77,7 +83,17 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         }
     }
     let d_min = 2.0 * members.iter().flatten().map(|&i| p.radius[i]).fold(Real::INFINITY, Real::min);
-    let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, dim, m, d_min)).collect();
+    // Each primary where its grain is whole.
+    let mut pos = p.pos.clone();
+    if domain.periodic.iter().any(|&q| q) {
+        for m in &members {
+            let Some(&first) = m.first() else { continue };
+            for &i in &m[1..] {
+                pos[i] = p.pos[first] - domain.separation(&p.pos[first], &p.pos[i]).0;
+            }
+        }
+    }
+    let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, &pos, dim, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     let mut moment = vec![0.0; n];
@@ -87,19 +103,23 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
             // Within one grain, or between particles of no grain.
             continue;
         }
-        let xi = p.pos[c.i as usize];
-        // The contact point: on the line of centres at i's radius, or `branch` from a wall.
-        let point = match c.j {
-            Some(j) => xi - c.branch * (p.radius[c.i as usize] / (p.radius[c.i as usize] + p.radius[j as usize])),
-            None => xi - c.branch,
+        let i = c.i as usize;
+        // The contact point: on the line of centres (`branch` = x_i − x_j) at i's radius, or
+        // `branch` from a wall; from i's place in its grain, and from j's in its own.
+        let (at_i, at_j) = match c.j {
+            Some(j) => {
+                let share = p.radius[i] / (p.radius[i] + p.radius[j as usize]);
+                (pos[i] - c.branch * share, pos[j as usize] + c.branch * (1.0 - share))
+            }
+            None => (pos[i] - c.branch, Vec3::zeros()),
         };
         // f ⊗ (x_c − x_g) traced: the force on i dotted with its lever from its grain's centre;
         // the force on j, −f, likewise from j's.
         if let Some(a) = a {
-            moment[a as usize] += c.force.dot(&(point - shapes[a as usize].centre));
+            moment[a as usize] += c.force.dot(&(at_i - shapes[a as usize].centre));
         }
         if let Some(b) = b {
-            moment[b as usize] -= c.force.dot(&(point - shapes[b as usize].centre));
+            moment[b as usize] -= c.force.dot(&(at_j - shapes[b as usize].centre));
         }
         if let (Some(a), Some(b)) = (a, b) {
             pairs.push((a.min(b), a.max(b)));
@@ -123,18 +143,19 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
 }
 
 /// Area (volume in 3D), centre and aspect ratio of the grain made of primaries `members` of
-/// `p` in `dim` dimensions (module documentation), `d_min` the smallest primary's diameter.
-pub fn grain_shape(p: &Particles, dim: usize, members: &[usize], d_min: Real) -> GrainShape {
+/// `p` at positions `pos` (the grain whole) in `dim` dimensions (module documentation), `d_min`
+/// the smallest primary's diameter.
+pub fn grain_shape(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_min: Real) -> GrainShape {
     let mass: Real = members.iter().map(|&i| p.mass[i]).sum();
     if members.is_empty() || mass <= 0.0 {
         return GrainShape { area: 0.0, centre: Vec3::zeros(), aspect_ratio: 1.0 };
     }
-    let centre = members.iter().fold(Vec3::zeros(), |s, &i| s + p.pos[i] * p.mass[i]) / mass;
+    let centre = members.iter().fold(Vec3::zeros(), |s, &i| s + pos[i] * p.mass[i]) / mass;
     let aspect_ratio = if dim == 2 {
         // The in-plane second moments: Σ m (d d^T) plus each disk's own m r²/4 per axis.
         let (mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0);
         for &i in members {
-            let d = p.pos[i] - centre;
+            let d = pos[i] - centre;
             let own = 0.25 * p.mass[i] * p.radius[i] * p.radius[i];
             xx += p.mass[i] * d.x * d.x + own;
             yy += p.mass[i] * d.y * d.y + own;
@@ -150,7 +171,7 @@ pub fn grain_shape(p: &Particles, dim: usize, members: &[usize], d_min: Real) ->
         // Σ m (d d^T) plus each ball's own m r²/5 per axis.
         let mut moments = nalgebra::Matrix3::<Real>::zeros();
         for &i in members {
-            let d = p.pos[i] - centre;
+            let d = pos[i] - centre;
             moments += d * d.transpose() * p.mass[i] + nalgebra::Matrix3::identity() * (0.2 * p.mass[i] * p.radius[i] * p.radius[i]);
         }
         let eigen = moments.symmetric_eigenvalues();
@@ -161,7 +182,7 @@ pub fn grain_shape(p: &Particles, dim: usize, members: &[usize], d_min: Real) ->
             Real::INFINITY
         }
     };
-    GrainShape { area: closed_measure(p, dim, members, d_min), centre, aspect_ratio }
+    GrainShape { area: closed_measure(p, pos, dim, members, d_min), centre, aspect_ratio }
 }
 
 /// Points spread evenly on the circle (2D) or sphere (3D) of radius `rho` about `x`, about
@@ -187,15 +208,15 @@ fn surface_points(x: Vec3, rho: Real, dim: usize, spacing: Real) -> impl Iterato
 /// Area (2D) or volume (3D) of the union of the primaries `members` closed by a disk (ball) of
 /// radius `d_min / 2`, holes filled, on a grid of `d_min / CELLS_PER_PRIMARY` (a cell belongs
 /// if its centre does).
-fn closed_measure(p: &Particles, dim: usize, members: &[usize], d_min: Real) -> Real {
+fn closed_measure(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_min: Real) -> Real {
     let cell = d_min / CELLS_PER_PRIMARY[usize::from(dim == 3)];
     let reach = 0.5 * d_min;
     let (mut lo, mut hi) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(Real::NEG_INFINITY));
     for &i in members {
         let r = p.radius[i] + reach;
         for a in 0..dim {
-            lo[a] = lo[a].min(p.pos[i][a] - r);
-            hi[a] = hi[a].max(p.pos[i][a] + r);
+            lo[a] = lo[a].min(pos[i][a] - r);
+            hi[a] = hi[a].max(pos[i][a] + r);
         }
     }
     // A frame of empty cells around the dilated grain (one layer of cells in 2D, at z = 0).
@@ -228,7 +249,7 @@ fn closed_measure(p: &Particles, dim: usize, members: &[usize], d_min: Real) -> 
     // Dilation: cells within r + h of a primary's centre.
     let mut dilated = vec![false; nx * ny * nz];
     for &i in members {
-        let (x, r) = (p.pos[i], p.radius[i] + reach);
+        let (x, r) = (pos[i], p.radius[i] + reach);
         let (rx, ry, rz) = span(&x, r + cell);
         for iz in rz {
             for iy in ry.clone() {
@@ -252,12 +273,12 @@ fn closed_measure(p: &Particles, dim: usize, members: &[usize], d_min: Real) -> 
     };
     let mut bins: std::collections::HashMap<(i64, i64, i64), Vec<usize>> = std::collections::HashMap::new();
     for &i in members {
-        bins.entry(key(&p.pos[i])).or_default().push(i);
+        bins.entry(key(&pos[i])).or_default().push(i);
     }
     let reach2 = reach * reach;
     let layers: i64 = if dim == 3 { 1 } else { 0 };
     for &i in members {
-        for q in surface_points(p.pos[i], p.radius[i] + reach, dim, cell) {
+        for q in surface_points(pos[i], p.radius[i] + reach, dim, cell) {
             let (bx, by, bz) = key(&q);
             let covered = (-layers..=layers).any(|dz| {
                 (-1..=1).any(|dy| {
@@ -265,7 +286,7 @@ fn closed_measure(p: &Particles, dim: usize, members: &[usize], d_min: Real) -> 
                         bins.get(&(bx + dx, by + dy, bz + dz)).is_some_and(|list| {
                             list.iter().any(|&j| {
                                 let r = p.radius[j] + reach;
-                                j != i && (p.pos[j] - q).norm_squared() < r * r
+                                j != i && (pos[j] - q).norm_squared() < r * r
                             })
                         })
                     })
@@ -329,6 +350,11 @@ mod tests {
         grain_in(2, &primaries.iter().map(|&(x, y, r)| (Vec3::new(x, y, 0.0), r)).collect::<Vec<_>>())
     }
 
+    /// A walled box in `dim` dimensions (no periodic image).
+    fn walled(dim: usize) -> Domain {
+        Domain { dim, lo: Vec3::repeat(-10.0), hi: Vec3::repeat(10.0), periodic: [false; 3], shear_rate: 0.0, le_offset: 0.0 }
+    }
+
     /// One grain in `dim` dimensions of the primaries at these centres and radii.
     fn grain_in(dim: usize, primaries: &[(Vec3, Real)]) -> Particles {
         let mut p = Particles::default();
@@ -350,7 +376,7 @@ mod tests {
     #[test]
     fn a_grain_area_closes_its_pores_and_its_shape_is_round() {
         let square = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0), (0.0, 2.0, 1.0), (2.0, 2.0, 1.0)]);
-        let shape = grain_shape(&square, 2, &[0, 1, 2, 3], 2.0);
+        let shape = grain_shape(&square, &square.pos, 2, &[0, 1, 2, 3], 2.0);
         let pi = std::f64::consts::PI;
         assert!(shape.area > 4.0 + 3.0 * pi && shape.area < 12.0 + pi, "area {}", shape.area);
         assert!((shape.aspect_ratio - 1.0).abs() < 1e-12);
@@ -360,11 +386,11 @@ mod tests {
             (2.0 * a.cos(), 2.0 * a.sin(), 1.0)
         }));
         let hex = grain(&ring);
-        let s = grain_shape(&hex, 2, &(0..7).collect::<Vec<_>>(), 2.0);
+        let s = grain_shape(&hex, &hex.pos, 2, &(0..7).collect::<Vec<_>>(), 2.0);
         assert!((s.aspect_ratio - 1.0).abs() < 1e-12, "aspect {}", s.aspect_ratio);
         // Two disks in a row: the second moments 2·(1)² + 2·(1/4) against 2·(1/4).
         let pair = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0)]);
-        let s = grain_shape(&pair, 2, &[0, 1], 2.0);
+        let s = grain_shape(&pair, &pair.pos, 2, &[0, 1], 2.0);
         assert!((s.aspect_ratio - 5.0f64.sqrt()).abs() < 1e-12, "aspect {}", s.aspect_ratio);
     }
 
@@ -392,12 +418,12 @@ mod tests {
         let mut p = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0)]);
         let pressed = into_two_grains(&mut p);
         let idle = ContactRecord { force: Vec3::zeros(), ..pressed };
-        let g = measure_grains(&p, 2, &[pressed, idle], 100.0).expect("grains");
+        let g = measure_grains(&p, 2, &[pressed, idle], 100.0, &walled(2)).expect("grains");
         assert_eq!((g.count, g.z), (2, 1.0));
         let area = 2.0 * g.mean_area;
         assert!((g.pressure - 3.0 / area).abs() < 1e-12 * g.pressure, "pressure {} against {}", g.pressure, 3.0 / area);
         assert!((g.phi - area / 100.0).abs() < 1e-15);
-        let g = measure_grains(&p, 2, &[idle], 100.0).expect("grains");
+        let g = measure_grains(&p, 2, &[idle], 100.0, &walled(2)).expect("grains");
         assert_eq!((g.z, g.pressure), (0.0, 0.0));
     }
 
@@ -406,7 +432,7 @@ mod tests {
     #[test]
     fn a_lone_disk_keeps_its_area() {
         let one = grain(&[(0.3, -0.2, 1.0)]);
-        let s = grain_shape(&one, 2, &[0], 0.25);
+        let s = grain_shape(&one, &one.pos, 2, &[0], 0.25);
         let exact = std::f64::consts::PI;
         assert!((s.area - exact).abs() < 0.01 * exact, "area {} against {exact}", s.area);
     }
@@ -422,7 +448,7 @@ mod tests {
     fn in_3d_a_grain_has_its_volume_and_shape() {
         let ball = 4.0 / 3.0 * std::f64::consts::PI;
         let one = grain_in(3, &[(Vec3::new(0.3, -0.2, 0.1), 1.0)]);
-        let s = grain_shape(&one, 3, &[0], 0.25);
+        let s = grain_shape(&one, &one.pos, 3, &[0], 0.25);
         assert!((s.area - ball).abs() < 0.015 * ball, "volume {} against {ball}", s.area);
         let mut seven = vec![(Vec3::zeros(), 1.0)];
         for a in 0..3 {
@@ -433,18 +459,59 @@ mod tests {
             }
         }
         let cluster = grain_in(3, &seven);
-        let s = grain_shape(&cluster, 3, &(0..7).collect::<Vec<_>>(), 2.0);
+        let s = grain_shape(&cluster, &cluster.pos, 3, &(0..7).collect::<Vec<_>>(), 2.0);
         assert!((s.aspect_ratio - 1.0).abs() < 1e-12, "aspect {}", s.aspect_ratio);
         // Bounded above by the cube of side 6 that holds the seven.
         assert!(s.area > 7.0 * ball && s.area < 216.0, "volume {}", s.area);
         let pair = grain_in(3, &[(Vec3::zeros(), 1.0), (Vec3::new(2.0, 0.0, 0.0), 1.0)]);
-        let s = grain_shape(&pair, 3, &[0, 1], 2.0);
+        let s = grain_shape(&pair, &pair.pos, 3, &[0, 1], 2.0);
         assert!((s.aspect_ratio - 6.0f64.sqrt()).abs() < 1e-12, "aspect {}", s.aspect_ratio);
         let mut p = pair;
         let pressed = into_two_grains(&mut p);
-        let g = measure_grains(&p, 3, &[pressed], 1000.0).expect("grains");
+        let g = measure_grains(&p, 3, &[pressed], 1000.0, &walled(3)).expect("grains");
         assert_eq!((g.count, g.z), (2, 1.0));
         let volume = 2.0 * g.mean_area;
         assert!((g.pressure - 6.0 / (3.0 * volume)).abs() < 1e-12 * g.pressure, "pressure {}", g.pressure);
+    }
+
+    /// A grain across a periodic boundary is measured whole: a ring of seven disks about
+    /// x = 0 in a box periodic along x from 0 to 10, its primaries left of the boundary at their
+    /// images near x = 10, has the area (within a few grid cells) and aspect ratio it has inside
+    /// the box about x = 5; and two one-disk grains pressed across the boundary share a pair and
+    /// the pressure they have inside.
+    #[test]
+    fn a_grain_across_a_periodic_boundary_is_measured_whole() {
+        let pi = std::f64::consts::PI;
+        let ring = |x0: f64| {
+            let mut r = vec![(Vec3::new(x0, 5.0, 0.0), 1.0)];
+            r.extend((0..6).map(|k| {
+                let a = k as Real * pi / 3.0 + 0.3;
+                (Vec3::new((x0 + 2.0 * a.cos()).rem_euclid(10.0), 5.0 + 2.0 * a.sin(), 0.0), 1.0)
+            }));
+            grain_in(2, &r)
+        };
+        let periodic = Domain {
+            dim: 2,
+            lo: Vec3::zeros(),
+            hi: Vec3::new(10.0, 10.0, 0.0),
+            periodic: [true, false, false],
+            shear_rate: 0.0,
+            le_offset: 0.0,
+        };
+        let inside = measure_grains(&ring(5.0), 2, &[], 100.0, &periodic).expect("grains");
+        let across = measure_grains(&ring(0.0), 2, &[], 100.0, &periodic).expect("grains");
+        // The grid's cells fall differently by round-off: within a few cells (of 1/16 each).
+        assert!((across.mean_area - inside.mean_area).abs() < 0.005 * inside.mean_area, "{across:?} against {inside:?}");
+        assert!((across.max_aspect_ratio - inside.max_aspect_ratio).abs() < 1e-9, "{across:?} against {inside:?}");
+        // Walled, the same primaries make a grain split in two far apart: no longer round.
+        let split = measure_grains(&ring(0.0), 2, &[], 100.0, &walled(2)).expect("grains");
+        assert!(split.max_aspect_ratio > 2.0, "{split:?}");
+        // Two one-disk grains at x = 9.5 and 1.5 (2 apart through the boundary), pressed by F = 3.
+        let mut p = grain(&[(9.5, 5.0, 1.0), (1.5, 5.0, 1.0)]);
+        let pressed = into_two_grains(&mut p);
+        let g = measure_grains(&p, 2, &[pressed], 100.0, &periodic).expect("grains");
+        let area = 2.0 * g.mean_area;
+        assert_eq!(g.z, 1.0);
+        assert!((g.pressure - 3.0 / area).abs() < 1e-12 * g.pressure, "pressure {} against {}", g.pressure, 3.0 / area);
     }
 }

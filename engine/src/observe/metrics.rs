@@ -91,6 +91,9 @@ pub struct SystemView<'a> {
     /// are the grains as disks of their *current* area (centroid, mean velocity), so that Φ,
     /// the coordination, the stress and p, q, μ are measured as for rigid grains.
     pub deformable: Option<DeformableView>,
+    /// The box, for the periodic images of a grain of primaries that crosses a periodic
+    /// boundary ([`super::grains`]).
+    pub domain: &'a crate::geometry::Domain,
 }
 
 /// The part of a [`SystemView`] only deformable grains have.
@@ -213,7 +216,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
         solver: None,
         deformable: v.deformable.map(|d| Box::new(d.sample)),
-        grains: super::grains::measure_grains(p, dim, v.contacts, v.volume).map(Box::new),
+        grains: super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain).map(Box::new),
     }
 }
 

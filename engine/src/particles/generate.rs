@@ -165,7 +165,12 @@ fn fill_aggregates(scene: &Scene, grains: &Particles, starts: &[usize], rng: &mu
             }
             let id = out.bondings.len() as u32;
             out.bondings.push(model.bonding);
-            for (x, rp) in primaries {
+            let c = &scene.container;
+            for (mut x, rp) in primaries {
+                // A grain across a periodic boundary: its primaries beyond it at their images.
+                for a in (0..scene.dim).filter(|&a| c.periodic[a]) {
+                    x[a] = c.lo[a] + (x[a] - c.lo[a]).rem_euclid(c.hi[a] - c.lo[a]);
+                }
                 out.push(scene.dim, x, vel, rp, density, material, wet);
                 if let Some(a) = out.aggregate.last_mut() {
                     *a = id;

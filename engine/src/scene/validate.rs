@@ -144,15 +144,23 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         Some(k) => Some(format!("particles[{k}] are")),
         None => initial.as_ref().filter(|st| !st.bondings.is_empty()).map(|_| "start_from holds".to_string()),
     };
+    // A grain is measured whole across a periodic boundary from its primaries' nearest images
+    // (observe::grains): it must be less than half the period across.
+    for (k, set) in sets.iter().enumerate().filter(|(_, s)| s.aggregate.is_some()) {
+        let grain = set.size.max_diameter();
+        for a in (0..dim).filter(|&a| container.periodic[a]) {
+            let period = container.hi[a] - container.lo[a];
+            if grain.is_finite() && period > 0.0 && 2.0 * grain >= period {
+                c.fail(
+                    format!("container.max[{a}]"),
+                    format!("the period along {} ({period} m) must exceed twice the largest grain of particles[{k}] ({grain} m), whose primaries are measured as one grain by their nearest images", AXES[a]),
+                );
+            }
+        }
+    }
     let tolerance_given = spec.method.get("tolerance").is_some();
     if let (Some(_), Method::Cd(params), false) = (&aggregates, &mut method, tolerance_given) {
         params.tolerance = AGGREGATE_TOLERANCE;
-    }
-    if let (Some(what), true) = (&aggregates, container.periodic.iter().any(|&p| p)) {
-        c.fail(
-            "container.periodic",
-            format!("{what} bonded_primaries aggregates, which need walls on every axis for now (the grains' measures do not follow a grain across a periodic boundary)"),
-        );
     }
     if let Some(what) = aggregates.as_ref().filter(|_| !auto && !matches!(method, Method::Cd(_) | Method::Dem(_))) {
         c.fail(
@@ -1487,7 +1495,6 @@ mod tests {
             "particles[0].model.attraction.exponent: must be > 1",
             "particles[0].model.attraction.cutoff: must be at least the smallest primary's diameter",
             "particles[0].model.friction: must be >= 0",
-            "container.periodic: particles[0] are bonded_primaries aggregates",
             "method: particles[0] are bonded_primaries aggregates, which run by contact dynamics as in the sources or by DEM",
         ] {
             assert!(r.iter().any(|x| x.starts_with(want)), "missing '{want}' in {r:#?}");
@@ -1535,6 +1542,15 @@ mod tests {
         let r = rules(&aggregate_scene(serde_json::json!("cd"), small, false));
         assert!(
             r.iter().any(|x| x.starts_with("particles[0].model.primaries: the smallest grain (0.0018 m) holds about 56 primaries")),
+            "{r:#?}"
+        );
+        // Periodic along x: the period (0.01 m) must exceed twice the largest grain.
+        let wide = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4}, "attraction": {"force": 100.0}});
+        assert!(!rules(&aggregate_scene(serde_json::json!("cd"), wide.clone(), true)).iter().any(|x| x.starts_with("container.max")));
+        let big = aggregate_scene(serde_json::json!("cd"), wide, true).replace("0.0018", "0.0051");
+        let r = rules(&big);
+        assert!(
+            r.iter().any(|x| x.starts_with("container.max[0]: the period along x (0.01 m) must exceed twice the largest grain")),
             "{r:#?}"
         );
         // In 3D the estimate is 0.39 × D³/⟨d³⟩: a grain of 0.9 mm holds about 260 of the

@@ -1160,6 +1160,7 @@ impl Simulation for Cd {
             rattler_threshold: rattler_threshold(self.dim, self.laws.frictional()),
             drum: self.drum.as_ref().map(Drum::view),
             deformable: None,
+            domain: &self.domain,
         };
         let mut s = measure(&view);
         s.solver = Some(Box::new(SolverSample {

@@ -927,6 +927,7 @@ impl Dem {
             rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
             drum: self.drum.as_ref().map(Drum::view),
             deformable: None,
+            domain: &self.domain,
         };
         let s = measure(&view);
         if !s.is_finite() {

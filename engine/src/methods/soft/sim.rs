@@ -304,6 +304,7 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
                     sweeps: self.last.1,
                 },
             }),
+            domain: &self.domain,
         };
         let s = measure(&view);
         if !s.is_finite() {
