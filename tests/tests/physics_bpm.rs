@@ -36,17 +36,31 @@ fn one_grain(steps: u64) -> sable_engine::scene::Scene {
 
 /// [`one_grain`] by `method`, its primaries of `material`.
 fn one_grain_by(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::scene::Scene {
+    let container = json!({"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary"});
+    lone_grain(2, method, material, (1.8e-3, json!([2e-3, 2e-3]), bonded(200)), container, steps)
+}
+
+/// A scene in `dimension` of one grain of primaries of `material` (`"primary"`): its diameter,
+/// centre and model; in `container`, by `method`, for `steps`.
+fn lone_grain(
+    dimension: usize,
+    method: serde_json::Value,
+    material: serde_json::Value,
+    (diameter, centre, model): (f64, serde_json::Value, serde_json::Value),
+    container: serde_json::Value,
+    steps: u64,
+) -> sable_engine::scene::Scene {
     common::scene(json!({
-        "dimension": 2,
+        "dimension": dimension,
         "method": method,
         "materials": {"primary": material},
         "particles": [{
             "material": "primary",
-            "size": {"kind": "monodisperse", "diameter": 1.8e-3},
-            "placement": {"kind": "list", "positions": [[2e-3, 2e-3]]},
-            "model": bonded(200)
+            "size": {"kind": "monodisperse", "diameter": diameter},
+            "placement": {"kind": "list", "positions": [centre]},
+            "model": model
         }],
-        "container": {"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary"},
+        "container": container,
         "stop": {"steps": steps}
     }))
 }
@@ -301,24 +315,14 @@ fn an_isolated_aggregate_stays_intact_and_round_in_dem() {
 /// `F_0` = 0.01 N, so that `p_I = F_0/⟨a_0⟩²` = 1 MPa), in the middle of a 2 mm box, by
 /// `method` with primaries of `material`, run for `steps`.
 fn one_grain_3d(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::scene::Scene {
-    common::scene(json!({
-        "dimension": 3,
-        "method": method,
-        "materials": {"primary": material},
-        "particles": [{
-            "material": "primary",
-            "size": {"kind": "monodisperse", "diameter": 1.0e-3},
-            "placement": {"kind": "list", "positions": [[1e-3, 1e-3, 1e-3]]},
-            "model": {
-                "kind": "bonded_primaries",
-                "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4},
-                "min_primaries": 300,
-                "attraction": {"force": 0.01}
-            }
-        }],
-        "container": {"min": [0.0, 0.0, 0.0], "max": [2e-3, 2e-3, 2e-3], "wall_material": "primary"},
-        "stop": {"steps": steps}
-    }))
+    let model = json!({
+        "kind": "bonded_primaries",
+        "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4},
+        "min_primaries": 300,
+        "attraction": {"force": 0.01}
+    });
+    let container = json!({"min": [0.0, 0.0, 0.0], "max": [2e-3, 2e-3, 2e-3], "wall_material": "primary"});
+    lone_grain(3, method, material, (1.0e-3, json!([1e-3, 1e-3, 1e-3]), model), container, steps)
 }
 
 /// [`an_isolated_aggregate_stays_intact_and_round_in_dem`] in 3D ([`one_grain_3d`]; contacts
@@ -534,19 +538,9 @@ fn twice_the_attraction_doubles_the_load_an_aggregate_carries_elastically() {
 /// One aggregate of [`one_grain_by`]'s size by DEM in a box periodic along x, its centre
 /// `x0` from the boundary, after relaxing and `steps` at rest: its grain measures.
 fn periodic_grain(x0: f64, steps: u64) -> (GrainSample, GrainSample) {
-    let scene = common::scene(json!({
-        "dimension": 2,
-        "method": {"kind": "dem", "threads": 1},
-        "materials": {"primary": dem_primaries_material()},
-        "particles": [{
-            "material": "primary",
-            "size": {"kind": "monodisperse", "diameter": 1.8e-3},
-            "placement": {"kind": "list", "positions": [[x0, 2e-3]]},
-            "model": bonded(200)
-        }],
-        "container": {"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary", "periodic": ["x"]},
-        "stop": {"steps": steps}
-    }));
+    let container = json!({"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary", "periodic": ["x"]});
+    let method = json!({"kind": "dem", "threads": 1});
+    let scene = lone_grain(2, method, dem_primaries_material(), (1.8e-3, json!([x0, 2e-3]), bonded(200)), container, steps);
     let mut sim = common::dem(&scene);
     let g0 = grains(&sim.sample().expect("sample"));
     for _ in 0..steps {

@@ -83,16 +83,19 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         }
     }
     let d_min = 2.0 * members.iter().flatten().map(|&i| p.radius[i]).fold(Real::INFINITY, Real::min);
-    // Each primary where its grain is whole.
-    let mut pos = p.pos.clone();
-    if domain.periodic.iter().any(|&q| q) {
+    // Each primary where its grain is whole (a copy only in a periodic box).
+    let pos: std::borrow::Cow<[Vec3]> = if domain.periodic.iter().any(|&q| q) {
+        let mut pos = p.pos.clone();
         for m in &members {
             let Some(&first) = m.first() else { continue };
             for &i in &m[1..] {
                 pos[i] = p.pos[first] - domain.separation(&p.pos[first], &p.pos[i]).0;
             }
         }
-    }
+        pos.into()
+    } else {
+        (&p.pos[..]).into()
+    };
     let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, &pos, dim, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
     let mut pairs: Vec<(u32, u32)> = Vec::new();
