@@ -102,6 +102,10 @@ pub struct Peak {
     pub volumetric_strain: f64,
     /// Packing fraction at the peak.
     pub phi: f64,
+    /// The grains' own measures at the peak when they are aggregates of primaries (`phi` is
+    /// then the primaries').
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grains: Option<super::grains::GrainSample>,
 }
 
 /// The steady (critical) state: means over the last quarter of the axial strain.
@@ -122,6 +126,11 @@ pub struct Steady {
     pub z_no_rattlers: f64,
     /// Dilatancy rate `-d eps_v / d eps_a` over the window (least squares; 0 at a critical state).
     pub dilatancy_rate: f64,
+    /// The grains' own measures averaged over the window when they are aggregates of
+    /// primaries (`phi` and `z_no_rattlers` are then the primaries'): the steady Φ, Z, pressure
+    /// and shape of the grains (`max_aspect_ratio` the mean of each sample's largest).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grains: Option<super::grains::GrainSample>,
 }
 
 /// Volume change along a biaxial or triaxial test (compression positive).
@@ -325,6 +334,9 @@ pub struct Analysis {
     deformable: bool,
     /// The grains are aggregates: the rigid limit is the primaries' ([`AGGREGATE_KAPPA`]).
     aggregates: bool,
+    /// The aggregates' number-mean nominal diameter, m, when a particle set makes them: the
+    /// inertial number of a flow of aggregates is the grains', not the primaries'.
+    aggregate_diameter: Option<Real>,
 }
 
 impl Analysis {
@@ -352,6 +364,7 @@ impl Analysis {
             deformable: matches!(scene.method, crate::scene::Method::Mpm(_) | crate::scene::Method::Fem(_)),
             aggregates: scene.sets.iter().any(|s| s.aggregate.is_some())
                 || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty()),
+            aggregate_diameter: scene.sets.iter().find(|s| s.aggregate.is_some()).map(|s| s.size.mean_diameter()),
         }
     }
 
@@ -413,7 +426,20 @@ impl Analysis {
             stiffness_number: None,
             warnings: Vec::new(),
         };
-        let inertial = |rate: Real, p: Real| (p > 0.0).then(|| rate * mean_diameter * (density / p).sqrt());
+        // The inertial number is the grains': for aggregates their nominal diameter (from the
+        // set) or, for aggregates a saved state holds, that of a disk (ball) of their measured
+        // mean area (volume), not the primaries' (`mean_diameter`).
+        let grain_diameter = self.aggregate_diameter.or_else(|| {
+            last.grains.as_ref().filter(|g| g.mean_area > 0.0).map(|g| {
+                if self.dim == 3 {
+                    (6.0 * g.mean_area / std::f64::consts::PI).cbrt()
+                } else {
+                    2.0 * (g.mean_area / std::f64::consts::PI).sqrt()
+                }
+            })
+        });
+        let flow_diameter = grain_diameter.unwrap_or(mean_diameter);
+        let inertial = |rate: Real, p: Real| (p > 0.0).then(|| rate * flow_diameter * (density / p).sqrt());
         match experiment {
             Experiment::Isotropic { preparation } => {
                 r.inertial_number = inertial(preparation.max_strain_rate, preparation.pressure);
@@ -603,7 +629,7 @@ fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
     let Some(&(end, _)) = loading.last() else { return };
     let ev = |s: &Sample| s.strain.as_ref().map_or(0.0, |e| e.volumetric);
     if let Some(&(ea, s)) = loading.iter().filter(|(ea, _)| *ea > 0.0).max_by(|a, b| a.1.mu.total_cmp(&b.1.mu)) {
-        r.peak = Some(Peak { zeta: s.mu, axial_strain: ea, volumetric_strain: ev(s), phi: s.phi });
+        r.peak = Some(Peak { zeta: s.mu, axial_strain: ea, volumetric_strain: ev(s), phi: s.phi, grains: s.grains.as_deref().copied() });
     }
     if let Some(&(ea, s)) = loading.iter().max_by(|a, b| ev(a.1).total_cmp(&ev(b.1))) {
         r.dilatancy =
@@ -629,8 +655,38 @@ fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
             phi: mean(&|s| s.phi),
             z_no_rattlers: mean(&|s| s.z_no_rattlers),
             dilatancy_rate: if sxx > 0.0 { -sxy / sxx } else { 0.0 },
+            grains: mean_grains(window.iter().map(|(_, s)| s.grains.as_deref())),
         });
     }
+}
+
+/// The mean of the grains' measures over samples that all carry them (`None` if one does not).
+fn mean_grains<'a>(samples: impl Iterator<Item = Option<&'a super::grains::GrainSample>>) -> Option<super::grains::GrainSample> {
+    let mut sum = super::grains::GrainSample::default();
+    let mut n = 0usize;
+    for g in samples {
+        let g = g?;
+        sum.count = g.count;
+        sum.phi += g.phi;
+        sum.z += g.z;
+        sum.pressure += g.pressure;
+        sum.mean_aspect_ratio += g.mean_aspect_ratio;
+        sum.max_aspect_ratio += g.max_aspect_ratio;
+        sum.mean_area += g.mean_area;
+        n += 1;
+    }
+    (n > 0).then(|| {
+        let k = n as Real;
+        super::grains::GrainSample {
+            count: sum.count,
+            phi: sum.phi / k,
+            z: sum.z / k,
+            pressure: sum.pressure / k,
+            mean_aspect_ratio: sum.mean_aspect_ratio / k,
+            max_aspect_ratio: sum.max_aspect_ratio / k,
+            mean_area: sum.mean_area / k,
+        }
+    })
 }
 
 #[cfg(test)]
@@ -793,6 +849,59 @@ mod tests {
             b.push(&sample(k, "loading", k as f64 * 0.001, 0.4, -0.5 * k as f64 * 0.001));
         }
         assert!((b.finish(1e-3, 2500.0).and_then(|r| r.steady).expect("steady").dilatancy_rate - 0.5).abs() < 1e-9);
+    }
+
+    /// Aggregates in a biaxial test: the peak carries the grains' measures of its sample, and
+    /// the steady state their means over the last quarter of the strain (grains' Φ 0.9 + 0.1 ε_a
+    /// and Z 3 + 10 ε_a at the window's mean strain; aspect ratio 1.2 flat), beside the
+    /// primaries' own Φ; the inertial number is at the grains' scale.
+    #[test]
+    fn a_biaxial_test_of_aggregates_reports_its_grains_at_the_peak_and_steady_state() {
+        let mut a = biaxial_analysis(1e7, 0.01);
+        a.aggregates = true;
+        for k in 0..=200 {
+            let ea = k as f64 * 0.001;
+            let mut s = sample(k, "loading", ea, if k == 20 { 0.6 } else { 0.3 }, 0.0);
+            s.grains = Some(Box::new(crate::observe::GrainSample {
+                count: 9,
+                phi: 0.9 + 0.1 * ea,
+                z: 3.0 + 10.0 * ea,
+                pressure: 1e6,
+                mean_aspect_ratio: 1.2,
+                max_aspect_ratio: 1.5,
+                mean_area: 2e-6,
+            }));
+            a.push(&s);
+        }
+        let r = a.finish(1e-3, 2500.0).expect("result");
+        let peak = r.peak.expect("peak");
+        let at_peak = peak.grains.expect("grains at the peak");
+        assert!((peak.axial_strain - 0.02).abs() < 1e-12 && (at_peak.phi - 0.902).abs() < 1e-12, "{peak:?}");
+        let steady = r.steady.expect("steady");
+        let g = steady.grains.expect("the grains' steady state");
+        // The window's strains run back from 0.2 by 0.001 (0.150 itself may round either side).
+        let ea = 0.2 - 0.0005 * (steady.samples as f64 - 1.0);
+        assert!((g.phi - (0.9 + 0.1 * ea)).abs() < 1e-9 && (g.z - (3.0 + 10.0 * ea)).abs() < 1e-9, "{g:?}");
+        assert!((g.mean_aspect_ratio - 1.2).abs() < 1e-12 && (g.max_aspect_ratio - 1.5).abs() < 1e-12 && g.count == 9);
+        assert!((steady.phi - g.phi).abs() > 0.01, "the primaries' Φ stays its own: {}", steady.phi);
+        // The inertial number is the grains': with no set to name their size (the hand-made
+        // analysis's set is of plain disks) the disk of their mean area, 2e-6 m², 1.596 mm:
+        // I = 0.01 × 1.596e-3 × sqrt(2500 / 100), not the primaries' 0.01 × 1e-3 × 5.
+        let d = 2.0 * (2e-6 / std::f64::consts::PI).sqrt();
+        assert!((r.inertial_number.expect("I") - 0.01 * d * 5.0).abs() < 1e-15, "{:?}", r.inertial_number);
+        // With a set of aggregates, its nominal diameter.
+        a.aggregate_diameter = Some(1.8e-3);
+        assert!((a.finish(1e-3, 2500.0).and_then(|r| r.inertial_number).expect("I") - 0.01 * 1.8e-3 * 5.0).abs() < 1e-15);
+        // One sample without them: no grains' steady state rather than a mean over part.
+        let mut b = biaxial_analysis(1e7, 0.01);
+        for k in 0..=100 {
+            let mut s = sample(k, "loading", k as f64 * 0.001, 0.3, 0.0);
+            if k != 90 {
+                s.grains = Some(Box::default());
+            }
+            b.push(&s);
+        }
+        assert_eq!(b.finish(1e-3, 2500.0).and_then(|r| r.steady).map(|s| s.grains), Some(None));
     }
 
     #[test]

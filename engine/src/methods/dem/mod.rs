@@ -530,6 +530,11 @@ impl Dem {
     /// Diagonal of the stress tensor from the virial of the current forces and the kinetic part
     /// (Pa; velocities relative to the Lees-Edwards profile), and the affine estimate of the bulk
     /// stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
+    ///
+    /// The forces are the contacts' and the attraction of aggregates' primaries ([`bonds`]):
+    /// without the attraction, the repulsion that balances it inside every aggregate reads as a
+    /// pressure of order `p_I`, and a cell servoed to a lower pressure opened instead of closing.
+    /// The stiffness is the contacts' alone (the attraction only softens a stretched bond).
     fn stress_and_stiffness(&self) -> (Vec3, Real) {
         // Partial sums per particle block, added in order: the same result for any thread count.
         let p = &self.p;
@@ -553,6 +558,17 @@ impl Dem {
             })
             .collect();
         let (virial, stiff) = partial.iter().fold((Vec3::zeros(), 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let bonded: Vec<Vec3> = self
+            .bonds
+            .blocks
+            .par_iter()
+            .map(|block| {
+                block.forces.iter().zip(&block.held).fold(Vec3::zeros(), |acc, (f, &q)| {
+                    acc + f.out.force.component_mul(&self.nl.separation(q as usize, &p.pos, &self.domain).0)
+                })
+            })
+            .collect();
+        let virial = bonded.iter().fold(virial, |a, b| a + b);
         let (rate, ymid) = (self.domain.shear_rate, 0.5 * (self.domain.lo.y + self.domain.hi.y));
         let kinetic: Vec3 = p.vel.iter().zip(&p.pos).zip(&p.mass).fold(Vec3::zeros(), |acc, ((v, x), m)| {
             let mut u = *v;

@@ -3,7 +3,7 @@
 //! A freshly grown aggregate ([`crate::particles::aggregate`]) is not in equilibrium: each
 //! primary touches the two it was placed against and the attraction pulls the others in (see
 //! `methods/cd/relax.rs`, which does the same for contact dynamics). [`Dem::relax_aggregates`]
-//! lets the aggregates settle with the walls held, no gravity and Cundall's local damping
+//! lets the aggregates settle with the walls and the periodic cell held, no gravity and Cundall's local damping
 //! ([`RELAX_DAMPING`]), until their kinetic energy has fallen below [`SETTLED`] of the bond
 //! energy scale `N F_0 ⟨a_0⟩`; the run's clock, step count and the grains' initial velocities
 //! start after it.
@@ -55,7 +55,9 @@ impl Dem {
     /// Relaxes the aggregates in place (module documentation).
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
         let held = world::Held::hold(&mut self.walls, &mut self.gravity, &mut self.p);
-        let (field, damping) = (self.field.take(), self.params.local_damping);
+        // The cell holds still too (as contact dynamics' does): a servo or imposed rate
+        // running during the relaxation kept the aggregates moving, and they never settled.
+        let (field, deformation, damping) = (self.field.take(), self.deformation.take(), self.params.local_damping);
         self.params.local_damping = RELAX_DAMPING;
         self.kin_current = false;
         self.budget = super::stability::EnergyBudget::start(self.mechanical_energy());
@@ -70,7 +72,7 @@ impl Dem {
         let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
         let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
         held.restore(&mut self.walls, &mut self.gravity, &mut self.p);
-        (self.field, self.params.local_damping) = (field, damping);
+        (self.field, self.deformation, self.params.local_damping) = (field, deformation, damping);
         self.kin_current = false;
         self.step = 0;
         self.time = 0.0;
