@@ -3,8 +3,8 @@
 //! A freshly grown aggregate ([`crate::particles::aggregate`]) is not in equilibrium: each
 //! primary touches the two it was placed against and the attraction pulls the others in (see
 //! `methods/cd/relax.rs`, which does the same for contact dynamics). [`Dem::relax_aggregates`]
-//! lets the aggregates settle with the walls and the periodic cell held, no gravity and Cundall's local damping
-//! ([`RELAX_DAMPING`]), until their kinetic energy has fallen below [`SETTLED`] of the bond
+//! lets the aggregates settle with the walls and the periodic cell held, no gravity and
+//! Cundall's local damping ([`RELAX_DAMPING`]), until their kinetic energy has fallen below [`SETTLED`] of the bond
 //! energy scale `N F_0 ⟨a_0⟩`; the run's clock, step count and the grains' initial velocities
 //! start after it.
 
