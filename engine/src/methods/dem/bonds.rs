@@ -156,6 +156,22 @@ impl Dem {
         self.bonds.energies(&self.nl, &self.p, &self.domain).iter().sum()
     }
 
+    /// Diagonal of the bonded pairs' virial `Σ f ⊗ (r_i − r_j)` at the last evaluation, N·m
+    /// (per m in 2D): summed per block, then in block order (the same for any thread count).
+    pub(crate) fn bond_virial(&self) -> Vec3 {
+        let per_block: Vec<Vec3> = self
+            .bonds
+            .blocks
+            .par_iter()
+            .map(|block| {
+                block.forces.iter().zip(&block.held).fold(Vec3::zeros(), |acc, (f, &q)| {
+                    acc + f.out.force.component_mul(&self.nl.separation(q as usize, &self.p.pos, &self.domain).0)
+                })
+            })
+            .collect();
+        per_block.iter().fold(Vec3::zeros(), |a, b| a + b)
+    }
+
     /// The attraction of each bonded pair within its cut-off at the last evaluation: the two
     /// particles (i < j), the force on i, N, and the branch vector `r_i − r_j`, m.
     pub(crate) fn bond_records(&self) -> Vec<(u32, u32, Vec3, Vec3)> {

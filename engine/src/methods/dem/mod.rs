@@ -558,17 +558,7 @@ impl Dem {
             })
             .collect();
         let (virial, stiff) = partial.iter().fold((Vec3::zeros(), 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-        let bonded: Vec<Vec3> = self
-            .bonds
-            .blocks
-            .par_iter()
-            .map(|block| {
-                block.forces.iter().zip(&block.held).fold(Vec3::zeros(), |acc, (f, &q)| {
-                    acc + f.out.force.component_mul(&self.nl.separation(q as usize, &p.pos, &self.domain).0)
-                })
-            })
-            .collect();
-        let virial = bonded.iter().fold(virial, |a, b| a + b);
+        let virial = virial + self.bond_virial();
         let (rate, ymid) = (self.domain.shear_rate, 0.5 * (self.domain.lo.y + self.domain.hi.y));
         let kinetic: Vec3 = p.vel.iter().zip(&p.pos).zip(&p.mass).fold(Vec3::zeros(), |acc, ((v, x), m)| {
             let mut u = *v;

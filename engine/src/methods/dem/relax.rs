@@ -4,9 +4,9 @@
 //! primary touches the two it was placed against and the attraction pulls the others in (see
 //! `methods/cd/relax.rs`, which does the same for contact dynamics). [`Dem::relax_aggregates`]
 //! lets the aggregates settle with the walls and the periodic cell held, no gravity and
-//! Cundall's local damping ([`RELAX_DAMPING`]), until their kinetic energy has fallen below [`SETTLED`] of the bond
-//! energy scale `N F_0 ⟨a_0⟩`; the run's clock, step count and the grains' initial velocities
-//! start after it.
+//! Cundall's local damping ([`RELAX_DAMPING`]), until their kinetic energy has fallen below
+//! [`SETTLED`] of the bond energy scale `N F_0 ⟨a_0⟩`; the run's clock, step count and the
+//! grains' initial velocities start after it.
 
 use super::timestep::CollisionTime;
 use super::world;
