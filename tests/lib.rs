@@ -1,2 +1,4 @@
-//! Physics validation tests of Sable live in `tests/physics_*.rs`; end-to-end service tests
-//! arrive with the service.
+//! Sable's validation and end-to-end tests. The engine-level files (`tests/physics_*.rs`, the
+//! experiments, saved states, snapshots, shipped studies) are modules of one test binary,
+//! `tests/physics.rs`; the service's end-to-end suite runs as `service_e2e` (SQLite) and
+//! `service_e2e_postgres`.

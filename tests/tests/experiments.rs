@@ -13,7 +13,7 @@
 //! (slightly above the quasi-static bound, and flagged so) keep the contrast while the test runs
 //! in well under a minute.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::ExperimentResult;
 use sable_engine::run::Runner;

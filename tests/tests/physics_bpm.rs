@@ -7,7 +7,7 @@
 //! measured at 4e-8 m of creep per 1e4 steps of 1e-7 s for 227 primaries — the test allows 1% of
 //! the smallest primary's diameter (7e-7 m) over 2e4 steps; by DEM, over 1e5 steps.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::GrainSample;
 use sable_engine::run::Simulation;

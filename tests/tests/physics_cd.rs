@@ -7,7 +7,7 @@
 //! well below it); kinematic answers carry the error of the time discretisation, stated per
 //! test.
 
-mod common;
+use crate::common;
 
 use sable_engine::methods::cd::Cd;
 use sable_engine::observe::metrics::rattlers;

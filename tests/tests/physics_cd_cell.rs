@@ -15,7 +15,7 @@
 //! length is that of its touching grains within the alert distance and the slop the restoration
 //! allows (Φ within 1e-3 relative).
 
-mod common;
+use crate::common;
 
 use sable_engine::methods::cd::Cd;
 use sable_engine::run::Simulation;

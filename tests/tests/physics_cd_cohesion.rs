@@ -7,7 +7,7 @@
 //! so those answers hold to the solver's tolerance (1e-9 relative); a force that varies with the
 //! gap is taken at the gap of each step's start (first order in the step), stated per test.
 
-mod common;
+use crate::common;
 
 use sable_engine::contact::capillary_richefeu::CapillaryRichefeu;
 use sable_engine::methods::cd::Cd;

@@ -7,7 +7,7 @@
 //! so it holds to the solver's tolerance (1e-10 relative): the grain's centre moves by less than
 //! 1e-9 of its radius in 2,000 steps, the drum's torque matches within 1e-6.
 
-mod common;
+use crate::common;
 
 use sable_engine::methods::cd::Cd;
 use sable_engine::run::Simulation;

@@ -1,7 +1,7 @@
 //! Binary collisions against the analytic spring-dashpot and Hertz results
 //! (PHYSICS.md §2; REFERENCES.md checks 1 and 3).
 
-mod common;
+use crate::common;
 
 use sable_engine::contact::damping::{restitution_unlimited, zeta_unlimited};
 use sable_engine::run::Simulation;

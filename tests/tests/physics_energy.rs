@@ -2,7 +2,7 @@
 //! contact stores what its Coulomb-limited spring holds, `F_t² / (2 k_t)`, not the tangential
 //! dashpot's share, and a valid run whose mechanical energy falls is never stopped.
 
-mod common;
+use crate::common;
 
 use sable_engine::run::Simulation;
 use serde_json::json;

@@ -2,7 +2,7 @@
 //! validated, built and run by the same runner as the other methods, against the physics the
 //! samples must obey and against the material point method on the same scene.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::Sample;
 

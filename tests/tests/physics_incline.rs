@@ -6,7 +6,7 @@
 //! is the least-squares slope of v_x(t) over a window that starts once the contact transient (a few
 //! tens of collision times) has died out.
 
-mod common;
+use crate::common;
 
 use sable_engine::run::Simulation;
 use serde_json::json;

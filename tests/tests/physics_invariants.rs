@@ -3,7 +3,7 @@
 //! conservation in an isolated periodic system, and independence of the result from the number
 //! of threads.
 
-mod common;
+use crate::common;
 
 use sable_engine::contact::{ContactInput, PairLaw};
 use sable_engine::math::Vec3;

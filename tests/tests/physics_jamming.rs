@@ -13,7 +13,7 @@
 //! (REFERENCES.md §B), and fast compression adds protocol dependence of about the same size
 //! (Chaudhuri, Berthier & Sastry 2010), hence the tolerances below.
 
-mod common;
+use crate::common;
 
 use sable_engine::methods::dem::Dem;
 use sable_engine::observe::Sample;

@@ -2,7 +2,7 @@
 //! built and run by the same runner as rigid grains, and its samples checked against the
 //! physics they must obey.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::Sample;
 

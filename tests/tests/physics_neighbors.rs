@@ -4,7 +4,7 @@
 //! pair would let grains pass through each other unseen, so this is checked exactly, not
 //! statistically.
 
-mod common;
+use crate::common;
 
 use std::collections::HashSet;
 

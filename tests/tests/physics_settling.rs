@@ -7,7 +7,7 @@
 //! the bed's centres on average 8 mm high), run for 60,000 steps (0.14 s): by then the kinetic
 //! energy is a few 1e-9 J, 1e-4 of the potential energy released.
 
-mod common;
+use crate::common;
 
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;

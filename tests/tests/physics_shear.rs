@@ -2,7 +2,7 @@
 //! rest, the shear imposed only through the periodic images must build the linear mean velocity
 //! profile u_x = shear_rate (y - y0) across the whole cell.
 
-mod common;
+use crate::common;
 
 use sable_engine::run::Simulation;
 use serde_json::json;

@@ -6,7 +6,7 @@ use sable_engine::study::search::{FailureMode, Next, Probe, Scale, SearchSpec, S
 use sable_engine::study::{probe_scene, theory};
 use serde_json::Value;
 
-mod common;
+use crate::common;
 
 /// Runs a scene in-process as a job would; `None` if it ran through, else how it failed.
 fn outcome(scene: &Value) -> Option<FailureMode> {

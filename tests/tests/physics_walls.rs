@@ -9,7 +9,7 @@
 //! criterion (kinetic energy below 1e-4 of the elastic energy — the jamming tests use 1e-3 — and
 //! walls moving by less than 1e-3 of an overlap per 1,000 steps), far below 1%.
 
-mod common;
+use crate::common;
 
 use sable_engine::run::Simulation;
 use serde_json::json;

@@ -3,7 +3,7 @@
 //! PHYSICS.md §2 (not from the engine's helpers), plus a DEM run of two wet spheres
 //! (REFERENCES.md check 14).
 
-mod common;
+use crate::common;
 
 use sable_engine::contact::{ContactInput, PairLaw};
 use sable_engine::math::Vec3;

@@ -7,7 +7,7 @@
 //! sums, hence the 1e-9 tolerance). A state at equilibrium must still be at equilibrium: the same
 //! preparation, started from it, meets its criterion at the first checks.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::Sample;
 use sable_engine::run::{Runner, StopReason};

@@ -1,7 +1,7 @@
 //! Snapshots for ParaView: taken when asked (start, interval, end, never twice for one step),
 //! and describing the same state as the samples.
 
-mod common;
+use crate::common;
 
 use sable_engine::observe::vtk::{particles_vtp, SnapshotSeries};
 use sable_engine::run::Runner;
