@@ -484,7 +484,11 @@ impl Analysis {
                         let i = if *rough_walls {
                             inertial(*shear_rate, normal_stress).unwrap_or(0.0)
                         } else {
-                            mean(&|s| s.inertial_number.unwrap_or(0.0))
+                            // The samples' I is at the primaries' mean diameter (that of the
+                            // box's particles, `mean_diameter`): for aggregates, rescaled to
+                            // the grains' (`flow_diameter`).
+                            let scale = if mean_diameter > 0.0 { flow_diameter / mean_diameter } else { 1.0 };
+                            mean(&|s| s.inertial_number.unwrap_or(0.0)) * scale
                         };
                         r.inertial_number = Some(i);
                         // Wet grains: cohesion index, Stokes number, visco-cohesive inertial number.
@@ -788,6 +792,34 @@ mod tests {
             "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0}, "strain_rate": strain_rate, "axial_strain": 0.2}
         });
         Analysis::new(&parse_scene(&s.to_string()).expect("valid"))
+    }
+
+    /// Plane shear of aggregates: the steady inertial number is the grains', the samples' own
+    /// (the primaries', at the box's mean diameter) rescaled by the grains' diameter.
+    #[test]
+    fn the_plane_shear_of_aggregates_reports_the_grains_inertial_number() {
+        let s = serde_json::json!({
+            "dimension": 2, "method": "dem",
+            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e7}, "restitution": 0.5}},
+            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+            "container": {"min": [0, 0], "max": [0.01, 0.01], "periodic": ["x", "y"]},
+            "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "shear_rate": 10.0, "strain": 1.0}
+        });
+        let mut a = Analysis::new(&parse_scene(&s.to_string()).expect("valid"));
+        for k in 0..=10 {
+            let mut x = sample(k, "shear", 0.0, 0.3, 0.0);
+            x.time = 0.01 * k as f64;
+            x.inertial_number = Some(2e-3);
+            a.push(&x);
+        }
+        let plain = a.finish(1e-4, 2500.0).and_then(|r| r.shear).expect("shear");
+        assert!((plain.inertial_number - 2e-3).abs() < 1e-15, "{}", plain.inertial_number);
+        // Grains of 1.8 mm made of primaries of 0.1 mm: I 18 times the primaries'.
+        a.aggregate_diameter = Some(1.8e-3);
+        let r = a.finish(1e-4, 2500.0).expect("result");
+        let grains = r.shear.expect("shear");
+        assert!((grains.inertial_number - 18.0 * 2e-3).abs() < 1e-12, "{}", grains.inertial_number);
+        assert_eq!(r.inertial_number, Some(grains.inertial_number));
     }
 
     /// A hand-made dense biaxial test: ζ rises to 0.5 at 2% axial strain, falls to 0.3 by 10% and
