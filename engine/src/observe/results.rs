@@ -783,29 +783,39 @@ mod tests {
         assert!(r.warnings.iter().all(|w| !w.contains("quasi-static")), "{:?}", r.warnings);
     }
 
-    fn biaxial_analysis(k_n: f64, strain_rate: f64) -> Analysis {
+    /// The analysis of 10 disks of 1 mm (k_n `k_n`) in `container` under `experiment`.
+    fn hand_made_analysis(k_n: f64, container: serde_json::Value, experiment: serde_json::Value) -> Analysis {
         let s = serde_json::json!({
             "dimension": 2, "method": "dem",
             "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": k_n}, "restitution": 0.5}},
             "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
-            "experiment": {"kind": "biaxial", "preparation": {"pressure": 100.0}, "strain_rate": strain_rate, "axial_strain": 0.2}
+            "container": container,
+            "experiment": experiment
         });
         Analysis::new(&parse_scene(&s.to_string()).expect("valid"))
+    }
+
+    fn walled_box() -> serde_json::Value {
+        serde_json::json!({"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"})
+    }
+
+    fn biaxial_analysis(k_n: f64, strain_rate: f64) -> Analysis {
+        hand_made_analysis(
+            k_n,
+            walled_box(),
+            serde_json::json!({"kind": "biaxial", "preparation": {"pressure": 100.0}, "strain_rate": strain_rate, "axial_strain": 0.2}),
+        )
     }
 
     /// Plane shear of aggregates: the steady inertial number is the grains', the samples' own
     /// (the primaries', at the box's mean diameter) rescaled by the grains' diameter.
     #[test]
     fn the_plane_shear_of_aggregates_reports_the_grains_inertial_number() {
-        let s = serde_json::json!({
-            "dimension": 2, "method": "dem",
-            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e7}, "restitution": 0.5}},
-            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.01, 0.01], "periodic": ["x", "y"]},
-            "experiment": {"kind": "plane_shear", "preparation": {"pressure": 100.0}, "shear_rate": 10.0, "strain": 1.0}
-        });
-        let mut a = Analysis::new(&parse_scene(&s.to_string()).expect("valid"));
+        let mut a = hand_made_analysis(
+            1e7,
+            serde_json::json!({"min": [0, 0], "max": [0.01, 0.01], "periodic": ["x", "y"]}),
+            serde_json::json!({"kind": "plane_shear", "preparation": {"pressure": 100.0}, "shear_rate": 10.0, "strain": 1.0}),
+        );
         for k in 0..=10 {
             let mut x = sample(k, "shear", 0.0, 0.3, 0.0);
             x.time = 0.01 * k as f64;
@@ -975,14 +985,7 @@ mod tests {
     /// (exponent ½, prefactor 5), the shapes, and `level` says so.
     #[test]
     fn a_compaction_of_aggregates_is_judged_by_its_grains() {
-        let s = serde_json::json!({
-            "dimension": 2, "method": "dem",
-            "materials": {"m": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e7}, "restitution": 0.5}},
-            "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "m"},
-            "experiment": {"kind": "compaction", "velocity": 0.01, "strain": 0.5}
-        });
-        let mut a = Analysis::new(&parse_scene(&s.to_string()).expect("valid"));
+        let mut a = hand_made_analysis(1e7, walled_box(), serde_json::json!({"kind": "compaction", "velocity": 0.01, "strain": 0.5}));
         for k in 0..=40u64 {
             let phi_g = 0.6 + 0.008 * k as f64;
             let beyond = (phi_g - 0.68).max(0.0);
