@@ -10,6 +10,8 @@ use sable_server::serve::ServeError;
 use sable_server::{ServeConfig, Server};
 use sable_worker::JobSource;
 
+use crate::common::scenes::tiny as scene;
+
 const USER: &str = "user-token-0123456789abcdef";
 const WORKER: &str = "worker-token-0123456789abcdef";
 
@@ -23,10 +25,6 @@ fn config(dir: &tempfile::TempDir, tokens: Tokens) -> ServeConfig {
         ..Default::default()
     }
 }
-
-#[path = "common/scenes.rs"]
-mod scenes;
-use scenes::tiny as scene;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn users_and_workers_each_need_their_own_token() {

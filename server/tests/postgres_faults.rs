@@ -6,7 +6,7 @@
 //! PostgreSQL comes from `common/postgres.rs`; without it the tests skip with a message (and
 //! fail under `SABLE_REQUIRE_POSTGRES=1`, as in CI).
 
-mod common;
+use crate::common;
 
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};

@@ -6,7 +6,7 @@
 //! PostgreSQL comes from `common/postgres.rs` (a throw-away cluster; the tests skip with a
 //! message when the machine has no PostgreSQL, and fail then under `SABLE_REQUIRE_POSTGRES=1`).
 
-mod common;
+use crate::common;
 
 use std::collections::HashSet;
 use std::sync::Arc;

@@ -11,6 +11,8 @@ use sable_server::auth::Tokens;
 use sable_server::tls::TlsIdentity;
 use sable_server::{ServeConfig, Server};
 
+use crate::common::scenes::tiny as scene;
+
 const USER: &str = "user-token-0123456789abcdef";
 const WORKER: &str = "worker-token-0123456789abcdef";
 
@@ -20,10 +22,6 @@ fn self_signed() -> (String, String) {
     let rcgen::CertifiedKey { cert, key_pair } = rcgen::generate_simple_self_signed(names).expect("certificate");
     (cert.pem(), key_pair.serialize_pem())
 }
-
-#[path = "common/scenes.rs"]
-mod scenes;
-use scenes::tiny as scene;
 
 fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
     let p = dir.join(name);

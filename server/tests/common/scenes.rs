@@ -1,5 +1,4 @@
-//! Scenes shared by the server's integration tests (included by `#[path]`, without the
-//! PostgreSQL helpers of `common/mod.rs`).
+//! Scenes shared by the server's integration tests.
 
 use serde_json::json;
 
