@@ -1,4 +1,4 @@
 //! Sable's validation and end-to-end tests. The engine-level files (`tests/physics_*.rs`, the
 //! experiments, saved states, snapshots, shipped studies) are modules of one test binary,
-//! `tests/physics.rs`; the service's end-to-end suite runs as `service_e2e` (SQLite) and
-//! `service_e2e_postgres`.
+//! `tests/physics.rs`; the service's end-to-end suite is the binary `service_e2e`, once
+//! per back-end (`sqlite::`, `postgres::`).

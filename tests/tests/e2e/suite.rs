@@ -1,5 +1,3 @@
-// The end-to-end suite of the service, included by service_e2e.rs (SQLite) and
-// service_e2e_postgres.rs (PostgreSQL), which each define `BACKEND`.
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
@@ -31,6 +29,7 @@ fn scene(steps: u64, seed: u64) -> Value {
 }
 
 struct Harness {
+    backend: Backend,
     server: Option<Server>,
     dir: tempfile::TempDir,
     db: DbLocation,
@@ -41,8 +40,8 @@ struct Harness {
 /// The database of the server started in `dir`: for SQLite a file in it; for PostgreSQL a
 /// fresh database, whose URL is kept in `dir` so that a server started again there finds it.
 /// None when this suite needs PostgreSQL and the machine has none (the tests skip).
-async fn location(dir: &tempfile::TempDir) -> Option<DbLocation> {
-    match BACKEND {
+async fn location(backend: Backend, dir: &tempfile::TempDir) -> Option<DbLocation> {
+    match backend {
         Backend::Sqlite => Some(DbLocation::Sqlite(dir.path().join("sable.db"))),
         Backend::Postgres => {
             let kept = dir.path().join("postgres-url");
@@ -74,17 +73,17 @@ fn config(db: DbLocation, workers: usize) -> ServeConfig {
 impl Harness {
     /// A server with `workers` local workers on a fresh database; None when the suite's
     /// back-end is not available (the test then skips).
-    async fn start(workers: usize) -> Option<Self> {
+    async fn start(backend: Backend, workers: usize) -> Option<Self> {
         let dir = tempfile::tempdir().expect("temp dir");
-        Self::start_in(dir, workers).await
+        Self::start_in(backend, dir, workers).await
     }
 
     /// A server on the database of `dir` (a restart when a server ran there before).
-    async fn start_in(dir: tempfile::TempDir, workers: usize) -> Option<Self> {
-        let db = location(&dir).await?;
+    async fn start_in(backend: Backend, dir: tempfile::TempDir, workers: usize) -> Option<Self> {
+        let db = location(backend, &dir).await?;
         let server = Server::start(config(db.clone(), workers)).await.expect("server starts");
         let base = format!("http://{}", server.http_addr);
-        Some(Self { server: Some(server), dir, db, http: reqwest::Client::new(), base })
+        Some(Self { backend, server: Some(server), dir, db, http: reqwest::Client::new(), base })
     }
 
     /// A connection pool on the server's database, as any SQL tool would open it.
@@ -99,7 +98,7 @@ impl Harness {
 
     /// An SQL expression reading the number at `path` (e.g. `grains.phi`) of a sample's JSON.
     fn sample_field(&self, path: &str) -> String {
-        match BACKEND {
+        match self.backend {
             Backend::Sqlite => format!("json_extract(data, '$.{path}')"),
             Backend::Postgres => format!("CAST(CAST(data AS JSON) #>> '{{{}}}' AS DOUBLE PRECISION)", path.replace('.', ",")),
         }
@@ -160,9 +159,8 @@ async fn watch_all(client: &mut SimulationsClient<Channel>, id: i64, after: u64)
     out
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn submit_over_http_watch_over_grpc_and_read_samples() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn submit_over_http_watch_over_grpc_and_read_samples(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (status, job) = h.post("/v1/jobs", &json!({"scene": scene(1000, 1), "name": "first", "priority": 2}), None).await;
     assert_eq!(status, 201, "{job}");
     assert_eq!(job["state"], "queued");
@@ -228,9 +226,8 @@ async fn submit_over_http_watch_over_grpc_and_read_samples() {
     assert_eq!(grpc_job.sample_count, 11);
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     // A time step far above the collision time: the grains blow up on their first contacts.
     let mut bad = scene(200_000, 1);
     bad["method"] = json!({"kind": "dem", "time_step": 2e-4});
@@ -252,9 +249,8 @@ async fn an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan() {
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_same_idempotency_key_returns_the_same_job() {
-    let Some(h) = Harness::start(0).await else { return };
+async fn the_same_idempotency_key_returns_the_same_job(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
     let (s1, j1) = h.post("/v1/jobs", &scene(100, 1), Some("key-1")).await;
     let (s2, j2) = h.post("/v1/jobs", &scene(100, 1), Some("key-1")).await;
     assert_eq!((s1, s2), (201, 200));
@@ -273,9 +269,8 @@ async fn the_same_idempotency_key_returns_the_same_job() {
     assert_eq!(h.jobs_in_db().await, 1);
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn cancelling_a_running_job_stops_it_within_a_second() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn cancelling_a_running_job_stops_it_within_a_second(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (_, job) = h.post("/v1/jobs", &scene(1_000_000_000, 1), None).await;
     let id = job["id"].as_i64().expect("id");
     h.wait_state(id, &["running"], Duration::from_secs(10)).await;
@@ -293,16 +288,15 @@ async fn cancelling_a_running_job_stops_it_within_a_second() {
     let (status, err) = h.post(&format!("/v1/jobs/{id}:cancel"), &json!({}), None).await;
     assert_eq!(status, 409, "{err}");
     // A queued job is cancelled at once.
-    let Some(h0) = Harness::start(0).await else { return };
+    let Some(h0) = Harness::start(backend, 0).await else { return };
     let (_, q) = h0.post("/v1/jobs", &scene(100, 1), None).await;
     let (_, c) = h0.post(&format!("/v1/jobs/{}:cancel", q["id"]), &json!({}), None).await;
     assert_eq!(c["state"], "cancelled");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_worker_that_stops_reporting_loses_its_job_to_another() {
+async fn a_worker_that_stops_reporting_loses_its_job_to_another(backend: Backend) {
     // No local workers: a "remote" worker leases the job and goes silent.
-    let Some(h) = Harness::start(0).await else { return };
+    let Some(h) = Harness::start(backend, 0).await else { return };
     let (_, job) = h.post("/v1/jobs", &scene(500, 1), None).await;
     let id = job["id"].as_i64().expect("id");
     let store = h.server().store.clone();
@@ -324,9 +318,8 @@ async fn a_worker_that_stops_reporting_loses_its_job_to_another() {
     pool.shutdown(Duration::from_secs(2)).await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_restarted_server_finishes_the_job_that_was_running() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_restarted_server_finishes_the_job_that_was_running(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     // Long enough (about 2 s) to be caught running; a sample every 20,000 steps.
     let mut long = scene(600_000, 1);
     long["sampling"] = json!({"every_steps": 20_000});
@@ -336,7 +329,7 @@ async fn a_restarted_server_finishes_the_job_that_was_running() {
     // Crash: nothing is handed back.
     let Harness { server, dir, .. } = h;
     server.expect("running").abort().await;
-    let Some(h) = Harness::start_in(dir, 1).await else { return };
+    let Some(h) = Harness::start_in(backend, dir, 1).await else { return };
     let job = h.wait_state(id, &["succeeded"], Duration::from_secs(30)).await;
     assert_eq!(job["attempts"], 2);
     assert_eq!(job["steps"], 600_000);
@@ -344,9 +337,8 @@ async fn a_restarted_server_finishes_the_job_that_was_running() {
     assert_eq!(job["sample_count"], 31);
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_stopped_server_hands_back_its_running_job_without_counting_an_attempt() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_stopped_server_hands_back_its_running_job_without_counting_an_attempt(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (_, job) = h.post("/v1/jobs", &scene(1_000_000_000, 1), None).await;
     let id = job["id"].as_i64().expect("id");
     h.wait_state(id, &["running"], Duration::from_secs(10)).await;
@@ -359,15 +351,14 @@ async fn a_stopped_server_hands_back_its_running_job_without_counting_an_attempt
     // Open streams are closed by the shutdown.
     let ended = tokio::time::timeout(Duration::from_secs(5), async { while let Ok(Some(_)) = watch.message().await {} }).await;
     assert!(ended.is_ok(), "the watch stream stayed open after shutdown");
-    let Some(h) = Harness::start_in(dir, 0).await else { return };
+    let Some(h) = Harness::start_in(backend, dir, 0).await else { return };
     let (_, job) = h.get(&format!("/v1/jobs/{id}")).await;
     assert_eq!(job["state"], "queued", "{job}");
     assert_eq!(job["attempts"], 0, "a hand-back is not an attempt: {job}");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn fifty_concurrent_submissions_all_finish_once() {
-    let Some(h) = Harness::start(2).await else { return };
+async fn fifty_concurrent_submissions_all_finish_once(backend: Backend) {
+    let Some(h) = Harness::start(backend, 2).await else { return };
     let h = Arc::new(h);
     let mut tasks = Vec::new();
     for k in 0..50u64 {
@@ -405,9 +396,8 @@ async fn fifty_concurrent_submissions_all_finish_once() {
     assert_eq!(seen, 50);
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_watch_resumed_from_a_sequence_number_misses_nothing(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (_, job) = h.post("/v1/jobs", &scene(1000, 3), None).await;
     let id = job["id"].as_i64().expect("id");
     let mut client = h.grpc().await;
@@ -445,9 +435,8 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing() {
     assert_eq!(ids, tail.iter().map(|e| e.seq).collect::<Vec<_>>());
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn bad_input_gets_a_clear_error_and_writes_nothing() {
-    let Some(h) = Harness::start(0).await else { return };
+async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
     let mut no_snapshot_interval = scene(10, 1);
     no_snapshot_interval["snapshots"] = json!({"every_steps": 0});
@@ -555,9 +544,8 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing() {
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn health_metrics_and_openapi_describe_the_service() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn health_metrics_and_openapi_describe_the_service(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (s, _) = h.get("/healthz").await;
     assert_eq!(s, 200);
     let (_, job) = h.post("/v1/jobs", &scene(200, 1), None).await;
@@ -632,12 +620,11 @@ async fn check_snapshots(h: &Harness, id: i64) {
     assert_eq!(body["details"][0]["field"], "part", "{body}");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn snapshots_are_stored_and_served_from_local_and_remote_workers() {
+async fn snapshots_are_stored_and_served_from_local_and_remote_workers(backend: Backend) {
     let mut s = scene(1000, 4);
     s["snapshots"] = json!({"every_steps": 400});
     // A local worker.
-    let Some(h) = Harness::start(1).await else { return };
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (status, job) = h.post("/v1/jobs", &s, None).await;
     assert_eq!(status, 201, "{job}");
     let id = job["id"].as_i64().expect("id");
@@ -651,7 +638,7 @@ async fn snapshots_are_stored_and_served_from_local_and_remote_workers() {
     assert_eq!(list["snapshots"], json!([]));
 
     // A remote worker: the files travel in its gRPC reports.
-    let Some(h) = Harness::start(0).await else { return };
+    let Some(h) = Harness::start(backend, 0).await else { return };
     let (_, job) = h.post("/v1/jobs", &s, None).await;
     let id = job["id"].as_i64().expect("id");
     let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
@@ -693,10 +680,9 @@ fn check_compaction(result: &Value, phi0: f64) {
     assert!(c["wall_stress"].as_f64().expect("stress") > 0.0, "{c}");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_experiments_results_are_stored_with_its_job() {
+async fn an_experiments_results_are_stored_with_its_job(backend: Backend) {
     // A local worker; the result over REST and gRPC, the samples labelled with the stage.
-    let Some(h) = Harness::start(1).await else { return };
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (status, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
     assert_eq!(status, 201, "{job}");
     let id = job["id"].as_i64().expect("id");
@@ -719,7 +705,7 @@ async fn an_experiments_results_are_stored_with_its_job() {
     assert!(plain.get("result").is_none(), "{plain}");
 
     // A remote worker sends the result with its FinishJob call.
-    let Some(h) = Harness::start(0).await else { return };
+    let Some(h) = Harness::start(backend, 0).await else { return };
     let (_, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
     let id = job["id"].as_i64().expect("id");
     let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
@@ -736,9 +722,8 @@ async fn an_experiments_results_are_stored_with_its_job() {
     pool.shutdown(Duration::from_secs(2)).await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_job_starts_from_the_final_state_of_another() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_job_starts_from_the_final_state_of_another(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (_, job) = h.post("/v1/jobs", &compaction_scene(), None).await;
     let first = job["id"].as_i64().expect("id");
     // No state before the job has succeeded.
@@ -839,9 +824,8 @@ fn rigid_biaxial(method: &str) -> Value {
     })
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_advisor_answers_without_running_and_auto_jobs_record_its_choice() {
-    let Some(h) = Harness::start(0).await else { return };
+async fn the_advisor_answers_without_running_and_auto_jobs_record_its_choice(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
     // REST: the advice for a scene that names its method, and for a bad one.
     let (status, a) = h.post("/v1/advice", &json!({"scene": rigid_biaxial("dem")}), None).await;
     assert_eq!(status, 200, "{a}");
@@ -899,9 +883,8 @@ async fn wait_study(h: &Harness, id: i64) -> Value {
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let fractions = [0.005, 0.05, 0.3];
     let study = json!({
         "name": "restitution against the step",
@@ -1032,9 +1015,8 @@ fn collision_with(fraction: f64) -> Value {
     s
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_zero() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_zero(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let scene = common::bound_pair();
     let limit = 2.0 / (1e3 / (0.5 * 2500.0 * std::f64::consts::PI * 25e-8)).sqrt();
     let study = json!({
@@ -1075,9 +1057,8 @@ async fn a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_z
     assert!(e.to_string().contains("reference.finest: no series is labelled 'B'"), "{e}");
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_formula_reference_is_evaluated_for_each_run() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_formula_reference_is_evaluated_for_each_run(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     // A disk settling on the floor stores (m g)^2 / (2 k_n) in its contact at rest.
     let grain = json!({
         "dimension": 2,
@@ -1145,9 +1126,8 @@ async fn run_shipped_scene(h: &Harness, file: &str, method: &str, edit: impl FnO
 /// the grains press on each other: before Φ ≈ 0.67 the first ones the wall meets bounce, and Z
 /// at one instant may be 0) submitted by HTTP, its samples queried back — Φ of the grains'
 /// current area, Z, the stress and the `deformable` part — and the same rows in the database.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_soft_grain_compaction_runs_as_a_job() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn a_soft_grain_compaction_runs_as_a_job(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (id, samples) = run_shipped_scene(&h, "mpm_compaction_2d.json", "mpm", |scene| {
         scene["container"]["walls"]["y_max"]["velocity"] = json!([0.0, -0.2]);
         scene["stop"] = json!({"steps": 400});
@@ -1175,9 +1155,8 @@ async fn a_soft_grain_compaction_runs_as_a_job() {
 /// (`scenes/bpm_compaction_dem_2d.json`, cut at 3e4 steps, where the top wall has met the grains)
 /// submitted by HTTP; its samples carry the grains' own Φ, Z and pressure beside the primaries',
 /// and the same values are in the database (the sample's `grains` part, read by SQL).
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored() {
-    let Some(h) = Harness::start(1).await else { return };
+async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
     let (id, samples) = run_shipped_scene(&h, "bpm_compaction_dem_2d.json", "dem", |scene| {
         scene["stop"] = json!({"steps": 30000});
         scene["sampling"] = json!({"every_steps": 5000});
@@ -1216,3 +1195,51 @@ async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored() 
         assert!(same(phi_db, &g["phi"]) && same(z_db, &g["z"]) && same(p_db, &g["pressure"]), "{:?} against {g}", (phi_db, z_db, p_db));
     }
 }
+
+/// Each test of the suite as a test on each back-end: `sqlite::NAME` and `postgres::NAME`.
+macro_rules! on_both_backends {
+    ($($name:ident),* $(,)?) => {
+        /// The suite on SQLite, the default back-end.
+        mod sqlite {
+            $(
+                #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+                async fn $name() {
+                    super::$name(super::Backend::Sqlite).await
+                }
+            )*
+        }
+
+        /// The suite on PostgreSQL, each server on a fresh database of the throw-away test cluster.
+        mod postgres {
+            $(
+                #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+                async fn $name() {
+                    super::$name(super::Backend::Postgres).await
+                }
+            )*
+        }
+    };
+}
+
+on_both_backends!(
+    submit_over_http_watch_over_grpc_and_read_samples,
+    an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan,
+    the_same_idempotency_key_returns_the_same_job,
+    cancelling_a_running_job_stops_it_within_a_second,
+    a_worker_that_stops_reporting_loses_its_job_to_another,
+    a_restarted_server_finishes_the_job_that_was_running,
+    a_stopped_server_hands_back_its_running_job_without_counting_an_attempt,
+    fifty_concurrent_submissions_all_finish_once,
+    a_watch_resumed_from_a_sequence_number_misses_nothing,
+    bad_input_gets_a_clear_error_and_writes_nothing,
+    health_metrics_and_openapi_describe_the_service,
+    snapshots_are_stored_and_served_from_local_and_remote_workers,
+    an_experiments_results_are_stored_with_its_job,
+    a_job_starts_from_the_final_state_of_another,
+    the_advisor_answers_without_running_and_auto_jobs_record_its_choice,
+    a_study_runs_its_jobs_and_reports_errors_costs_and_a_chart,
+    a_stability_search_over_grpc_reports_the_limit_against_two_over_omega_zero,
+    a_formula_reference_is_evaluated_for_each_run,
+    a_soft_grain_compaction_runs_as_a_job,
+    an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored,
+);
