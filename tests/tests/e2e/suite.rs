@@ -1,3 +1,6 @@
+// The end-to-end suite of the service, included by service_e2e.rs. Each test takes the back-end
+// it runs on; `on_both_backends!` at the end makes it a test on each. A test left out of that
+// list is dead code, which the lint (-D warnings) refuses.
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
