@@ -13,12 +13,14 @@
 //!   image nearest the grain's first primary (the period is more than twice a grain, which
 //!   validation checks).
 //! - **Coordination** between grains: pairs of aggregates with at least one force-bearing
-//!   contact between their primaries.
+//!   contact between their primaries; in a periodic box, pairs of a grain and an image of
+//!   another (or of itself): in a cell two grains across, a grain may touch the same grain on
+//!   both sides, two neighbours of the packing.
 //! - **Shape**: the aspect ratio `sqrt(λ_max / λ_min)` of the primaries' second moments about
 //!   the grain's centre of mass, each primary a uniform disk (ball) of its radius: the
 //!   eigenvalues of `Σ m (d dᵀ + r²/4 I)` (`r²/5` for a ball), 1 for a round grain.
 //! - **Stress** of a grain: `σ_g = (1 / A_g) Σ f ⊗ (x_c − x_g)` over the contacts its primaries
-//!   have with other grains and walls, `x_c` the contact point, `A_g` its area (volume); the
+//!   have with other grains, walls and its own periodic images, `x_c` the contact point, `A_g` its area (volume); the
 //!   sample holds the mean pressure `−tr σ_g / d` over the grains, weighted by area (volume)
 //!   (Pa, compression positive).
 
@@ -98,24 +100,28 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
     };
     let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, &pos, dim, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
-    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    let mut pairs: Vec<(u32, u32, [i64; 3])> = Vec::new();
     let mut moment = vec![0.0; n];
     for c in contacts.iter().filter(|c| c.bears_load()) {
         let (a, b) = (grain_of(c.i), c.j.and_then(grain_of));
-        if a == b {
-            // Within one grain, or between particles of no grain.
-            continue;
-        }
         let i = c.i as usize;
         // The contact point: on the line of centres (`branch` = x_i − x_j) at i's radius, or
-        // `branch` from a wall; from i's place in its grain, and from j's in its own.
-        let (at_i, at_j) = match c.j {
+        // `branch` from a wall; from i's place in its grain, and from j's in its own. `image`:
+        // the periods between the copy of j's grain the contact touches and the one where that
+        // grain is whole (none in a walled box).
+        let (at_i, at_j, image) = match c.j {
             Some(j) => {
                 let share = p.radius[i] / (p.radius[i] + p.radius[j as usize]);
-                (pos[i] - c.branch * share, pos[j as usize] + c.branch * (1.0 - share))
+                let image = periods(domain, &(pos[i] - pos[j as usize] - c.branch));
+                (pos[i] - c.branch * share, pos[j as usize] + c.branch * (1.0 - share), image)
             }
-            None => (pos[i] - c.branch, Vec3::zeros()),
+            None => (pos[i] - c.branch, Vec3::zeros(), [0; 3]),
         };
+        if a == b && (a.is_none() || image == [0; 3]) {
+            // Within one grain, or between particles of no grain. A grain pressed against its
+            // own periodic image (a cell less than two grains across) is a contact between grains.
+            continue;
+        }
         // f ⊗ (x_c − x_g) traced: the force on i dotted with its lever from its grain's centre;
         // the force on j, −f, likewise from j's.
         if let Some(a) = a {
@@ -125,9 +131,11 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
             moment[b as usize] -= c.force.dot(&(at_j - shapes[b as usize].centre));
         }
         if let (Some(a), Some(b)) = (a, b) {
-            pairs.push((a.min(b), a.max(b)));
+            pairs.push(grain_pair(a, b, image));
         }
     }
+    // One pair per two grains in contact, and per image: in a cell two grains across, a grain
+    // touches another on both sides (two neighbours of the packing, one pair each).
     pairs.sort_unstable();
     pairs.dedup();
     let area: Real = shapes.iter().map(|s| s.area).sum();
@@ -143,6 +151,34 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         max_aspect_ratio: aspects.fold(1.0, Real::max),
         mean_area: area / n as Real,
     })
+}
+
+/// The whole periods (along x, y, z) of a lattice vector `shift` of `domain` (Lees-Edwards: a
+/// period along y also shifts x by the offset); 0 along an axis that is not periodic.
+fn periods(domain: &Domain, shift: &Vec3) -> [i64; 3] {
+    let mut k = [0; 3];
+    let mut s = *shift;
+    if domain.periodic[1] {
+        k[1] = (s.y / domain.length(1)).round() as i64;
+        s.x -= k[1] as Real * domain.le_offset;
+    }
+    for a in [0, 2] {
+        if domain.periodic[a] {
+            k[a] = (s[a] / domain.length(a)).round() as i64;
+        }
+    }
+    k
+}
+
+/// The pair of grains `a` and `b`, the copy of `b` at `image` periods from `a`'s, in one form
+/// whichever grain comes first (a grain and its own image: either sign of the image).
+fn grain_pair(a: u32, b: u32, image: [i64; 3]) -> (u32, u32, [i64; 3]) {
+    let negative = image.map(|k| -k);
+    match a.cmp(&b) {
+        std::cmp::Ordering::Less => (a, b, image),
+        std::cmp::Ordering::Greater => (b, a, negative),
+        std::cmp::Ordering::Equal => (a, a, image.max(negative)),
+    }
 }
 
 /// Area (volume in 3D), centre and aspect ratio of the grain made of primaries `members` of
@@ -516,5 +552,58 @@ mod tests {
         let area = 2.0 * g.mean_area;
         assert_eq!(g.z, 1.0);
         assert!((g.pressure - 3.0 / area).abs() < 1e-12 * g.pressure, "pressure {} against {}", g.pressure, 3.0 / area);
+    }
+
+    /// In a cell a grain or two across, the contacts with an image count as contacts between
+    /// grains. Along x, period 4:
+    ///
+    /// - a grain of two disks of radius 1 at x = 1 and 2.9, pressed by F = 3 against its own
+    ///   image (its second disk against the first's image at x = 5) has Z = 2 (a neighbour on
+    ///   each side) and the pressure of Love–Weber across the cell, `F L / (2 A)`; before, this
+    ///   contact counted as one inside the grain: no load, no neighbour;
+    /// - two one-disk grains at x = 1 and 3, pressed by F = 3 on both sides (directly and
+    ///   through the boundary), make two pairs (Z = 2, not 1) and twice one contact's pressure.
+    #[test]
+    fn a_grain_pressed_against_its_own_image_in_a_small_cell_is_loaded() {
+        let cell = Domain {
+            dim: 2,
+            lo: Vec3::zeros(),
+            hi: Vec3::new(4.0, 10.0, 0.0),
+            periodic: [true, false, false],
+            shear_rate: 0.0,
+            le_offset: 0.0,
+        };
+        let long = grain(&[(1.0, 5.0, 1.0), (2.9, 5.0, 1.0)]);
+        let inside = ContactRecord {
+            i: 0,
+            j: Some(1),
+            force: Vec3::new(1.0, 0.0, 0.0),
+            branch: Vec3::new(-1.9, 0.0, 0.0),
+            touching: true,
+            bonded: true,
+        };
+        let against_image = ContactRecord {
+            i: 1,
+            j: Some(0),
+            force: Vec3::new(-3.0, 0.0, 0.0),
+            branch: Vec3::new(-2.1, 0.0, 0.0),
+            touching: true,
+            bonded: false,
+        };
+        let g = measure_grains(&long, 2, &[inside, against_image], 40.0, &cell).expect("grains");
+        assert_eq!((g.count, g.z), (1, 2.0));
+        assert!((g.pressure - 3.0 * 4.0 / (2.0 * g.mean_area)).abs() < 1e-12 * g.pressure, "pressure {}", g.pressure);
+        let alone = measure_grains(&long, 2, &[inside], 40.0, &cell).expect("grains");
+        assert_eq!((alone.z, alone.pressure), (0.0, 0.0));
+
+        let mut p = grain(&[(1.0, 5.0, 1.0), (3.0, 5.0, 1.0)]);
+        let direct = into_two_grains(&mut p);
+        let through = ContactRecord { force: Vec3::new(3.0, 0.0, 0.0), branch: Vec3::new(2.0, 0.0, 0.0), ..direct };
+        let g = measure_grains(&p, 2, &[direct, through], 40.0, &cell).expect("grains");
+        let area = 2.0 * g.mean_area;
+        assert_eq!(g.z, 2.0);
+        assert!((g.pressure - 6.0 / area).abs() < 1e-12 * g.pressure, "pressure {} against {}", g.pressure, 6.0 / area);
+        // The same contact twice is one pair.
+        assert_eq!(measure_grains(&p, 2, &[direct, direct], 40.0, &cell).expect("grains").z, 1.0);
     }
 }
