@@ -192,6 +192,7 @@ impl pb::simulations_server::Simulations for SimulationsService {
                     cpu_seconds: c.cpu_seconds,
                     wall_seconds: c.wall_seconds,
                     error: c.error,
+                    pareto: c.pareto,
                 })
                 .collect(),
         }))

@@ -168,9 +168,11 @@ pub async fn list(store: &JobStore, limit: i64) -> Result<Vec<StudyView>, ApiErr
     Ok(out)
 }
 
-/// The runs on the Pareto front of the stored studies of this scene (the same scene whatever
-/// its method, name, sampling and snapshots, which do not change what is simulated): what the
-/// advice quotes as the expected cost.
+/// The runs that succeeded in the stored studies of this scene (the same scene whatever its
+/// method, name, sampling and snapshots, which do not change what is simulated), those on
+/// their study's Pareto front marked: what the advice quotes as the expected cost. Every run,
+/// not the front alone: a method whose runs another beats on both cost and error is still
+/// quoted with what it needed.
 pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Result<Vec<ExpectedCost>, ApiError> {
     let strip = |s: &serde_json::Value| {
         let mut s = s.clone();
@@ -189,7 +191,7 @@ pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Resul
             continue;
         }
         let Some(report) = row.report.as_deref().and_then(|r| serde_json::from_str::<StudyReport>(r).ok()) else { continue };
-        for p in report.points.iter().filter(|p| p.pareto) {
+        for p in report.points.iter().filter(|p| p.state == "succeeded") {
             let method = store.get(p.job_id).await.map(|j| j.method).unwrap_or_default();
             out.push(ExpectedCost {
                 study_id: row.id,
@@ -200,6 +202,7 @@ pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Resul
                 cpu_seconds: p.cost.cpu_seconds,
                 wall_seconds: p.cost.wall_seconds,
                 error: p.relative_error.or(p.error),
+                pareto: p.pareto,
             });
         }
     }

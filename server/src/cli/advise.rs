@@ -49,8 +49,9 @@ pub fn render(a: &Advice) -> String {
     }
     for c in &a.expected_cost {
         let e = c.error.map_or("—".to_string(), |e| format!("{e:.2e}"));
+        let front = if c.pareto { ", on the Pareto front" } else { "" };
         s.push_str(&format!(
-            "  study {} measured {} ({} {}): {:.3} CPU s, error {e}\n",
+            "  study {} measured {} ({} {}): {:.3} CPU s, error {e}{front}\n",
             c.study_id, c.method, c.series, c.label, c.cpu_seconds
         ));
     }
