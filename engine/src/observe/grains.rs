@@ -10,8 +10,9 @@
 //!   sixteenth of its radius, 0.4% at a thirty-second; a grain of the sources' primaries 1 mm
 //!   across is about 60 cells wide).
 //! - **Periodic boxes**: a grain across a periodic boundary is taken whole, each primary at its
-//!   image nearest the grain's first primary (the period is more than twice a grain, which
-//!   validation checks).
+//!   image nearest the grain's first primary, grown at its centre: right while no primary
+//!   lies more than half a period from it (validation asks a period of twice a grain at the
+//!   start; a closing cell keeps it for round grains down to a period of one grain and a bit).
 //! - **Coordination** between grains: pairs of aggregates with at least one force-bearing
 //!   contact between their primaries; in a periodic box, pairs of a grain and an image of
 //!   another (or of itself): in a cell two grains across, a grain may touch the same grain on
@@ -20,9 +21,9 @@
 //!   the grain's centre of mass, each primary a uniform disk (ball) of its radius: the
 //!   eigenvalues of `Σ m (d dᵀ + r²/4 I)` (`r²/5` for a ball), 1 for a round grain.
 //! - **Stress** of a grain: `σ_g = (1 / A_g) Σ f ⊗ (x_c − x_g)` over the contacts its primaries
-//!   have with other grains, walls and its own periodic images, `x_c` the contact point, `A_g` its area (volume); the
-//!   sample holds the mean pressure `−tr σ_g / d` over the grains, weighted by area (volume)
-//!   (Pa, compression positive).
+//!   have with other grains, walls and its own periodic images, `x_c` the contact point, `A_g`
+//!   its area (volume); the sample holds the mean pressure `−tr σ_g / d` over the grains,
+//!   weighted by area (volume) (Pa, compression positive).
 
 use serde::{Deserialize, Serialize};
 
