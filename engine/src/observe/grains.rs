@@ -395,6 +395,18 @@ mod tests {
         Domain { dim, lo: Vec3::repeat(-10.0), hi: Vec3::repeat(10.0), periodic: [false; 3], shear_rate: 0.0, le_offset: 0.0 }
     }
 
+    /// A 2D box from the origin, `length` long and periodic along x, 10 high and walled along y.
+    fn periodic_along_x(length: Real) -> Domain {
+        Domain {
+            dim: 2,
+            lo: Vec3::zeros(),
+            hi: Vec3::new(length, 10.0, 0.0),
+            periodic: [true, false, false],
+            shear_rate: 0.0,
+            le_offset: 0.0,
+        }
+    }
+
     /// One grain in `dim` dimensions of the primaries at these centres and radii.
     fn grain_in(dim: usize, primaries: &[(Vec3, Real)]) -> Particles {
         let mut p = Particles::default();
@@ -530,14 +542,7 @@ mod tests {
             }));
             grain_in(2, &r)
         };
-        let periodic = Domain {
-            dim: 2,
-            lo: Vec3::zeros(),
-            hi: Vec3::new(10.0, 10.0, 0.0),
-            periodic: [true, false, false],
-            shear_rate: 0.0,
-            le_offset: 0.0,
-        };
+        let periodic = periodic_along_x(10.0);
         let inside = measure_grains(&ring(5.0), 2, &[], 100.0, &periodic).expect("grains");
         let across = measure_grains(&ring(0.0), 2, &[], 100.0, &periodic).expect("grains");
         // The grid's cells fall differently by round-off: within a few cells (of 1/16 each).
@@ -566,14 +571,7 @@ mod tests {
     ///   through the boundary), make two pairs (Z = 2, not 1) and twice one contact's pressure.
     #[test]
     fn a_grain_pressed_against_its_own_image_in_a_small_cell_is_loaded() {
-        let cell = Domain {
-            dim: 2,
-            lo: Vec3::zeros(),
-            hi: Vec3::new(4.0, 10.0, 0.0),
-            periodic: [true, false, false],
-            shear_rate: 0.0,
-            le_offset: 0.0,
-        };
+        let cell = periodic_along_x(4.0);
         let long = grain(&[(1.0, 5.0, 1.0), (2.9, 5.0, 1.0)]);
         let inside = ContactRecord {
             i: 0,
