@@ -191,8 +191,11 @@ pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Resul
             continue;
         }
         let Some(report) = row.report.as_deref().and_then(|r| serde_json::from_str::<StudyReport>(r).ok()) else { continue };
+        // One query per matching study for the runs' methods, not one read per run.
+        let methods: std::collections::HashMap<i64, String> =
+            store.study_runs(row.id).await?.into_iter().map(|r| (r.job_id, r.method)).collect();
         for p in report.points.iter().filter(|p| p.state == "succeeded") {
-            let method = store.get(p.job_id).await.map(|j| j.method).unwrap_or_default();
+            let method = methods.get(&p.job_id).cloned().unwrap_or_default();
             out.push(ExpectedCost {
                 study_id: row.id,
                 job_id: p.job_id,

@@ -210,6 +210,7 @@ async fn studies_behave_the_same_on_both_backends() {
         let runs = s.study_runs(study.id).await.expect("runs");
         assert_eq!(runs.iter().map(|r| r.idx).collect::<Vec<_>>(), vec![0, 1, 2], "{at}: run 1 is not added twice");
         assert_eq!(runs[2].value, Some(2.0));
+        assert!(runs.iter().all(|r| r.method == "dem"), "{at}: each run carries its job's method");
         s.set_run_measure(study.id, 1, Some(0.25), None).await.expect("measure");
         s.set_run_measure(study.id, 2, None, Some("failed")).await.expect("measure");
         let runs = s.study_runs(study.id).await.expect("runs");

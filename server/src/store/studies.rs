@@ -77,6 +77,8 @@ pub struct RunRow {
     pub solver_iterations: i64,
     /// The job's experiment results (JSON).
     pub result: Option<String>,
+    /// The method the job ran with (`dem`, `cd`, `mpm`, ...).
+    pub method: String,
 }
 
 const STUDY_SELECT: &str = "SELECT id, name, kind, state, spec, report, error, created_at, finished_at FROM studies";
@@ -181,7 +183,7 @@ impl JobStore {
     pub async fn study_runs(&self, study: i64) -> Result<Vec<RunRow>, StoreError> {
         Ok(sqlx::query_as::<_, RunRow>(
             "SELECT r.idx, r.job_id, r.series, r.label, r.value, r.measured, r.measure_note, r.measured_done, j.state, j.error_code, \
-             j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.result \
+             j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.result, j.method \
              FROM study_jobs r JOIN jobs j ON j.id = r.job_id WHERE r.study_id = $1 ORDER BY r.idx",
         )
         .bind(study)
