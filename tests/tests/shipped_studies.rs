@@ -22,10 +22,10 @@ fn every_shipped_study_expands_into_valid_runs() {
         names,
         vec![
             ("biaxial_dem_cd.json".to_string(), 10),
-            ("bpm_biaxial.json".to_string(), 3),
+            ("bpm_biaxial.json".to_string(), 4),
             ("bpm_isotropic.json".to_string(), 6),
             ("bpm_isotropic_periodic.json".to_string(), 3),
-            ("bpm_z_phi_periodic.json".to_string(), 3),
+            ("bpm_z_phi_periodic.json".to_string(), 6),
             ("dem_time_step_limit.json".to_string(), 2),
             ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),
