@@ -475,6 +475,16 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     let (status, err) = h.post("/v1/jobs", &many, None).await;
     assert_eq!(status, 422, "{err}");
     assert_eq!(err["details"][0]["field"], "particles");
+    // Counts that wrap when added (u64::MAX + 2 = 1) are refused by name, not run: such a
+    // scene once passed as "1 particle" and aborted the process that allocated for it.
+    let mut wraps = scene(10, 1);
+    let set = wraps["particles"][0].clone();
+    wraps["particles"] = json!([set.clone(), set]);
+    wraps["particles"][0]["count"] = json!(u64::MAX);
+    wraps["particles"][1]["count"] = json!(2);
+    let (status, err) = h.post("/v1/jobs", &wraps, None).await;
+    assert_eq!(status, 422, "{err}");
+    assert!(err["details"].as_array().expect("details").iter().any(|d| d["field"] == "particles[0].count"), "{err}");
     // A scene with several broken rules: every one is reported, with its path.
     let mut bad = scene(10, 1);
     bad["materials"]["glass"]["friction"] = json!(-0.2);

@@ -43,11 +43,18 @@ pub struct Scene {
     pub seed: u64,
 }
 
+/// The most particles a scene may place (primaries of aggregates included), whatever the
+/// machine: beyond it the engine's per-particle arrays alone would take hundreds of gigabytes.
+/// A server bounds scenes further by its own limit.
+pub const MAX_PARTICLES: usize = 1_000_000_000;
+
 impl Scene {
     /// Number of particles: those of the sets (an aggregate set's estimated primaries), or of
-    /// the state the scene starts from.
+    /// the state the scene starts from. Saturates at `usize::MAX` rather than wrapping, so a
+    /// scene whose counts overflow compares above every limit.
     pub fn particle_count(&self) -> usize {
-        self.initial.as_ref().map_or(0, |st| st.radius.len()) + self.sets.iter().map(ParticleSet::particle_count).sum::<usize>()
+        let from_state = self.initial.as_ref().map_or(0, |st| st.radius.len());
+        self.sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add)
     }
 }
 
@@ -482,10 +489,10 @@ pub struct ParticleSet {
 
 impl ParticleSet {
     /// Number of particles the set places: its grains, or the primaries of its aggregates
-    /// (estimated, [`AggregateModel::estimated_primaries`]).
+    /// (estimated, [`AggregateModel::estimated_primaries`]). Saturates at `usize::MAX`.
     pub fn particle_count(&self) -> usize {
         match &self.aggregate {
-            Some(a) => self.count * a.estimated_primaries(self.size.mean_power(a.dim as Real)),
+            Some(a) => self.count.saturating_mul(a.estimated_primaries(self.size.mean_power(a.dim as Real))),
             None => self.count,
         }
     }

@@ -272,6 +272,19 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
         None => 0,
     });
 
+    if c.violations.is_empty() {
+        // Sets of valid counts may still add up (or multiply, by an aggregate's primaries) past
+        // what any machine holds; the sum saturates rather than wraps.
+        let from_state = initial.as_ref().map_or(0, |st| st.radius.len());
+        let total = sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add);
+        if total > MAX_PARTICLES {
+            let shown = if total == usize::MAX { "more than that".to_string() } else { format!("{total}") };
+            c.fail(
+                "particles",
+                format!("the scene places at most {MAX_PARTICLES} particles in all (primaries of aggregates included), got {shown}"),
+            );
+        }
+    }
     if !c.violations.is_empty() {
         return Err(c.violations);
     }
@@ -1099,6 +1112,9 @@ fn check_set(
     if count == 0 && !matches!(placement, Placement::List { .. }) && p.count.is_some() {
         c.fail(format!("{path}.count"), "must be >= 1");
     }
+    if count > MAX_PARTICLES {
+        c.fail(format!("{path}.count"), format!("must be at most {MAX_PARTICLES}, got {count}"));
+    }
     let velocity = match &p.velocity {
         None | Some(VelocitySpec::Zero) => InitialVelocity::Uniform(Vec3::zeros()),
         Some(VelocitySpec::Uniform { value }) => {
@@ -1476,6 +1492,50 @@ mod tests {
         // A tolerance the scene gives is kept.
         let given = parse_scene(&aggregate_scene(serde_json::json!({"kind": "cd", "tolerance": 1e-4}), model, false));
         assert!(matches!(given.map(|s| s.method), Ok(Method::Cd(p)) if p.tolerance == 1e-4));
+    }
+
+    /// Counts that overflow a machine word once multiplied (by an aggregate's primaries) or
+    /// added (over sets) are refused, not wrapped into a small count that passes every limit
+    /// and then aborts the process that allocates for it.
+    #[test]
+    fn overflowing_particle_counts_are_refused() {
+        let model = serde_json::json!({"kind": "bonded_primaries", "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4}, "attraction": {"force": 100.0}});
+        let mut scene: serde_json::Value = serde_json::from_str(&aggregate_scene(serde_json::json!("cd"), model, false)).expect("json");
+        // 83848836698679781 × 220 primaries wraps to 204 in 64 bits.
+        scene["particles"][0]["count"] = serde_json::json!(83_848_836_698_679_781_u64);
+        let r = rules(&scene.to_string());
+        assert!(r.iter().any(|r| r.starts_with("particles[0].count: must be at most 1000000000")), "{r:?}");
+        // Valid per set, too many once multiplied by the primaries of each grain.
+        scene["particles"][0]["count"] = serde_json::json!(20_000_000);
+        let r = rules(&scene.to_string());
+        assert_eq!(
+            r,
+            vec!["particles: the scene places at most 1000000000 particles in all (primaries of aggregates included), got 4400000000"]
+        );
+
+        // Two sets whose counts add up past u64::MAX (to 1 when wrapped).
+        let mut two: serde_json::Value = serde_json::from_str(&scene_with(serde_json::json!("dem"), 0.5)).expect("json");
+        let set = two["particles"][0].clone();
+        two["particles"] = serde_json::json!([set.clone(), set]);
+        two["particles"][0]["count"] = serde_json::json!(u64::MAX);
+        two["particles"][1]["count"] = serde_json::json!(2);
+        let r = rules(&two.to_string());
+        assert!(r.iter().any(|r| r.starts_with("particles[0].count: must be at most")), "{r:?}");
+        // Each set valid, their sum not.
+        two["particles"][0]["count"] = serde_json::json!(MAX_PARTICLES);
+        let r = rules(&two.to_string());
+        assert_eq!(
+            r,
+            vec![format!(
+                "particles: the scene places at most {MAX_PARTICLES} particles in all (primaries of aggregates included), got {}",
+                MAX_PARTICLES + 2
+            )]
+        );
+        // The count itself saturates rather than wraps.
+        let base = parse_scene(&scene_with(serde_json::json!("dem"), 0.5)).expect("valid");
+        let set = ParticleSet { count: usize::MAX, ..base.sets[0].clone() };
+        let big = Scene { sets: vec![set.clone(), ParticleSet { count: 2, ..set }], ..base };
+        assert_eq!(big.particle_count(), usize::MAX);
     }
 
     #[test]
