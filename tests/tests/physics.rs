@@ -10,6 +10,8 @@ mod common;
 
 #[path = "experiments.rs"]
 mod experiments;
+#[path = "golden_samples.rs"]
+mod golden_samples;
 #[path = "physics_bpm.rs"]
 mod physics_bpm;
 #[path = "physics_cd.rs"]
