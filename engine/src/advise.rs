@@ -32,9 +32,9 @@ use crate::scene::{
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
-/// Above this stiffness number grains are rigid for the purpose of the model: contact
-/// deflections below 1e-4 d leave the quasi-static response at its rigid limit (Roux & Chevoir
-/// 2005, §2.3.4; Agnolin & Roux 2007).
+/// Above this stiffness number grains are rigid for the purpose of the model: contact deflections
+/// below 1e-4 d leave the quasi-static response at its rigid limit (Roux & Chevoir 2005, §2.3.4;
+/// Agnolin & Roux 2007).
 pub const RIGID_STIFFNESS: Real = 1e4;
 /// Above this contact deflection over the diameter (1/κ) grains deform beyond what point
 /// contacts describe: a soft-particle method (MPM-CD, FEM-CD; Nezamabadi 2020, §2.1) is needed.

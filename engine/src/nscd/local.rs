@@ -105,11 +105,11 @@ pub fn within_disk(t1: Real, t2: Real, limit: Real) -> (Real, Real) {
     }
 }
 
-/// Rolling resistance of a contact as a graph (the rigid-plastic limit of the moment law of Roux &
-/// Chevoir 2005, §2.1.6; the elastic stiffness plays no part between rigid grains): the rolling
-/// moment impulse `m` (N·m·s on the first body, the opposite on the second) lies in the tangent
-/// plane, with `|m| <= bound rho` (`bound = mu_r R*`, m; `rho` the contact's compressive normal
-/// impulse); where `|m| < bound rho` the pair does not roll (the tangential part of
+/// Rolling resistance of a contact as a graph (the rigid-plastic limit of the moment law of
+/// Roux & Chevoir 2005, §2.1.6; the elastic stiffness plays no part between rigid grains): the
+/// rolling moment impulse `m` (N·m·s on the first body, the opposite on the second) lies in the
+/// tangent plane, with `|m| <= bound rho` (`bound = mu_r R*`, m; `rho` the contact's compressive
+/// normal impulse); where `|m| < bound rho` the pair does not roll (the tangential part of
 /// `omega_i - omega_j` vanishes), otherwise it rolls against `m`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Rolling {

@@ -24,9 +24,9 @@
 //!   velocity profile ([`super::drum`]); the flowing layer's depth and inertial number; the flow
 //!   regime ([`super::drum::drum_regime`]).
 //!
-//! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number (Roux &
-//! Chevoir 2005, §2.3.4; docs/physics.md §8: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear
-//! contacts, `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not
+//! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
+//! (Roux & Chevoir 2005, §2.3.4; docs/physics.md §8: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D
+//! for linear contacts, `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not
 //! quasi-static (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than
 //! 1e-4 d; not for deformable grains, which are meant to deform).
 
