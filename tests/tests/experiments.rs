@@ -277,8 +277,8 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
 /// the periodic cell is a body of the contact problem held at σ_yy by the force across its
 /// boundary (engine/src/methods/cd/cell.rs). The preparation (frictionless, isotropic, by the
 /// cell's pressure) must reach the random close packing of frictionless disks, Φ ≈ 0.842 with an
-/// isostatic backbone Z = 4 (REFERENCES.md: O'Hern et al. 2003; ±0.01 on Φ for 400 polydisperse
-/// disks and the protocol, 0.15 on Z for the contacts held within the alert distance); the shear
+/// isostatic backbone Z = 4 (docs/references.md check 7: O'Hern et al. 2003; ±0.01 on Φ for 400
+/// polydisperse disks and the protocol, 0.15 on Z for the contacts held within the alert distance); the shear
 /// the DEM test's bounds on μ, Φ and I. σ_n within 5%: the cell holds the mean force across its
 /// boundary on target (within 1e-6 at rest, `physics_cd_cell.rs`), while σ_n is the mean of the
 /// window's 76 instantaneous samples of σ_yy, which scatter by 15 Pa (two standard errors of the
