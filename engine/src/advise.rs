@@ -69,7 +69,7 @@ pub struct Numbers {
     pub inertial_number: Option<Real>,
     /// Stiffness number κ (Roux & Chevoir 2005, §2.3.4).
     pub stiffness_number: Option<Real>,
-    /// Contact deflection over the diameter, `1/κ` (for Hertz contacts `(p/E*)^(2/3)`).
+    /// Contact deflection over the diameter, `1/κ` (for Hertz contacts `((1 − ν²) p/E)^(2/3)`).
     pub deflection: Option<Real>,
     /// Cohesion index `ξ = f_c/(p d^(D-1))`.
     pub cohesion_index: Option<Real>,
