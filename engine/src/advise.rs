@@ -1,19 +1,19 @@
 //! The method advisor: a scene's dimensionless numbers, and from them the lightest model that
-//! is adequate for it (PHYSICS.md §8 and §10).
+//! is adequate for it (docs/physics.md §8 and §10.3).
 //!
 //! The numbers are estimated from the scene as written, before anything runs: the confining
 //! stress `p` and the strain rate `ε̇` its loading imposes, the grains' mean diameter `d` and
 //! density `ρ`, and their contact law. From them:
 //!
-//! - inertial number `I = ε̇ d sqrt(ρ/p)` (N 3.1, RC 2.3.4): quasi-static below
-//!   [`QUASI_STATIC_INERTIAL`] (GDR MiDi 2004), dense inertial flow above;
-//! - stiffness number `κ = k_n/(p d)` (3D linear), `k_n/p` (2D linear), `(E*/p)^(2/3)` (Hertz)
-//!   (RC 2.3.4), whose inverse is the contact deflection over `d`: rigid grains above
-//!   [`RIGID_STIFFNESS`], grains that deform (a soft-particle method) when `1/κ` exceeds
-//!   [`DEFORMABLE_DEFLECTION`];
+//! - inertial number `I = ε̇ d sqrt(ρ/p)` (Nezamabadi 2020, §3.1; Roux & Chevoir 2005, §2.3.4):
+//!   quasi-static below [`QUASI_STATIC_INERTIAL`] (GDR MiDi 2004), dense inertial flow above;
+//! - stiffness number `κ = k_n/(p d)` (3D linear), `k_n/p` (2D linear), `(E/((1 − ν²) p))^(2/3)`
+//!   (Hertz) (Roux & Chevoir 2005, §2.3.4), whose inverse is the contact deflection over `d`: rigid
+//!   grains above [`RIGID_STIFFNESS`], grains that deform (a soft-particle method) when `1/κ`
+//!   exceeds [`DEFORMABLE_DEFLECTION`];
 //! - cohesion index `ξ = f_c/(p d^(D-1))` with `f_c` the largest capillary (`2π γ cosθ R`) or dry
-//!   cohesive force (N 3.1);
-//! - Stokes number `St = σ_i/σ_v = ρ d² ε̇ / η` for a viscous liquid (N 3.1);
+//!   cohesive force (Nezamabadi 2020, §3.1);
+//! - Stokes number `St = σ_i/σ_v = ρ d² ε̇ / η` for a viscous liquid (Nezamabadi 2020, §3.1);
 //! - the initial solid fraction, which tells a dilute gas from a packing.
 //!
 //! The choice: a soft-particle method when grains deform (not in this version: DEM is used and
@@ -32,12 +32,12 @@ use crate::scene::{
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
-/// Above this stiffness number grains are rigid for the purpose of the model: contact
-/// deflections below 1e-4 d leave the quasi-static response at its rigid limit (RC 2.3.4;
+/// Above this stiffness number grains are rigid for the purpose of the model: contact deflections
+/// below 1e-4 d leave the quasi-static response at its rigid limit (Roux & Chevoir 2005, §2.3.4;
 /// Agnolin & Roux 2007).
 pub const RIGID_STIFFNESS: Real = 1e4;
 /// Above this contact deflection over the diameter (1/κ) grains deform beyond what point
-/// contacts describe: a soft-particle method (MPM-CD, FEM-CD; N 2.1) is needed.
+/// contacts describe: a soft-particle method (MPM-CD, FEM-CD; Nezamabadi 2020, §2.1) is needed.
 pub const DEFORMABLE_DEFLECTION: Real = 0.05;
 /// Below this fraction of random close packing a scene starts as a dilute gas.
 pub const DILUTE_FRACTION: Real = 0.5;
@@ -67,9 +67,9 @@ pub struct Numbers {
     pub initial_solid_fraction: Real,
     /// Inertial number `I = ε̇ d sqrt(ρ/p)`.
     pub inertial_number: Option<Real>,
-    /// Stiffness number κ (RC 2.3.4).
+    /// Stiffness number κ (Roux & Chevoir 2005, §2.3.4).
     pub stiffness_number: Option<Real>,
-    /// Contact deflection over the diameter, `1/κ` (for Hertz contacts `(p/E*)^(2/3)`).
+    /// Contact deflection over the diameter, `1/κ` (for Hertz contacts `((1 − ν²) p/E)^(2/3)`).
     pub deflection: Option<Real>,
     /// Cohesion index `ξ = f_c/(p d^(D-1))`.
     pub cohesion_index: Option<Real>,
@@ -349,7 +349,7 @@ pub fn advise(scene: &Scene) -> Advice {
             l.rate(*angular_velocity, "experiment.angular_velocity");
             l.regime = Some((
                 Regime::Collisional,
-                format!("the drum's surface flows as a dense inertial layer (Fr = {froude:.1e}; I ~ 0.1–0.5 in the flowing layer, REFERENCES E.17)"),
+                format!("the drum's surface flows as a dense inertial layer (Fr = {froude:.1e}, drum regimes after Mellmann, Powder Technol. 118, 251, 2001; I ~ 0.1–0.5 in the flowing layer)"),
             ));
         }
         Some(Experiment::GranuleCompression { strain_rate, .. }) => {
@@ -420,7 +420,7 @@ pub fn advise(scene: &Scene) -> Advice {
     if let Some(name) = deformable.first() {
         // Deformable grains have one method: their shape is the unknown.
         let mut reasons = vec![format!(
-            "deformable grains (materials.{name}.deformable): the material point method with contact dynamics follows their shape (PHYSICS.md §5)"
+            "deformable grains (materials.{name}.deformable): the material point method with contact dynamics follows their shape (Nezamabadi 2020, §1.2.2)"
         )];
         if let Some(x) = deflection {
             reasons.push(format!("contact deflection ~ 1/κ = {x:.2e} of the diameter at the loading's stress"));
@@ -462,14 +462,14 @@ pub fn advise(scene: &Scene) -> Advice {
                 method = "cd";
                 reasons.push(format!("{why} (ε̇ from {})", numbers.strain_rate_source.as_deref().unwrap_or("nothing: the grains only relax")));
                 reasons.push(format!(
-                    "rigid grains: κ = {k:.1e} ≥ {RIGID_STIFFNESS:.0e} (RC 2.3.4), contact deflections ~ {:.1e} d; contact dynamics takes steps set by the grains' motion, not by the collision time",
+                    "rigid grains: κ = {k:.1e} ≥ {RIGID_STIFFNESS:.0e} (Roux & Chevoir 2005, §2.3.4), contact deflections ~ {:.1e} d; contact dynamics takes steps set by the grains' motion, not by the collision time",
                     1.0 / k
                 ));
             }
             Some(k) => {
                 reasons.push(why);
                 if needs.is_none() {
-                    reasons.push(format!("moderately soft grains: κ = {k:.1e} < {RIGID_STIFFNESS:.0e} (RC 2.3.4), the contact deflections (~ {:.1e} d) shape the response, which DEM models", 1.0 / k));
+                    reasons.push(format!("moderately soft grains: κ = {k:.1e} < {RIGID_STIFFNESS:.0e} (Roux & Chevoir 2005, §2.3.4), the contact deflections (~ {:.1e} d) shape the response, which DEM models", 1.0 / k));
                 }
             }
             None => reasons.push(why),
@@ -538,7 +538,7 @@ fn wet(scene: &Scene) -> bool {
 }
 
 /// The largest attraction between two grains of diameter `d`, N (N/m in 2D): the capillary
-/// force at contact `2π γ cosθ R` (R = d/2; PHYSICS.md §1) or the dry cohesion F_0.
+/// force at contact `2π γ cosθ R` (R = d/2; docs/physics.md §2.8) or the dry cohesion F_0.
 fn adhesion(scene: &Scene, d: Real) -> Option<Real> {
     let wet = wet(scene);
     let capillary = scene.materials.iter().filter_map(|m| m.liquid.filter(|_| wet)).map(|l| l.capillary_prefactor() * 0.5 * d);

@@ -423,7 +423,7 @@ mod tests {
     #[test]
     fn long_titles_are_cut_at_a_word_to_fit() {
         assert_eq!(fit("restitution_dem", TITLE_SIZE, 0), "restitution_dem");
-        let name = "Soft-grain compaction (N 2.1.1, 300 grains to Phi 0.95): the exponent of Z - Z_J against Phi - Phi_J for each law";
+        let name = "Soft-grain compaction (Nezamabadi 2020, §2.1, 300 grains): the exponent of Z - Z_J against Phi - Phi_J for each law";
         let room = ((f64::from(SIZE.0) - 40.0) / (0.55 * TITLE_SIZE)) as usize;
         let cut = fit(name, TITLE_SIZE, 20);
         assert!(cut.ends_with('…') && cut.chars().count() <= room - 20, "{cut}");

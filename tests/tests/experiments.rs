@@ -1,17 +1,17 @@
 //! The standard experiments run as scenes (docs/scene-format.md §13): their preparation, loading
 //! program and derived results.
 //!
-//! Biaxial test (N 2.2, 2.25-2.28): a dense sample (prepared frictionless, Φ ≈ 0.82) and a loose
-//! one (prepared with the grains' friction 0.5) of the same 400 polydisperse disks, loaded at the
-//! same lateral pressure with μ = 0.5. The dense one must show a peak of ζ = q/p well above its
-//! steady value and dilate after a small initial contraction; the loose one must show no such
-//! peak and end denser than it started. CI-sized: 400 disks give ζ fluctuations of a few
-//! hundredths in the steady window (measured std 0.02-0.03), and the largest ζ of a noisy series
-//! lies a few standard deviations above its mean even without a peak. So a peak counts when it
-//! exceeds the steady mean by more than 0.1 and comes early (measured over two servo variants:
-//! dense 0.116 and 0.146 at 0.7-0.8% axial strain; loose 0.054 and 0.062, late). Stiffness number k_n/p = 1e3 (deflections 1e-3 d) and I = 1.5e-3
-//! (slightly above the quasi-static bound, and flagged so) keep the contrast while the test runs
-//! in well under a minute.
+//! Biaxial test (Nezamabadi 2020, §2.2, eqs. 2.25-2.28): a dense sample (prepared frictionless,
+//! Φ ≈ 0.82) and a loose one (prepared with the grains' friction 0.5) of the same 400 polydisperse
+//! disks, loaded at the same lateral pressure with μ = 0.5. The dense one must show a peak of
+//! ζ = q/p well above its steady value and dilate after a small initial contraction; the loose one
+//! must show no such peak and end denser than it started. CI-sized: 400 disks give ζ fluctuations
+//! of a few hundredths in the steady window (measured std 0.02-0.03), and the largest ζ of a noisy
+//! series lies a few standard deviations above its mean even without a peak. So a peak counts when
+//! it exceeds the steady mean by more than 0.1 and comes early (measured over two servo variants:
+//! dense 0.116 and 0.146 at 0.7-0.8% axial strain; loose 0.054 and 0.062, late). Stiffness number
+//! k_n/p = 1e3 (deflections 1e-3 d) and I = 1.5e-3 (slightly above the quasi-static bound, and
+//! flagged so) keep the contrast while the test runs in well under a minute.
 
 use crate::common;
 
@@ -128,7 +128,7 @@ fn isotropic_with(method: serde_json::Value, friction: f64) -> ExperimentResult 
 }
 
 /// Frictionless spheres prepared isotropically reach random close packing, Φ ≈ 0.64 with an
-/// isostatic backbone, Z ≈ 6 (REFERENCES.md §B.6). Tolerances as in `physics_jamming.rs`: the
+/// isostatic backbone, Z ≈ 6 (docs/references.md check 6). Tolerances as in `physics_jamming.rs`: the
 /// finite-size spread of Φ_J at N = 1000 is about ±0.005 and the protocol adds as much
 /// (Chaudhuri, Berthier & Sastry 2010). Measured: Φ = 0.635, Z = 6.08.
 #[test]
@@ -142,7 +142,7 @@ fn frictionless_isotropic_preparation_reaches_random_close_packing() {
 }
 
 /// With μ = 0.5 during the compression the packing stabilises looser, with fewer contacts:
-/// REFERENCES.md §B.9 puts μ = 0.5 between Agnolin & Roux's Φ = 0.593, z* = 4.5 at μ = 0.3 and
+/// docs/references.md check 9 puts μ = 0.5 between Agnolin & Roux's Φ = 0.593, z* = 4.5 at μ = 0.3 and
 /// the high-friction limit Φ ≈ 0.55, Z → 4 (our band 0.57-0.60, Z 4.3-4.8; Song, Wang & Makse 2008
 /// give Φ ≈ 0.57 for Z ≈ 4.4 on their random-loose line). The bounds add the ±0.01 of finite size
 /// and protocol to that band. Measured: Φ = 0.566-0.571, Z = 4.36-4.39 over three compression
@@ -250,7 +250,7 @@ fn lees_edwards_shear(method: serde_json::Value, sampling: serde_json::Value) ->
 
 /// Dry plane shear of 400 disks (μ_p = 0.5) in a Lees-Edwards cell whose height holds
 /// σ_yy = 100 Pa, at I = 1e-2, to a shear strain of 3. Reference: da Cruz et al. (2005), 2D disks
-/// with μ_p = 0.4, μ ≈ 0.25 + I and Φ ≈ 0.81 - 0.3 I (REFERENCES.md §C.12): μ ≈ 0.26 and Φ ≈ 0.807
+/// with μ_p = 0.4, μ ≈ 0.25 + I and Φ ≈ 0.81 - 0.3 I (docs/references.md check 12): μ ≈ 0.26 and Φ ≈ 0.807
 /// here, a little more friction at μ_p = 0.5. The bounds allow ±0.05 on μ (its std over the
 /// window is ≈ 0.06 with 400 disks, from 30 correlated samples) and ±0.02 on Φ; the measured
 /// inertial number must be the imposed one within 10%, and σ_n the target within 2% (the servo's
@@ -277,8 +277,8 @@ fn dry_plane_shear_follows_the_inertial_rheology_of_disks() {
 /// the periodic cell is a body of the contact problem held at σ_yy by the force across its
 /// boundary (engine/src/methods/cd/cell.rs). The preparation (frictionless, isotropic, by the
 /// cell's pressure) must reach the random close packing of frictionless disks, Φ ≈ 0.842 with an
-/// isostatic backbone Z = 4 (REFERENCES.md: O'Hern et al. 2003; ±0.01 on Φ for 400 polydisperse
-/// disks and the protocol, 0.15 on Z for the contacts held within the alert distance); the shear
+/// isostatic backbone Z = 4 (docs/references.md check 7: O'Hern et al. 2003; ±0.01 on Φ for 400
+/// polydisperse disks and the protocol, 0.15 on Z for the contacts held within the alert distance); the shear
 /// the DEM test's bounds on μ, Φ and I. σ_n within 5%: the cell holds the mean force across its
 /// boundary on target (within 1e-6 at rest, `physics_cd_cell.rs`), while σ_n is the mean of the
 /// window's 76 instantaneous samples of σ_yy, which scatter by 15 Pa (two standard errors of the
@@ -514,7 +514,7 @@ fn plane_shear_3d(inertial_number: f64) -> ExperimentResult {
     r
 }
 
-/// 3D simple shear of frictional spheres at I = 1e-2 (REFERENCES.md C.13: μ_s 0.36-0.40 for
+/// 3D simple shear of frictional spheres at I = 1e-2 (docs/references.md check 13: μ_s 0.36-0.40 for
 /// μ_p = 0.4-0.5 and μ(I) = μ_s + (μ_2 - μ_s) / (1 + I_0 / I), so μ ≈ 0.38-0.42 at I = 1e-2;
 /// φ ≈ φ_max - b I ≈ 0.57-0.60). 500 grains fluctuate by a few hundredths: measured μ = 0.363,
 /// Φ = 0.587 (0.356-0.380 over other stiffnesses, strains and servo versions), near the low end
@@ -555,7 +555,7 @@ fn plane_shear_2d(i: f64, strain: f64, pressure: f64, kappa: f64, liquid: Option
     r
 }
 
-/// μ(I) and Φ(I) over two decades of I (da Cruz et al. 2005, REFERENCES.md C.12: μ ≈ 0.25 + I,
+/// μ(I) and Φ(I) over two decades of I (da Cruz et al. 2005, docs/references.md check 12: μ ≈ 0.25 + I,
 /// Φ ≈ 0.81 - 0.3 I for disks, which predicts μ 0.254 / 0.29 / 0.65 and Φ 0.809 / 0.798 / 0.69 at
 /// I = 4e-3 / 4e-2 / 4e-1; the linear law overstates μ at 0.4). μ must grow and Φ fall at each
 /// step (the smaller step, Δμ ≈ 0.036, is over three times the ~0.01 uncertainty of a window mean
@@ -583,7 +583,7 @@ fn friction_grows_and_packing_falls_with_the_inertial_number() {
     assert!(first.2 - last.2 > 0.05, "phi {} to {}", first.2, last.2);
 }
 
-/// Wet against dry disks at the same I = 1e-2 (N 3.1: cohesion raises μ and lowers Φ at a
+/// Wet against dry disks at the same I = 1e-2 (Nezamabadi 2020, §3.1: cohesion raises μ and lowers Φ at a
 /// given I, through I_m = I sqrt((1 + β/St)/(1 + α ξ))): water bridges (V_b = 1e-3 d³) at a
 /// normal stress set for ξ ≈ 2. Measured: ξ = 2.28, μ 0.581 wet / 0.277 dry, Φ 0.772 / 0.806.
 #[test]
@@ -639,7 +639,7 @@ fn drum_2d(froude: f64) -> ExperimentResult {
     r
 }
 
-/// Dynamic angle of repose of a rolling bed (REFERENCES E.17: glass beads 22-30°, growing with
+/// Dynamic angle of repose of a rolling bed (docs/references.md check 17: glass beads 22-30°, growing with
 /// Fr; tan θ between μ_s and μ(I) of the flowing layer). Measured (2D, 300 disks): Fr 3e-3:
 /// surface 26.4°, mass angle 26.1°, rolling, flowing layer 4.1 d, I = 0.07; Fr 0.1: surface
 /// 32.1°, mass angle 31.4° (an earlier placement, identical but for the last bits of its bounds,
@@ -732,7 +732,7 @@ fn granule_with(method: serde_json::Value, gamma: f64, sampling: serde_json::Val
     r
 }
 
-/// N 3.2.3: the plastic strength of a wet granule is proportional to the capillary stress,
+/// Nezamabadi 2020, §3.2.3: the plastic strength of a wet granule is proportional to the capillary stress,
 /// σ_p = η s Z Φ σ_c / (2π) with η of order one. Measured (300 spheres): γ → σ_p = 82.9 Pa
 /// (σ_p/σ_c = 0.361, η = 0.90, Z = 5.37); 2γ → σ_p = 166.9 Pa (0.363, 0.87): the ratio is 2.01.
 /// The rate does not matter (at a tenth of the default forming field, 3 1/s and 0.5 1/s gave

@@ -1,6 +1,6 @@
-//! The bonded particle method's soft grains (PHYSICS.md §4; N 1.2.1, 2.1.3): aggregates of
-//! rigid primaries bound by the attraction `F_0 (1 + δ/a_0)^(−γ)`, run by contact dynamics and
-//! by DEM.
+//! The bonded particle method's soft grains (docs/physics.md §4; Nezamabadi 2020, §1.2.1 and
+//! §2.1.3): aggregates of rigid primaries bound by the attraction `F_0 (1 + δ/a_0)^(−γ)`, run by
+//! contact dynamics and by DEM.
 //!
 //! Tolerances: an aggregate at rest is static; what moves it is the contact solver's leftover
 //! (relative change 1e-6 of impulses set by `F_0` ≈ 100 N/m, [`AGGREGATE_TOLERANCE`]),
@@ -422,10 +422,10 @@ fn pressed_levels(levels: &[f64]) -> Vec<(f64, GrainSample, f64)> {
 
 /// Aggregates pressed isotropically ([`pressed_levels`]) at 0.1, 0.3 and 1 `p_I`:
 ///
-/// - the grains' Φ rises with `p/p_I` and stays below 1, within 0.04 of the sources' fit of
-///   their isotropic BPM samples (N 2.2, 300 grains of about 330 primaries), `Φ = 0.92 + 0.13
-///   log10(p/p_I)`. Measured 0.764, 0.844, 0.929 against 0.790, 0.852, 0.920; four grains are
-///   a small sample (another placement gave 0.913 and 0.936 at 1 `p_I`), hence 0.04;
+/// - the grains' Φ rises with `p/p_I` and stays below 1, within 0.04 of the sources' fit of their
+///   isotropic BPM samples (Nezamabadi 2020, §2.2.1, eq. 2.21: 300 grains of about 330 primaries),
+///   `Φ = 0.92 + 0.13 log10(p/p_I)`. Measured 0.764, 0.844, 0.929 against 0.790, 0.852, 0.920; four
+///   grains are a small sample (another placement gave 0.913 and 0.936 at 1 `p_I`), hence 0.04;
 /// - the grains carry the walls' stress: their area-weighted pressure times their Φ (the
 ///   grains' share of the box) is the walls' pressure within 2% (measured 0.2%, 0.04% and
 ///   0.02%), as it must be when every force between grains and walls passes through the grains'
@@ -729,11 +729,11 @@ fn pressed_in_a_cell(levels: &[f64]) -> Vec<(f64, GrainSample, f64)> {
 /// Aggregates pressed isotropically in a periodic cell ([`pressed_in_a_cell`]) to 0.1 `p_I`,
 /// then 1, 3 and 10 `p_I`: the grains' Φ rises with `p/p_I` and saturates below 1.
 ///
-/// - At 1 and 3 `p_I` it follows the sources' fit `Φ = 0.92 + 0.13 log10(p/p_I)` (N 2.2)
-///   within 0.04, as the walled test above (measured 0.930 and 0.974 against 0.920 and 0.982).
-///   Below `p_I` the grains are nearly round and a 2 × 2 lattice's Φ is its geometry's (round
-///   disks on a square lattice fill π/4 = 0.785; measured 0.773 at 0.1 `p_I` and 0.811 at 0.3,
-///   0.041 under the fit): the walled test holds the fit there.
+/// - At 1 and 3 `p_I` it follows the sources' fit `Φ = 0.92 + 0.13 log10(p/p_I)` (Nezamabadi 2020,
+///   eq. 2.21) within 0.04, as the walled test above (measured 0.930 and 0.974 against 0.920 and
+///   0.982). Below `p_I` the grains are nearly round and a 2 × 2 lattice's Φ is its geometry's
+///   (round disks on a square lattice fill π/4 = 0.785; measured 0.773 at 0.1 `p_I` and 0.811 at
+///   0.3, 0.041 under the fit): the walled test holds the fit there.
 /// - Above, it saturates: from 3 to 10 `p_I` the fit (which passes 1 at 4.1 `p_I`) would add
 ///   0.068; the grains add less than a quarter of it, and less than half what they gained from
 ///   1 to 3 `p_I` (measured +0.011 against +0.043), and stay below 0.995 (measured 0.985; the

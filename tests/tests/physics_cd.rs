@@ -1,5 +1,5 @@
-//! Contact dynamics (Moreau-Jean, PHYSICS.md §3) against statics and kinematics with known
-//! answers (REFERENCES.md §23): resting grains and columns, blocks and round grains on an
+//! Contact dynamics (Moreau-Jean, docs/physics.md §3) against statics and kinematics with known
+//! answers (docs/references.md check 23): resting grains and columns, blocks and round grains on an
 //! incline, the three-disk pile, the bouncing ball.
 //!
 //! Tolerances: rigid contacts and an implicit scheme make the static answers exact up to the
@@ -300,7 +300,7 @@ fn a_frictionless_packing_compressed_by_stress_walls_is_isostatic() {
     // 100 Pa, no gravity, no restitution. Rigid frictionless disks at rest are isostatic:
     // the force-bearing contacts of the backbone (walls included) number exactly the equations
     // of its equilibrium, D per disk plus one per axis for the two paired walls' shared degree
-    // of freedom (Roux 2000; PHYSICS.md §8).
+    // of freedom (Roux 2000; docs/physics.md §8).
     let s = common::scene(json!({
         "dimension": 2,
         "method": {"kind": "cd", "time_step": 1e-4, "tolerance": 1e-6, "violation_tolerance": 1e-9, "max_iterations": 200000},

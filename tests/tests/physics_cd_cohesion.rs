@@ -1,7 +1,8 @@
-//! Contact dynamics with rolling resistance and cohesion (PHYSICS.md §2-3, RC 2.1.6 and 2.2.3,
-//! N 1.5-1.8) against answers worked out by hand: a round grain on an incline with rolling
-//! friction, a grain hanging from a cohesive ceiling, and pairs pulled apart against a constant
-//! attraction and against a capillary bridge (the work the attraction takes before it lets go).
+//! Contact dynamics with rolling resistance and cohesion (docs/physics.md §2-3;
+//! Roux & Chevoir 2005, §2.1.6 and §2.2.3; Nezamabadi 2020, eqs. 1.5-1.8) against answers worked
+//! out by hand: a round grain on an incline with rolling friction, a grain hanging from a cohesive
+//! ceiling, and pairs pulled apart against a constant attraction and against a capillary bridge
+//! (the work the attraction takes before it lets go).
 //!
 //! Tolerances: a constant force over whole steps is integrated exactly by the implicit scheme,
 //! so those answers hold to the solver's tolerance (1e-9 relative); a force that varies with the
@@ -201,7 +202,7 @@ fn a_constant_attraction_takes_f0_d0_from_grains_pulled_apart() {
 
 #[test]
 fn a_capillary_bridge_takes_its_rupture_work_from_wet_grains_pulled_apart_and_then_breaks() {
-    // The bridge of N 1.5-1.8 between two wet grains takes the work
+    // The bridge of Nezamabadi 2020, eqs. 1.5-1.8, between two wet grains takes the work
     // W = kappa R lambda (1 - exp(-d_rupt / lambda)) from contact to rupture, then breaks.
     let (tension, volume) = (0.072, 1e-3 * R * R * R);
     let wet = material(0.3, json!({"liquid": {"surface_tension": tension, "bridge_volume": volume}}));
@@ -254,13 +255,13 @@ fn dem_refuses_the_rigid_grains_cohesion_with_the_field_named() {
 
 #[test]
 fn a_lubricated_bridge_also_takes_the_viscous_work_of_the_liquid() {
-    // With a viscous liquid (N 1.9-1.11) the pair also loses the work of the lubrication force,
-    // -(3/2) pi R² eta gdot / (g + h_0) for a gap g opening at gdot = 2 v. No closed form with
-    // the capillary force: the reference is the same two laws integrated by RK4 in 1e5 steps
-    // from contact to rupture. The viscosity is chosen to take about as much work as the
-    // capillary force (measured: 0.86 W); contact dynamics takes the laws at each step's
-    // starting gap (the lubrication implicitly in the velocity), with 2 v0 dt = h_0 / 100 near
-    // contact: the final speed within 0.2% (measured: 6e-4).
+    // With a viscous liquid (Nezamabadi 2020, eqs. 1.9-1.11) the pair also loses the work of the
+    // lubrication force, -(3/2) pi R² eta gdot / (g + h_0) for a gap g opening at gdot = 2 v. No
+    // closed form with the capillary force: the reference is the same two laws integrated by RK4 in
+    // 1e5 steps from contact to rupture. The viscosity is chosen to take about as much work as the
+    // capillary force (measured: 0.86 W); contact dynamics takes the laws at each step's starting
+    // gap (the lubrication implicitly in the velocity), with 2 v0 dt = h_0 / 100 near contact: the
+    // final speed within 0.2% (measured: 6e-4).
     use sable_engine::contact::lubrication::Lubrication;
     let (tension, volume, h0) = (0.072, 1e-3 * R * R * R, 0.01 * R);
     let cap = CapillaryRichefeu::new(tension, 0.0, volume);

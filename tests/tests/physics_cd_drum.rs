@@ -1,7 +1,8 @@
-//! Contact dynamics in a rotating drum (PHYSICS.md §3; N 3.2.1) against the balance of one round
-//! grain worked out by hand: with rolling friction `mu_r` against the drum (and sliding friction
-//! above it), a grain rolling without slip on the turning wall keeps its place at the angle
-//! `alpha` from the bottom where `tan alpha = mu_r`, carried up below it and rolling down above.
+//! Contact dynamics in a rotating drum (docs/physics.md §3; Nezamabadi 2020, §3.2.1) against the
+//! balance of one round grain worked out by hand: with rolling friction `mu_r` against the drum
+//! (and sliding friction above it), a grain rolling without slip on the turning wall keeps its
+//! place at the angle `alpha` from the bottom where `tan alpha = mu_r`, carried up below it and
+//! rolling down above.
 //!
 //! Tolerances: the balance is exact for the implicit scheme (constant forces over whole steps),
 //! so it holds to the solver's tolerance (1e-10 relative): the grain's centre moves by less than

@@ -1,5 +1,5 @@
 //! Binary collisions against the analytic spring-dashpot and Hertz results
-//! (PHYSICS.md §2; REFERENCES.md checks 1 and 3).
+//! (docs/physics.md §2; docs/references.md checks 1 and 3).
 
 use crate::common;
 
@@ -94,7 +94,7 @@ fn mass(dim: usize) -> f64 {
 #[test]
 fn linear_collision_restitution_and_duration_follow_damped_oscillator() {
     // Contact ends when the overlap returns to zero; the force may turn attractive at the end
-    // (limit_damping false), so the textbook e_n(zeta) and t_c apply exactly (REFERENCES.md check 1).
+    // (limit_damping false), so the textbook e_n(zeta) and t_c apply exactly (docs/references.md check 1).
     for dim in [2, 3] {
         let k_n = stiffness(dim);
         for e in [0.9, 0.7, 0.5] {
@@ -136,7 +136,7 @@ fn undamped_linear_collision_conserves_energy() {
 
 #[test]
 fn hertz_collision_time_and_overlap_match_theory() {
-    // Elastic Hertz impact (REFERENCES.md check 3): delta_max = (15 m* v² / (16 E* sqrt(R*)))^(2/5),
+    // Elastic Hertz impact (docs/references.md check 3): delta_max = (15 m* v² / (16 E* sqrt(R*)))^(2/5),
     // t_H = 2.87 (m*² / (R* E*² v))^(1/5) (accurate to about 0.1%).
     let nu = 0.3;
     for dim in [2, 3] {

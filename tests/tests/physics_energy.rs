@@ -19,7 +19,7 @@ fn kinetic_and_potential(sim: &sable_engine::methods::dem::Dem, dim: usize) -> f
 fn three_disks_collapse_under_friction_with_default_damping() {
     // Two disks touching on the floor, one on top (d = 1 cm, k_n = 1e7 N/m, e = 0.3, mu = 0.15
     // everywhere, the default tangential damping): the top disk must push the other two apart
-    // and come down to the floor (the pile stands only above mu = 0.268, REFERENCES.md check 23).
+    // and come down to the floor (the pile stands only above mu = 0.268, docs/references.md check 23).
     // Before the spring of a sliding contact was limited to the Coulomb force, the guard counted
     // the tangential dashpot's share as stored energy and stopped this run at t = 0.086 s with
     // "mechanical energy grew by 2.9e-3 J".

@@ -1,5 +1,5 @@
 //! A single sphere (3D) or disk (2D) on an inclined floor: rolling without slip, sliding, and
-//! rest held by rolling resistance (PHYSICS.md §2; REFERENCES.md check 23).
+//! rest held by rolling resistance (docs/physics.md §2; docs/references.md check 23).
 //!
 //! The incline is made by tilting gravity, g = 9.81 (sin θ, -cos θ), over the fixed floor wall
 //! `y_min`; x is periodic so the grain can roll as far as it likes. The acceleration of the centre

@@ -1,4 +1,4 @@
-//! Invariants every contact-mechanics engine must keep (PHYSICS.md §2):
+//! Invariants every contact-mechanics engine must keep (docs/physics.md §2):
 //! objectivity of the tangential spring under rigid rotation, Newton's third law and momentum
 //! conservation in an isolated periodic system, and independence of the result from the number
 //! of threads.

@@ -1,4 +1,4 @@
-//! Frictionless packings compressed to jamming (REFERENCES.md §B, checks 6 and 7): 3D
+//! Frictionless packings compressed to jamming (docs/references.md §B, checks 6 and 7): 3D
 //! monodisperse spheres reach Φ ≈ 0.64 with Z (rattlers removed) ≈ 6, and 50:50 bidisperse disks
 //! of size ratio 1.4 reach Φ ≈ 0.84 with Z ≈ 4.
 //!
@@ -10,7 +10,7 @@
 //! while the packing stays rigid enough not to unjam during the fixed-volume relaxation (at
 //! 1e-5 k_n the 2D packing was seen to creep and lose its pressure). CI-sized
 //! samples (N = 1000, one seed): the finite-size spread of Φ_J is about ±0.005 at this N
-//! (REFERENCES.md §B), and fast compression adds protocol dependence of about the same size
+//! (docs/references.md §B), and fast compression adds protocol dependence of about the same size
 //! (Chaudhuri, Berthier & Sastry 2010), hence the tolerances below.
 
 use crate::common;

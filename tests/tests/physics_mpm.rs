@@ -37,23 +37,22 @@ fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Samp
     (samples, result)
 }
 
-/// The CI-sized soft compaction (`scenes/mpm_compaction_2d.json`, N 2.1.1's grains and law):
-/// the top wall compacts twelve disks past Φ = 0.9 without inverting a point; every sample
-/// keeps the grains' mass-weighted stress from the contacts (Love–Weber) and the walls' loads
-/// in agreement (the walls carry what crosses the packing), the grains carry force (Z > 2) and
-/// flatten (aspect ratio > 1), no energy is created, and the grains' outlines cover less than
-/// 0.8% of the box twice. Measured: Φ 0.9001 (7 s), the top wall at 457 kPa, aspect ratio
+/// The CI-sized soft compaction (`scenes/mpm_compaction_2d.json`, the grains and law of
+/// Nezamabadi 2020, §2.1.1): the top wall compacts twelve disks past Φ = 0.9 without inverting a
+/// point; every sample keeps the grains' mass-weighted stress from the contacts (Love–Weber) and
+/// the walls' loads in agreement (the walls carry what crosses the packing), the grains carry force
+/// (Z > 2) and flatten (aspect ratio > 1), no energy is created, and the grains' outlines cover
+/// less than 0.8% of the box twice. Measured: Φ 0.9001 (7 s), the top wall at 457 kPa, aspect ratio
 /// 1.072, smallest J 0.909, Love–Weber σ_yy within 0.1% of it, interpenetration 0.0038 (the
-/// contacts measure their gaps between the outlines and take the outlines' turning and
-/// sliding within the step into account, the drift of `methods::mpm::contact`'s
-/// documentation). Before, with one contact per node column
-/// and its gap from the points in it, the same Φ came at 421 kPa with 2.6% of the box covered
-/// twice (then counted with the points' parallelograms): the gaps, measured anew each step,
-/// jumped as points entered and left the columns, and every overlap once measured was kept;
-/// with the contacts on the nodes' velocities at 155 kPa and 5.8%: the point clouds overlapped
-/// instead of deforming. The top wall's stress at the last sample moved by 20% when only the
-/// order of a sum changed: one instant of a dense packing is that sensitive, so the test
-/// compares stresses measured at the same instant, not against a fixed value.
+/// contacts measure their gaps between the outlines and take the outlines' turning and sliding
+/// within the step into account, the drift of `methods::mpm::contact`'s documentation). Before,
+/// with one contact per node column and its gap from the points in it, the same Φ came at 421 kPa
+/// with 2.6% of the box covered twice (then counted with the points' parallelograms): the gaps,
+/// measured anew each step, jumped as points entered and left the columns, and every overlap once
+/// measured was kept; with the contacts on the nodes' velocities at 155 kPa and 5.8%: the point
+/// clouds overlapped instead of deforming. The top wall's stress at the last sample moved by 20%
+/// when only the order of a sum changed: one instant of a dense packing is that sensitive, so the
+/// test compares stresses measured at the same instant, not against a fixed value.
 #[test]
 fn soft_grains_compact_past_phi_0_9() {
     let samples = run(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_compaction_2d.json"));
@@ -86,19 +85,18 @@ fn soft_grain_results_do_not_depend_on_the_thread_count() {
     assert!(worst < 1e-4, "results depend on the thread count: {worst:.2e}");
 }
 
-/// The biaxial experiment drives soft grains unchanged (`scenes/mpm_biaxial_2d.json`, N 2.2
-/// with deformable grains): the four walls' stress servos press sixteen disks to 20 kPa
-/// until equilibrium, then the top wall moves down at a constant strain rate while the side
-/// walls hold 20 kPa. Checked: the prepared state's pressure within 5% of the target (the
-/// equilibrium criterion's default tolerance is 1%); over the loading after its first tenth,
-/// the side walls within 10% of 20 kPa on average and 20% at every sample (the servo lags by
-/// `n E' dt ε̇_lat` behind the sample's lateral strain rate, at most half the error a step
-/// for the grains' modulus `E'`, and a rearrangement moves the stress faster than it follows:
-/// measured 6.5% on average, 16.6% at the worst sample, one where the packing rearranged;
-/// at a strain rate of 2/s the worst was 18%); the axial stress above the lateral one
-/// (ζ = q/p > 0.1 at the end: frictional grains resist the deviator); Love–Weber p within 10%
-/// of the walls' mean stress; no inverted point. Measured: prepared Φ 0.791 at 20.0 kPa, ζ 0.48
-/// at 3% axial strain; about half a minute.
+/// The biaxial experiment drives soft grains unchanged (`scenes/mpm_biaxial_2d.json`,
+/// Nezamabadi 2020, §2.2, with deformable grains): the four walls' stress servos press sixteen
+/// disks to 20 kPa until equilibrium, then the top wall moves down at a constant strain rate while
+/// the side walls hold 20 kPa. Checked: the prepared state's pressure within 5% of the target (the
+/// equilibrium criterion's default tolerance is 1%); over the loading after its first tenth, the
+/// side walls within 10% of 20 kPa on average and 20% at every sample (the servo lags by
+/// `n E' dt ε̇_lat` behind the sample's lateral strain rate, at most half the error a step for the
+/// grains' modulus `E'`, and a rearrangement moves the stress faster than it follows: measured 6.5%
+/// on average, 16.6% at the worst sample, one where the packing rearranged; at a strain rate of 2/s
+/// the worst was 18%); the axial stress above the lateral one (ζ = q/p > 0.1 at the end: frictional
+/// grains resist the deviator); Love–Weber p within 10% of the walls' mean stress; no inverted
+/// point. Measured: prepared Φ 0.791 at 20.0 kPa, ζ 0.48 at 3% axial strain; about half a minute.
 #[test]
 fn soft_grains_go_through_a_biaxial_test() {
     let (samples, result) = run_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_biaxial_2d.json"), |_| {});

@@ -1,4 +1,4 @@
-//! Lees-Edwards simple shear of a dilute 2D granular gas (PHYSICS.md §2 and §8): starting at
+//! Lees-Edwards simple shear of a dilute 2D granular gas (docs/physics.md §2 and §8): starting at
 //! rest, the shear imposed only through the periodic images must build the linear mean velocity
 //! profile u_x = shear_rate (y - y0) across the whole cell.
 

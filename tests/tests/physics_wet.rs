@@ -1,7 +1,7 @@
-//! Wet grains: the capillary bridge law of Richefeu et al. (N 1.5-1.8) and normal lubrication
-//! (N 1.9-1.11), checked through `PairLaw::compute` against closed forms written here from
-//! PHYSICS.md §2 (not from the engine's helpers), plus a DEM run of two wet spheres
-//! (REFERENCES.md check 14).
+//! Wet grains: the capillary bridge law of Richefeu et al. (Nezamabadi 2020, eqs. 1.5-1.8) and
+//! normal lubrication (Nezamabadi 2020, eqs. 1.9-1.11), checked through `PairLaw::compute`
+//! against closed forms written here from docs/physics.md §2.8-2.9 (not from the engine's
+//! helpers), plus a DEM run of two wet spheres (docs/references.md check 14).
 
 use crate::common;
 
@@ -62,8 +62,8 @@ fn normal_force(law: &PairLaw, c: &ContactInput, bridge: &mut bool) -> (f64, Vec
     (f.dot(&c.n), f)
 }
 
-/// Closed forms of N 1.5-1.8: (kappa, lambda, d_rupt) for surface tension `gamma`, contact
-/// angle `theta`, bridge volume `vb` and radii `ri`, `rj`.
+/// Closed forms of Nezamabadi 2020, eqs. 1.5-1.8: (kappa, lambda, d_rupt) for surface tension
+/// `gamma`, contact angle `theta`, bridge volume `vb` and radii `ri`, `rj`.
 fn capillary_constants(gamma: f64, theta: f64, vb: f64, ri: f64, rj: f64) -> (f64, f64, f64) {
     let kappa = 2.0 * PI * gamma * theta.cos();
     let r_prime = 2.0 * ri * rj / (ri + rj);
@@ -75,7 +75,7 @@ fn capillary_constants(gamma: f64, theta: f64, vb: f64, ri: f64, rj: f64) -> (f6
 
 #[test]
 fn capillary_force_in_contact_is_kappa_times_geometric_mean_radius() {
-    // REFERENCES.md check 14: theta = 0, R = 1 mm, water (0.0728 N/m): 2 pi gamma R = 0.457 mN.
+    // docs/references.md check 14: theta = 0, R = 1 mm, water (0.0728 N/m): 2 pi gamma R = 0.457 mN.
     let (wet, dry) = materials(json!({"surface_tension": 0.0728, "contact_angle": 0.0, "bridge_volume": 1e-12}));
     let (wet, dry) = (PairLaw::between(&wet, &wet), PairLaw::between(&dry, &dry));
     let c = input(1e-3, 1e-3, 1e-7, 0.0);
@@ -161,8 +161,9 @@ fn lubrication_follows_reynolds_law_with_harmonic_mean_radius() {
     let (wet, dry) = (PairLaw::between(&wet, &wet), PairLaw::between(&dry, &dry));
     let (_, _, d_rupt) = capillary_constants(0.0728, 0.0, 1e-12, 1e-3, 1e-3);
     for (ri, rj) in [(1e-3, 1e-3), (1e-3, 0.5e-3), (0.3e-3, 1.2e-3)] {
-        // N 1.10 with R the harmonic mean radius 2 Ri Rj / (Ri + Rj) (the engine's documented
-        // choice; it is Reynolds' 6 pi eta R*² hdot / h for R* = Ri Rj / (Ri + Rj)).
+        // Nezamabadi 2020, eq. 1.10, with R the harmonic mean radius 2 Ri Rj / (Ri + Rj) (the
+        // engine's documented choice; it is Reynolds' 6 pi eta R*² hdot / h for R* = Ri
+        // Rj / (Ri + Rj)).
         let r = 2.0 * ri * rj / (ri + rj);
         let lub = |h: f64, hdot: f64| 1.5 * PI * r * r * eta * hdot / (h.max(0.0) + h0);
         let mut bridge = false;
@@ -182,9 +183,10 @@ fn lubrication_follows_reynolds_law_with_harmonic_mean_radius() {
                 assert!((viscous - expected).abs() < 1e-9 * expected.abs(), "Ri={ri} Rj={rj} h={h:e} hdot={hdot}: {viscous} vs {expected}");
             }
         }
-        // In contact (N 1.11) the gap is replaced by h0: the same value at any overlap. The
-        // contact dashpot also acts on hdot, so remove it with the dry law at the same velocity
-        // (overlaps large enough that the separating dashpot does not floor the dry force).
+        // In contact (Nezamabadi 2020, eq. 1.11) the gap is replaced by h0: the same value at any
+        // overlap. The contact dashpot also acts on hdot, so remove it with the dry law at the same
+        // velocity (overlaps large enough that the separating dashpot does not floor the dry
+        // force).
         for delta in [1e-6, 1e-5] {
             for hdot in [0.01, -0.01] {
                 let wet_v = normal_force(&wet, &input(ri, rj, delta, hdot), &mut bridge).0;

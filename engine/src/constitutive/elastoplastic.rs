@@ -1,5 +1,5 @@
 //! Von Mises elastoplasticity with linear isotropic hardening at finite strain (the sources'
-//! elastoplastic grains, the habilitation N 2.1.1 and PHYSICS.md §5: E = 10 MPa, ν = 0.45,
+//! elastoplastic grains, Nezamabadi 2020, §2.1.3 and docs/physics.md §5.3: E = 10 MPa, ν = 0.45,
 //! σ_y = 0.4 MPa, H ∈ {0, 1, 3} MPa; plastic tangent in uniaxial stress `E H / (E + H)`).
 //!
 //! Multiplicative split `F = F_e F_p`, Hooke's law on the elastic logarithmic strain

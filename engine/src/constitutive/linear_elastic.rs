@@ -1,12 +1,12 @@
 //! Linear elasticity (Hooke) on the logarithmic strain: `τ = λ tr(ε) I + 2μ ε` with
 //! `ε = ½ ln b`, `b = F Fᵀ`, `τ = J σ` (Pa).
 //!
-//! At small strain this is the small-strain linear elasticity of the sources (PHYSICS.md §5;
-//! the habilitation N 2.1.1: E = 10 MPa, ν = 0.45): `ε → sym(F) − I`, `τ → σ`, and the two
-//! agree to second order in the strain. Unlike `σ = C : (sym F − I)` it is frame-invariant: a
-//! grain that turns by 0.1 rad without deforming carries no stress, where the small-strain law
-//! would put E·0.005 in it (a tenth of the sources' yield stress for E = 10 MPa). It is also
-//! the elastic part of [`super::elastoplastic`], so the two coincide below yield.
+//! At small strain this is the small-strain linear elasticity of the sources (docs/physics.md §5.3;
+//! Nezamabadi 2020, §2.1.1: E = 10 MPa, ν = 0.45): `ε → sym(F) − I`, `τ → σ`, and the two agree to
+//! second order in the strain. Unlike `σ = C : (sym F − I)` it is frame-invariant: a grain that
+//! turns by 0.1 rad without deforming carries no stress, where the small-strain law would put
+//! E·0.005 in it (a tenth of the sources' yield stress for E = 10 MPa). It is also the elastic part
+//! of [`super::elastoplastic`], so the two coincide below yield.
 //!
 //! Its tangent is in closed form, in the principal axes of the stretch (Ogden, *Non-linear
 //! Elastic Deformations*, 1984, §6.1.4): with `F = Σ_i λ_i n_i ⊗ N_i`, the stored energy's

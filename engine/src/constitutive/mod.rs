@@ -1,5 +1,6 @@
-//! Constitutive laws of deformable grains (PHYSICS.md §5; the habilitation N 1.2.2, 2.3): the
-//! stress a material point carries at a deformation, in 2D plane strain, at finite strain.
+//! Constitutive laws of deformable grains (docs/physics.md §5.3; Nezamabadi 2020, §1.2.2 and
+//! eq. 2.3): the stress a material point carries at a deformation, in 2D plane strain, at finite
+//! strain.
 //!
 //! One trait, [`ConstitutiveLaw`], one small file per law:
 //! - [`linear_elastic`]: Hooke's law (Young's modulus, Poisson's ratio) on the logarithmic

@@ -1,7 +1,7 @@
-//! The compressible neo-Hookean solid of the sources (the habilitation N 2.3; PHYSICS.md §5):
-//! `S = (λ ln J − μ) C⁻¹ + μ I`, that is `τ = μ (b − I) + λ ln J I` (Pa), stored energy
-//! `W = μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)²` per reference volume (J/m³); `μ` the shear
-//! modulus and `λ` the first Lamé constant at small strain. Its tangent is in closed form:
+//! The compressible neo-Hookean solid of the sources (Nezamabadi 2020, eq. 2.3;
+//! docs/physics.md §5.3): `S = (λ ln J − μ) C⁻¹ + μ I`, that is `τ = μ (b − I) + λ ln J I` (Pa),
+//! stored energy `W = μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)²` per reference volume (J/m³); `μ` the
+//! shear modulus and `λ` the first Lamé constant at small strain. Its tangent is in closed form:
 //! `A_aBcE = μ δ_ac δ_BE + (μ − λ ln J) F⁻¹_Bc F⁻¹_Ea + λ F⁻¹_Ba F⁻¹_Ec`.
 
 use super::{left_cauchy_green, ConstitutiveLaw, History, Lame, Mat2, PlaneSym, Response, Tangent};

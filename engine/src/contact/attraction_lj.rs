@@ -1,6 +1,6 @@
 //! Attraction between the primary particles of one aggregate, the bonded particle method's soft
-//! grain (Nguyen's thesis, the habilitation N 1.2.1, eq. 1.12; PHYSICS.md §4): the attractive
-//! branch of a Lennard-Jones-type law, along the normal,
+//! grain (Nguyen's thesis, as Nezamabadi 2020, §1.2.1, eq. 1.12 gives it; docs/physics.md §4): the
+//! attractive branch of a Lennard-Jones-type law, along the normal,
 //!
 //! - `F_a(δ) = F_0 (1 + δ/a_0)^(−γ)` for a gap `0 <= δ <= δ_c` between the surfaces,
 //!   `a_0 = R_1 + R_2`, `F_0` the largest attraction (at touching), `γ = 7` in the sources;

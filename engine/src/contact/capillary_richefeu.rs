@@ -1,5 +1,5 @@
 //! Capillary bridge force of the pendular state (Richefeu, El Youssoufi & Radjai 2006;
-//! N 1.5-1.8; REFERENCES.md check 14), attractive, along the normal:
+//! Nezamabadi 2020, eqs. 1.5-1.8; docs/references.md check 14), attractive, along the normal:
 //!
 //! - `f_c = -kappa R` in contact (gap h < 0),
 //! - `f_c = -kappa R exp(-h / lambda)` for `0 <= h <= d_rupt`,
@@ -21,7 +21,7 @@ pub struct CapillaryRichefeu {
     pub rupture_distance: f64,
 }
 
-/// The prefactor c of lambda (N 1.8).
+/// The prefactor c of lambda (Nezamabadi 2020, eq. 1.8).
 pub const LAMBDA_PREFACTOR: f64 = 0.9;
 
 impl CapillaryRichefeu {

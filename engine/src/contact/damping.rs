@@ -1,10 +1,11 @@
-//! Damping from a coefficient of restitution, for the linear spring-dashpot (RC 6, 10;
-//! REFERENCES.md check 1) and for Hertz contacts (Tsuji et al. 1992, REFERENCES.md check 4).
+//! Damping from a coefficient of restitution, for the linear spring-dashpot (Roux & Chevoir 2005,
+//! eqs. 6 and 10; docs/references.md check 1) and for Hertz contacts (Tsuji et al. 1992;
+//! docs/references.md check 4).
 //!
 //! Two conventions exist for the linear law. If the normal force may turn attractive at the end
 //! of a collision (`limit_damping = false`, LAMMPS's default), the contact ends when the overlap
 //! returns to zero and `e = exp(-pi zeta / sqrt(1 - zeta^2))`. If the force is floored at zero
-//! (`limit_damping = true`, our default, as PHYSICS.md §2 asks), the grains separate when the force
+//! (`limit_damping = true`, our default, docs/physics.md §2.2), the grains separate when the force
 //! vanishes, earlier, and the restitution follows Schwager & Pöschel (Granular Matter 9, 2007):
 //! `e = exp(-eta t_f) |cos(w t_f) - (eta / w) sin(w t_f)|` with
 //! `w t_f = pi - atan2(2 eta w, w0^2 - 2 eta^2)`. In both cases the damping ratio is chosen so that
@@ -14,7 +15,7 @@
 pub const MIN_LIMITED_RESTITUTION: f64 = 0.14;
 
 /// Damping ratio zeta = gamma_n / (2 sqrt(m* k_n)) giving restitution `e` when the force may turn
-/// attractive (RC 10): `zeta = -ln e / sqrt(pi^2 + ln^2 e)`.
+/// attractive (Roux & Chevoir 2005, eq. 10, inverted): `zeta = -ln e / sqrt(pi^2 + ln^2 e)`.
 pub fn zeta_unlimited(e: f64) -> f64 {
     let l = e.ln();
     -l / (std::f64::consts::PI.powi(2) + l * l).sqrt()
@@ -150,7 +151,7 @@ mod tests {
 
     #[test]
     fn unlimited_map_matches_reference_table() {
-        // REFERENCES.md check 1: zeta 0.05 -> 0.854, 0.1 -> 0.729, 0.2 -> 0.527, 0.3 -> 0.372.
+        // docs/references.md check 1: zeta 0.05 -> 0.854, 0.1 -> 0.729, 0.2 -> 0.527, 0.3 -> 0.372.
         for (z, e) in [(0.05, 0.854), (0.1, 0.729), (0.2, 0.527), (0.3, 0.372), (0.5, 0.163)] {
             assert!((restitution_unlimited(z) - e).abs() < 5e-4, "zeta {z}");
             assert!((zeta_unlimited(restitution_unlimited(z)) - z).abs() < 1e-12);
@@ -163,7 +164,7 @@ mod tests {
             let z = zeta_limited(e);
             assert!((restitution_limited(z).0 - e).abs() < 1e-9, "e {e}");
             // Flooring the force lets the grains part before the dashpot has taken as much energy
-            // (REFERENCES.md check 1, Schwager & Pöschel), so more damping is needed.
+            // (docs/references.md check 1, Schwager & Pöschel), so more damping is needed.
             assert!(z > zeta_unlimited(e), "e {e}: {z} vs {}", zeta_unlimited(e));
         }
     }

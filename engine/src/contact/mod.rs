@@ -1,5 +1,5 @@
 //! Contact laws, one small type per law and role, composed into a [`PairLaw`] per pair of
-//! materials (PHYSICS.md §2).
+//! materials (docs/physics.md §2).
 //!
 //! To add a normal law: write `normal_<name>.rs` with a type implementing [`NormalForce`], add a
 //! variant to [`NormalLaw`] and a row to [`model::LAW_NAMES`]; nothing in the solvers changes. The

@@ -13,8 +13,8 @@ use crate::scene::{ElasticLaw, Material};
 
 /// Names of the elastic laws a scene may use (`contact.law`), with what they are.
 pub const LAW_NAMES: [(&str, &str); 2] = [
-    ("linear", "linear spring-dashpot with tangential history (N 1.2-1.3)"),
-    ("hertz_mindlin", "Hertz normal force, Mindlin tangential stiffness (RC 1-2)"),
+    ("linear", "linear spring-dashpot with tangential history (Nezamabadi 2020, eqs. 1.2-1.3)"),
+    ("hertz_mindlin", "Hertz normal force, Mindlin tangential stiffness (Roux & Chevoir 2005, eqs. 1-2)"),
 ];
 
 /// Normal law of a pair (static dispatch in the hot loop).
@@ -66,7 +66,7 @@ pub enum TangentialLaw {
         /// gamma_t / gamma_n.
         damping_ratio: f64,
     },
-    /// Mindlin: k_t = 8 G* sqrt(R* delta), gamma_t = c sqrt(k_t m*) (REFERENCES.md check 4).
+    /// Mindlin: k_t = 8 G* sqrt(R* delta), gamma_t = c sqrt(k_t m*) (docs/references.md check 4).
     Mindlin {
         /// G* = 1 / ((2 - nu1)/G1 + (2 - nu2)/G2), Pa.
         g_star: f64,

@@ -1,5 +1,6 @@
-//! Hertz normal force (RC 1-2; REFERENCES.md check 3): `f_n = 4/3 E* sqrt(R*) delta^(3/2)`, tangent
-//! stiffness `S_n = 2 E* sqrt(R* delta)`, damping `gamma_n = c sqrt(S_n m*)` with `c` from
+//! Hertz normal force (Roux & Chevoir 2005, eqs. 1-2; docs/references.md check 3):
+//! `f_n = 4/3 E* sqrt(R*) delta^(3/2)`, tangent stiffness `S_n = 2 E* sqrt(R* delta)`, damping
+//! `gamma_n = c sqrt(S_n m*)` with `c` from
 //! [`hertz_damping_coefficient`](super::damping::hertz_damping_coefficient).
 //! In 2D the same law is applied to disks (as LAMMPS's 2D granular examples do).
 //! Units: E* in Pa, R* and delta in m, forces in N.

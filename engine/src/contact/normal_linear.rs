@@ -1,4 +1,5 @@
-//! Linear spring-dashpot normal force (N 1.2-1.3, RC 4-5; PHYSICS.md §2):
+//! Linear spring-dashpot normal force (Nezamabadi 2020, eq. 1.2; Roux & Chevoir 2005, eqs. 4-5;
+//! docs/physics.md §2.2):
 //! `f_n = k_n delta + gamma_n d(delta)/dt` with `gamma_n = 2 zeta sqrt(m* k_n)`.
 //! Units: k_n in N/m, delta in m, forces in N.
 

@@ -1,8 +1,8 @@
-//! Rolling resistance (RC 2.1.6, Iwashita-Oda style): an elastic spring on the relative rolling
-//! rotation with a plastic threshold. The spring `theta` (rad) accumulates the tangential part of
-//! the relative angular velocity `(omega_i - omega_j)`; the moment on i is `M = -k_r theta`, capped
-//! at `mu_r R* f_n` (the spring is rescaled onto the cap when it slips). Units: k_r in N·m/rad,
-//! moments in N·m.
+//! Rolling resistance (Roux & Chevoir 2005, §2.1.6; Iwashita & Oda 1998; docs/physics.md §2.6):
+//! an elastic spring on the relative rolling rotation with a plastic threshold. The spring `theta`
+//! (rad) accumulates the tangential part of the relative angular velocity `(omega_i - omega_j)`;
+//! the moment on i is `M = -k_r theta`, capped at `mu_r R* f_n` (the spring is rescaled onto the
+//! cap when it slips). Units: k_r in N·m/rad, moments in N·m.
 
 use crate::math::Vec3;
 

@@ -1,5 +1,5 @@
 //! Tangential force with an elastic history spring and Coulomb friction (Cundall-Strack;
-//! N 1.2-1.3, RC 2.1; PHYSICS.md §2).
+//! Nezamabadi 2020, eq. 1.3; Roux & Chevoir 2005, §2.1; docs/physics.md §2.3).
 //!
 //! The spring `xi` (m) accumulates the tangential relative displacement at the contact point.
 //! Each step it is first carried along with the contact: the spin of the pair about the normal

@@ -1,5 +1,5 @@
 //! The contact laws of contact dynamics as graphs, and their exact local solvers (Moreau 1988,
-//! 1994; Jean 1999; PHYSICS.md §3; RC 2.2.3 for the cohesion).
+//! 1994; Jean 1999; docs/physics.md §3.2; Roux & Chevoir 2005, §2.2.3 for the cohesion).
 //!
 //! At one contact, with the others frozen, the local velocity is affine in the local impulse:
 //! `U = u + W r`, `u` the velocity the contact would have without its own impulse and `W` the
@@ -12,9 +12,10 @@
 //!   (`F_0 h` for a constant attraction F_0 within D_0);
 //! - **Coulomb**: `|r_t| <= mu rho`; where `|r_t| < mu rho` the contact sticks (`U_t = 0`),
 //!   otherwise it slides with `U_t` opposite to `r_t`;
-//! - **viscous liquid** (lubrication, N 1.9-1.11), implicit: a normal impulse `-k U_n` on top of
-//!   the contact's, `k` the lubrication coefficient times the step (kg), so that the normal
-//!   impulse is `r_n = rho - c - k U_n`. The friction cone bounds the contact's part `rho`.
+//! - **viscous liquid** (lubrication, Nezamabadi 2020, eqs. 1.9-1.11), implicit: a normal impulse
+//!   `-k U_n` on top of the contact's, `k` the lubrication coefficient times the step (kg), so
+//!   that the normal impulse is `r_n = rho - c - k U_n`. The friction cone bounds the contact's
+//!   part `rho`.
 //!
 //! For two spheres (or disks), or a sphere and a wall, `W` is diagonal in the contact frame:
 //! translations act on every direction alike (`1/m_i + 1/m_j`), the spins only on the
@@ -104,12 +105,12 @@ pub fn within_disk(t1: Real, t2: Real, limit: Real) -> (Real, Real) {
     }
 }
 
-/// Rolling resistance of a contact as a graph (the rigid-plastic limit of RC 2.1.6's moment
-/// law; the elastic stiffness plays no part between rigid grains): the rolling moment impulse
-/// `m` (N·m·s on the first body, the opposite on the second) lies in the tangent plane, with
-/// `|m| <= bound rho` (`bound = mu_r R*`, m; `rho` the contact's compressive normal impulse);
-/// where `|m| < bound rho` the pair does not roll (the tangential part of `omega_i - omega_j`
-/// vanishes), otherwise it rolls against `m`.
+/// Rolling resistance of a contact as a graph (the rigid-plastic limit of the moment law of
+/// Roux & Chevoir 2005, §2.1.6; the elastic stiffness plays no part between rigid grains): the
+/// rolling moment impulse `m` (N·m·s on the first body, the opposite on the second) lies in the
+/// tangent plane, with `|m| <= bound rho` (`bound = mu_r R*`, m; `rho` the contact's compressive
+/// normal impulse); where `|m| < bound rho` the pair does not roll (the tangential part of
+/// `omega_i - omega_j` vanishes), otherwise it rolls against `m`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Rolling {
     /// `mu_r R*`, m (0: no rolling resistance).

@@ -1,6 +1,6 @@
-//! Non-smooth contact dynamics (Moreau-Jean; N 1.1.2, RC 2.2.3, PHYSICS.md §3): the contact
-//! solver that the `"cd"` method uses for rigid grains, kept apart from any one method so that
-//! the bonded-particle, MPM-CD and FEM-CD methods can reuse it.
+//! Non-smooth contact dynamics (Moreau-Jean; Nezamabadi 2020, §1.1.2; Roux & Chevoir 2005, §2.2.3;
+//! docs/physics.md §3): the contact solver that the `"cd"` method uses for rigid grains, kept
+//! apart from any one method so that the bonded-particle, MPM-CD and FEM-CD methods can reuse it.
 //!
 //! - [`frame`]: the local frame of a contact (normal, tangents);
 //! - [`local`]: the laws as graphs (velocity Signorini with restitution through the formal

@@ -1,5 +1,5 @@
 //! Non-linear Gauss-Seidel over the contacts of rigid round bodies (Moreau 1994; Jean 1999;
-//! PHYSICS.md §3).
+//! docs/physics.md §3.3).
 //!
 //! On entry the bodies carry their free velocities (end of step without contact impulses) and
 //! each contact its warm-start impulse (the previous step's, or zero). The solver adds the

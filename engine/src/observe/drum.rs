@@ -1,5 +1,6 @@
-//! What a rotating drum shows at one instant (REFERENCES E.17): the angle of the bed, the free
-//! surface, the fill, the grains in flight and the velocity profile across the flowing layer.
+//! What a rotating drum shows at one instant (docs/references.md check 17): the angle of the bed,
+//! the free surface, the fill, the grains in flight and the velocity profile across the flowing
+//! layer.
 //!
 //! Everything is measured in the drum's cross-section (in 3D the grains are projected along
 //! the axis), in a frame where the bed rises towards `+h` whatever the sense of rotation:
@@ -309,7 +310,7 @@ pub const SLUMP_AT_REST: Real = 0.2;
 pub const CASCADE_CURVATURE: Real = 10.0;
 
 /// The flow regime of a drum from its measured means (Mellmann, Powder Technol. 118, 251,
-/// 2001; REFERENCES E.17), the first that applies:
+/// 2001; docs/references.md check 17), the first that applies:
 /// - `centrifuging`: the bed's centroid is within [`CENTRIFUGE_OFFSET`] of its settled offset
 ///   from the axis (the grains ride the wall all round);
 /// - `slipping`: the bed's centroid turned by less than [`SLIP_ANGLE`];

@@ -2,13 +2,13 @@
 //! bonded particle method, [`crate::particles::aggregate`]): the sample's own Φ, Z and stress
 //! are those of the primaries; [`GrainSample`] holds the grains'.
 //!
-//! - **Area** of a grain (2D; its volume in 3D): the union of its primaries closed by a disk
-//!   (a ball) of radius `h = d_min / 2` (half the smallest primary's diameter), with its holes
-//!   filled: the pores between primaries inside the grain belong to it, the primaries on its
-//!   outline bound it (the sources' rule, N 2.1.3). Computed on a square grid of `d_min / 8`
-//!   (a cubic one of `d_min / 4` in 3D: a lone ball comes out 1% too large at cells of a
-//!   sixteenth of its radius, 0.4% at a thirty-second; a grain of the sources' primaries 1 mm
-//!   across is about 60 cells wide).
+//! - **Area** of a grain (2D; its volume in 3D): the union of its primaries closed by a disk (a
+//!   ball) of radius `h = d_min / 2` (half the smallest primary's diameter), with its holes filled:
+//!   the pores between primaries inside the grain belong to it, the primaries on its outline bound
+//!   it (the rule of Nezamabadi 2020, §2.1.3). Computed on a square grid of `d_min / 8` (a cubic
+//!   one of `d_min / 4` in 3D: a lone ball comes out 1% too large at cells of a sixteenth of its
+//!   radius, 0.4% at a thirty-second; a grain of the sources' primaries 1 mm across is about 60
+//!   cells wide).
 //! - **Periodic boxes**: a grain across a periodic boundary is taken whole, each primary at its
 //!   image nearest the grain's first primary, grown at its centre: right while no primary
 //!   lies more than half a period from it (validation asks a period of twice a grain at the

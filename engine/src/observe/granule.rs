@@ -1,5 +1,6 @@
-//! The result of a diametral compression of a wet granule (N 3.2.3): its stress-strain curve,
-//! plastic strength and the prefactor of the strength's prediction (N eq. 3.11).
+//! The result of a diametral compression of a wet granule (Nezamabadi 2020, §3.2.3): its
+//! stress-strain curve, plastic strength and the prefactor of the strength's prediction
+//! (Nezamabadi 2020, eq. 3.11; docs/physics.md §8).
 
 use serde::{Deserialize, Serialize};
 
@@ -7,7 +8,7 @@ use super::sample::Sample;
 use crate::math::Real;
 use crate::particles::Particles;
 
-/// Diametral compression of a wet granule (N 3.2.3).
+/// Diametral compression of a wet granule (Nezamabadi 2020, §3.2.3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GranuleResult {
@@ -18,7 +19,8 @@ pub struct GranuleResult {
     /// Coordination when the compression starts: force-bearing contacts and capillary bonds
     /// per grain (`2 N_c / N`).
     pub z: f64,
-    /// Polydispersity factor `s = <d^1/2> <d> <d^3/2> / <d^3>` (N eq. 3.12; 1 for equal grains).
+    /// Polydispersity factor `s = <d^1/2> <d> <d^3/2> / <d^3>` (Nezamabadi 2020, eq. 3.12; 1 for
+    /// equal grains).
     pub s: f64,
     /// Capillary stress `σ_c = f_c / <d>^(D-1)`, `f_c = 2π γ cos θ <d>/2`, Pa.
     pub capillary_stress: f64,
@@ -32,15 +34,15 @@ pub struct GranuleResult {
     pub peak_stress: f64,
     /// Strain of the largest σ_zz.
     pub peak_strain: f64,
-    /// Plastic strength σ_p: the mean σ_zz over the plateau window, Pa (N 3.2.3: "résistance
-    /// verticale σ_zz"); `None` if no sample fell in the window.
+    /// Plastic strength σ_p: the mean σ_zz over the plateau window, Pa (Nezamabadi 2020, §3.2.3
+    /// and Fig. 3.12: "résistance verticale σ_zz"); `None` if no sample fell in the window.
     pub plastic_strength: Option<f64>,
     /// Standard deviation of the stress over the window, Pa (`None` without a sample in it).
     pub plastic_strength_std: Option<f64>,
     /// `σ_p / σ_c` (`None` without σ_p or capillary stress).
     pub normalized_strength: Option<f64>,
-    /// Prefactor of N eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)` (`None` without σ_p or capillary
-    /// stress).
+    /// Prefactor of Nezamabadi 2020, eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)` (`None` without σ_p or
+    /// capillary stress).
     pub eta: Option<f64>,
 }
 

@@ -222,7 +222,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
 
 /// Returns (Z, Z without rattlers). A contact counts if it carries force (touching with a
 /// non-zero force, or a cohesive bond). Rattlers, particles with fewer than `threshold` contacts
-/// (walls included), are removed recursively (REFERENCES.md §B); Z counts particle-particle
+/// (walls included), are removed recursively (docs/references.md §B); Z counts particle-particle
 /// contacts only: Z = 2 N_c / N.
 pub fn coordination(n: usize, threshold: usize, contacts: &[ContactRecord]) -> (Real, Real) {
     if n == 0 {

@@ -1,4 +1,4 @@
-//! Measured quantities, computed the same way for every method (PHYSICS.md §8): packing
+//! Measured quantities, computed the same way for every method (docs/physics.md §8): packing
 //! fraction, coordination with and without rattlers, Love-Weber stress, p, q, effective friction,
 //! inertial number, energies and wall loads.
 //!

@@ -1,6 +1,6 @@
 //! Power laws fitted to measured curves: the coordination and the wall stress of a packing
-//! compacted beyond jamming against `Φ − Φ_J` (PHYSICS.md §9, the habilitation N 2.20:
-//! `Z − Z_J ∝ (Φ − Φ_J)^½` for soft grains; N 2.1.2: the wall stress as a power of
+//! compacted beyond jamming against `Φ − Φ_J` (docs/physics.md §8-9; Nezamabadi 2020, eq. 2.20:
+//! `Z − Z_J ∝ (Φ − Φ_J)^½` for soft grains; Nezamabadi 2020, §2.1.2: the wall stress as a power of
 //! `Φ − Φ_J`).
 
 use serde::{Deserialize, Serialize};

@@ -2,31 +2,33 @@
 //! samples of the run, the same way for every method.
 //!
 //! - **Isotropic**: the state at equilibrium (Φ, Z, p).
-//! - **Biaxial / triaxial** (N 2.25-2.28): the state after preparation; the peak of `ζ = q/p`;
-//!   the steady (critical) state, averaged over the last quarter of the axial strain; the
-//!   volumetric strain (compression positive) at its largest contraction and at the end.
-//! - **Plane shear** (N 3.1): the steady state, averaged over the second half of the shear
-//!   strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n (the box's stress in a
-//!   Lees-Edwards cell, the upper wall's load between rough walls); for wet grains the
+//! - **Biaxial / triaxial** (Nezamabadi 2020, eqs. 2.25-2.28): the state after preparation; the
+//!   peak of `ζ = q/p`; the steady (critical) state, averaged over the last quarter of the axial
+//!   strain; the volumetric strain (compression positive) at its largest contraction and at the
+//!   end.
+//! - **Plane shear** (Nezamabadi 2020, §3.1): the steady state, averaged over the second half of
+//!   the shear strain: μ = τ/σ_n (± std), Φ, Z, the measured inertial number, σ_n (the box's stress
+//!   in a Lees-Edwards cell, the upper wall's load between rough walls); for wet grains the
 //!   cohesion index ξ, the Stokes number St and the visco-cohesive inertial number I_m.
-//! - **Compaction** (N 2.1): the packing fraction where the moving wall first carries load,
-//!   the final and largest packing fractions, stress and strain, the coordination and the
-//!   wall stress beyond that onset fitted as powers of `Φ − Φ_J` ([`super::power`]), and
-//!   for deformable grains their final mean and largest aspect ratios.
+//! - **Compaction** (Nezamabadi 2020, §2.1): the packing fraction where the moving wall first
+//!   carries load, the final and largest packing fractions, stress and strain, the coordination and
+//!   the wall stress beyond that onset fitted as powers of `Φ − Φ_J` ([`super::power`]), and for
+//!   deformable grains their final mean and largest aspect ratios.
 //! - **Deposition**: the height and packing fraction of the settled deposit (from the final
 //!   particles), the stress on the floor and the time to settle.
-//! - **Granule compression** (N 3.2.3): the stress-strain curve, the plastic strength and the
-//!   prefactor of its prediction, with I and the stiffness number at the plastic strength.
-//! - **Drum** (REFERENCES E.17): means over the rotation after the transient revolutions of the
-//!   surface and mass angles, fill, bed packing fraction, drive torque and velocity profile
-//!   ([`super::drum`]); the flowing layer's depth and inertial number; the flow regime
-//!   ([`super::drum::drum_regime`]).
+//! - **Granule compression** (Nezamabadi 2020, §3.2.3): the stress-strain curve, the plastic
+//!   strength and the prefactor of its prediction, with I and the stiffness number at the plastic
+//!   strength.
+//! - **Drum** (docs/references.md check 17): means over the rotation after the transient
+//!   revolutions of the surface and mass angles, fill, bed packing fraction, drive torque and
+//!   velocity profile ([`super::drum`]); the flowing layer's depth and inertial number; the flow
+//!   regime ([`super::drum::drum_regime`]).
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
-//! (RC 2.3.4: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D for linear contacts,
-//! `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not quasi-static
-//! (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than 1e-4 d;
-//! not for deformable grains, which are meant to deform).
+//! (Roux & Chevoir 2005, §2.3.4; docs/physics.md §8: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D
+//! for linear contacts, `(E / ((1 - ν²) p))^(2/3)` for Hertz), with a warning when the test is not
+//! quasi-static (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than
+//! 1e-4 d; not for deformable grains, which are meant to deform).
 
 use serde::{Deserialize, Serialize};
 
@@ -161,7 +163,7 @@ pub struct CompactionResult {
     pub phi_max: f64,
     /// The coordination beyond the onset, `Z − Z_J = a (Φ − Φ_J)^b` over the samples after
     /// it (`Φ_J`, `Z_J`: those of the onset's sample; Z over all grains). Soft grains: `b ≈ ½`
-    /// (PHYSICS.md §9, N 2.20).
+    /// (docs/physics.md §9; Nezamabadi 2020, eq. 2.20).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub coordination_fit: Option<PowerFit>,
     /// The moving wall's stress beyond the onset, `σ = a (Φ − Φ_J)^b` (Pa).
@@ -243,8 +245,9 @@ pub struct ShearResult {
     /// Mean normal stress σ_yy, Pa (of the box in a Lees-Edwards cell, on the upper wall between
     /// rough walls).
     pub normal_stress: f64,
-    /// Wet grains (N 3.1): cohesion index `ξ = σ_c / σ_n` with `σ_c = f_c / d^(D-1)` and
-    /// `f_c = 2π γ cos θ <d>/2` the largest capillary force between grains of the mean size.
+    /// Wet grains (Nezamabadi 2020, §3.1): cohesion index `ξ = σ_c / σ_n` with
+    /// `σ_c = f_c / d^(D-1)` and `f_c = 2π γ cos θ <d>/2` the largest capillary force between
+    /// grains of the mean size.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cohesion_index: Option<f64>,
     /// Wet grains: Stokes number `St = σ_i / σ_v = ρ <d>² γ̇ / η` (absent for an inviscid
@@ -252,14 +255,14 @@ pub struct ShearResult {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stokes_number: Option<f64>,
     /// Wet grains: visco-cohesive inertial number `I_m = I sqrt((1 + β/St) / (1 + α ξ))`,
-    /// α = 0.062, β = 0.075 (N 3.1).
+    /// α = 0.062, β = 0.075 (Nezamabadi 2020, eq. 3.1; Vo et al. 2020).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub viscocohesive_inertial_number: Option<f64>,
 }
 
-/// α of the visco-cohesive inertial number (N 3.1).
+/// α of the visco-cohesive inertial number (Nezamabadi 2020, eq. 3.1).
 pub const I_M_ALPHA: Real = 0.062;
-/// β of the visco-cohesive inertial number (N 3.1).
+/// β of the visco-cohesive inertial number (Nezamabadi 2020, eq. 3.1).
 pub const I_M_BETA: Real = 0.075;
 
 /// The liquid of wet grains, for the wet shear numbers.
@@ -396,7 +399,8 @@ impl Analysis {
         }
     }
 
-    /// Stiffness number at pressure `p` for grains of mean diameter `d` (RC 2.3.4).
+    /// Stiffness number at pressure `p` for grains of mean diameter `d` (Roux & Chevoir 2005,
+    /// §2.3.4).
     pub fn stiffness_number(&self, p: Real, d: Real) -> Option<Real> {
         if p <= 0.0 {
             return None;

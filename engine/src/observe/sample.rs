@@ -151,11 +151,12 @@ pub struct SolverSample {
 pub struct StrainSample {
     /// Strain of each axis (x, y[, z]).
     pub axes: Vec<f64>,
-    /// Volumetric strain `eps_v = sum eps_a` (positive when the box shrinks; N 2.26).
+    /// Volumetric strain `eps_v = sum eps_a` (positive when the box shrinks; Nezamabadi 2020,
+    /// eq. 2.28).
     pub volumetric: f64,
-    /// Deviatoric strain: `eps_1 - eps_2` in 2D (N 2.26), `2/3 (eps_1 - eps_3)` in 3D (for
-    /// axisymmetric strains; in general `sqrt(2 e:e)` in 2D and `sqrt(2/3 e:e)` in 3D, e the
-    /// deviator), never negative.
+    /// Deviatoric strain: `eps_1 - eps_2` in 2D (Nezamabadi 2020, eq. 2.27), `2/3 (eps_1 - eps_3)`
+    /// in 3D (for axisymmetric strains; in general `sqrt(2 e:e)` in 2D and `sqrt(2/3 e:e)` in 3D, e
+    /// the deviator), never negative.
     pub deviatoric: f64,
 }
 

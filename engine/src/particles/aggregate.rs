@@ -1,5 +1,5 @@
-//! Aggregates of primary particles: the bonded particle method's soft grains (PHYSICS.md §4;
-//! the habilitation N 1.2.1, 2.1.3, 2.2). Each grain is a few hundred rigid primaries that
+//! Aggregates of primary particles: the bonded particle method's soft grains (docs/physics.md §4;
+//! Nezamabadi 2020, §1.2.1, §2.1.3 and §2.2). Each grain is a few hundred rigid primaries that
 //! attract one another ([`AttractionLj`]) and touch without friction; primaries of different
 //! grains only repel and rub.
 //!

@@ -2,7 +2,7 @@
 //!
 //! In 2D a disk is a cylinder of unit thickness (1 m): mass `rho pi R²` (kg per metre of
 //! thickness), moment of inertia `m R² / 2`. In 3D a sphere has `m = rho 4/3 pi R³`,
-//! `I = 2/5 m R²` (PHYSICS.md §1).
+//! `I = 2/5 m R²` (docs/physics.md §1).
 
 use super::aggregate::{Bonding, NO_AGGREGATE};
 use crate::math::{Real, Vec3};

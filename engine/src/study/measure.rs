@@ -27,7 +27,8 @@ pub enum Reduce {
 pub enum Derived {
     /// Restitution of a collision, `sqrt(E_k(end) / E_k(start))`: the ratio of the relative
     /// speeds after and before a collision of bodies whose total momentum is zero (a binary
-    /// collision in the centre-of-mass frame), taken once the bodies have parted (PHYSICS.md §2).
+    /// collision in the centre-of-mass frame), taken once the bodies have parted
+    /// (docs/physics.md §2.2).
     Restitution,
 }
 

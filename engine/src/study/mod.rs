@@ -1,4 +1,4 @@
-//! Studies: speed against accuracy (PHYSICS.md §10).
+//! Studies: speed against accuracy (docs/physics.md §10.1).
 //!
 //! A study is a base scene, series of runs that set and sweep its parameters (the method, the
 //! time step or its fraction of the collision time, the solver's tolerance and budget, the
@@ -92,7 +92,7 @@ pub struct ReferenceSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formula: Option<String>,
     /// `restitution`: the restitution coefficient of the scene's first material (what a
-    /// binary collision should give; PHYSICS.md §2).
+    /// binary collision should give; docs/physics.md §2.2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub analytic: Option<String>,
     /// A job of the service, measured the same way.

@@ -1,6 +1,6 @@
 //! Stability maps: the bisection that finds where a method stops being stable as one knob
 //! moves (the time step, the contact stiffness at a fixed step, the NLGS budget), the failure
-//! mode each unstable run showed, and the theory it is compared with (PHYSICS.md §10).
+//! mode each unstable run showed, and the theory it is compared with (docs/physics.md §10.2).
 
 use serde::{Deserialize, Serialize};
 

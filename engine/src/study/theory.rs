@@ -1,6 +1,6 @@
-//! The theory a DEM stability limit is compared with (PHYSICS.md §2, §10): velocity Verlet on
-//! a linear contact is stable for `dt < 2/ω0`, `ω0 = sqrt(k_n/m*)`, for one contact; dense
-//! packings fail earlier (a grain's contacts add up their stiffness).
+//! The theory a DEM stability limit is compared with (docs/physics.md §2.10, §10.2): velocity
+//! Verlet on a linear contact is stable for `dt < 2/ω0`, `ω0 = sqrt(k_n/m*)`, for one contact;
+//! dense packings fail earlier (a grain's contacts add up their stiffness).
 
 use serde_json::Value;
 

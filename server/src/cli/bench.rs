@@ -30,11 +30,11 @@ pub enum BenchCommand {
     /// The material point method on the sources' soft-grain compaction (material-point-steps
     /// per second, Newton iterations and contact sweeps per step, memory per point).
     Mpm(MpmBenchArgs),
-    /// Meshed grains (FEM) on the sources' FEM compaction, N 2.1.2 (element-steps per second,
-    /// Newton iterations and contact sweeps per step, memory per node).
+    /// Meshed grains (FEM) on the sources' FEM compaction, Nezamabadi 2020, §2.1.2
+    /// (element-steps per second, Newton iterations and contact sweeps per step, memory per node).
     Fem(FemBenchArgs),
-    /// The bonded particle method's compaction by DEM or CD, N 2.1.3 (primary-steps per second,
-    /// grain-seconds simulated per second, memory per primary).
+    /// The bonded particle method's compaction by DEM or CD, Nezamabadi 2020, §2.1.3
+    /// (primary-steps per second, grain-seconds simulated per second, memory per primary).
     Bpm(super::bench_bpm::BpmBenchArgs),
 }
 
