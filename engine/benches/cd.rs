@@ -7,15 +7,17 @@ use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use sable_engine::methods::cd::Cd;
+use sable_engine::methods::cd::CdParams;
+use sable_engine::methods::plan_scene;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{parse_scene, presets::cd_benchmark, Method};
+use sable_engine::scene::presets::cd_benchmark;
 
 fn bench_cd(c: &mut Criterion) {
     let mut group = c.benchmark_group("cd");
     group.sample_size(10);
     let n = 20_000;
-    let scene = parse_scene(&cd_benchmark(n, 1_000_000, 1).to_string()).expect("benchmark scene is valid");
-    let Method::Cd(params) = &scene.method else { panic!("the benchmark scene uses method cd") };
+    let scene = plan_scene(&cd_benchmark(n, 1_000_000, 1).to_string()).expect("benchmark scene is valid");
+    let Some(params) = scene.params::<CdParams>() else { panic!("the benchmark scene uses method cd") };
     let mut sim = Cd::new(&scene, params).expect("benchmark scene builds");
     for _ in 0..20 {
         sim.step().expect("benchmark scene is stable");

@@ -3,8 +3,8 @@
 //! (`sable_engine::scene::presets::dem_benchmark`): throughput is reported in particle-steps.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use sable_engine::methods::build;
-use sable_engine::scene::{parse_scene, presets::dem_benchmark};
+use sable_engine::methods::plan_scene;
+use sable_engine::scene::presets::dem_benchmark;
 
 const STEPS_PER_ITER: u64 = 20;
 
@@ -13,8 +13,8 @@ fn bench_dem(c: &mut Criterion) {
     group.sample_size(10);
     for threads in [1usize, 2] {
         let n = 20_000;
-        let scene = parse_scene(&dem_benchmark(n, 1_000_000, threads).to_string()).expect("benchmark scene is valid");
-        let mut sim = build(&scene).expect("benchmark scene builds");
+        let scene = plan_scene(&dem_benchmark(n, 1_000_000, threads).to_string()).expect("benchmark scene is valid");
+        let mut sim = scene.build().expect("benchmark scene builds");
         group.throughput(Throughput::Elements(n as u64 * STEPS_PER_ITER));
         group.bench_function(format!("standard_20k_{threads}threads"), |b| {
             b.iter(|| {

@@ -26,9 +26,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
-use crate::scene::{
-    CdParams, CompactionDrive, Deformation, DemParams, Experiment, FemParams, Method, MpmParams, Placement, Scene, WallMotion,
-};
+use crate::scene::{CompactionDrive, Deformation, Experiment, Placement, Scene, WallMotion};
 
 /// Below this inertial number a loading is quasi-static (GDR MiDi 2004; da Cruz et al. 2005).
 pub const QUASI_STATIC_INERTIAL: Real = 1e-3;
@@ -162,16 +160,6 @@ pub struct ExpectedCost {
 }
 
 impl Advice {
-    /// The chosen method with its default parameters.
-    pub fn method(&self) -> Method {
-        match self.method.as_str() {
-            "cd" => Method::Cd(CdParams::default()),
-            "mpm" => Method::Mpm(MpmParams::default()),
-            "fem" => Method::Fem(FemParams::default()),
-            _ => Method::Dem(DemParams::default()),
-        }
-    }
-
     /// The cheapest of [`Advice::expected_cost`]'s runs whose error is within `accuracy`
     /// (relative to its study's reference), if one is.
     pub fn cheapest_within(&self, accuracy: Real) -> Option<&ExpectedCost> {
@@ -236,15 +224,6 @@ impl Advice {
             s.push_str(&format!("; left out: {}", self.dropped.join("; ")));
         }
         s
-    }
-}
-
-/// The advice for any validated scene: the one `auto` took, or what the advisor would choose
-/// for a scene that named its method (`requested` says which).
-pub fn advice_for(scene: &Scene) -> Advice {
-    match &scene.advice {
-        Some(a) => a.clone(),
-        None => Advice { requested: scene.method.name().to_string(), ..advise(scene) },
     }
 }
 
@@ -743,17 +722,17 @@ mod tests {
                 "experiment": {"kind": "biaxial", "preparation": {"pressure": 1000.0}, "strain_rate": 0.01, "axial_strain": 0.05}
             });
             s["seed"] = 1.into();
-            crate::scene::parse_scene(&s.to_string())
+            crate::methods::plan_scene(&s.to_string())
         };
         let s = rigid("auto".into()).expect("valid");
-        assert!(matches!(s.method, Method::Cd(_)));
-        assert!(s.method_reason.starts_with("auto chose cd: quasi-static loading"), "{}", s.method_reason);
-        assert!(s.method_reason.contains("left out: capillary bridges"), "{}", s.method_reason);
+        assert_eq!(s.method_name(), "cd");
+        assert!(s.reason.starts_with("auto chose cd: quasi-static loading"), "{}", s.reason);
+        assert!(s.reason.contains("left out: capillary bridges"), "{}", s.reason);
         assert_eq!(s.advice.as_ref().map(|a| a.requested.as_str()), Some("auto"));
         // A scene that names its method keeps it; the advice says what auto would take.
         let named = rigid("dem".into()).expect("valid");
-        assert!(matches!(named.method, Method::Dem(_)) && named.advice.is_none());
-        let a = advice_for(&named);
+        assert!(named.method_name() == "dem" && named.advice.is_none());
+        let a = named.advice();
         assert_eq!((a.requested.as_str(), a.method.as_str()), ("dem", "cd"));
         // auto sets the parameters itself.
         let v = rigid(serde_json::json!({"kind": "auto", "time_step": 1e-5})).expect_err("rejected");

@@ -6,8 +6,9 @@
 //! shared by all methods ([`observe`]), the run loop ([`run`]), the method advisor
 //! ([`advise`]) and speed-against-accuracy studies ([`study`]).
 //!
-//! Data flows one way: scene JSON → [`scene::Scene`] → a method's [`run::Simulation`] →
-//! [`observe::Sample`]s. The engine does no I/O and has no async runtime.
+//! Data flows one way: scene JSON → [`methods::Plan`] (the validated [`scene::Scene`], which
+//! knows no method, with the method from the [`methods::registry`] that runs it) → the method's
+//! [`run::Simulation`] → [`observe::Sample`]s. The engine does no I/O and has no async runtime.
 //!
 //! ```
 //! let json = r#"{
@@ -21,9 +22,9 @@
 //!   "gravity": [0, -9.81],
 //!   "stop": {"steps": 200}
 //! }"#;
-//! let scene = sable_engine::scene::parse_scene(json).expect("valid scene");
-//! let mut sim = sable_engine::methods::build(&scene).expect("buildable");
-//! let runner = sable_engine::run::Runner::for_scene(&scene);
+//! let plan = sable_engine::methods::plan_scene(json).expect("valid scene");
+//! let mut sim = plan.build().expect("buildable");
+//! let runner = sable_engine::run::Runner::for_scene(&plan);
 //! let summary = runner.run(sim.as_mut(), &mut |_, _| {}).expect("stable");
 //! assert_eq!(summary.steps, 200);
 //! ```

@@ -38,6 +38,10 @@ pub trait Simulation: Send {
     fn snapshot(&self) -> Snapshot;
     /// Heap memory held, bytes.
     fn memory_bytes(&self) -> usize;
+    /// How the method models the grains (soft contacts by default).
+    fn grain_model(&self) -> GrainModel {
+        GrainModel::SoftContacts
+    }
     /// Contact-solver sweeps done since the start (an implicit method's cost; 0 for DEM).
     fn solver_iterations(&self) -> u64 {
         0
@@ -76,6 +80,19 @@ pub trait Simulation: Send {
     }
 }
 
+/// How a method models the grains ([`Simulation::grain_model`]): what the analysis of its
+/// results may compare with the rigid limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GrainModel {
+    /// Rigid grains touching through contacts of a finite stiffness (DEM): their stiffness
+    /// number says how far they are from the rigid limit.
+    SoftContacts,
+    /// Rigid grains with no contact stiffness (contact dynamics): the rigid limit itself.
+    Rigid,
+    /// Grains that deform under a constitutive law (MPM, FEM).
+    Deformable,
+}
+
 /// Distance from static equilibrium ([`Simulation::balance`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Balance {
@@ -110,7 +127,7 @@ impl Balance {
 
 /// Stiffness number `kappa = k_n / (p d^(D-2))` that rigid grains are compared with for the
 /// equilibrium criterion ([`rigid_reference_energy`]): 1e4, the usual bound above which soft
-/// contacts behave as rigid ones in quasi-static tests (Roux & Combe 2002; PHYSICS.md §9).
+/// contacts behave as rigid ones in quasi-static tests (Roux & Combe 2002; docs/physics.md §9).
 pub const KAPPA_REF: Real = 1e4;
 
 /// The reference energy of rigid grains whose contacts carry the forces `forces` (N, the
@@ -331,6 +348,7 @@ impl Runner {
         on_snapshot: &mut dyn FnMut(&Snapshot),
     ) -> Result<RunSummary, EngineError> {
         let mut analysis = self.analysis.clone();
+        analysis.for_grains(sim.grain_model());
         let mut last_snapshot = None;
         let mut snapshot = |sim: &dyn Simulation, last_snapshot: &mut Option<u64>| {
             if self.snapshot_every.is_some() && *last_snapshot != Some(sim.steps_done()) {

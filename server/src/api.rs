@@ -1,8 +1,9 @@
 //! The operations of the service, shared by REST and gRPC: input checks, the job view, and
 //! one error type mapped to HTTP statuses and gRPC codes.
 
+use sable_engine::methods::{plan_scene, Plan};
 use sable_engine::observe::Sample;
-use sable_engine::scene::{parse_scene, Violation};
+use sable_engine::scene::Violation;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
@@ -310,10 +311,10 @@ async fn learned(
     store: &JobStore,
     limits: &Limits,
     value: &serde_json::Value,
-    scene: sable_engine::scene::Scene,
+    scene: Plan,
     text: String,
     scene_path: &str,
-) -> Result<(sable_engine::scene::Scene, String), ApiError> {
+) -> Result<(Plan, String), ApiError> {
     let Some(mut advice) = scene.advice.clone() else { return Ok((scene, text)) };
     advice.expected_cost = crate::studies::expected_cost(store, value).await?;
     let Some(run) = advice.learn() else { return Ok((scene, text)) };
@@ -325,21 +326,21 @@ async fn learned(
     let value = serde_json::Value::Object(fields);
     let text = serde_json::to_string(&value).map_err(|e| ApiError::Internal(e.to_string()))?;
     let mut chosen = check_scene(store, limits, &value, &text, scene_path, Vec::new()).await?;
-    chosen.method_reason = advice.summary();
+    chosen.reason = advice.summary();
     chosen.advice = Some(advice);
     Ok((chosen, text))
 }
 
 /// The job of a checked scene (`text` its JSON), named `name` or after the scene, with the
 /// default priority and attempts.
-fn job_for(scene: &sable_engine::scene::Scene, text: String, name: Option<String>) -> NewJob {
+fn job_for(scene: &Plan, text: String, name: Option<String>) -> NewJob {
     let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
     NewJob {
         name: name.unwrap_or_else(|| scene.name.clone()),
         scene: text,
         scene_hash: hash,
-        method: scene.method.name().to_string(),
-        method_reason: scene.method_reason.clone(),
+        method: scene.method_name().to_string(),
+        method_reason: scene.reason.clone(),
         seed: scene.seed,
         priority: 0,
         max_attempts: DEFAULT_ATTEMPTS,
@@ -370,7 +371,7 @@ async fn check_scene(
     text: &str,
     scene_path: &str,
     mut violations: Vec<Violation>,
-) -> Result<sable_engine::scene::Scene, ApiError> {
+) -> Result<Plan, ApiError> {
     if text.len() > limits.max_body_bytes {
         return Err(ApiError::TooLarge(limits.max_body_bytes));
     }
@@ -397,7 +398,7 @@ async fn check_scene(
     };
     // (Nothing to parse when the referenced state is missing: reported above.)
     let checked = if from.is_some() { resolved.as_deref() } else { Some(text) };
-    let scene = match checked.map(parse_scene) {
+    let scene = match checked.map(plan_scene) {
         None => None,
         Some(Ok(scene)) => {
             let n = scene.particle_count();
@@ -447,7 +448,7 @@ pub async fn advise(
 ) -> Result<sable_engine::advise::Advice, ApiError> {
     let text = serde_json::to_string(scene).map_err(|e| ApiError::Internal(e.to_string()))?;
     let checked = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
-    let mut advice = sable_engine::advise::advice_for(&checked);
+    let mut advice = checked.advice();
     advice.expected_cost = crate::studies::expected_cost(store, scene).await?;
     advice.learn();
     Ok(advice)

@@ -26,7 +26,7 @@ fn run(scene: serde_json::Value) -> (ExperimentResult, Vec<sable_engine::observe
     let mut scene = common::scene(scene);
     let threads = sable_worker::execute::apply_thread_budget(&mut scene, 2);
     let pool = sable_worker::execute::job_pool(threads).expect("pool");
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     let runner = Runner::for_scene(&scene);
     let mut samples = Vec::new();
     let summary = pool.install(|| runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone()))).expect("run");

@@ -43,8 +43,8 @@ fn run(case: &Case) -> String {
     if let Some(n) = case.every_steps {
         v["sampling"] = serde_json::json!({"every_steps": n});
     }
-    let scene = sable_engine::scene::parse_scene(&v.to_string()).unwrap_or_else(|e| panic!("{}: {e:?}", case.scene));
-    let mut sim = sable_engine::methods::build(&scene).unwrap_or_else(|e| panic!("{}: {e}", case.scene));
+    let scene = sable_engine::methods::plan_scene(&v.to_string()).unwrap_or_else(|e| panic!("{}: {e:?}", case.scene));
+    let mut sim = scene.build().unwrap_or_else(|e| panic!("{}: {e}", case.scene));
     let runner = Runner::for_scene(&scene);
     let mut out = String::new();
     let summary = runner

@@ -9,9 +9,9 @@
 
 use crate::common;
 
+use sable_engine::methods::cd::AGGREGATE_TOLERANCE;
 use sable_engine::observe::GrainSample;
 use sable_engine::run::Simulation;
-use sable_engine::scene::AGGREGATE_TOLERANCE;
 use serde_json::json;
 
 /// Primaries of the sources: 0.07–0.13 mm, ρ = 2000 kg/m³, F_0 = 100 N/m, γ = 7.
@@ -30,12 +30,12 @@ fn bonded(min_primaries: usize) -> serde_json::Value {
 
 /// One grain of the sources' size (1.8 mm, over 200 primaries of [`bonded`]) in the middle of a
 /// 4 mm box without gravity, run for `steps` by contact dynamics.
-fn one_grain(steps: u64) -> sable_engine::scene::Scene {
+fn one_grain(steps: u64) -> sable_engine::methods::Plan {
     one_grain_by(json!("cd"), primaries_material(), steps)
 }
 
 /// [`one_grain`] by `method`, its primaries of `material`.
-fn one_grain_by(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::scene::Scene {
+fn one_grain_by(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::methods::Plan {
     let container = json!({"min": [0.0, 0.0], "max": [4e-3, 4e-3], "wall_material": "primary"});
     lone_grain(2, method, material, (1.8e-3, json!([2e-3, 2e-3]), bonded(200)), container, steps)
 }
@@ -49,7 +49,7 @@ fn lone_grain(
     (diameter, centre, model): (f64, serde_json::Value, serde_json::Value),
     container: serde_json::Value,
     steps: u64,
-) -> sable_engine::scene::Scene {
+) -> sable_engine::methods::Plan {
     common::scene(json!({
         "dimension": dimension,
         "method": method,
@@ -80,7 +80,7 @@ fn grains(s: &sable_engine::observe::Sample) -> GrainSample {
 #[test]
 fn an_isolated_aggregate_stays_intact_and_round() {
     let scene = one_grain(20_000);
-    let sable_engine::scene::Method::Cd(params) = &scene.method else { panic!("not cd") };
+    let Some(params) = scene.params::<sable_engine::methods::cd::CdParams>() else { panic!("not cd") };
     assert_eq!(params.tolerance, AGGREGATE_TOLERANCE);
     let mut sim = common::cd(&scene);
     stays_intact_and_round(&mut sim, |s| s.particles(), 20_000);
@@ -183,7 +183,7 @@ fn an_aggregate_that_does_not_fit_is_an_error_naming_the_set() {
     if let Some(a) = scene.sets[0].aggregate.as_mut() {
         a.min_primaries = 400;
     }
-    let sable_engine::scene::Method::Cd(params) = &scene.method else { panic!("not cd") };
+    let Some(params) = scene.params::<sable_engine::methods::cd::CdParams>() else { panic!("not cd") };
     match sable_engine::methods::cd::Cd::new(&scene, params) {
         Err(sable_engine::EngineError::Build { field, reason }) => {
             assert_eq!(field, "particles[0].model.primaries");
@@ -198,21 +198,21 @@ fn an_aggregate_that_does_not_fit_is_an_error_naming_the_set() {
 /// dynamics at the aggregates' tolerance and by DEM, and the 3D example's eight.
 #[test]
 fn the_example_scene_is_valid() {
-    let scene = match sable_engine::scene::parse_scene(include_str!("../../scenes/bpm_compaction_2d.json")) {
+    let scene = match sable_engine::methods::plan_scene(include_str!("../../scenes/bpm_compaction_2d.json")) {
         Ok(s) => s,
         Err(v) => panic!("scenes/bpm_compaction_2d.json: {v:?}"),
     };
     assert!(scene.sets[0].aggregate.is_some());
     assert_eq!(scene.particle_count(), 880);
-    assert!(matches!(scene.method, sable_engine::scene::Method::Cd(ref p) if p.tolerance == AGGREGATE_TOLERANCE));
-    let dem = match sable_engine::scene::parse_scene(include_str!("../../scenes/bpm_compaction_dem_2d.json")) {
+    assert!(scene.params::<sable_engine::methods::cd::CdParams>().is_some_and(|p| p.tolerance == AGGREGATE_TOLERANCE));
+    let dem = match sable_engine::methods::plan_scene(include_str!("../../scenes/bpm_compaction_dem_2d.json")) {
         Ok(s) => s,
         Err(v) => panic!("scenes/bpm_compaction_dem_2d.json: {v:?}"),
     };
     assert_eq!(dem.particle_count(), 880);
     assert_eq!(dem.method.name(), "dem");
     // In 3D: eight grains of 0.9 mm, about 0.39 × D³/⟨d³⟩ = 260 primaries each.
-    let dem_3d = match sable_engine::scene::parse_scene(include_str!("../../scenes/bpm_compaction_dem_3d.json")) {
+    let dem_3d = match sable_engine::methods::plan_scene(include_str!("../../scenes/bpm_compaction_dem_3d.json")) {
         Ok(s) => s,
         Err(v) => panic!("scenes/bpm_compaction_dem_3d.json: {v:?}"),
     };
@@ -314,7 +314,7 @@ fn an_isolated_aggregate_stays_intact_and_round_in_dem() {
 /// One aggregate of 1 mm in 3D (about 390 primaries of the sources' sizes grown in its ball,
 /// `F_0` = 0.01 N, so that `p_I = F_0/⟨a_0⟩²` = 1 MPa), in the middle of a 2 mm box, by
 /// `method` with primaries of `material`, run for `steps`.
-fn one_grain_3d(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::scene::Scene {
+fn one_grain_3d(method: serde_json::Value, material: serde_json::Value, steps: u64) -> sable_engine::methods::Plan {
     let model = json!({
         "kind": "bonded_primaries",
         "primaries": {"kind": "uniform", "min": 7e-5, "max": 1.3e-4},
@@ -553,7 +553,7 @@ fn periodic_grain(x0: f64, steps: u64) -> (GrainSample, GrainSample) {
 fn periodic_grain_by<S: Simulation>(
     method: serde_json::Value,
     material: serde_json::Value,
-    build: fn(&sable_engine::scene::Scene) -> S,
+    build: fn(&sable_engine::methods::Plan) -> S,
     (diameter, primaries): (f64, usize),
     x0: f64,
     steps: u64,
@@ -636,7 +636,7 @@ fn a_periodic_cell_servo_closes_on_an_unloaded_aggregate() {
 fn cell_closes_on_an_unloaded_aggregate<S: Simulation>(
     method: serde_json::Value,
     material: serde_json::Value,
-    build: fn(&sable_engine::scene::Scene) -> S,
+    build: fn(&sable_engine::methods::Plan) -> S,
     (diameter, primaries): (f64, usize),
     steps: u64,
 ) -> f64 {

@@ -524,7 +524,7 @@ fn the_step_shortens_under_the_granules_centripetal_field() {
     let a = forming.controls.centripetal.expect("the forming stage pulls");
     sim.begin_stage(forming).expect("stage");
     let d_min = 2.0 * sim.particles().radius.iter().copied().fold(f64::INFINITY, f64::min);
-    let max_displacement = sable_engine::scene::CdParams::default().max_displacement;
+    let max_displacement = sable_engine::methods::cd::CdParams::default().max_displacement;
     let expected = (max_displacement * d_min / a).sqrt();
     assert!(expected < 0.9 * sim.dt(), "the field must bind: {expected:.3e} s against dt {:.3e} s", sim.dt());
     let t0 = sim.time();

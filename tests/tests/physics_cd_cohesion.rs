@@ -242,7 +242,7 @@ fn dem_refuses_the_rigid_grains_cohesion_with_the_field_named() {
         "container": {"min": [0, 0], "max": [0.02, 0.02], "wall_material": "grain"},
         "stop": {"steps": 1}
     }));
-    let sable_engine::scene::Method::Dem(p) = &s.method else { panic!("dem") };
+    let Some(p) = s.params::<sable_engine::methods::dem::DemParams>() else { panic!("dem") };
     match sable_engine::methods::dem::Dem::new(&s, p) {
         Err(sable_engine::EngineError::Build { field, reason }) => {
             assert_eq!(field, "materials.grain.cohesion");

@@ -21,8 +21,8 @@ fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Samp
     let text = std::fs::read_to_string(path).expect("scene file");
     let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
     edit(&mut value);
-    let scene = sable_engine::scene::parse_scene(&value.to_string()).expect("valid scene");
-    let mut sim = sable_engine::methods::build(&scene).expect("buildable");
+    let scene = sable_engine::methods::plan_scene(&value.to_string()).expect("valid scene");
+    let mut sim = scene.build().expect("buildable");
     let runner = sable_engine::run::Runner::for_scene(&scene);
     let mut analysis = sable_engine::observe::Analysis::new(&scene);
     let mut samples = Vec::new();
@@ -138,8 +138,8 @@ fn plastic_compaction(sides: Option<bool>, trace: bool) -> Traced {
     if let Some(both) = sides {
         value["method"]["symmetric_contact"] = both.into();
     }
-    let scene = sable_engine::scene::parse_scene(&value.to_string()).expect("valid scene");
-    let sable_engine::scene::Method::Mpm(params) = &scene.method else { panic!("mpm scene") };
+    let scene = sable_engine::methods::plan_scene(&value.to_string()).expect("valid scene");
+    let Some(params) = scene.params::<sable_engine::methods::mpm::MpmParams>() else { panic!("mpm scene") };
     let mut sim = sable_engine::methods::mpm::sim::mpm(&scene, params).expect("buildable");
     let records = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
     if trace {

@@ -9,9 +9,9 @@
 
 use crate::common;
 
+use sable_engine::methods::dem::bench_suite::bench_scene;
 use sable_engine::methods::dem::Dem;
 use sable_engine::run::Simulation;
-use sable_engine::scene::bench_suite::bench_scene;
 
 const N: usize = 600;
 const STEPS: u64 = 60_000;

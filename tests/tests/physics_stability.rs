@@ -10,8 +10,8 @@ use crate::common;
 
 /// Runs a scene in-process as a job would; `None` if it ran through, else how it failed.
 fn outcome(scene: &Value) -> Option<FailureMode> {
-    let s = sable_engine::scene::parse_scene(&scene.to_string()).expect("valid probe scene");
-    let mut sim = sable_engine::methods::build(&s).expect("buildable");
+    let s = sable_engine::methods::plan_scene(&scene.to_string()).expect("valid probe scene");
+    let mut sim = s.build().expect("buildable");
     match Runner::for_scene(&s).run(sim.as_mut(), &mut |_, _| {}) {
         Ok(_) => None,
         Err(e) => Some(FailureMode::of(e.code(), &e.to_string())),

@@ -9,16 +9,17 @@
 
 use crate::common;
 
+use sable_engine::methods::plan_scene as parse_scene;
 use sable_engine::observe::Sample;
 use sable_engine::run::{Runner, StopReason};
-use sable_engine::scene::{parse_scene, StateFile};
+use sable_engine::scene::StateFile;
 use serde_json::{json, Value};
 
 /// Runs a scene to its end; returns its samples, the stop reason, the steps and the final state
 /// after a round trip through JSON text.
 fn run(scene: Value) -> (Vec<Sample>, StopReason, u64, StateFile) {
     let scene = common::scene(scene);
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     let runner = Runner::for_scene(&scene);
     let mut samples = Vec::new();
     let summary = runner.run(sim.as_mut(), &mut |s, _| samples.push(s.clone())).expect("run");
@@ -227,7 +228,7 @@ fn soft_compaction_json_of(file: &str, start: Option<Value>) -> Value {
 }
 
 /// [`soft_compaction_json`], parsed.
-fn soft_compaction(start: Option<Value>) -> sable_engine::scene::Scene {
+fn soft_compaction(start: Option<Value>) -> sable_engine::methods::Plan {
     common::scene(soft_compaction_json(start))
 }
 
@@ -257,7 +258,7 @@ fn soft_measures(s: &Sample) -> [f64; 4] {
 #[test]
 fn an_mpm_state_goes_on_from_its_material_points() {
     let scene = soft_compaction(None);
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     while sim.packing_fraction() < 0.86 {
         sim.step().expect("stable");
     }
@@ -266,7 +267,7 @@ fn an_mpm_state_goes_on_from_its_material_points() {
     let state: Value = serde_json::from_str(&text).expect("state from JSON");
     let points = &state["material_points"];
     assert!(points["plastic_strain"].as_array().expect("points").iter().any(|a| a.as_f64() > Some(0.0)), "no point yielded");
-    let mut restored = sable_engine::methods::build(&soft_compaction(Some(state))).expect("build from the state");
+    let mut restored = soft_compaction(Some(state)).build().expect("build from the state");
     let first = restored.sample().expect("sample");
     let (a, b) = (soft_measures(&saved), soft_measures(&first));
     for k in 0..3 {
@@ -291,7 +292,7 @@ fn an_mpm_state_goes_on_from_its_material_points() {
 #[test]
 fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
     let scene = soft_compaction(None);
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     for _ in 0..200 {
         sim.step().expect("stable");
     }
@@ -299,7 +300,7 @@ fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
     let mut state = serde_json::to_value(sim.saved_state()).expect("state");
     let points = state.as_object_mut().expect("state").remove("material_points").expect("mpm saves its points");
 
-    let fresh = sable_engine::methods::build(&soft_compaction(Some(state.clone()))).expect("build from disks");
+    let fresh = soft_compaction(Some(state.clone())).build().expect("build from disks");
     assert!((fresh.packing_fraction() - phi).abs() < 0.03 * phi, "disks filled afresh: phi {} against {phi}", fresh.packing_fraction());
 
     let rigid = json!({"dimension": 2, "method": "dem", "materials": {"rubber": {"density": 990.0, "friction": 0.0,
@@ -351,7 +352,7 @@ fn an_mpm_state_without_points_or_with_bad_ones_is_handled() {
 #[test]
 fn a_fem_state_goes_on_from_its_meshes() {
     let scene = common::scene(soft_compaction_json_of("fem_compaction_2d.json", None));
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     while sim.packing_fraction() < 0.86 {
         sim.step().expect("stable");
     }
@@ -362,7 +363,7 @@ fn a_fem_state_goes_on_from_its_meshes() {
     assert!(meshes["plastic_strain"].as_array().expect("histories").iter().any(|a| a.as_f64() > Some(0.0)), "no point yielded");
     assert!(!meshes["impulses"].as_array().expect("impulses").is_empty(), "no contact impulse saved");
     let restored_scene = common::scene(soft_compaction_json_of("fem_compaction_2d.json", Some(state)));
-    let mut restored = sable_engine::methods::build(&restored_scene).expect("build from the state");
+    let mut restored = restored_scene.build().expect("build from the state");
     let first = restored.sample().expect("sample");
     let (a, b) = (soft_measures(&saved), soft_measures(&first));
     eprintln!("saved {a:?}, restored {b:?}");
@@ -389,7 +390,7 @@ fn a_fem_state_goes_on_from_its_meshes() {
 #[test]
 fn a_fem_state_with_bad_meshes_is_refused() {
     let scene = common::scene(soft_compaction_json_of("fem_compaction_2d.json", None));
-    let mut sim = sable_engine::methods::build(&scene).expect("build");
+    let mut sim = scene.build().expect("build");
     for _ in 0..200 {
         sim.step().expect("stable");
     }
@@ -398,7 +399,7 @@ fn a_fem_state_with_bad_meshes_is_refused() {
     let meshes = state.as_object_mut().expect("state").remove("meshes").expect("fem saves its meshes");
     assert!(meshes.get("plastic").is_none(), "elastic grains: no history is written");
     let fresh_scene = common::scene(soft_compaction_json_of("fem_compaction_2d.json", Some(state.clone())));
-    let fresh = sable_engine::methods::build(&fresh_scene).expect("build from disks");
+    let fresh = fresh_scene.build().expect("build from disks");
     assert!((fresh.packing_fraction() - phi).abs() < 1e-3 * phi, "disks meshed afresh: phi {} against {phi}", fresh.packing_fraction());
 
     let mut bad = meshes.clone();

@@ -7,7 +7,7 @@ use sable_engine::observe::vtk::{particles_vtp, SnapshotSeries};
 use sable_engine::run::Runner;
 use serde_json::json;
 
-fn deposition() -> sable_engine::scene::Scene {
+fn deposition() -> sable_engine::methods::Plan {
     common::scene(json!({
         "dimension": 2,
         "method": {"kind": "dem", "local_damping": 0.3},

@@ -5,22 +5,23 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use sable_engine::methods::soft::trace::NewtonSink;
+use sable_engine::methods::{plan_scene, Plan};
 use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, RunSummary, Runner};
-use sable_engine::scene::{format_violations, parse_scene, Method, Scene, StateFile};
+use sable_engine::scene::{format_violations, StateFile};
 use sable_engine::EngineError;
 use tokio_util::sync::CancellationToken;
 
 use crate::source::{gzip, JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
 
-/// Builds the scene's method and runs it to its stop criteria with `runner`.
-pub fn run_scene(scene: &Scene, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
+/// Builds the plan's method on its scene and runs it to its stop criteria with `runner`.
+pub fn run_scene(scene: &Plan, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
     run_scene_with_snapshots(scene, runner, on_sample, &mut |_| {}).map(|(summary, _)| summary)
 }
 
 /// As [`run_scene`], with the snapshots the runner asks for; also returns the final state.
 pub fn run_scene_with_snapshots(
-    scene: &Scene,
+    scene: &Plan,
     runner: &Runner,
     on_sample: &mut dyn FnMut(&Sample, &Progress),
     on_snapshot: &mut dyn FnMut(&Snapshot),
@@ -31,13 +32,13 @@ pub fn run_scene_with_snapshots(
 /// As [`run_scene_with_snapshots`], the method's Newton iterations sent to `trace` when given
 /// (`sable run --trace`; methods without Newton iterations ignore it).
 pub fn run_scene_traced(
-    scene: &Scene,
+    scene: &Plan,
     runner: &Runner,
     on_sample: &mut dyn FnMut(&Sample, &Progress),
     on_snapshot: &mut dyn FnMut(&Snapshot),
     trace: Option<NewtonSink>,
 ) -> Result<(RunSummary, StateFile), EngineError> {
-    let mut sim = sable_engine::methods::build(scene)?;
+    let mut sim = scene.build()?;
     if let Some(sink) = trace {
         sim.trace_newton(sink);
     }
@@ -49,16 +50,11 @@ pub fn run_scene_traced(
 /// smaller setting stays. The method's own setting is cleared: the caller runs the whole job
 /// inside a pool of that size ([`job_pool`]), so the method's parallel loops use it without a
 /// hand-off to another pool at every step.
-pub fn apply_thread_budget(scene: &mut Scene, budget: usize) -> usize {
+pub fn apply_thread_budget(scene: &mut Plan, budget: usize) -> usize {
     let budget = budget.max(1);
-    let threads = match &mut scene.method {
-        Method::Dem(p) => &mut p.threads,
-        Method::Cd(p) => &mut p.threads,
-        Method::Mpm(p) => &mut p.threads,
-        Method::Fem(p) => &mut p.threads,
-    };
-    let n = if *threads == 0 { budget } else { (*threads).min(budget) };
-    *threads = 0;
+    let threads = scene.method.threads();
+    let n = if threads == 0 { budget } else { threads.min(budget) };
+    scene.method.set_threads(0);
     n
 }
 
@@ -112,7 +108,7 @@ pub async fn execute<S: JobSource>(
     timing: ReportTiming,
     shutdown: &CancellationToken,
 ) -> Option<Outcome> {
-    let mut scene = match parse_scene(&lease.scene_json) {
+    let mut scene = match plan_scene(&lease.scene_json) {
         Ok(s) => s,
         Err(v) => {
             // The server validated it at submission; only an engine upgrade can make it invalid.

@@ -1,23 +1,19 @@
-//! Simulation methods. Each implements [`Simulation`](crate::run::Simulation); [`build`] picks
-//! the one a scene asks for.
+//! Simulation methods. Each method folder holds everything about it: its parameters, their
+//! defaults and checks (`params.rs`), what it requires of a scene, and its
+//! [`Simulation`](crate::run::Simulation); [`method`] says what a method is to the engine, and
+//! the [`registry`] lists them; [`plan_scene`] reads a
+//! scene file into a [`Plan`], the validated scene with the method that runs it.
 
 pub mod cd;
 pub mod dem;
 pub mod fem;
+pub(crate) mod fit;
+pub mod method;
 pub mod mpm;
+pub mod plan;
+pub mod registry;
 pub mod soft;
 pub(crate) mod world;
 
-use crate::error::EngineError;
-use crate::run::Simulation;
-use crate::scene::{Method, Scene};
-
-/// Builds the simulation of a validated scene with its method.
-pub fn build(scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
-    match &scene.method {
-        Method::Dem(params) => Ok(Box::new(dem::Dem::new(scene, params)?)),
-        Method::Cd(params) => Ok(Box::new(cd::Cd::new(scene, params)?)),
-        Method::Mpm(params) => Ok(Box::new(mpm::sim::mpm(scene, params)?)),
-        Method::Fem(params) => Ok(Box::new(fem::sim::fem(scene, params)?)),
-    }
-}
+pub use method::Method;
+pub use plan::{plan, plan_scene, Plan};

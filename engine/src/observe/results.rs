@@ -333,7 +333,7 @@ pub struct Analysis {
     grains: Option<(Real, Real)>,
     /// The liquid, when the grains are wet.
     wet: Option<WetScales>,
-    /// The grains deform (method `mpm`): they are meant to be far from the rigid limit.
+    /// The grains deform (methods `mpm`, `fem`): they are meant to be far from the rigid limit.
     deformable: bool,
     /// The grains are aggregates: the rigid limit is the primaries' ([`AGGREGATE_KAPPA`]).
     aggregates: bool,
@@ -358,17 +358,26 @@ impl Analysis {
         Self {
             experiment: scene.experiment.clone(),
             dim: scene.dim,
-            // Rigid grains (contact dynamics) have no stiffness number: they are the rigid limit.
-            law: material.map(|m| m.law).filter(|_| !matches!(scene.method, crate::scene::Method::Cd(_))),
+            law: material.map(|m| m.law),
             samples: Vec::new(),
             deposit: None,
             grains: None,
             wet,
-            deformable: matches!(scene.method, crate::scene::Method::Mpm(_) | crate::scene::Method::Fem(_)),
+            deformable: false,
             aggregates: scene.sets.iter().any(|s| s.aggregate.is_some())
                 || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty()),
             aggregate_diameter: scene.sets.iter().find(|s| s.aggregate.is_some()).map(|s| s.size.mean_diameter()),
         }
+    }
+
+    /// What the method running the scene models: rigid grains (contact dynamics) have no
+    /// stiffness number, they are the rigid limit; deformable grains (`mpm`, `fem`) are meant to
+    /// be far from it ([`crate::run::Simulation::grain_model`]).
+    pub fn for_grains(&mut self, model: crate::run::GrainModel) {
+        if model == crate::run::GrainModel::Rigid {
+            self.law = None;
+        }
+        self.deformable = model == crate::run::GrainModel::Deformable;
     }
 
     /// True if the results need the final particles ([`Analysis::final_state`]).

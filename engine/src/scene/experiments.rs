@@ -13,7 +13,7 @@ pub const DEFAULT_MAX_STEPS: u64 = 2_000_000;
 /// below the collisional regime).
 pub const PREPARATION_INERTIAL_NUMBER: Real = 1e-2;
 /// Inertial number of the default loading rate of the biaxial and triaxial tests: half the
-/// quasi-static bound 1e-3 (RC 2.3.4; the sources keep I < 1e-3, N 2.2).
+/// quasi-static bound 1e-3 (Roux & Chevoir 2005, §2.3.4; the sources keep I < 1e-3, Nezamabadi 2020, §2.2).
 pub const LOADING_INERTIAL_NUMBER: Real = 5e-4;
 /// Default cushion of local damping during the preparation (Yade's usual 0.2).
 pub const PREPARATION_DAMPING: Real = 0.2;
@@ -400,7 +400,7 @@ fn check_granule(
 }
 
 /// Default Froude number of the drum: the rolling regime of a drum of a few tens of grain
-/// diameters (REFERENCES E.17: rolling for 1e-4 < Fr < 1e-2).
+/// diameters (docs/references.md check 17: rolling for 1e-4 < Fr < 1e-2).
 pub const DRUM_FROUDE: Real = 1e-3;
 
 fn check_drum(c: &mut Checker, k: &DrumSpec, dim: usize, container: &Container, gravity: &Vec3) -> Experiment {

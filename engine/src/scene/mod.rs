@@ -1,10 +1,14 @@
 //! The scene format: what users write ([`spec`]), the checked form methods build from
-//! ([`model`]), and the validation between them ([`validate`]).
+//! ([`model`]), and the validation between them ([`validate`]). A scene knows no method: its
+//! `method` is read by the method registry (`methods::plan_scene`), which pairs the
+//! scene with the method that runs it.
 
-pub mod bench_suite;
+mod container;
 pub mod experiments;
+mod materials;
 pub mod model;
 pub mod presets;
+mod sets;
 pub mod spec;
 pub mod state;
 pub mod state_meshes;
@@ -16,4 +20,4 @@ pub use model::*;
 pub use spec::SceneSpec;
 pub use state::{InitialState, StateFile};
 pub use validate::{parse_scene, validate};
-pub use violation::{format_violations, Violation};
+pub use violation::{format_violations, Checker, Violation};

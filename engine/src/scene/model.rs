@@ -1,5 +1,6 @@
 //! The checked scene: typed values that the methods build from. Produced only by
-//! [`validate`](super::validate), so every invariant stated here holds.
+//! [`validate`](super::validate), so every invariant stated here holds. A scene knows no
+//! method: `methods::Plan` pairs it with the one that runs it.
 
 use crate::math::{Real, Vec3};
 
@@ -10,12 +11,6 @@ pub struct Scene {
     pub name: String,
     /// 2 or 3.
     pub dim: usize,
-    /// Method chosen and why.
-    pub method: Method,
-    /// Why this method was chosen (the user's choice, or the advisor's reason for `auto`).
-    pub method_reason: String,
-    /// The advisor's answer when the scene asked for `"method": "auto"`.
-    pub advice: Option<crate::advise::Advice>,
     /// Materials; particle sets and walls refer to them by index.
     pub materials: Vec<Material>,
     /// Particle sets in placement order (empty when the scene starts from a state).
@@ -55,315 +50,6 @@ impl Scene {
     pub fn particle_count(&self) -> usize {
         let from_state = self.initial.as_ref().map_or(0, |st| st.radius.len());
         self.sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add)
-    }
-}
-
-/// A simulation method and its parameters.
-#[derive(Debug, Clone)]
-pub enum Method {
-    /// Soft-contact DEM (PHYSICS.md §2).
-    Dem(DemParams),
-    /// Contact dynamics, Moreau-Jean (PHYSICS.md §3).
-    Cd(CdParams),
-    /// Implicit material point method with contact dynamics, for deformable grains
-    /// (PHYSICS.md §5).
-    Mpm(MpmParams),
-    /// Implicit finite element method with contact dynamics, for deformable grains
-    /// (PHYSICS.md §6).
-    Fem(FemParams),
-}
-
-impl Method {
-    /// The method's name as written in scene files.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::Dem(_) => "dem",
-            Self::Cd(_) => "cd",
-            Self::Mpm(_) => "mpm",
-            Self::Fem(_) => "fem",
-        }
-    }
-}
-
-/// Parameters of soft-contact DEM.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DemParams {
-    /// Time step, s; `None` = `time_step_fraction` × collision time.
-    pub time_step: Option<Real>,
-    /// Fraction of the collision time used when `time_step` is absent.
-    pub time_step_fraction: Real,
-    /// Verlet skin as a fraction of the smallest diameter.
-    pub skin: Real,
-    /// Impact velocity for the Hertz collision time, m/s (`None`: estimated).
-    pub reference_velocity: Option<Real>,
-    /// Largest allowed overlap / smaller radius.
-    pub max_overlap: Real,
-    /// Threads for the force loop; 0 = rayon's global pool.
-    pub threads: usize,
-    /// Cundall's local damping coefficient in [0, 1).
-    pub local_damping: Real,
-}
-
-impl Default for DemParams {
-    fn default() -> Self {
-        Self {
-            time_step: None,
-            time_step_fraction: 0.02,
-            skin: 0.1,
-            reference_velocity: None,
-            max_overlap: 0.1,
-            threads: 0,
-            local_damping: 0.0,
-        }
-    }
-}
-
-/// Parameters of contact dynamics (Moreau-Jean; PHYSICS.md §3).
-#[derive(Debug, Clone, PartialEq)]
-pub struct CdParams {
-    /// Time step, s; `None`: the reference velocity covers `max_displacement` of the smallest
-    /// diameter in one step.
-    pub time_step: Option<Real>,
-    /// Largest expected displacement per step / smallest diameter (default time step).
-    pub max_displacement: Real,
-    /// Fastest expected motion, m/s (`None`: estimated from the scene).
-    pub reference_velocity: Option<Real>,
-    /// Implicitness of the theta-scheme, in [0.5, 1].
-    pub theta: Real,
-    /// Tolerance of the NLGS criterion on the relative change of the impulses over a sweep.
-    pub tolerance: Real,
-    /// Tolerance of the NLGS criterion on the mean violation (fraction of the mean diameter per
-    /// step); `None`: [`CdParams::violation_bound`]'s default for the dimension.
-    pub violation_tolerance: Option<Real>,
-    /// Largest number of NLGS sweeps per step.
-    pub max_iterations: u32,
-    /// Violation bound during loading (an experiment's stages that do not run until equilibrium,
-    /// a plain scene that imposes a motion), same units as `violation_tolerance`. Looser than the bound of a packing at
-    /// rest: from a 400-disk preparation a biaxial loading at 1e-6 stalled NLGS, at 1e-4 it ran
-    /// in about 50 sweeps a step and matched DEM (docs/scene-format.md §3).
-    pub loading_violation_tolerance: Real,
-    /// Relaxation of the NLGS updates, in (0, 1] ([`crate::nscd::Convergence::relaxation`]).
-    pub relaxation: Real,
-    /// Largest momentum factor of the accelerated NLGS sweep, in [0, 1) (0: plain Gauss-Seidel;
-    /// [`crate::nscd::Convergence::acceleration`]).
-    pub acceleration: Real,
-    /// Order of the NLGS sweep.
-    pub sweep: Sweep,
-    /// Largest allowed interpenetration / smaller radius.
-    pub max_interpenetration: Real,
-    /// Interpenetration the gap restoration leaves alone / smaller radius
-    /// ([`crate::methods::cd::SLOP`] by default).
-    pub slop: Real,
-    /// Verlet skin as a fraction of the smallest diameter.
-    pub skin: Real,
-    /// Threads; 0 = rayon's global pool.
-    pub threads: usize,
-}
-
-impl CdParams {
-    /// The bound on the mean violation of a packing at rest in `dimension`: `violation_tolerance`,
-    /// or by default 1e-6 in 2D and 1e-5 in 3D. Measured: at 1e-5 the 400-disk biaxial
-    /// preparation (`sable bench biaxial`) crept for 20,000-24,000 steps before it came to rest
-    /// (4,000-7,000 at 1e-6); on frictional sphere packings Gauss-Seidel's violation decays
-    /// slowly (the triaxial preparation of `scenes/triaxial_3d.json`: 1.0e-5 after 250 sweeps,
-    /// 2.0e-6 after 2,250, 1.07e-6 after 4,750), so that 1e-6 spends the budget, while at 1e-5
-    /// that preparation came to rest in 2,000 steps and the isotropic ones agree with DEM.
-    pub fn violation_bound(&self, dimension: usize) -> Real {
-        self.violation_tolerance.unwrap_or(if dimension == 3 { 1e-5 } else { 1e-6 })
-    }
-}
-
-impl Default for CdParams {
-    fn default() -> Self {
-        Self {
-            time_step: None,
-            max_displacement: 0.02,
-            reference_velocity: None,
-            theta: 0.5,
-            tolerance: 1e-3,
-            violation_tolerance: None,
-            max_iterations: 5000,
-            loading_violation_tolerance: 1e-4,
-            relaxation: 1.0,
-            acceleration: 0.9,
-            sweep: Sweep::Auto,
-            max_interpenetration: 0.05,
-            slop: crate::methods::cd::SLOP,
-            skin: 0.3,
-            threads: 0,
-        }
-    }
-}
-
-/// Parameters of the implicit material point method ([`crate::methods::mpm`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MpmParams {
-    /// Time step, s; `None`: the fastest imposed motion covers `max_displacement` of a cell in
-    /// one step.
-    pub time_step: Option<Real>,
-    /// Largest expected displacement per step / grid cell (default time step).
-    pub max_displacement: Real,
-    /// Grid cells across the smallest grain diameter.
-    pub cells_per_diameter: Real,
-    /// Material points per cell along each axis.
-    pub points_per_cell: u32,
-    /// θ of the time integration, in [½, 1].
-    pub theta: Real,
-    /// FLIP fraction of the points' velocity update, in [0, 1].
-    pub flip: Real,
-    /// Newton's tolerance on the velocity correction, relative.
-    pub newton_tolerance: Real,
-    /// Newton iterations allowed per step.
-    pub max_newton: u32,
-    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale (`methods::soft::contact`).
-    pub tolerance: Real,
-    /// Contact solver: tolerance on the mean violation.
-    pub violation_tolerance: Real,
-    /// Contact solver: sweeps allowed per Newton iteration.
-    pub max_iterations: u32,
-    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1); `None` (the
-    /// default): [`SOFT_MOMENTUM`] with one side held, none with both
-    /// ([`soft_momentum`]).
-    pub acceleration: Option<Real>,
-    /// Contacts between grains hold both grains' outlines outside the other's
-    /// ([`crate::methods::soft::contact::Sides::Both`]: `Some(true)`), or only the lower
-    /// index's (`Some(false)`). `None` (the default): both when a grain's law is plastic
-    /// ([`crate::constitutive::ConstitutiveLaw::plastic`]), one side otherwise. One-sided, plastic
-    /// outlines dent deeply and the contact solves break down (60 grains, H = 0: 0.94% of the
-    /// box covered twice and the solver's budget at Φ 0.91); elastic grains overlap by 0.1% of
-    /// the box at Φ 0.9 one-sided, and both sides cost them 2.6 times the time
-    /// ([`crate::methods::mpm::contact`]).
-    pub symmetric_contact: Option<bool>,
-    /// Threads; 0 = rayon's global pool.
-    pub threads: usize,
-}
-
-impl Default for MpmParams {
-    /// The settings of the compaction test (`methods::mpm::tests`): backward Euler and PIC for
-    /// quasi-static loadings, eight cells and sixteen points across the smallest grain.
-    fn default() -> Self {
-        Self {
-            time_step: None,
-            max_displacement: 0.05,
-            cells_per_diameter: 8.0,
-            points_per_cell: 2,
-            theta: 1.0,
-            flip: 0.0,
-            newton_tolerance: 1e-5,
-            max_newton: 25,
-            tolerance: 1e-6,
-            violation_tolerance: 1e-6,
-            max_iterations: 20_000,
-            acceleration: None,
-            symmetric_contact: None,
-            threads: 0,
-        }
-    }
-}
-
-/// The soft-grain contact solve's momentum factor when one side is held and the scene sets
-/// none ([`soft_momentum`]).
-pub const SOFT_MOMENTUM: Real = 0.9;
-
-/// The soft-grain contact solve's momentum factor (`method.acceleration` of `mpm` and `fem`)
-/// with both grains' outlines held (`both`) or one: `acceleration` if the scene sets it, else
-/// [`SOFT_MOMENTUM`] with one side and none with both. The solve takes each pair's contacts together ([`crate::methods::soft::block`]);
-/// with both sides held, momentum carries the impulses on along the directions where the
-/// two grains' contacts hold the same places twice, where nothing damps it, and the solves
-/// cycled: on the full-size finite-element compaction from Φ 0.86 (100 steps) 2 parts of
-/// 124 ran out of their 20,000 sweeps with momentum 0.9 and none without it, which took
-/// 2,768 sweeps (at most 11 a solve) and 31 s against 3,377 and 95 s. One-sided, momentum
-/// still saves sweeps (the CI compaction of `mpm`: 87,273 against 145,692).
-pub fn soft_momentum(acceleration: Option<Real>, both: bool) -> Real {
-    acceleration.unwrap_or(if both { 0.0 } else { SOFT_MOMENTUM })
-}
-
-/// Parameters of the implicit finite element method ([`crate::methods::fem`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FemParams {
-    /// Time step, s; `None`: the fastest imposed motion covers `max_displacement` of an element
-    /// in one step.
-    pub time_step: Option<Real>,
-    /// Largest expected displacement per step / element size (default time step).
-    pub max_displacement: Real,
-    /// Boundary elements across the smallest grain diameter (the element size is that diameter
-    /// over this).
-    pub elements_per_diameter: Real,
-    /// θ of the time integration, in [½, 1].
-    pub theta: Real,
-    /// Newton's tolerance on the velocity correction, relative.
-    pub newton_tolerance: Real,
-    /// Newton iterations allowed per step.
-    pub max_newton: u32,
-    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale (`methods::soft::contact`), of a step's first Newton iteration;
-    /// each further one is asked for a hundredth of the last correction as well
-    /// ([`crate::methods::soft::contact::FORCING`]), and Newton converges only on a solve asked
-    /// for Newton's tolerance or less.
-    pub tolerance: Real,
-    /// Contact solver: tolerance on the mean violation.
-    pub violation_tolerance: Real,
-    /// Contact solver: sweeps allowed per Newton iteration.
-    pub max_iterations: u32,
-    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1); `None`: as for
-    /// `mpm` ([`soft_momentum`]: none with both sides, `fem`'s default).
-    pub acceleration: Option<Real>,
-    /// Contacts between grains hold both grains' vertices outside the other's outline
-    /// ([`crate::methods::soft::contact::Sides::Both`]), not only the lower index's.
-    pub symmetric_contact: bool,
-    /// Threads; 0 = rayon's global pool.
-    pub threads: usize,
-}
-
-impl Default for FemParams {
-    /// Those of the material point method ([`MpmParams::default`]) where they are shared, and
-    /// eight boundary elements across the smallest grain.
-    fn default() -> Self {
-        let m = MpmParams::default();
-        Self {
-            time_step: None,
-            max_displacement: m.max_displacement,
-            elements_per_diameter: 8.0,
-            theta: m.theta,
-            newton_tolerance: m.newton_tolerance,
-            max_newton: m.max_newton,
-            tolerance: m.tolerance,
-            violation_tolerance: m.violation_tolerance,
-            max_iterations: m.max_iterations,
-            acceleration: m.acceleration,
-            symmetric_contact: true,
-            threads: 0,
-        }
-    }
-}
-
-/// Order of the contact-dynamics sweep ([`crate::nscd::colour`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Sweep {
-    /// `coloured` from [`Sweep::PARALLEL_FROM`] contacts, `serial` below.
-    #[default]
-    Auto,
-    /// The contacts in detection order, on one thread.
-    Serial,
-    /// The contacts coloured so that none of a colour share a body, each colour swept in
-    /// parallel.
-    Coloured,
-}
-
-impl Sweep {
-    /// Contacts from which `auto` colours: below, a colour holds too few contacts to share
-    /// between threads.
-    pub const PARALLEL_FROM: usize = 4096;
-
-    /// Whether a step with `contacts` contacts sweeps in colours.
-    pub fn coloured(self, contacts: usize) -> bool {
-        match self {
-            Sweep::Auto => contacts >= Self::PARALLEL_FROM,
-            Sweep::Serial => false,
-            Sweep::Coloured => true,
-        }
     }
 }
 
@@ -416,7 +102,7 @@ pub enum ElasticLaw {
 
 impl ElasticLaw {
     /// Stiffness number at confining stress `p` (Pa) for grains of mean diameter `d` (m)
-    /// (RC 2.3.4): `k_n/(p d)` (linear, 3D), `k_n/p` (linear, 2D: k_n per metre),
+    /// (Roux & Chevoir 2005, §2.3.4): `k_n/(p d)` (linear, 3D), `k_n/p` (linear, 2D: k_n per metre),
     /// `(E/((1-ν²) p))^(2/3)` (Hertz). Its inverse is the contact deflection over `d`.
     pub fn stiffness_number(&self, dim: usize, p: Real, d: Real) -> Real {
         match *self {
@@ -436,7 +122,7 @@ pub struct Rolling {
     pub friction: Real,
 }
 
-/// Dry cohesion (RC 2.2.3): a constant attraction within a distance of contact.
+/// Dry cohesion (Roux & Chevoir 2005, §2.2.3): a constant attraction within a distance of contact.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cohesion {
     /// Attraction F_0, N.
@@ -447,7 +133,7 @@ pub struct Cohesion {
 
 impl Liquid {
     /// The capillary prefactor `κ = 2π γ cos θ`, N/m: the bridge pulls with `κ R` at contact
-    /// (PHYSICS.md §1, eq. 1.5-1.6).
+    /// (docs/physics.md §1, eq. 1.5-1.6).
     pub fn capillary_prefactor(&self) -> Real {
         2.0 * std::f64::consts::PI * self.surface_tension * self.contact_angle.cos()
     }
@@ -499,7 +185,7 @@ impl ParticleSet {
 }
 
 /// Grains that are aggregates of rigid primaries bonded by an attraction: the bonded particle
-/// method (PHYSICS.md §4; N 1.2.1), in 2D and 3D. The set's own size distribution is the
+/// method (docs/physics.md §4; Nezamabadi 2020, §1.2.1), in 2D and 3D. The set's own size distribution is the
 /// grains'.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AggregateModel {
@@ -518,14 +204,6 @@ pub struct AggregateModel {
 /// 1.8 mm with primaries of 0.07–0.13 mm; [`crate::particles::aggregate::grow_ball`], 0.39, 0.43
 /// and 0.46 in balls of 0.8, 1 and 1.2 mm, whose ragged outer shell is a larger part).
 pub const AGGREGATE_FILL: [Real; 2] = [0.70, 0.39];
-
-/// Contact dynamics' default solver tolerance (relative change of the impulses) in a scene with
-/// aggregates. Their primaries carry the attraction's internal forces, balanced by their
-/// contacts and far larger than what loads a grain: at the usual 1e-3 the solver's leftover
-/// kicks kept an aggregate of 227 primaries (F_0 = 100 N/m, steps of 1e-7 s) jittering at
-/// 5e-7 J/m and creeping 4.8e-6 m (5% of a primary) over 1e4 steps; at 1e-6 the energy fell to
-/// 2e-11 J/m and the creep to 4e-8 m, for 14–35 sweeps a step.
-pub const AGGREGATE_TOLERANCE: Real = 1e-6;
 
 impl AggregateModel {
     /// Primaries in a grain whose diameter to the power of the dimension is `grain_power`
@@ -916,7 +594,7 @@ pub struct Preparation {
     pub max_steps: u64,
 }
 
-/// A standard numerical experiment (issue "experiments"; PHYSICS.md §9).
+/// A standard numerical experiment (issue "experiments"; docs/physics.md §9).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Experiment {
     /// Isotropic compression to a pressure, until equilibrium.
@@ -926,7 +604,7 @@ pub enum Experiment {
     },
     /// Isotropic compression, then compression along `axis` at a constant true strain rate with
     /// the lateral walls servo-controlled to the confining pressure: biaxial in 2D, triaxial in
-    /// 3D (N 2.2, 2.25-2.28).
+    /// 3D (Nezamabadi 2020, §2.2, 2.25-2.28).
     Triaxial {
         /// The isotropic compression to the confining pressure.
         preparation: Preparation,
@@ -939,7 +617,7 @@ pub enum Experiment {
         /// Step limit of the loading.
         max_steps: u64,
     },
-    /// Plane shear flow (N 3.1; GDR MiDi 2004) under the normal stress σ_yy = pressure, at a
+    /// Plane shear flow (Nezamabadi 2020, §3.1; GDR MiDi 2004) under the normal stress σ_yy = pressure, at a
     /// constant shear rate: in a Lees-Edwards cell whose height (y) is servo-controlled
     /// (isotropic preparation by the cell), or between rough walls — grains glued to the walls
     /// y_min and y_max, the upper one sliding along x and servo-controlled along y, x (and z)
@@ -970,7 +648,7 @@ pub enum Experiment {
         /// Step limit.
         max_steps: u64,
     },
-    /// Uniaxial compaction (N 2.1): the upper wall of `axis` moves down at a constant speed (or
+    /// Uniaxial compaction (Nezamabadi 2020, §2.1): the upper wall of `axis` moves down at a constant speed (or
     /// is servo-controlled to a stress), the other walls are fixed.
     Compaction {
         /// Compressed axis.
@@ -980,7 +658,7 @@ pub enum Experiment {
         /// Step limit.
         max_steps: u64,
     },
-    /// Rotating drum (N 3.2.1; REFERENCES E.17): the grains settle at the bottom of the drum at
+    /// Rotating drum (Nezamabadi 2020, §3.2.1; docs/references.md check 17): the grains settle at the bottom of the drum at
     /// rest, then the drum turns at a constant angular velocity; the free surface, the flow
     /// regime and the velocity profile across the flowing layer are measured once the flow is
     /// steady.
@@ -1002,7 +680,7 @@ pub enum Experiment {
         /// Step limit of each stage.
         max_steps: u64,
     },
-    /// Diametral compression of a wet granule (N 3.2.3): the grains, placed in a ball, are
+    /// Diametral compression of a wet granule (Nezamabadi 2020, §3.2.3): the grains, placed in a ball, are
     /// pulled together by a centripetal field until equilibrium (capillary bridges form), left
     /// to hold by themselves, then squeezed between the two plates of `axis` closing at a
     /// constant true strain rate: stress-strain curve, plastic strength and its prediction.

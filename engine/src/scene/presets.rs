@@ -102,7 +102,7 @@ pub fn biaxial_benchmark(method: serde_json::Value, k_n: f64, particles: usize, 
     })
 }
 
-/// The sources' soft-grain compaction (N 2.1.1; issue 25's full-size study): `grains` disks of
+/// The sources' soft-grain compaction (Nezamabadi 2020, §2.1.1; issue 25's full-size study): `grains` disks of
 /// 1.4–2.4 mm (uniform in diameter), E = 10 MPa, ν = 0.45, ρ = 990 kg/m³, grain friction
 /// `friction`, frictionless walls, no gravity, placed at random at Φ ≈ 0.5 in a box 1.5 times
 /// as high as wide, the top wall moving down at 0.1 m/s until Φ = `phi` (or `steps`), method
@@ -131,7 +131,7 @@ pub fn mpm_compaction(grains: usize, friction: f64, phi: f64, steps: u64, thread
     })
 }
 
-/// The bonded particle method's compaction (N 2.1.3; issue 27's benchmark): `grains` aggregates
+/// The bonded particle method's compaction (Nezamabadi 2020, §2.1.3; issue 27's benchmark): `grains` aggregates
 /// of 1.8–2.4 mm (uniform in diameter; about 220 to 390 primaries each), the sources' primaries
 /// (0.07–0.13 mm, ρ = 2000 kg/m³, frictionless, `F_0` = 100 N/m, γ = 7: p_I ≈ 1 MPa), placed at
 /// random at a grain Φ ≈ 0.5 in a box 1.5 times as high as wide without gravity; the top wall
@@ -174,7 +174,7 @@ pub fn bpm_compaction(grains: usize, method: &str, steps: u64, threads: usize) -
 /// cheaper: the dense part splits its steps.
 pub const FEM_COMPACTION_STEP: f64 = 4e-4;
 
-/// The sources' FEM compaction (N 2.1.2; issue 26's full-size scene): `grains` neo-Hookean disks
+/// The sources' FEM compaction (Nezamabadi 2020, §2.1.2; issue 26's full-size scene): `grains` neo-Hookean disks
 /// of 10–15 mm (uniform in diameter), shear modulus 0.15 MPa, ν = 0.495 (λ = 2μν/(1 − 2ν) =
 /// 14.85 MPa), ρ = 1180 kg/m³, grain friction `friction`, frictionless walls, no gravity, placed
 /// at random at Φ ≈ 0.5 in a box 1.5 times as high as wide; the top wall moves down at

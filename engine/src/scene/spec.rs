@@ -99,7 +99,7 @@ pub struct MaterialSpec {
     /// Optional interstitial liquid (capillary bridges and lubrication).
     #[serde(default)]
     pub liquid: Option<LiquidSpec>,
-    /// Optional dry cohesion: a constant attraction within a distance (RC 2.2.3).
+    /// Optional dry cohesion: a constant attraction within a distance (Roux & Chevoir 2005, §2.2.3).
     #[serde(default)]
     pub cohesion: Option<CohesionSpec>,
 }
@@ -167,7 +167,7 @@ pub struct RollingSpec {
     pub friction: f64,
 }
 
-/// Dry cohesion (RC 2.2.3): a constant attraction `force` between surfaces closer than
+/// Dry cohesion (Roux & Chevoir 2005, §2.2.3): a constant attraction `force` between surfaces closer than
 /// `distance`, in contact included.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -178,7 +178,7 @@ pub struct CohesionSpec {
     pub distance: f64,
 }
 
-/// Interstitial liquid (N 1.5-1.11).
+/// Interstitial liquid (Nezamabadi 2020, eqs. 1.5–1.11).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LiquidSpec {
@@ -228,7 +228,7 @@ pub struct ParticleSetSpec {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum GrainModelSpec {
     /// An aggregate of rigid primaries of the set's material that attract one another (the
-    /// bonded particle method, PHYSICS.md §4): the set's `size` is the grains', each grain's
+    /// bonded particle method, docs/physics.md §4): the set's `size` is the grains', each grain's
     /// disk filled with primaries.
     BondedPrimaries {
         /// Size distribution of the primaries (diameters, m).
@@ -245,7 +245,7 @@ pub enum GrainModelSpec {
     },
 }
 
-/// The attraction `F_0 (1 + δ/a_0)^(−γ)` between primaries of one aggregate (N 1.2.1, eq. 1.12).
+/// The attraction `F_0 (1 + δ/a_0)^(−γ)` between primaries of one aggregate (Nezamabadi 2020, §1.2.1, eq. 1.12).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BondAttractionSpec {
@@ -475,204 +475,6 @@ pub struct SnapshotSpec {
     /// Every this many steps; absent: with every sample.
     #[serde(default)]
     pub every_steps: Option<u64>,
-}
-
-/// Parameters of the `dem` method.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DemParamsSpec {
-    /// Always `"dem"`.
-    pub kind: String,
-    /// Time step, s. Default: `time_step_fraction` × collision time.
-    #[serde(default)]
-    pub time_step: Option<f64>,
-    /// Fraction of the collision time used as time step. Default 0.02 (t_c / 50).
-    #[serde(default)]
-    pub time_step_fraction: Option<f64>,
-    /// Verlet skin as a fraction of the smallest diameter. Default 0.1.
-    #[serde(default)]
-    pub skin: Option<f64>,
-    /// Impact velocity used for the Hertz collision time, m/s. Default from the scene.
-    #[serde(default)]
-    pub reference_velocity: Option<f64>,
-    /// Largest allowed overlap as a fraction of the smaller radius. Default 0.1.
-    #[serde(default)]
-    pub max_overlap: Option<f64>,
-    /// Threads for the force loop (0 or absent: rayon's global pool).
-    #[serde(default)]
-    pub threads: Option<usize>,
-    /// Cundall's local (non-viscous) damping coefficient in [0, 1): each force and torque
-    /// component is reduced by this fraction of its magnitude against the motion. Default 0.
-    /// For quasi-static preparation only: it is not a physical law.
-    #[serde(default)]
-    pub local_damping: Option<f64>,
-}
-
-/// Parameters of the `cd` method (contact dynamics, PHYSICS.md §3).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CdParamsSpec {
-    /// Always `"cd"`.
-    pub kind: String,
-    /// Time step, s. Default: the time the reference velocity takes to cover
-    /// `max_displacement` of the smallest diameter.
-    #[serde(default)]
-    pub time_step: Option<f64>,
-    /// Largest expected displacement per step as a fraction of the smallest diameter, for the
-    /// default time step. Default 0.02.
-    #[serde(default)]
-    pub max_displacement: Option<f64>,
-    /// Fastest expected motion, m/s, for the default time step. Default from the scene (as for
-    /// DEM: initial speeds, free fall across the box, wall speeds, at least 0.1 m/s).
-    #[serde(default)]
-    pub reference_velocity: Option<f64>,
-    /// Implicitness of the theta-scheme in [0.5, 1]. Default 0.5.
-    #[serde(default)]
-    pub theta: Option<f64>,
-    /// Tolerance of the NLGS criterion on the relative change of the impulses over a sweep.
-    /// Default 1e-3.
-    #[serde(default)]
-    pub tolerance: Option<f64>,
-    /// Tolerance of the NLGS criterion on the mean violation of the Signorini condition, as a
-    /// fraction of the mean diameter per step. Default 1e-6 in 2D, 1e-5 in 3D.
-    #[serde(default)]
-    pub violation_tolerance: Option<f64>,
-    /// Largest number of NLGS sweeps per step. Default 5000.
-    #[serde(default)]
-    pub max_iterations: Option<u32>,
-    /// Violation bound during loading (an experiment's stages that do not run until
-    /// equilibrium, a plain scene that imposes a motion), same units as `violation_tolerance`.
-    /// Default 1e-4.
-    #[serde(default)]
-    pub loading_violation_tolerance: Option<f64>,
-    /// Relaxation of the NLGS updates, in (0, 1]. Default 1.
-    #[serde(default)]
-    pub relaxation: Option<f64>,
-    /// Largest momentum factor of the accelerated NLGS sweep, in [0, 1) (0: plain
-    /// Gauss-Seidel). Default 0.9.
-    #[serde(default)]
-    pub acceleration: Option<f64>,
-    /// Order of the NLGS sweep: `serial`, `coloured` (parallel) or `auto`. Default `auto`.
-    #[serde(default)]
-    pub sweep: Option<super::model::Sweep>,
-    /// Largest allowed interpenetration as a fraction of the smaller radius. Default 0.05.
-    #[serde(default)]
-    pub max_interpenetration: Option<f64>,
-    /// Interpenetration left alone by the gap restoration, as a fraction of the smaller radius.
-    /// Default 0.01.
-    #[serde(default)]
-    pub slop: Option<f64>,
-    /// Verlet skin as a fraction of the smallest diameter. Default 0.3.
-    #[serde(default)]
-    pub skin: Option<f64>,
-    /// Threads (0 or absent: rayon's global pool).
-    #[serde(default)]
-    pub threads: Option<usize>,
-}
-
-/// Parameters of the implicit material point method with contact dynamics (all optional).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MpmParamsSpec {
-    /// Always `"mpm"`.
-    #[serde(default)]
-    pub kind: String,
-    /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of a cell
-    /// in one step.
-    #[serde(default)]
-    pub time_step: Option<f64>,
-    /// Largest expected displacement per step / grid cell (default time step). Default 0.05.
-    #[serde(default)]
-    pub max_displacement: Option<f64>,
-    /// Grid cells across the smallest grain diameter (>= 1). Default 8.
-    #[serde(default)]
-    pub cells_per_diameter: Option<f64>,
-    /// Material points per cell along each axis (>= 1). Default 2.
-    #[serde(default)]
-    pub points_per_cell: Option<u32>,
-    /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
-    #[serde(default)]
-    pub theta: Option<f64>,
-    /// FLIP fraction of the points' velocity update, in [0, 1]. Default 0 (PIC).
-    #[serde(default)]
-    pub flip: Option<f64>,
-    /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
-    #[serde(default)]
-    pub newton_tolerance: Option<f64>,
-    /// Newton iterations allowed per step. Default 25.
-    #[serde(default)]
-    pub max_newton: Option<u32>,
-    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale. Default 1e-6.
-    #[serde(default)]
-    pub tolerance: Option<f64>,
-    /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
-    /// Default 1e-6.
-    #[serde(default)]
-    pub violation_tolerance: Option<f64>,
-    /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
-    #[serde(default)]
-    pub max_iterations: Option<u32>,
-    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
-    #[serde(default)]
-    pub acceleration: Option<f64>,
-    /// Contacts between grains hold the vertices of both grains' outlines outside the other's
-    /// (true), or only those of the grain of lower index (false). Default: true when a grain's
-    /// law is plastic (`elastoplastic`), false otherwise.
-    #[serde(default)]
-    pub symmetric_contact: Option<bool>,
-    /// Threads; 0 = rayon's global pool. Default 0.
-    #[serde(default)]
-    pub threads: Option<usize>,
-}
-
-/// Parameters of the implicit finite element method with contact dynamics (all optional).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FemParamsSpec {
-    /// Always `"fem"`.
-    #[serde(default)]
-    pub kind: String,
-    /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of an
-    /// element in one step.
-    #[serde(default)]
-    pub time_step: Option<f64>,
-    /// Largest expected displacement per step / element size (default time step). Default 0.05.
-    #[serde(default)]
-    pub max_displacement: Option<f64>,
-    /// Boundary elements across the smallest grain diameter (>= 2). Default 8.
-    #[serde(default)]
-    pub elements_per_diameter: Option<f64>,
-    /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
-    #[serde(default)]
-    pub theta: Option<f64>,
-    /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
-    #[serde(default)]
-    pub newton_tolerance: Option<f64>,
-    /// Newton iterations allowed per step. Default 25.
-    #[serde(default)]
-    pub max_newton: Option<u32>,
-    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale. Default 1e-6.
-    #[serde(default)]
-    pub tolerance: Option<f64>,
-    /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
-    /// Default 1e-6.
-    #[serde(default)]
-    pub violation_tolerance: Option<f64>,
-    /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
-    #[serde(default)]
-    pub max_iterations: Option<u32>,
-    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
-    #[serde(default)]
-    pub acceleration: Option<f64>,
-    /// Contacts between grains hold the nodes of both grains' boundaries outside the other's
-    /// (true), or only those of the grain of lower index (false). Default true.
-    #[serde(default)]
-    pub symmetric_contact: Option<bool>,
-    /// Threads; 0 = rayon's global pool. Default 0.
-    #[serde(default)]
-    pub threads: Option<usize>,
 }
 
 /// A standard experiment (`docs/scene-format.md` §13).

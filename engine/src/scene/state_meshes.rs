@@ -15,10 +15,10 @@
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
+use super::state::MAX_SPLIT_DEPTH as MAX_DEPTH;
 use super::state_points::StateImpulse;
 use super::violation::{Checker, EntryRule};
-use crate::methods::fem::element::Geometry;
-use crate::methods::soft::parts::MAX_DEPTH;
+use crate::geometry::quad::Geometry;
 
 /// The meshes of a state's grains, in the order of its `particles` (grain `k`'s nodes,
 /// elements and boundary follow grain `k − 1`'s; node numbers are within the grain).

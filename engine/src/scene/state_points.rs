@@ -15,8 +15,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::state::MAX_SPLIT_DEPTH as MAX_DEPTH;
 use super::violation::{Checker, EntryRule};
-use crate::methods::soft::parts::MAX_DEPTH;
 
 /// The material points of a state's grains, in the order of its `particles` (grain `k`'s points
 /// follow grain `k − 1`'s). Vectors are in-plane (2 components); tensors list their

@@ -27,19 +27,21 @@ pub fn format_violations(v: &[Violation]) -> String {
     v.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
 }
 
-/// Collects violations while a scene is checked.
+/// Collects violations while a scene is checked (by the scene, then by its method).
 #[derive(Debug, Default)]
-pub(crate) struct Checker {
-    pub(crate) violations: Vec<Violation>,
+pub struct Checker {
+    /// The rules broken so far, in the order found.
+    pub violations: Vec<Violation>,
 }
 
 impl Checker {
-    pub(crate) fn fail(&mut self, field: impl Into<String>, rule: impl Into<String>) {
+    /// Records that `field` breaks `rule`.
+    pub fn fail(&mut self, field: impl Into<String>, rule: impl Into<String>) {
         self.violations.push(Violation { field: field.into(), rule: rule.into() });
     }
 
     /// Requires a finite value > 0.
-    pub(crate) fn positive(&mut self, field: &str, v: f64) -> bool {
+    pub fn positive(&mut self, field: &str, v: f64) -> bool {
         if !(v.is_finite() && v > 0.0) {
             self.fail(field, format!("must be > 0, got {v}"));
             return false;
@@ -48,7 +50,7 @@ impl Checker {
     }
 
     /// Requires a finite value >= 0.
-    pub(crate) fn non_negative(&mut self, field: &str, v: f64) -> bool {
+    pub fn non_negative(&mut self, field: &str, v: f64) -> bool {
         if !(v.is_finite() && v >= 0.0) {
             self.fail(field, format!("must be >= 0, got {v}"));
             return false;
@@ -57,7 +59,7 @@ impl Checker {
     }
 
     /// Requires `lo <= v <= hi` (finite).
-    pub(crate) fn within(&mut self, field: &str, v: f64, lo: f64, hi: f64) -> bool {
+    pub fn within(&mut self, field: &str, v: f64, lo: f64, hi: f64) -> bool {
         if !(v.is_finite() && v >= lo && v <= hi) {
             self.fail(field, format!("must be between {lo} and {hi}, got {v}"));
             return false;
@@ -66,7 +68,7 @@ impl Checker {
     }
 
     /// Requires a vector of length `dim` with finite components.
-    pub(crate) fn vector(&mut self, field: &str, v: &[f64], dim: usize) -> bool {
+    pub fn vector(&mut self, field: &str, v: &[f64], dim: usize) -> bool {
         if v.len() != dim {
             self.fail(field, format!("must have {dim} components (the scene's dimension), got {}", v.len()));
             return false;

@@ -385,7 +385,7 @@ fn fail(v: &mut Vec<Violation>, field: String, rule: String) {
 
 /// Records the rules a run's scene breaks, prefixed by which run it is.
 fn scene_ok(v: &mut Vec<Violation>, scene: &Value, context: &str) {
-    if let Err(errors) = crate::scene::parse_scene(&scene.to_string()) {
+    if let Err(errors) = crate::methods::plan_scene(&scene.to_string()) {
         for e in errors {
             fail(v, format!("scene.{}", e.field).trim_end_matches('.').to_string(), format!("{context}: {}", e.rule));
         }

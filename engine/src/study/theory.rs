@@ -6,8 +6,8 @@ use serde_json::Value;
 
 use super::report::Theory;
 use super::search::SearchSpec;
-use crate::methods::dem::Dem;
-use crate::scene::{parse_scene, Method};
+use crate::methods::dem::{Dem, DemParams};
+use crate::methods::plan_scene;
 
 /// The predicted limit of a search on a DEM scene's time step (`method.time_step`), its
 /// fraction of the collision time (`method.time_step_fraction`), or a linear stiffness at a
@@ -16,8 +16,8 @@ use crate::scene::{parse_scene, Method};
 /// search's lower end.
 pub fn dem_limit(scene: &Value, search: &SearchSpec) -> Option<Theory> {
     let probe = super::probe_scene(scene, search, search.low).ok()?;
-    let s = parse_scene(&probe.to_string()).ok()?;
-    let Method::Dem(params) = &s.method else { return None };
+    let s = plan_scene(&probe.to_string()).ok()?;
+    let params = s.params::<DemParams>()?;
     let dem = Dem::new(&s, params).ok()?;
     let c = dem.collision_time();
     let p = search.parameter.as_str();

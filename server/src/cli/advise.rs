@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use sable_engine::advise::{advice_for, Advice};
+use sable_engine::advise::Advice;
 
 /// Arguments of `sable advise`.
 #[derive(Debug, clap::Args)]
@@ -17,7 +17,7 @@ pub struct AdviseArgs {
 /// `sable advise`.
 pub fn advise(a: AdviseArgs) -> anyhow::Result<()> {
     let scene = super::run::load_scene(&a.scene)?;
-    let advice = advice_for(&scene);
+    let advice = scene.advice();
     if a.json {
         println!("{}", serde_json::to_string_pretty(&advice)?);
     } else {

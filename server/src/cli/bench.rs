@@ -10,9 +10,12 @@ use super::bench_prepare::prepare;
 use super::trace::TraceFile;
 use clap::{Args, Subcommand};
 use sable_engine::methods::cd::Cd;
+use sable_engine::methods::cd::{CdParams, Sweep};
+use sable_engine::methods::fem::FemParams;
+use sable_engine::methods::mpm::MpmParams;
 use sable_engine::methods::soft::parts::Cost;
 use sable_engine::run::Simulation;
-use sable_engine::scene::{presets::biaxial_benchmark, presets::cd_benchmark, Method, Sweep};
+use sable_engine::scene::{presets::biaxial_benchmark, presets::cd_benchmark};
 use serde::Serialize;
 
 /// What `sable bench` measures.
@@ -135,9 +138,9 @@ impl std::fmt::Display for SoftRun {
 pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
     let (scene, threads, pool) =
         prepare(a.threads, |t| sable_engine::scene::presets::mpm_compaction(a.grains, a.friction, a.phi, a.steps, t))?;
-    let Method::Mpm(params) = &scene.method else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
+    let Some(params) = scene.params::<MpmParams>() else { anyhow::bail!("the MPM benchmark scene must use method mpm") };
     let mut sim = pool.install(|| sable_engine::methods::mpm::sim::mpm(&scene, params))?;
-    let trace = traced(&mut sim, a.trace.as_deref(), &scene.method)?;
+    let trace = traced(&mut sim, a.trace.as_deref(), scene.method_name())?;
     let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost());
     if let Some(t) = trace {
         t.finish()?;
@@ -163,7 +166,7 @@ pub fn bench_mpm(a: MpmBenchArgs) -> anyhow::Result<()> {
 }
 
 /// The trace file of `--trace`, if given, its sink set on `sim`.
-fn traced(sim: &mut impl Simulation, path: Option<&std::path::Path>, method: &Method) -> anyhow::Result<Option<TraceFile>> {
+fn traced(sim: &mut impl Simulation, path: Option<&std::path::Path>, method: &str) -> anyhow::Result<Option<TraceFile>> {
     let Some(path) = path else { return Ok(None) };
     let t = TraceFile::create(path, method)?;
     sim.trace_newton(t.sink());
@@ -286,9 +289,9 @@ pub fn bench_fem(a: FemBenchArgs) -> anyhow::Result<()> {
     let (scene, threads, pool) = prepare(a.threads, |t| {
         sable_engine::scene::presets::fem_compaction(a.grains, a.friction, a.phi, a.steps, a.elements_per_diameter, a.time_step, t)
     })?;
-    let Method::Fem(params) = &scene.method else { anyhow::bail!("the FEM benchmark scene must use method fem") };
+    let Some(params) = scene.params::<FemParams>() else { anyhow::bail!("the FEM benchmark scene must use method fem") };
     let mut sim = pool.install(|| sable_engine::methods::fem::sim::fem(&scene, params))?;
-    let trace = traced(&mut sim, a.trace.as_deref(), &scene.method)?;
+    let trace = traced(&mut sim, a.trace.as_deref(), scene.method_name())?;
     let run = drive_soft(&mut sim, &pool, threads, a.steps, a.phi, a.progress, |s| s.cost());
     if let Some(t) = trace {
         t.finish()?;
@@ -373,11 +376,10 @@ pub fn bench_cd(a: CdBenchArgs) -> anyhow::Result<()> {
         }
         scene
     })?;
-    let Method::Cd(mut params) = scene.method.clone() else { anyhow::bail!("the CD benchmark scene must use method cd") };
+    let Some(params) = scene.params_mut::<CdParams>() else { anyhow::bail!("the CD benchmark scene must use method cd") };
     params.sweep = sweep;
     let acceleration = params.acceleration;
-    scene.method = Method::Cd(params);
-    let Method::Cd(params) = &scene.method else { anyhow::bail!("the CD benchmark scene must use method cd") };
+    let Some(params) = scene.params::<CdParams>() else { anyhow::bail!("the CD benchmark scene must use method cd") };
     let mut sim = pool.install(|| Cd::new(&scene, params))?;
     pool.install(|| (0..a.warmup).try_for_each(|_| sim.step()))?;
     let (mut contacts, mut iterations, mut work) = (0u64, 0u64, 0u64);
@@ -504,7 +506,7 @@ pub fn bench_biaxial(a: BiaxialBenchArgs) -> anyhow::Result<()> {
             })?;
             let runner = sable_engine::run::Runner::for_scene(&scene);
             let summary = pool.install(|| {
-                let mut sim = sable_engine::methods::build(&scene)?;
+                let mut sim = scene.build()?;
                 runner.run(sim.as_mut(), &mut |_, _| {})
             })?;
             let r = summary.result.ok_or_else(|| anyhow::anyhow!("{method}: the biaxial test gave no result"))?;

@@ -7,7 +7,6 @@
 
 use clap::Args;
 use sable_engine::run::Simulation;
-use sable_engine::scene::Method;
 use serde::Serialize;
 
 /// Arguments of `sable bench bpm`.
@@ -61,13 +60,7 @@ pub fn bench_bpm(a: BpmBenchArgs) -> anyhow::Result<()> {
     let (scene, threads, pool) =
         super::bench_prepare::prepare(a.threads, |t| sable_engine::scene::presets::bpm_compaction(a.grains, &a.method, a.steps, t))?;
     let start = std::time::Instant::now();
-    let mut sim: Box<dyn Simulation + Send> = pool.install(|| -> anyhow::Result<Box<dyn Simulation + Send>> {
-        Ok(match &scene.method {
-            Method::Dem(p) => Box::new(sable_engine::methods::dem::Dem::new(&scene, p)?),
-            Method::Cd(p) => Box::new(sable_engine::methods::cd::Cd::new(&scene, p)?),
-            other => anyhow::bail!("the BPM benchmark runs dem or cd, not {}", other.name()),
-        })
-    })?;
+    let mut sim: Box<dyn Simulation> = pool.install(|| scene.build())?;
     let build_seconds = start.elapsed().as_secs_f64();
     let sweeps0 = sim.solver_iterations();
     let start = std::time::Instant::now();

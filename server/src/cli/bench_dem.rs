@@ -1,5 +1,5 @@
 //! `sable bench dem`: the throughput of soft-contact DEM in particle-steps per second, with
-//! memory per particle, on a scene of the suite (`engine/src/scene/bench_suite.rs`: the periodic
+//! memory per particle, on a scene of the suite (`engine/src/methods/dem/bench_suite.rs`: the periodic
 //! gas, depositions into walled boxes in 2D and 3D, dense shear, a biaxial test, a polydisperse
 //! compression) or a scene file. A scene with a preparation runs it first, untimed (its final
 //! state is kept in a cache directory for the next run); then the timed scene runs as a job
@@ -17,10 +17,12 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use sable_engine::contact::{NormalLaw, PairLaw, TangentialLaw};
+use sable_engine::methods::dem::bench_suite::{bench_scene, BenchScene, SUITE};
 use sable_engine::methods::dem::Dem;
+use sable_engine::methods::dem::DemParams;
+use sable_engine::methods::{plan_scene, Plan};
 use sable_engine::run::{Runner, Simulation};
-use sable_engine::scene::bench_suite::{bench_scene, BenchScene, SUITE};
-use sable_engine::scene::{parse_scene, ElasticLaw, Method, Scene, StateFile};
+use sable_engine::scene::{ElasticLaw, Scene, StateFile};
 use serde::Serialize;
 use sha2::Digest;
 
@@ -139,8 +141,8 @@ fn resolve(a: &BenchArgs, particles: Option<usize>, threads: usize) -> anyhow::R
     Ok(BenchScene { name: "file", description: path.display().to_string(), preparation: None, timed, skip_stages: 0 })
 }
 
-fn parse(v: &serde_json::Value, what: &str) -> anyhow::Result<Scene> {
-    parse_scene(&v.to_string()).map_err(|e| anyhow::anyhow!("{what}: {}", sable_engine::scene::format_violations(&e)))
+fn parse(v: &serde_json::Value, what: &str) -> anyhow::Result<Plan> {
+    plan_scene(&v.to_string()).map_err(|e| anyhow::anyhow!("{what}: {}", sable_engine::scene::format_violations(&e)))
 }
 
 /// The final state of the scene's preparation: from the cache if it was run before (the key is
@@ -165,7 +167,7 @@ fn prepared_state(prep: &serde_json::Value, name: &str, cache: &Path, pool: &ray
     eprintln!("bench: preparing {name} ({} particles; the preparation is not timed)", scene.particle_count());
     let start = std::time::Instant::now();
     let state = pool.install(|| {
-        let mut sim = sable_engine::methods::build(&scene)?;
+        let mut sim = scene.build()?;
         runner.run(sim.as_mut(), &mut |_, _| {})?;
         Ok::<_, sable_engine::EngineError>(sim.saved_state())
     })?;
@@ -228,7 +230,7 @@ pub(super) fn measure(a: &BenchArgs, particles: Option<usize>) -> anyhow::Result
     let setup = std::time::Instant::now();
     let mut scene = parse(&bench_scene.timed, "the benchmark scene")?;
     let threads = sable_worker::execute::apply_thread_budget(&mut scene, budget);
-    let Method::Dem(params) = &scene.method else { anyhow::bail!("sable bench dem runs method dem; the scene asks for another") };
+    let Some(params) = scene.params::<DemParams>() else { anyhow::bail!("sable bench dem runs method dem; the scene asks for another") };
     let mut sim = pool.install(|| Dem::new(&scene, params))?;
     let setup_seconds = setup.elapsed().as_secs_f64();
     let mut runner = Runner::for_scene(&scene);

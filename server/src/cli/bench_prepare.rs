@@ -7,10 +7,10 @@
 pub(super) fn prepare(
     threads: Option<usize>,
     make: impl FnOnce(usize) -> serde_json::Value,
-) -> anyhow::Result<(sable_engine::scene::Scene, usize, rayon::ThreadPool)> {
+) -> anyhow::Result<(sable_engine::methods::Plan, usize, rayon::ThreadPool)> {
     let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let mut scene =
-        sable_engine::scene::parse_scene(&make(threads).to_string()).map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
+        sable_engine::methods::plan_scene(&make(threads).to_string()).map_err(|v| anyhow::anyhow!("benchmark scene invalid: {v:?}"))?;
     let threads = sable_worker::execute::apply_thread_budget(&mut scene, threads);
     let pool = sable_worker::execute::job_pool(threads).map_err(anyhow::Error::msg)?;
     Ok((scene, threads, pool))

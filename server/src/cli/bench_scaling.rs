@@ -10,7 +10,7 @@ use anyhow::Context;
 use serde::Serialize;
 
 use super::bench_dem::{measure, BenchArgs, BenchResult};
-use sable_engine::scene::bench_suite::SUITE;
+use sable_engine::methods::dem::bench_suite::SUITE;
 
 /// One count's runs.
 #[derive(Debug, Serialize)]

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
+use sable_engine::methods::{plan_scene, Plan};
 use sable_engine::observe::vtk::SnapshotSeries;
 use sable_engine::observe::{Sample, Snapshot};
 use sable_engine::run::{Progress, Runner};
-use sable_engine::scene::{parse_scene, Scene};
 
 /// Output format of the samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -86,9 +86,9 @@ pub fn read_scene_text(path: &Path) -> anyhow::Result<(String, Option<PathBuf>)>
 }
 
 /// Reads and validates a scene file; the error lists every violation, one per line.
-pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+pub fn load_scene(path: &Path) -> anyhow::Result<Plan> {
     let (text, state_file) = read_scene_text(path)?;
-    parse_scene(&text).map_err(|v| {
+    plan_scene(&text).map_err(|v| {
         // Rules a state file breaks are reported on the field the user wrote.
         let lines: Vec<String> = v
             .iter()
@@ -105,7 +105,7 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
 pub fn validate(a: ValidateArgs) -> anyhow::Result<()> {
     let s = load_scene(&a.scene)?;
     let n = s.particle_count();
-    println!("{}: valid {}D scene '{}', method {} ({}), {n} particles", a.scene.display(), s.dim, s.name, s.method.name(), s.method_reason);
+    println!("{}: valid {}D scene '{}', method {} ({}), {n} particles", a.scene.display(), s.dim, s.name, s.method_name(), s.reason);
     Ok(())
 }
 
@@ -140,7 +140,7 @@ impl SampleWriter {
 /// `sable run`.
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let scene = load_scene(&a.scene)?;
-    let trace = a.trace.as_deref().map(|path| super::trace::TraceFile::create(path, &scene.method)).transpose()?;
+    let trace = a.trace.as_deref().map(|path| super::trace::TraceFile::create(path, scene.method_name())).transpose()?;
     let out: Option<Box<dyn Write + Send>> = match (&a.out, a.final_json || a.result_json) {
         (Some(p), _) => {
             Some(Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?)))

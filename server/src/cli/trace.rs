@@ -7,7 +7,6 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
 use sable_engine::methods::soft::trace::NewtonSink;
-use sable_engine::scene::Method;
 
 /// The file the records go to, written from the method's thread.
 pub(super) struct TraceFile {
@@ -20,9 +19,9 @@ pub(super) struct TraceFile {
 impl TraceFile {
     /// Creates `path` for a run of `method`; an error names the flag when the method has no
     /// Newton iterations (nothing is created then).
-    pub(super) fn create(path: &Path, method: &Method) -> anyhow::Result<Self> {
-        if !matches!(method, Method::Mpm(_) | Method::Fem(_)) {
-            anyhow::bail!("--trace: method {} has no Newton iterations to trace (mpm and fem have)", method.name());
+    pub(super) fn create(path: &Path, method: &str) -> anyhow::Result<Self> {
+        if !matches!(method, "mpm" | "fem") {
+            anyhow::bail!("--trace: method {method} has no Newton iterations to trace (mpm and fem have)");
         }
         let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         Ok(Self { path: path.to_path_buf(), out: Arc::new(Mutex::new(std::io::BufWriter::new(file))), error: Arc::new(Mutex::new(None)) })

@@ -5,20 +5,22 @@
 #[path = "../../../server/tests/common/postgres.rs"]
 pub mod postgres;
 
-use sable_engine::methods::dem::Dem;
-use sable_engine::scene::{parse_scene, Method, Scene};
+use sable_engine::methods::cd::CdParams;
+use sable_engine::methods::dem::{Dem, DemParams};
+use sable_engine::methods::{plan_scene, Plan};
 
-/// Parses a scene given as a JSON value, panicking with the violations if invalid.
-pub fn scene(v: serde_json::Value) -> Scene {
-    match parse_scene(&v.to_string()) {
+/// Parses a scene given as a JSON value with its method, panicking with the violations if
+/// invalid.
+pub fn scene(v: serde_json::Value) -> Plan {
+    match plan_scene(&v.to_string()) {
         Ok(s) => s,
         Err(e) => panic!("invalid test scene: {e:?}"),
     }
 }
 
 /// Builds the DEM simulation of a scene.
-pub fn dem(s: &Scene) -> Dem {
-    let Method::Dem(p) = &s.method else { panic!("not a DEM scene") };
+pub fn dem(s: &Plan) -> Dem {
+    let Some(p) = s.params::<DemParams>() else { panic!("not a DEM scene") };
     match Dem::new(s, p) {
         Ok(d) => d,
         Err(e) => panic!("cannot build test scene: {e}"),
@@ -31,8 +33,8 @@ pub fn linear_material(k_n: f64, e: f64, mu: f64) -> serde_json::Value {
 }
 
 /// Builds the contact-dynamics simulation of a scene.
-pub fn cd(s: &Scene) -> sable_engine::methods::cd::Cd {
-    let Method::Cd(p) = &s.method else { panic!("not a CD scene") };
+pub fn cd(s: &Plan) -> sable_engine::methods::cd::Cd {
+    let Some(p) = s.params::<CdParams>() else { panic!("not a CD scene") };
     match sable_engine::methods::cd::Cd::new(s, p) {
         Ok(d) => d,
         Err(e) => panic!("cannot build test scene: {e}"),
@@ -135,7 +137,7 @@ pub fn run_file_with(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> V
     let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
     edit(&mut value);
     let s = scene(value);
-    let mut sim = sable_engine::methods::build(&s).expect("buildable");
+    let mut sim = s.build().expect("buildable");
     let runner = sable_engine::run::Runner::for_scene(&s);
     let mut samples = Vec::new();
     runner.run(sim.as_mut(), &mut |x, _| samples.push(x.clone())).expect("stable");

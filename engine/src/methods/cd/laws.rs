@@ -10,12 +10,12 @@ use crate::scene::Material;
 /// What attracts two grains of a pair of materials (both materials must carry it, as in DEM).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Attraction {
-    /// Constant attraction F_0 (N) within D_0 (m) of contact (RC 2.2.3), geometric means of
+    /// Constant attraction F_0 (N) within D_0 (m) of contact (Roux & Chevoir 2005, §2.2.3), geometric means of
     /// the materials'.
     pub constant: Option<(Real, Real)>,
-    /// Capillary bridge between wet grains (N 1.5-1.8), the parameters mixed as in DEM.
+    /// Capillary bridge between wet grains (Nezamabadi 2020, eqs. 1.5–1.8), the parameters mixed as in DEM.
     pub capillary: Option<CapillaryRichefeu>,
-    /// Lubrication by the bridge's liquid (N 1.9-1.11; acts while the bridge holds).
+    /// Lubrication by the bridge's liquid (Nezamabadi 2020, eqs. 1.9–1.11; acts while the bridge holds).
     pub lubrication: Option<Lubrication>,
 }
 

@@ -1,4 +1,4 @@
-//! Contact dynamics (Moreau-Jean non-smooth contact dynamics; N 1.1.2, RC 2.2.3, PHYSICS.md §3)
+//! Contact dynamics (Moreau-Jean non-smooth contact dynamics; Nezamabadi 2020, §1.1.2, Roux & Chevoir 2005, §2.2.3, docs/physics.md §3)
 //! for rigid disks and spheres: implicit time stepping, no contact stiffness, the contact
 //! impulses found by the non-linear Gauss-Seidel solver of [`crate::nscd`].
 //!
@@ -52,10 +52,10 @@
 //! wall is a stress-controlled wall sliding at its shear rate times the gap.
 //!
 //! Rolling resistance is a graph on the contact's moment impulse ([`crate::nscd::Rolling`]).
-//! Cohesion — the constant attraction F_0 within D_0 of RC 2.2.3, and the capillary bridges of
-//! wet grains (N 1.5-1.8, formed on contact, broken beyond the rupture distance) — shifts the
+//! Cohesion — the constant attraction F_0 within D_0 of Roux & Chevoir 2005, §2.2.3, and the capillary bridges of
+//! wet grains (Nezamabadi 2020, eqs. 1.5–1.8, formed on contact, broken beyond the rupture distance) — shifts the
 //! Signorini graph by the attraction over the step at the gap of the step's start; a pair
-//! within range but apart is held by [`open_law`]. The bridges' lubrication (N 1.9-1.11) acts
+//! within range but apart is held by [`open_law`]. The bridges' lubrication (Nezamabadi 2020, eqs. 1.9–1.11) acts
 //! implicitly on the end-of-step normal velocity ([`crate::nscd::LocalLaw::viscosity`]).
 //! Primaries of one aggregate (the bonded particle method's grains,
 //! [`crate::particles::aggregate`]) attract by their bond instead, in the same way, and touch
@@ -72,6 +72,8 @@
 mod balance;
 mod cell;
 mod laws;
+pub mod params;
+pub use params::{CdParams, CdParamsSpec, Sweep, AGGREGATE_TOLERANCE};
 mod relax;
 
 use crate::error::{EngineError, InstabilityCause};
@@ -83,7 +85,7 @@ use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, 
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
 use crate::particles::Particles;
 use crate::run::{Balance, Simulation};
-use crate::scene::{CdParams, Controls, Deformation, Material, Scene, Stage, StateFile, WallMotion};
+use crate::scene::{Controls, Deformation, Material, Scene, Stage, StateFile, WallMotion};
 use balance::{Freedom, Window};
 use cell::Cell;
 use laws::PairLaws;
@@ -1102,6 +1104,10 @@ impl Cd {
 impl Simulation for Cd {
     fn method(&self) -> &'static str {
         "cd"
+    }
+
+    fn grain_model(&self) -> crate::run::GrainModel {
+        crate::run::GrainModel::Rigid
     }
 
     fn step(&mut self) -> Result<(), EngineError> {

@@ -1,6 +1,6 @@
 //! The attraction between the primaries of one aggregate in DEM (the bonded particle method's
-//! soft grains, [`crate::particles::aggregate`]; the law is [`AttractionLj`], the habilitation
-//! N 1.2.1, eq. 1.12).
+//! soft grains, [`crate::particles::aggregate`]; the law is [`AttractionLj`],
+//! Nezamabadi 2020, §1.2.1, eq. 1.12).
 //!
 //! The attraction is a pair force of its own, beside the contact laws: the primaries of one
 //! aggregate attract at every gap up to the bond's cut-off, touching or not, and touch through

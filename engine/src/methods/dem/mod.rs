@@ -1,12 +1,16 @@
-//! Soft-contact DEM (Cundall-Strack "molecular dynamics"; N 1.1.1, RC 2.1, 2.2.1; PHYSICS.md §2):
-//! explicit velocity-Verlet integration of Newton-Euler equations with the contact laws of
-//! [`crate::contact`], cell-list Verlet neighbour search and parallel force loops.
+//! Soft-contact DEM (Cundall-Strack "molecular dynamics"; Nezamabadi 2020, §1.1.1; Roux &
+//! Chevoir 2005, §2.1, §2.2.1; docs/physics.md §2): explicit velocity-Verlet integration of
+//! Newton-Euler equations with the contact laws of [`crate::contact`], cell-list Verlet
+//! neighbour search and parallel force loops.
 //!
 //! One step runs the stages of [`Stage`] in their declared order.
 
+pub mod bench_suite;
 mod bonds;
 mod forces;
 mod pair_state;
+pub mod params;
+pub use params::{DemParams, DemParamsSpec};
 mod relax;
 mod stability;
 pub mod timestep;
@@ -24,7 +28,7 @@ use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeo
 use crate::particles::Particles;
 use crate::run::Balance;
 use crate::run::Simulation;
-use crate::scene::{Controls, Deformation, DemParams, Material, Scene, StateFile};
+use crate::scene::{Controls, Deformation, Material, Scene, StateFile};
 use forces::LOOP_CHUNK;
 use pair_state::{PairBlock, PairSprings};
 use stability::EnergyBudget;
@@ -164,7 +168,7 @@ impl Dem {
     /// and evaluates the initial forces.
     pub fn new(scene: &Scene, params: &DemParams) -> Result<Self, EngineError> {
         if let Some(m) = scene.materials.iter().find(|m| m.cohesion.is_some()) {
-            // RC 2.2.3's constant attraction is a law for rigid grains; soft contacts would need
+            // Roux & Chevoir 2005, §2.2.3's constant attraction is a law for rigid grains; soft contacts would need
             // RC's own adhesion law (a force growing with the overlap), which DEM lacks.
             return Err(EngineError::Build {
                 field: format!("materials.{}.cohesion", m.name),

@@ -199,7 +199,7 @@ impl Dem {
             self.dt, c.t_c, c.limiting, c.dt_limit
         );
         // The default fraction: a step above it is the first thing to change.
-        let fraction = crate::scene::DemParams::default().time_step_fraction;
+        let fraction = super::DemParams::default().time_step_fraction;
         let coarse = self.dt > fraction * c.t_c * (1.0 + 1e-9);
         let smaller_step = if coarse {
             format!("use dt <= t_c/{:.0} = {:.3e} s (method.time_step_fraction {fraction}; {now})", 1.0 / fraction, fraction * c.t_c)
@@ -313,7 +313,7 @@ mod tests {
 
     /// A grain resting on a floor, at `fraction` of the collision time.
     fn resting(fraction: f64) -> Dem {
-        let scene = crate::scene::parse_scene(
+        let scene = crate::methods::plan_scene(
             &serde_json::json!({
                 "dimension": 2,
                 "method": {"kind": "dem", "time_step_fraction": fraction},
@@ -326,7 +326,7 @@ mod tests {
             .to_string(),
         )
         .unwrap_or_else(|v| panic!("{v:?}"));
-        let crate::scene::Method::Dem(params) = &scene.method else { panic!("dem") };
+        let params = scene.params::<crate::methods::dem::DemParams>().expect("dem");
         Dem::new(&scene, params).unwrap_or_else(|e| panic!("{e}"))
     }
 

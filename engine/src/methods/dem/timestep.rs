@@ -1,9 +1,9 @@
-//! Time step of explicit DEM from the collision time (PHYSICS.md §2, REFERENCES.md checks 1, 3, 5).
+//! Time step of explicit DEM from the collision time (docs/physics.md §2, docs/references.md checks 1, 3, 5).
 //!
 //! For the linear law `t_c = pi / sqrt(k_n/m* - (gamma_n / 2m*)²)` with the lightest pair of each
 //! material pair; for Hertz the elastic collision time `t_H = 2.87 (m*² / (R* E*² v))^(1/5)` at a
 //! reference impact velocity. The default step is t_c / 50 (`time_step_fraction` 0.02), the usual
-//! practice for velocity Verlet (Silbert et al. 2001; REFERENCES.md check 2); the linear law is
+//! practice for velocity Verlet (Silbert et al. 2001; docs/references.md check 2); the linear law is
 //! unstable beyond `2 / omega_0` for a single contact and earlier in dense packings.
 
 use crate::contact::{ContactTable, NormalLaw};
@@ -44,7 +44,7 @@ pub fn collision_time(table: &ContactTable, bodies: &Bodies<'_>, v_ref: Real) ->
             }
             NormalLaw::Hertz(h) => {
                 let t = 2.87 * (m_eff * m_eff / (r_eff * h.e_star * h.e_star * v_ref)).powf(0.2);
-                // Largest overlap of that impact and the stiffness there (REFERENCES.md check 3).
+                // Largest overlap of that impact and the stiffness there (docs/references.md check 3).
                 let dmax = (15.0 * m_eff * v_ref * v_ref / (16.0 * h.e_star * r_eff.sqrt())).powf(0.4);
                 let k = 2.0 * h.e_star * (r_eff * dmax).sqrt();
                 (t, 2.0 / (k / m_eff).sqrt())

@@ -1,5 +1,5 @@
-//! Deformable grains by the finite element method with contact dynamics (FEM-CD; PHYSICS.md
-//! §6, the habilitation N 1.2.3, as LMGC90 does it), in 2D plane strain: each grain meshed
+//! Deformable grains by the finite element method with contact dynamics (FEM-CD; docs/physics.md
+//! §6, Nezamabadi 2020, §1.2.3, as LMGC90 does it), in 2D plane strain: each grain meshed
 //! with quadrilaterals, integrated implicitly, its law one of the shared
 //! [`crate::constitutive`] laws.
 //!
@@ -17,6 +17,8 @@
 pub mod body;
 pub mod element;
 pub mod mesh;
+pub mod params;
+pub use params::{FemParams, FemParamsSpec};
 pub mod sim;
 pub mod sparse;
 pub mod system;

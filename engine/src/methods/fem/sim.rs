@@ -13,13 +13,16 @@ use nalgebra::Vector2;
 
 use super::body::Body;
 use super::mesh::Mesh;
+use super::params::FemParams;
 use super::system::{Grain, Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw, History, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
+use crate::methods::method::Method;
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
+use crate::methods::soft::params::soft_momentum;
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::polygon::second_moments;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
@@ -27,9 +30,10 @@ use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
+use crate::run::Simulation;
 use crate::scene::state_meshes::{StateMeshes, GAUSS_POINTS};
 use crate::scene::state_points::StateImpulse;
-use crate::scene::{soft_momentum, FemParams, Scene, StateFile};
+use crate::scene::{Checker, Scene, StateFile};
 
 type V2 = Vector2<Real>;
 
@@ -267,20 +271,20 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
     let planes = planes(scene, &walls);
     // The time step: the fastest imposed motion covers `max_displacement` of an element.
     let speed = world::imposed_speed(scene, &particles, true).max(1e-3 * size);
-    let dt = params.time_step.unwrap_or(params.max_displacement * size / speed);
+    let dt = params.solver.time_step.unwrap_or(params.solver.max_displacement * size / speed);
     let settings = Settings {
         dt,
-        theta: params.theta,
+        theta: params.solver.theta,
         gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.newton_tolerance,
-        max_newton: params.max_newton,
+        newton_tolerance: params.solver.newton_tolerance,
+        max_newton: params.solver.max_newton,
         contact: Convergence {
-            tolerance: params.tolerance,
-            violation_tolerance: params.violation_tolerance,
+            tolerance: params.solver.tolerance,
+            violation_tolerance: params.solver.violation_tolerance,
             worst_tolerance: 1e-4,
-            max_iterations: params.max_iterations,
+            max_iterations: params.solver.max_iterations,
             relaxation: 1.0,
-            acceleration: soft_momentum(params.acceleration, params.symmetric_contact),
+            acceleration: soft_momentum(params.solver.acceleration, params.symmetric_contact),
         },
         sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
     };
@@ -290,7 +294,7 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
         sys.warm
             .restore(saved.impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
     }
-    SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.threads)
+    SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.solver.threads)
 }
 
 /// Where grain `k`'s nodes, elements and boundary nodes start in a saved state's arrays
@@ -393,4 +397,28 @@ impl Fem {
     pub fn cost(&self) -> Cost {
         Cost::new(&self.sys.totals, &self.sys.splitting)
     }
+}
+
+impl Method for FemParams {
+    fn name(&self) -> &'static str {
+        "fem"
+    }
+
+    fn fit(&mut self, scene: &Scene, _given: &serde_json::Value, c: &mut Checker) {
+        crate::methods::fit::soft_grains(scene, "fem", self.solver.time_step.is_some(), c);
+    }
+
+    fn build(&self, scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
+        Ok(Box::new(fem(scene, self)?))
+    }
+
+    fn threads(&self) -> usize {
+        self.solver.threads
+    }
+
+    fn set_threads(&mut self, threads: usize) {
+        self.solver.threads = threads;
+    }
+
+    crate::method_any!();
 }

@@ -1,5 +1,5 @@
-//! Meshed grains touching through contact dynamics, one step at a time (FEM-CD; the habilitation
-//! N 1.2.3, as LMGC90 does it): each grain a [`Body`], the contacts between their boundaries
+//! Meshed grains touching through contact dynamics, one step at a time (FEM-CD;
+//! Nezamabadi 2020, §1.2.3, as LMGC90 does it): each grain a [`Body`], the contacts between their boundaries
 //! and with walls those of every soft-grain method ([`crate::methods::soft::contact`]).
 //!
 //! **Contacts.** A boundary node of one grain within `reach` of the boundary of another grain

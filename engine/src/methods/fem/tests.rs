@@ -163,7 +163,7 @@ fn a_nearly_incompressible_block_keeps_its_area_and_the_closed_form_force() {
     assert!(change.abs() < 1e-3, "area changed by {change:e}");
 }
 
-/// The cantilever (REFERENCES §G 22): a beam 16 times longer than deep, clamped at one end,
+/// The cantilever (docs/references.md check 22): a beam 16 times longer than deep, clamped at one end,
 /// a small load at the other; its tip deflection against beam theory in plane strain
 /// (`E/(1 − ν²)`, with Timoshenko's shear term), 8 × 128 elements. Measured: +0.22% at
 /// ν = 0.3, −0.36% at ν = 0.499 (at 4 × 64: +1.6% and +1.8%). With ν = 0.499 the plain element
@@ -264,7 +264,7 @@ fn disk_grain(c: V2, r: Real, size: Real, rho: Real, v: V2) -> Grain {
     Grain { body, law: 0, friction: 0.0, radius: r }
 }
 
-/// Two elastic disks meet head-on along the diagonal (REFERENCES §G 21: Sulsky's disks of radius
+/// Two elastic disks meet head-on along the diagonal (docs/references.md check 21: Sulsky's disks of radius
 /// 0.2 m, E = 1000 Pa, ν = 0.3, ρ = 1000 kg/m³, ±(0.1, 0.1) m/s) and part again: momentum is
 /// conserved at every step to round-off, the energy never grows (trapezoidal rule), and they
 /// separate with a good part of their approach speed (measured: 0.87 of it, 3.4% of the energy
@@ -346,7 +346,7 @@ fn meshed_disk_on_plane(size: Real, a_want: Real) -> (Real, Real, Real, Real) {
     (a, (4.0 * load * r / (std::f64::consts::PI * e_star)).sqrt(), f, load)
 }
 
-/// The meshed disk on a plane against Hertz's line contact (REFERENCES §G 19, Johnson 1985 §4,
+/// The meshed disk on a plane against Hertz's line contact (docs/references.md check 19, Johnson 1985 §4,
 /// `a = sqrt(4 P' R / π E*)`) at a / R = 0.08, elements of R/25: the half-width within 3%
 /// (measured 1.9% narrow; 2.4% at R/50) and the wall force equal to the load within 0.1%.
 /// Hertz's is the small-strain limit: the contact strains are about a / 2R, and the half-width

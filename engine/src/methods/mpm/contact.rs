@@ -1,7 +1,7 @@
 //! Contact between grains and with walls, measured between the grains' outlines
 //! ([`super::outline`]) and acting through their own nodal fields, solved by the shared
-//! contact solver ([`crate::nscd`]): the multi-field method of the sources (the habilitation
-//! N 1.2.2; Nezamabadi et al., Comput. Phys. Commun. 237, 17, 2019) — each grain its own
+//! contact solver ([`crate::nscd`]): the multi-field method of the sources (
+//! Nezamabadi 2020, §1.2.2; Nezamabadi et al., Comput. Phys. Commun. 237, 17, 2019) — each grain its own
 //! field, so that grains touch, slide and part by contact, not through a shared grid.
 //!
 //! **Candidates.** Every vertex of a grain's outline within a cell of a wall, and every vertex

@@ -1,5 +1,5 @@
 //! Deformable grains by the implicit material point method with contact dynamics (MPM-CD;
-//! PHYSICS.md §5, the habilitation N 1.2.2, Nezamabadi et al., Comput. Phys. Commun. 237, 17,
+//! docs/physics.md §5, Nezamabadi 2020, §1.2.2, Nezamabadi et al., Comput. Phys. Commun. 237, 17,
 //! 2019), in 2D plane strain.
 //!
 //! - [`grid`]: the background grid and its quadratic B-spline shape functions;
@@ -24,6 +24,8 @@ pub mod grain;
 pub mod grid;
 pub mod measure;
 pub mod outline;
+pub mod params;
+pub use params::{MpmParams, MpmParamsSpec};
 pub mod points;
 pub mod sim;
 pub mod system;

@@ -13,21 +13,25 @@ use super::grain::Grain;
 use super::grid::{Grid, V2};
 use super::measure::GrainState;
 use super::outline::{Outline, Vertex};
+use super::params::MpmParams;
 use super::points::Points;
 use super::system::{Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw, History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
+use crate::methods::method::Method;
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
+use crate::methods::soft::params::soft_momentum;
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
+use crate::run::Simulation;
 use crate::scene::state_points::{StateImpulse, StatePoints};
-use crate::scene::{soft_momentum, MpmParams, Scene, StateFile};
+use crate::scene::{Checker, Scene, StateFile};
 use std::ops::Range;
 
 /// Nodes of margin around the container.
@@ -208,22 +212,22 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     let planes = planes(scene, &walls);
     // The time step: the fastest imposed motion covers `max_displacement` of a cell.
     let speed = world::imposed_speed(scene, &particles, true).max(1e-3 * h);
-    let dt = params.time_step.unwrap_or(params.max_displacement * h / speed);
+    let dt = params.solver.time_step.unwrap_or(params.solver.max_displacement * h / speed);
     let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
     let settings = Settings {
         dt,
-        theta: params.theta,
+        theta: params.solver.theta,
         flip: params.flip,
         gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.newton_tolerance,
-        max_newton: params.max_newton,
+        newton_tolerance: params.solver.newton_tolerance,
+        max_newton: params.solver.max_newton,
         contact: Convergence {
-            tolerance: params.tolerance,
-            violation_tolerance: params.violation_tolerance,
+            tolerance: params.solver.tolerance,
+            violation_tolerance: params.solver.violation_tolerance,
             worst_tolerance: 1e-4,
-            max_iterations: params.max_iterations,
+            max_iterations: params.solver.max_iterations,
             relaxation: 1.0,
-            acceleration: soft_momentum(params.acceleration, both),
+            acceleration: soft_momentum(params.solver.acceleration, both),
         },
         sides: if both { Sides::Both } else { Sides::One },
     };
@@ -233,7 +237,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
         sys.warm
             .restore(saved.impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
     }
-    SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.threads)
+    SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.solver.threads)
 }
 
 /// Grain `k`'s points and outline from a saved state (checked: its arrays agree), appended to
@@ -308,4 +312,28 @@ impl Mpm {
     pub fn cost(&self) -> Cost {
         Cost::new(&self.sys.totals, &self.sys.splitting)
     }
+}
+
+impl Method for MpmParams {
+    fn name(&self) -> &'static str {
+        "mpm"
+    }
+
+    fn fit(&mut self, scene: &Scene, _given: &serde_json::Value, c: &mut Checker) {
+        crate::methods::fit::soft_grains(scene, "mpm", self.solver.time_step.is_some(), c);
+    }
+
+    fn build(&self, scene: &Scene) -> Result<Box<dyn Simulation>, EngineError> {
+        Ok(Box::new(mpm(scene, self)?))
+    }
+
+    fn threads(&self) -> usize {
+        self.solver.threads
+    }
+
+    fn set_threads(&mut self, threads: usize) {
+        self.solver.threads = threads;
+    }
+
+    crate::method_any!();
 }

@@ -1,4 +1,4 @@
-//! Verification of the method on problems with known answers (REFERENCES.md §G).
+//! Verification of the method on problems with known answers (docs/references.md §G).
 
 use super::contact::{Sides, Wall};
 use super::field::Field;
@@ -33,7 +33,7 @@ fn mean_velocity(p: &Points, range: std::ops::Range<usize>) -> V2 {
     mv / m
 }
 
-/// The axially vibrating bar (REFERENCES §G 20; Buzzi et al. 2008's set): fixed–free, L = 25,
+/// The axially vibrating bar (docs/references.md check 20; Buzzi et al. 2008's set): fixed–free, L = 25,
 /// E = 100, ρ = 1, v(x, 0) = v0 sin(πx / 2L), v0 = 0.1, 16 cells along L, 2 points a cell,
 /// dt = 0.2 Δx / c, five periods (T = 10). The fixed end is the middle of a free–free bar of
 /// length 2L vibrating in its first antisymmetric mode, which has a node there; the half bar's
@@ -85,7 +85,7 @@ fn the_vibrating_bar_keeps_its_amplitude_and_period() {
     assert!((last - amplitude).abs() < 0.01 * amplitude, "amplitude {last} against {amplitude}");
 }
 
-/// Two elastic disks colliding (Sulsky, Chen & Schreyer 1994; REFERENCES §G 21): unit square,
+/// Two elastic disks colliding (Sulsky, Chen & Schreyer 1994; docs/references.md check 21): unit square,
 /// 20x20 cells, 2x2 points a cell, radius 0.2 at (0.2, 0.2) and (0.8, 0.8), velocities
 /// ±(0.1, 0.1), E = 1000, ν = 0.3, ρ = 1000, plane strain, to t = 4, at dt = 0.01 (ten times
 /// the reference's explicit step). With one field per grain the disks meet through contact
@@ -194,7 +194,7 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
 }
 
 /// An elastic disk (R = 1 m, E = 1 MPa, ν = 0.3) pressed on a rigid plane by its weight,
-/// loaded quasi-statically, against Hertz's line contact (REFERENCES §G 19, Johnson 1985 §4):
+/// loaded quasi-statically, against Hertz's line contact (docs/references.md check 19, Johnson 1985 §4):
 /// `a = sqrt(4 P' R / π E*)`, `p0 = 2 P' / π a`, for `a / R = 0.16`. The half-width of the
 /// Hertz profile that fits the vertex forces is within 5% of Hertz's at 20 cells across the
 /// radius (the tolerance; measured 2.6% narrow) and within 7% at 40 (6.2%); it settles
@@ -223,7 +223,7 @@ fn an_elastic_disk_on_a_plane_approaches_hertz() {
 }
 
 /// A soft block on a floor under gravity tilted by θ (the incline), friction μ = 0.5 with the
-/// floor (REFERENCES §G 23): it rests iff tan θ <= μ, and slides with the acceleration
+/// floor (docs/references.md check 23): it rests iff tan θ <= μ, and slides with the acceleration
 /// g (sin θ − μ cos θ) otherwise. Returns the block's mean velocity along the slope at `t/2`
 /// and `t`, and the sliding acceleration of Coulomb's law.
 fn block_on_incline(tan: Real, t: Real) -> (Real, Real, Real) {
@@ -266,7 +266,7 @@ fn a_block_on_an_incline_rests_iff_tan_is_within_friction() {
     assert!((measured - a).abs() < 0.01 * a, "sliding acceleration {measured} against {a}");
 }
 
-/// A small uniaxial compaction (the sources' N 2.1.1 set, CI-sized): grains of 1.4–2.4 mm on
+/// A small uniaxial compaction (the set of Nezamabadi 2020, §2.1.1, CI-sized): grains of 1.4–2.4 mm on
 /// a lattice in a box, the top wall moving down, no gravity, no wall friction, E = 10 MPa,
 /// ν = 0.45, ρ = 990 kg/m³. Returns (Φ reached, steps, seconds).
 fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, cells_per_dmin: Real) -> (Real, u64, Real, Real) {

@@ -1,5 +1,5 @@
 //! Contacts between soft grains' outlines and with walls, each grain acting through its own
-//! nodes (the multi-field method of the sources, the habilitation N 1.2.2–1.2.3), solved by the
+//! nodes (the multi-field method of the sources, Nezamabadi 2020, §1.2.2–1.2.3), solved by the
 //! shared contact solver ([`crate::nscd`]). How a method finds its contacts and which of its
 //! nodes carry each one ([`Support`]) is its own ([`crate::methods::mpm::contact`],
 //! [`crate::methods::fem`]); what they are once found is here.

@@ -1,5 +1,5 @@
 //! The half-width of a line contact from the forces at the nodes or vertices along it, for the
-//! tests of the soft-grain methods against Hertz (REFERENCES §G 19).
+//! tests of the soft-grain methods against Hertz (docs/references.md check 19).
 
 use crate::math::Real;
 

@@ -18,6 +18,7 @@ pub mod contact;
 pub mod hertz;
 pub mod measure;
 pub mod node_block;
+pub mod params;
 pub mod parts;
 pub mod polygon;
 pub mod schedule;

@@ -239,6 +239,10 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
         self.name
     }
 
+    fn grain_model(&self) -> crate::run::GrainModel {
+        crate::run::GrainModel::Deformable
+    }
+
     fn step(&mut self) -> Result<(), EngineError> {
         world::in_own_pool(self, |s| &mut s.pool, |s| s.one_step())
     }

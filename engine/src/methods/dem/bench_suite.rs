@@ -1,6 +1,6 @@
 //! The DEM benchmark suite (`sable bench dem --scene NAME`): the scenes users run — walled,
 //! dense, contact-heavy, 2D and 3D, polydisperse — besides the periodic gas of
-//! [`super::presets::dem_benchmark`]. Each has a twin for LAMMPS in `benches/peers/`, run from
+//! [`crate::scene::presets::dem_benchmark`]. Each has a twin for LAMMPS in `benches/peers/`, run from
 //! the same initial state.
 //!
 //! A scene may need a preparation that is not timed (a dense packing to shear or to load): its
@@ -13,7 +13,7 @@
 
 use serde_json::{json, Value};
 
-use super::presets::dem_benchmark;
+use crate::scene::presets::dem_benchmark;
 
 /// Names of the scenes of the suite, in the order the README's table lists them.
 pub const SUITE: [&str; 6] = ["gas", "deposition_3d", "shear_3d", "deposition_2d", "biaxial_2d", "polydisperse_3d"];
@@ -253,13 +253,13 @@ mod tests {
         for name in SUITE {
             let s = bench_scene(name, Some(500), Some(10), 1).unwrap_or_else(|| panic!("{name}"));
             if let Some(prep) = &s.preparation {
-                if let Err(v) = crate::scene::parse_scene(&prep.to_string()) {
+                if let Err(v) = crate::methods::plan_scene(&prep.to_string()) {
                     panic!("{name} preparation: {v:?}");
                 }
             }
             // A timed scene that starts from a preparation gets its state from the caller.
             if s.preparation.is_none() {
-                if let Err(v) = crate::scene::parse_scene(&s.timed.to_string()) {
+                if let Err(v) = crate::methods::plan_scene(&s.timed.to_string()) {
                     panic!("{name}: {v:?}");
                 }
             }
