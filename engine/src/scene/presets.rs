@@ -167,11 +167,9 @@ pub fn bpm_compaction(grains: usize, method: &str, steps: u64, threads: usize) -
 }
 
 /// The time step of [`fem_compaction`], s: the wall moves 20 µm, a 625th of the mean
-/// diameter, a step. Measured on its 40 grains to Φ 0.90 (one thread, 2026-11-27): at 1e-4,
-/// 2e-4, 4e-4 and 8e-4 s the top wall reached 10 kPa at Φ 0.850, 0.857, 0.846 and 0.872, and
-/// 20 kPa at 0.882, 0.885, 0.882 and 0.895, in 180, 113, 98 and 117 s. The first three differ
-/// no more than the moment a column of grains buckles makes them; 8e-4 s is off by 2%, and no
-/// cheaper: the dense part splits its steps.
+/// diameter, a step. The longest step whose results differ from shorter steps' no more than
+/// the moment a column of grains buckles makes them; twice as long is off by 2%, and no
+/// cheaper, the dense part splitting its steps (docs/methods/fem.md, "Parameters").
 pub const FEM_COMPACTION_STEP: f64 = 4e-4;
 
 /// The sources' FEM compaction (Nezamabadi 2020, §2.1.2; issue 26's full-size scene): `grains` neo-Hookean disks

@@ -35,24 +35,19 @@
 //! with the kept factors. A grain that needed a new matrix after a part's first iteration
 //! starts the next part with one. A grain without contacts whose correction is within the
 //! tolerance is left where it is by the part's further iterations, which the grains in contact
-//! need. Measured with `sable bench fem --threads 2 --progress 500` (400 grains, the first 1,000
-//! steps, Φ 0.49 to 0.51, 2026-11-27, one run after the other): 131.4 s with a new matrix for
-//! every grain at every part (2.45–2.56 Newton iterations a step), 83.4 s keeping them on a
-//! decision for all grains together (on the largest correction of any; 3.47), 66.9 s with each
-//! grain deciding for itself and 56.3 s leaving the converged free grains alone (3.25–3.63).
-//! On 100 grains (`--grains 100 --steps 600 --threads 1`): 34.6, 15.2, 12.1 and 11.0 s.
+//! need. Each grain decides for itself: one decision for all grains, on the largest correction
+//! of any, cost a loose packing a Newton iteration more a step (docs/methods/fem.md, "Design
+//! measurements").
 //!
 //! Where Newton converged the drifts are measured once more: a contact whose drift moved since
-//! the first iterates by more than [`DRIFT_TOLERANCE`] times the longest boundary segment had its gap predicted from a geometry the step left
-//! behind, and — if it carries an impulse or may close by the part's end (an open one leaves the
-//! solution as it is whatever its drift) — the part fails ([`InstabilityCause::ContactDrift`]; measured on the CI
-//! compaction, where rearranging grains moved up to 40 µm a step: without this check the
-//! outlines covered 0.94% of the box twice at Φ 0.90 and the top wall bore 594 kPa, with it
-//! 0.05% and 1.11 MPa, within 3.5% of the result at half the step). A part that fails so, or on
-//! Newton or the contact solve over budget, a matrix not positive definite or an inverted
-//! element, is done again in halves, down to a sixteenth, and the next steps keep parts that
-//! short until ten in a row pass ([`crate::methods::soft::parts`]); the shortest part is kept
-//! as it converged.
+//! the first iterates by more than [`DRIFT_TOLERANCE`] times the longest boundary segment had
+//! its gap predicted from a geometry the step left behind, and — if it carries an impulse or
+//! may close by the part's end (an open one leaves the solution as it is whatever its drift) —
+//! the part fails ([`InstabilityCause::ContactDrift`]): without this check grains rearranging
+//! fast went into each other. A part that fails so, or on Newton or the contact solve over
+//! budget, a matrix not positive definite or an inverted element, is done again in halves, down
+//! to a sixteenth, and the next steps keep parts that short until ten in a row pass
+//! ([`crate::methods::soft::parts`]); the shortest part is kept as it converged.
 //!
 //! Momentum is conserved exactly by every iteration: the internal forces of a grain sum to zero
 //! and the contact impulses are equal and opposite.

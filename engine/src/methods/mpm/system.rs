@@ -28,9 +28,8 @@
 //! indefinite, an inverted point) is done again in halves, and the steps after it keep parts
 //! that short until ten in a row converge ([`crate::methods::soft::parts`]). In a dense packing
 //! the grains' stress makes the geometric stiffness of their rotation outweigh their inertia
-//! over a long step ([`super::field`]); the damped matrix then converges slowly (measured on a
-//! 60-grain compaction past Φ 0.85: the correction shrinking by 0.88 an iteration, the budget
-//! of 25 spent).
+//! over a long step ([`super::field`]); the damped matrix then converges slowly, and such a step
+//! is split.
 //!
 //! Momentum is conserved exactly by every iteration (the internal forces of a grain sum to
 //! zero and the contact impulses are equal and opposite), whatever the convergence.
@@ -74,30 +73,22 @@ const STALL_RATIO: Real = 0.5;
 /// ([`REVERSAL`]), halves the fraction of the next corrections taken (down to
 /// [`MIN_FRACTION`]); one that shrinks it below 0.6 doubles it back (up to 1). With a
 /// perfectly plastic law (hardening 0) a few points sit on the yield surface at the solution,
-/// and Newton on the return mapping's two branches jumped between them: measured on a 60-grain
-/// compaction with `H = 0`, 8 points switching at each iterate, the correction alternating
-/// 0.62 / 0.64 of the velocity scale for 48 iterations at a sixteenth of the step, and the run
-/// stopped at Φ 0.935; with the damping it went on to Φ 0.951 (where the contact solver ran over
-/// its budget). Since the contact solves measure their change in Newton's units
-/// ([`crate::methods::soft::contact`]) the same run stops at Φ 0.911 on the contact solver's
-/// budget, its outlines overlapping by 0.94% of the box; with both grains' outlines held
-/// (`symmetric_contact`) it reaches its end, Φ 0.968 at 300 kPa, with 0.005%. The fraction scales the update only, so the fixed point is unchanged, and every
-/// grain takes the same fraction, so momentum stays conserved. Damping without the switching
-/// condition slowed iterations stalled for another reason (a grain on its positive-part
-/// tangent) to a crawl: that run stopped at Φ 0.92.
+/// and Newton on the return mapping's two branches jumps between them, the correction
+/// alternating without shrinking; taking a fraction of it breaks the cycle. The fraction scales
+/// the update only, so the fixed point is unchanged, and every grain takes the same fraction,
+/// so momentum stays conserved. The switching condition is there because damping on the rate
+/// alone slowed iterations stalled for another reason (a grain on its positive-part tangent) to
+/// a crawl (docs/methods/mpm.md, "Design measurements").
 const CYCLE_RATE: Real = 0.9;
 
 /// The mass-weighted cosine between an iteration's correction and the previous one below
 /// which the correction has turned back ([`CYCLE_RATE`]). Newton can cycle with no point
-/// switching: measured on the 300-grain compaction with `H = 0` and both outlines held, at
-/// step 4,781 (Φ 0.924, an eighth and a sixteenth of the step), one grain on its own
-/// (undamped) matrix took the same correction with the opposite sign at every iteration,
-/// about 3e-4 of the velocity scale, for 40 iterations, and the budget of 50 was spent. Half
-/// of a correction that flips sign lands on the fixed point along that mode; with it the step
-/// converged. Only the last chance (the deepest split, where the budget is spent whole)
-/// halves for a reversal: at every level it cost the 300-grain elastic compaction of
-/// `sable bench mpm` 23% more sweeps (208 a step against 169) and 9% more time, the attempts
-/// it prolonged being split in the end anyway.
+/// switching: one grain on its own (undamped) matrix can take the same correction with the
+/// opposite sign at every iteration until the budget is spent. Half of a correction that flips
+/// sign lands on the fixed point along that mode. Only the last chance (the deepest split,
+/// where the budget is spent whole) halves for a reversal: at every level it prolonged attempts
+/// that were split in the end anyway, and cost the elastic compaction of `sable bench mpm` more
+/// sweeps and time (docs/methods/mpm.md, "Design measurements").
 const REVERSAL: Real = -0.5;
 
 /// See [`CYCLE_RATE`].

@@ -10,43 +10,32 @@
 //! their elasticity). A negative drift (the outlines moved closer than the linear prediction)
 //! makes the target positive: the contact then pushes its grains apart along the normal of the
 //! step's start, and that push does work on the nodes although the true gap does not open.
-//! Measured with a throw-away probe (Σ impulse × nodal relative displacement over the converged
-//! parts) on the 30 random grains of `scenes/studies/soft_compaction_mpm_fem.json` to Φ 0.89:
-//! by FEM (8 elements) the pushes did +8.7 J/m of work and the closing contacts −2.3 J/m,
-//! against 2.8 J/m of wall work, and the grains' kinetic energy rose to 0.23 J/m (a mean speed
-//! of 2.3 m/s under a wall at 0.1 m/s) until backward Euler damped it: the dips of dissipated
-//! energy below zero (issue 26). By MPM (10 cells) the pushes did +0.08 J/m against 2.4 J/m. In
-//! the FEM run the worst pushes came from vertices 0.1 mm inside the other grain, whose
-//! supports slid 50 µm along them within a sixteenth of a step. Capping the target at zero
-//! removed the dips but left 3.9% of the box covered twice at Φ 0.90 instead of 0.6%.
+//! The target is not capped at zero: capping it removes that work but leaves the outlines
+//! overlapping several times more; holding both sides (below) removes most of the pushes.
 //!
-//! **Sides.** The cause was one-sided contact ([`Sides::One`]): only the vertices of the grain
-//! of lower index were held outside the other's outline, so the other's vertices entered it,
-//! and the first grain's vertices then sat in the dents they left and were pushed out. With
-//! both grains' vertices held ([`Sides::Both`]) the same FEM run compacts to Φ 0.900 with the
-//! dissipated energy never below zero (+0.24 J/m at the end), the kinetic energy below
-//! 0.015 J/m, no measurable part of the box covered twice (0.6% one-sided) and 707 kPa on the
-//! top wall, in 305 s. Both is `fem`'s default. `mpm` keeps one side by default for elastic
-//! grains: its pushes are small (above), its outlines overlap by 0.1% of the box at Φ 0.90 on
-//! the 30 grains (0.000% with both sides, the top wall within 2%: 489 against 488 kPa), and
-//! both sides cost it 2.6 times the time (426 s against 164 s), four to six times the sweeps a
-//! step in the dense part. For plastic grains both sides are its default
-//! ([`crate::scene::MpmParams::symmetric_contact`]).
+//! **Sides.** With one side held ([`Sides::One`]) only the vertices of the grain of lower index
+//! are held outside the other's outline, so the other's vertices enter it, the first grain's
+//! vertices then sit in the dents they left, and the contacts that push them out do work: with
+//! meshed grains, more than the walls do, and the dissipated energy falls below zero. With both
+//! grains' vertices held ([`Sides::Both`]) neither outline's vertices enter the other, and the
+//! dissipated energy stays positive. Both is `fem`'s default. `mpm` keeps one side by default
+//! for elastic grains, whose pushes and overlap are small and for which both sides cost 2.6
+//! times the time; for plastic grains both sides are its default
+//! ([`crate::scene::MpmParams::symmetric_contact`]). The measurements are in docs/methods/fem.md
+//! and docs/methods/mpm.md ("Design measurements").
 //!
 //! **Criterion.** Where two outlines lie flat on each other the two sets of contacts are
 //! redundant: an impulse moved from one grain's vertex to the other's nearby changes no node's
-//! force, so the impulses are not unique, and a change measured on them stalls (two meshed
-//! disks colliding, [`crate::methods::fem`]'s tests: 2.2e-6 after 20,000 sweeps against
-//! 1e-6, the velocities converged to 4e-10). The solves therefore measure a sweep's change in
-//! the grains' velocities, in the units of the correction of the Newton iteration they serve:
+//! force, so the impulses are not unique, and a change measured on them stalls while the
+//! velocities have converged. The solves therefore measure a sweep's change in the grains'
+//! velocities, in the units of the correction of the Newton iteration they serve:
 //! `√(ΔPᵀ W ΔP / M)` for the impulses' change `ΔP` over the sweep, the Delassus operator
 //! `W = H A⁻¹ Hᵀ` and the grains' mass `M` (an upper bound of the mass-weighted root mean
 //! square of the nodes' velocity change, since `A ≥ M`), relative to Newton's velocity scale.
 //! [`FORCING`] then asks each solve for a hundredth of Newton's last correction in the same
-//! units. Measured relative to the impulses' own size (their change, or `ΔPᵀ W ΔP` against
-//! `Pᵀ W P`), the tolerance meant nothing in Newton's units: on the 30 grains by FEM with both sides the solves stopped after one sweep
-//! each, every Newton correction was the change of that one sweep (5.7e-5 of the scale, falling
-//! by 0.2% an iteration), and the run stopped on Newton's budget at step 1,417 (Φ 0.80).
+//! units. Measured relative to the impulses' own size instead, the tolerance meant nothing in
+//! Newton's units: the solves stopped after one sweep, and Newton's corrections, each the change
+//! of that one sweep, stalled above Newton's tolerance.
 //!
 //! **Delassus operator.** A contact's velocity answers an impulse through its grain's Newton
 //! matrix: `u = u_free + Hᵀ A⁻¹ H P`, `H` its weights. For each grain the block of
@@ -60,16 +49,12 @@
 //! **Pairs.** The contacts of one pair of grains (or of one grain with the walls) take their
 //! turn together: their normal impulses are solved exactly as one small complementarity
 //! problem with every other impulse frozen ([`super::block`]), then each tangential impulse on
-//! its own with its new bound. Gauss-Seidel one contact at a time crawled along the pair's own
+//! its own with its new bound. Gauss-Seidel one contact at a time crawls along the pair's own
 //! slow directions: where two boundaries lie flat on each other, moving impulse from one
 //! grain's nodes to the other's nearby ones, or between the nearly parallel normals of a vertex
-//! in a dent's reflex corner, changes the velocities by almost nothing. Measured on the CI
-//! compaction past jamming (`scenes/fem_compaction_2d.json` from its state at Φ 0.85, a solve
-//! of 316 contacts taken out and solved offline to its exact solution): 94% of the error the
-//! contact-by-contact solve left after its 767 sweeps lay along one such direction of one pair
-//! (an eigenvalue 2·10⁴ times below the block's diagonal); from the same warm start, sweeps
-//! contact by contact with momentum left an error (in the velocities' norm) of 6·10⁻⁴ after 300
-//! sweeps, pair by pair 5·10⁻⁷ after 10.
+//! in a dent's reflex corner, changes the velocities by almost nothing, and past jamming most
+//! of the error such a solve leaves lies along those directions; solved pair by pair, they
+//! converge in a few sweeps (docs/methods/fem.md).
 
 use std::collections::HashMap;
 
@@ -828,11 +813,9 @@ pub enum Sides {
 /// `reach` of the segment beyond the corner, that segment's line is a second contact of the
 /// vertex. Outside a dent is the intersection of the two sides' outer half-planes, so the
 /// vertex must stay outside both lines: held by the nearest segment's line alone, a vertex
-/// sliding past the corner went into the grain beyond it. (Measured at Φ 0.90 on the CI
-/// compactions: the meshed grains' outlines covered 0.55% of the box twice instead of 1.06%,
-/// before the converged-gap check of [`crate::methods::fem::system`]; the material points'
-/// 0.30% instead of 0.38%, at the same cost.) At a convex corner the outside is the union of
-/// the half-planes, and the nearest segment alone is right.
+/// sliding past the corner went into the grain beyond it (the second contact halved the meshed
+/// grains' overlap: docs/methods/fem.md). At a convex corner the outside is the union of the
+/// half-planes, and the nearest segment alone is right.
 pub fn candidates(shapes: &[Vec<V2>], walls: &[Wall], reach: Real, sides: Sides) -> Vec<Candidate> {
     let boxes: Vec<(V2, V2)> = shapes.iter().map(|x| bounding_box(x)).collect();
     let mut order: Vec<usize> = (0..shapes.len()).filter(|&g| !shapes[g].is_empty()).collect();
@@ -1065,12 +1048,9 @@ pub fn measure_drifts(
 /// against segment `own` ([`measure_drifts`]): from that segment or from a neighbour across a
 /// convex corner, whichever is nearer (the outline sliding under the vertex). Not from any
 /// other segment: at a reflex corner the vertex's second contact holds it on the other side's
-/// line ([`candidates`]), and the gap from the outline's nearest segment jumps there. Measured
-/// on the full-size compaction with `H = 0`, both sides, at step 4,811 (Φ 0.929): a vertex of
-/// grain 87 at 68 µm from its nearest segment of grain 118 and 162 µm behind the line of the
-/// dent's other side; the iterate moved it nearer that side, the gap from the nearest segment
-/// fell to −158 µm, a drift of −226 µm in a sixteenth of a step, and the contact pushed at
-/// 51 m/s: Newton diverged and a point of grain 87 inverted.
+/// line ([`candidates`]), and the gap from the outline's nearest segment jumps there: a vertex
+/// moved nearer the dent's other side would see a large negative drift within a part and push
+/// its grains apart fast enough for Newton to diverge (docs/methods/mpm.md).
 fn sliding(outline: &[V2], own: usize, x: &V2) -> Option<Real> {
     let n = outline.len();
     let mut best = on_segment(outline, own % n, x);

@@ -146,11 +146,9 @@ pub const SOFT_MOMENTUM: Real = 0.9;
 /// [`SOFT_MOMENTUM`] with one side and none with both. The solve takes each pair's contacts
 /// together ([`crate::methods::soft::block`]); with both sides held, momentum carries the
 /// impulses on along the directions where the two grains' contacts hold the same places twice,
-/// where nothing damps it, and the solves cycled: on the full-size finite-element compaction
-/// from Φ 0.86 (100 steps) 2 parts of 124 ran out of their 20,000 sweeps with momentum 0.9 and
-/// none without it, which took 2,768 sweeps (at most 11 a solve) and 31 s against 3,377 and
-/// 95 s. One-sided, momentum still saves sweeps (the CI compaction of `mpm`: 87,273 against
-/// 145,692).
+/// where nothing damps it, and solves can cycle until their budget is spent. One-sided, momentum
+/// still saves sweeps (docs/methods/fem.md, "Parameters"; docs/methods/mpm.md, "Design
+/// measurements").
 pub fn soft_momentum(acceleration: Option<Real>, both: bool) -> Real {
     acceleration.unwrap_or(if both { 0.0 } else { SOFT_MOMENTUM })
 }

@@ -7,10 +7,9 @@
 //! each grain's contacts with the walls), and the tasks are coloured greedily so that no two
 //! tasks of a colour share a grain: a sweep takes the colours one after the other and the tasks
 //! of a colour at once, each task's contacts in their order. The order depends on the contacts
-//! only, never on the thread count, so the results do not either. Measured on the full-size
-//! finite-element compaction (`sable bench fem --threads 2`, 400 grains, 2026-11-29): past
-//! Φ 0.86 the sweeps, serial until then, took most of a step (about a thousand sweeps a step
-//! at Φ 0.90, 3.6 s).
+//! only, never on the thread count, so the results do not either. The sweeps are worth sharing
+//! because past jamming they take most of a step (docs/performance.md, "Design measurements"
+//! under "FEM").
 
 use std::collections::HashMap;
 use std::ops::Range;
