@@ -18,12 +18,10 @@
 //! the violations grows over a sweep (O'Donoghue & Candès 2015's restart; Mazhar et al. 2015 use
 //! the same momentum on the projected gradient of the contact problem, Chrono's APGD). Plain
 //! Gauss-Seidel crawls on the slow collective modes of a packing moved by free walls — its error
-//! there decays by a few percent per thousand sweeps — and the momentum carries those modes along:
-//! three 150-disk isotropic preparations between walls that stalled at 5,000 sweeps (mean violation
-//! 1.3-1.6 times its bound) come to rest, and the three 400-disk biaxial tests of `sable bench
-//! biaxial` run 4 times faster (measured in the commit that brought it). With a liquid's
-//! viscosity `k` the normal bound is `r_n >= -c - k U_n` at the contact's current normal velocity
-//! (the admissible set moves with the velocity); the rolling blocks keep their plain update.
+//! there decays by a few percent per thousand sweeps — and the momentum carries those modes along
+//! (docs/methods/cd.md, "Design measurements"). With a liquid's viscosity `k` the normal bound
+//! is `r_n >= -c - k U_n` at the contact's current normal velocity (the admissible set moves with
+//! the velocity); the rolling blocks keep their plain update.
 //!
 //! **Convergence criterion** (checked after every sweep), all below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`

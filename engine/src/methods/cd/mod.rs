@@ -112,14 +112,11 @@ pub const SLOP: Real = 0.01;
 /// contact's radius). It bounds how fast a contact can creep: a contact left approaching by this
 /// much at every step stops sinking where the restoration beyond the slop ([`RESTORE`]) pulls it
 /// back as fast, `WORST_VIOLATION x slop / RESTORE` past the slop — 25% of the radius at half the
-/// slop, which the 5,000 wet grains of `scenes/granule_full_3d.json` (pressed together by their
-/// bridges) reached: their relaxation crept to the 5% limit. At a tenth it is 5% at most, and
-/// the contacts that stay at the bound are few: that granule ends its squeeze with its largest
-/// interpenetration at 1.6%. (A faster restoration, 1/20, made Gauss-Seidel cycle in the drum of
-/// `scenes/drum_2d.json`.) A bound on the mean alone let one contact of a 400-disk biaxial
-/// compression stay approaching at 0.05 m/s, 17% of its radius per step; before the accelerated
-/// sweep, a tenth of the slop stalled Gauss-Seidel on one of nine seeds of that compression,
-/// with it all nine run (2.5-3.1 s each).
+/// slop, past the 5% limit (`max_interpenetration`), to which grains pressed together by liquid
+/// bridges crept; at a tenth it is 5% at most, and the contacts that stay at the bound are few.
+/// The restoration is not made faster instead: a faster one made Gauss-Seidel cycle in a drum.
+/// The largest violation is bounded because a bound on the mean alone let single contacts keep
+/// approaching fast (docs/methods/cd.md, "Design measurements").
 const WORST_VIOLATION: Real = 0.1;
 
 /// Fraction of the interpenetration beyond the slop that a contact removes per step (see
@@ -130,15 +127,12 @@ pub const RESTORE: Real = 0.02;
 /// `radius` (gap `g` < 0, m), to the normal velocity that removes [`RESTORE`] of the excess over
 /// a step of `h` seconds (Baumgarte's stabilisation of the gap, kept gentle). Velocity Signorini
 /// stops approaches, not gaps: what a solve converged to `violation_tolerance` leaves as
-/// approach, a packing held at rest by stress-controlled walls accumulates step after step (at
-/// a bound of 1e-5, a 400-disk preparation crept to the 5% limit of the radius by step
-/// 16,600). At 1/50 of the excess per step the restoration speed stays of the order of the
-/// violation that feeds it; the slop leaves alone the overlaps Moreau's anticipation makes
-/// anyway. The slop should lie above the interpenetration the solve leaves in the packing:
-/// contacts held at the slop's edge are pushed apart at every step, and the packing, stirred,
-/// creeps (a 400-disk frictionless preparation at 100 Pa compacted from Φ 0.8233 to 0.8277 over
-/// 6 s at a slop of 1%, its largest interpenetration pinned at 1.00%; at 2% it stayed at
-/// 1.85%, and the packing was at rest by 1.6 s).
+/// approach, a packing held at rest by stress-controlled walls accumulates step after step, until
+/// it creeps to the interpenetration limit. At 1/50 of the excess per step the restoration speed
+/// stays of the order of the violation that feeds it; the slop leaves alone the overlaps Moreau's
+/// anticipation makes anyway. The slop should lie above the interpenetration the solve leaves in
+/// the packing: contacts held at the slop's edge are pushed apart at every step, and the packing,
+/// stirred, creeps instead of coming to rest (docs/methods/cd.md, "Design measurements").
 fn restoring(mut law: LocalLaw, g: Real, radius: Real, h: Real, slop: Real) -> LocalLaw {
     let excess = -g - slop * radius;
     if excess > 0.0 {

@@ -181,9 +181,8 @@ impl Sweep {
 /// The solver's default tolerance (relative change of the impulses) in a scene with
 /// aggregates. Their primaries carry the attraction's internal forces, balanced by their
 /// contacts and far larger than what loads a grain: at the usual 1e-3 the solver's leftover
-/// kicks kept an aggregate of 227 primaries (F_0 = 100 N/m, steps of 1e-7 s) jittering at
-/// 5e-7 J/m and creeping 4.8e-6 m (5% of a primary) over 1e4 steps; at 1e-6 the energy fell to
-/// 2e-11 J/m and the creep to 4e-8 m, for 14–35 sweeps a step.
+/// kicks keep an aggregate jittering and creeping; at 1e-6 it stays still, for a few tens of
+/// sweeps a step (docs/methods/bpm.md, "Design measurements").
 pub const AGGREGATE_TOLERANCE: Real = 1e-6;
 
 /// The registry's line for contact dynamics.

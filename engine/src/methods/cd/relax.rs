@@ -2,15 +2,13 @@
 //!
 //! A grown aggregate is a packing in which each primary touches the two it was placed against:
 //! pulled together by the attraction and frictionless, it is not yet in equilibrium and
-//! rearranges (measured on one aggregate of 227 primaries: the largest displacement reached
-//! 0.6 of a primary's diameter in the first 2,000 steps of 1e-7 s). The sources relax their
+//! rearranges, its primaries moving by more than half a diameter. The sources relax their
 //! aggregates before loading them; so does [`Cd::relax_aggregates`], with the walls held, no
 //! gravity and no imposed motion, until the kinetic energy has fallen below
 //! [`SETTLED`] of the bond energy scale `N F_0 ⟨a_0⟩`. The relaxation is preparation: a step
 //! whose contact problem is not solved within the budget goes on (while primaries rearrange,
-//! Gauss-Seidel can stall just above the tolerance: 1.5e-6 against 1e-6 after 5,000 sweeps,
-//! measured with friction 0.1 between primaries), and the run's clock, step count and the
-//! grains' initial velocities start after it.
+//! Gauss-Seidel can stall just above the tolerance), and the run's clock, step count and the
+//! grains' initial velocities start after it. The measurements are in docs/methods/bpm.md.
 
 use super::Cd;
 use crate::contact::attraction_lj::characteristic_stress;
