@@ -105,7 +105,7 @@ pub trait ConstitutiveLaw: Send + Sync + std::fmt::Debug {
     }
 
     /// Whether the law yields (its grains keep the dents their contacts press in). `mpm` holds
-    /// both grains' outlines by default for such grains ([`crate::scene::MpmParams`]).
+    /// both grains' outlines by default for such grains ([`crate::methods::mpm::MpmParams`]).
     fn plastic(&self) -> bool {
         false
     }

@@ -73,12 +73,21 @@ pub fn check_threads(c: &mut Checker, t: usize) -> usize {
     t
 }
 
-/// The boilerplate of [`Method`] that is the same for every method: `clone_box` and the
-/// `Any` views.
+/// The part of [`Method`] that is the same for every method: its name, its threads (at the
+/// field path given), `clone_box` and the `Any` views.
 #[macro_export]
 #[doc(hidden)]
-macro_rules! method_any {
-    () => {
+macro_rules! method_common {
+    ($name:literal, $($threads:ident).+) => {
+        fn name(&self) -> &'static str {
+            $name
+        }
+        fn threads(&self) -> usize {
+            self.$($threads).+
+        }
+        fn set_threads(&mut self, threads: usize) {
+            self.$($threads).+ = threads;
+        }
         fn clone_box(&self) -> Box<dyn $crate::methods::method::Method> {
             Box::new(self.clone())
         }

@@ -22,9 +22,6 @@ use crate::particles::aggregate::{Bonding, NO_AGGREGATE};
 pub const STATE_FORMAT: &str = "sable-state";
 /// Version of the state format written by this engine.
 pub const STATE_VERSION: u32 = 1;
-/// The deepest a soft-grain method may split a step (into `2^MAX_SPLIT_DEPTH` parts): the bound
-/// of a saved state's `split_depth`.
-pub const MAX_SPLIT_DEPTH: u32 = 4;
 
 /// A saved state, as written to and read from JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

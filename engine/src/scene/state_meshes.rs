@@ -15,8 +15,7 @@
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
-use super::state::MAX_SPLIT_DEPTH as MAX_DEPTH;
-use super::state_points::StateImpulse;
+use super::state_points::{StateImpulse, MAX_SPLIT_DEPTH as MAX_DEPTH};
 use super::violation::{Checker, EntryRule};
 use crate::geometry::quad::Geometry;
 

@@ -15,8 +15,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::state::MAX_SPLIT_DEPTH as MAX_DEPTH;
 use super::violation::{Checker, EntryRule};
+
+/// The deepest a soft-grain method may split a step (into `2^MAX_SPLIT_DEPTH` parts): the bound
+/// of a saved state's `split_depth` (here and in [`super::state_meshes`]).
+pub const MAX_SPLIT_DEPTH: u32 = 4;
 
 /// The material points of a state's grains, in the order of its `particles` (grain `k`'s points
 /// follow grain `k − 1`'s). Vectors are in-plane (2 components); tensors list their
@@ -116,10 +119,10 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
             );
         }
     }
-    if s.split_depth > MAX_DEPTH {
+    if s.split_depth > MAX_SPLIT_DEPTH {
         c.fail(
             format!("{path}.split_depth"),
-            format!("must be at most {MAX_DEPTH} (a step splits into at most {} parts), got {}", 1 << MAX_DEPTH, s.split_depth),
+            format!("must be at most {MAX_SPLIT_DEPTH} (a step splits into at most {} parts), got {}", 1 << MAX_SPLIT_DEPTH, s.split_depth),
         );
     }
     if c.violations.len() > before {

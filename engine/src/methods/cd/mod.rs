@@ -26,7 +26,7 @@
 //!    axis — is pushed by its target stress times its area;
 //! 4. `Solve`: NLGS finds the impulses and the end-of-step velocities of grains and free walls
 //!    together (the walls are bodies of the contact problem, as in LMGC90); with
-//!    `method.sweep` coloured (by default from [`crate::scene::Sweep::PARALLEL_FROM`] contacts),
+//!    `method.sweep` coloured (by default from [`super::cd::Sweep::PARALLEL_FROM`] contacts),
 //!    the contacts are stored in colour order and each colour is swept in parallel
 //!    ([`crate::nscd::colour`]);
 //! 5. `Integrate`: positions advance by `h (theta v+ + (1 - theta) v-)` (theta-scheme); forces

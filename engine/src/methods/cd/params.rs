@@ -283,10 +283,6 @@ pub fn check(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
 }
 
 impl Method for CdParams {
-    fn name(&self) -> &'static str {
-        "cd"
-    }
-
     /// Rigid grains only; with aggregates of bonded primaries, the tighter
     /// [`AGGREGATE_TOLERANCE`] unless the scene sets `method.tolerance`.
     fn fit(&mut self, scene: &Scene, given: &serde_json::Value, c: &mut Checker) {
@@ -300,13 +296,5 @@ impl Method for CdParams {
         Ok(Box::new(super::Cd::new(scene, self)?))
     }
 
-    fn threads(&self) -> usize {
-        self.threads
-    }
-
-    fn set_threads(&mut self, threads: usize) {
-        self.threads = threads;
-    }
-
-    crate::method_any!();
+    crate::method_common!("cd", threads);
 }

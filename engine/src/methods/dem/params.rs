@@ -125,10 +125,6 @@ pub fn check(c: &mut Checker, s: &DemParamsSpec) -> DemParams {
 }
 
 impl Method for DemParams {
-    fn name(&self) -> &'static str {
-        "dem"
-    }
-
     fn fit(&mut self, scene: &Scene, _given: &serde_json::Value, c: &mut Checker) {
         crate::methods::fit::rigid_grains(scene, "dem", c);
         for m in scene.materials.iter().filter(|m| m.deformable.is_none()) {
@@ -141,15 +137,7 @@ impl Method for DemParams {
         Ok(Box::new(super::Dem::new(scene, self)?))
     }
 
-    fn threads(&self) -> usize {
-        self.threads
-    }
-
-    fn set_threads(&mut self, threads: usize) {
-        self.threads = threads;
-    }
-
-    crate::method_any!();
+    crate::method_common!("dem", threads);
 }
 
 /// DEM's restitution is a damping ratio: a perfectly plastic impact (0) is beyond it, and a

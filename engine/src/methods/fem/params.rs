@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
 use crate::methods::method::{read_spec, Method, MethodEntry};
-use crate::methods::soft::params::{SoftSolver, SoftSolverSpec};
+use crate::methods::soft::params::{soft_solver_spec, SoftSolver};
 use crate::scene::Checker;
 
 /// Parameters of the implicit finite element method with contact dynamics, as written in a
@@ -59,24 +59,6 @@ pub struct FemParamsSpec {
     pub threads: Option<usize>,
 }
 
-impl FemParamsSpec {
-    /// The settings shared with `mpm`.
-    fn solver(&self) -> SoftSolverSpec {
-        SoftSolverSpec {
-            time_step: self.time_step,
-            max_displacement: self.max_displacement,
-            theta: self.theta,
-            newton_tolerance: self.newton_tolerance,
-            max_newton: self.max_newton,
-            tolerance: self.tolerance,
-            violation_tolerance: self.violation_tolerance,
-            max_iterations: self.max_iterations,
-            acceleration: self.acceleration,
-            threads: self.threads,
-        }
-    }
-}
-
 /// Parameters of the implicit finite element method ([`crate::methods::fem`]), checked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FemParams {
@@ -108,7 +90,7 @@ fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn 
 
 /// Checks the parameters a scene gives, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &FemParamsSpec) -> FemParams {
-    let mut p = FemParams { solver: crate::methods::soft::params::check(c, &s.solver()), ..FemParams::default() };
+    let mut p = FemParams { solver: crate::methods::soft::params::check(c, &soft_solver_spec!(s)), ..FemParams::default() };
     if let Some(b) = s.symmetric_contact {
         p.symmetric_contact = b;
     }

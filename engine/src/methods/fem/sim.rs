@@ -400,10 +400,6 @@ impl Fem {
 }
 
 impl Method for FemParams {
-    fn name(&self) -> &'static str {
-        "fem"
-    }
-
     fn fit(&mut self, scene: &Scene, _given: &serde_json::Value, c: &mut Checker) {
         crate::methods::fit::soft_grains(scene, "fem", self.solver.time_step.is_some(), c);
     }
@@ -412,13 +408,5 @@ impl Method for FemParams {
         Ok(Box::new(fem(scene, self)?))
     }
 
-    fn threads(&self) -> usize {
-        self.solver.threads
-    }
-
-    fn set_threads(&mut self, threads: usize) {
-        self.solver.threads = threads;
-    }
-
-    crate::method_any!();
+    crate::method_common!("fem", solver.threads);
 }

@@ -10,7 +10,7 @@
 //! between two convex outlines the other grain's vertices can then cross a segment by at most
 //! the sagitta of a chord a cell long, further once outlines are dented. Both sides
 //! ([`Sides::Both`], `symmetric_contact`) remove that overlap for 2.6 times the time; they are
-//! the default when a grain's law is plastic ([`crate::scene::MpmParams::symmetric_contact`]),
+//! the default when a grain's law is plastic ([`crate::methods::mpm::MpmParams::symmetric_contact`]),
 //! because plastic grains keep their dents and, one-sided, their outlines overlap until the
 //! contact solves break down (docs/methods/mpm.md, "Design measurements").
 //!

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
 use crate::methods::method::{read_spec, Method, MethodEntry};
-use crate::methods::soft::params::{SoftSolver, SoftSolverSpec};
+use crate::methods::soft::params::{soft_solver_spec, SoftSolver};
 use crate::scene::Checker;
 
 /// Parameters of the implicit material point method with contact dynamics, as written in a
@@ -65,24 +65,6 @@ pub struct MpmParamsSpec {
     pub threads: Option<usize>,
 }
 
-impl MpmParamsSpec {
-    /// The settings shared with `fem`.
-    fn solver(&self) -> SoftSolverSpec {
-        SoftSolverSpec {
-            time_step: self.time_step,
-            max_displacement: self.max_displacement,
-            theta: self.theta,
-            newton_tolerance: self.newton_tolerance,
-            max_newton: self.max_newton,
-            tolerance: self.tolerance,
-            violation_tolerance: self.violation_tolerance,
-            max_iterations: self.max_iterations,
-            acceleration: self.acceleration,
-            threads: self.threads,
-        }
-    }
-}
-
 /// Parameters of the implicit material point method ([`crate::methods::mpm`]), checked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MpmParams {
@@ -124,7 +106,7 @@ fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn 
 /// Checks the parameters a scene gives, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
     let mut p = MpmParams {
-        solver: crate::methods::soft::params::check(c, &s.solver()),
+        solver: crate::methods::soft::params::check(c, &soft_solver_spec!(s)),
         symmetric_contact: s.symmetric_contact,
         ..MpmParams::default()
     };

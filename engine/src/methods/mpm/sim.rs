@@ -315,10 +315,6 @@ impl Mpm {
 }
 
 impl Method for MpmParams {
-    fn name(&self) -> &'static str {
-        "mpm"
-    }
-
     fn fit(&mut self, scene: &Scene, _given: &serde_json::Value, c: &mut Checker) {
         crate::methods::fit::soft_grains(scene, "mpm", self.solver.time_step.is_some(), c);
     }
@@ -327,13 +323,5 @@ impl Method for MpmParams {
         Ok(Box::new(mpm(scene, self)?))
     }
 
-    fn threads(&self) -> usize {
-        self.solver.threads
-    }
-
-    fn set_threads(&mut self, threads: usize) {
-        self.solver.threads = threads;
-    }
-
-    crate::method_any!();
+    crate::method_common!("mpm", solver.threads);
 }

@@ -21,7 +21,7 @@
 //! dissipated energy stays positive. Both is `fem`'s default. `mpm` keeps one side by default
 //! for elastic grains, whose pushes and overlap are small and for which both sides cost 2.6
 //! times the time; for plastic grains both sides are its default
-//! ([`crate::scene::MpmParams::symmetric_contact`]). The measurements are in docs/methods/fem.md
+//! ([`crate::methods::mpm::MpmParams::symmetric_contact`]). The measurements are in docs/methods/fem.md
 //! and docs/methods/mpm.md ("Design measurements").
 //!
 //! **Criterion.** Where two outlines lie flat on each other the two sets of contacts are

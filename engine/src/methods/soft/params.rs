@@ -81,6 +81,26 @@ pub struct SoftSolverSpec {
     pub threads: Option<usize>,
 }
 
+/// The shared settings of a method's spec, which holds them under the same names as fields of
+/// its own (`mpm`, `fem`).
+macro_rules! soft_solver_spec {
+    ($s:expr) => {
+        $crate::methods::soft::params::SoftSolverSpec {
+            time_step: $s.time_step,
+            max_displacement: $s.max_displacement,
+            theta: $s.theta,
+            newton_tolerance: $s.newton_tolerance,
+            max_newton: $s.max_newton,
+            tolerance: $s.tolerance,
+            violation_tolerance: $s.violation_tolerance,
+            max_iterations: $s.max_iterations,
+            acceleration: $s.acceleration,
+            threads: $s.threads,
+        }
+    };
+}
+pub(crate) use soft_solver_spec;
+
 /// Checks the shared settings, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &SoftSolverSpec) -> SoftSolver {
     let mut p = SoftSolver::default();

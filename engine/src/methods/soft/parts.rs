@@ -17,7 +17,7 @@ use crate::math::Real;
 
 /// The deepest a step is split: into `2^MAX_DEPTH` parts (the bound a saved state's
 /// `split_depth` is checked against).
-pub const MAX_DEPTH: u32 = crate::scene::state::MAX_SPLIT_DEPTH;
+pub const MAX_DEPTH: u32 = crate::scene::state_points::MAX_SPLIT_DEPTH;
 
 /// Steps in a row without a failure after which the next one tries parts twice as long.
 pub const CALM_STEPS: u32 = 10;
