@@ -86,7 +86,8 @@ pub struct SystemView<'a> {
     pub rattler_threshold: usize,
     /// The rotating drum, if there is one.
     pub drum: Option<DrumView>,
-    /// What deformable grains add (method `mpm`; FEM and bonded aggregates alike): their
+    /// What deformable grains add (methods `mpm` and `fem`; aggregates of the bonded particle
+    /// method are rigid primaries here, their grains measured in `Sample::grains`): their
     /// kinetic energy with their internal motion, and their deformation. Their `particles`
     /// are the grains as disks of their *current* area (centroid, mean velocity), so that Φ,
     /// the coordination, the stress and p, q, μ are measured as for rigid grains.
