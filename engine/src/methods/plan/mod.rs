@@ -93,6 +93,10 @@ pub fn plan(spec: &SceneSpec) -> Result<Plan, Vec<Violation>> {
         Some(Request::Auto) if c.violations.is_empty() => {
             let (mut m, reason, advice) = choose(&scene);
             m.fit(&scene, &spec.method, &mut c);
+            // What the chosen method refuses is the advisor's choice's, not the scene's.
+            for v in &mut c.violations {
+                v.rule = format!("auto chose {}: {}", m.name(), v.rule);
+            }
             (Some(m), reason, advice)
         }
         _ => (None, String::new(), None),

@@ -240,6 +240,10 @@ fn contact_dynamics_parameters_are_checked_by_path_and_rule() {
 
 #[test]
 fn zero_restitution_is_an_impact_law_for_contact_dynamics_only() {
+    // Refused by the method auto chose, which the rule says.
+    let auto = rules(&scene_with(serde_json::json!("auto"), 0.0));
+    assert_eq!(auto.len(), 1, "{auto:?}");
+    assert!(auto[0].starts_with("materials.glass.restitution: auto chose dem: must be > 0 with method dem"), "{auto:?}");
     assert!(rules(&scene_with(serde_json::json!("cd"), 0.0)).is_empty());
     assert_eq!(
         rules(&scene_with(serde_json::json!("dem"), 0.0)),
