@@ -178,3 +178,51 @@ pub(super) fn check_sampling(c: &mut Checker, s: Option<&SamplingSpec>, stop: &S
         },
     }
 }
+
+/// The container of a scene, whose box is the saved state's when it starts from one (the scene
+/// then gives no box, and the same periodic axes).
+pub(super) fn check_box(
+    c: &mut Checker,
+    spec: &ContainerSpec,
+    state: Option<&super::state::StateFile>,
+    dim: usize,
+    material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
+) -> Container {
+    let Some(st) = state else { return check_container(c, spec, dim, material_index) };
+    if !spec.min.is_empty() || !spec.max.is_empty() {
+        c.fail("container.min", "leave container.min and container.max out with start_from: the box is the state's");
+    }
+    let mut periodic: Vec<&str> = spec.periodic.iter().map(String::as_str).collect();
+    let mut theirs: Vec<&str> = st.periodic.iter().map(String::as_str).collect();
+    periodic.sort_unstable();
+    theirs.sort_unstable();
+    if periodic != theirs {
+        c.fail(
+            "container.periodic",
+            format!("must match the periodic axes of the state it starts from ([{}]), got [{}]", theirs.join(", "), periodic.join(", ")),
+        );
+    }
+    let spec_box = ContainerSpec { min: st.min.clone(), max: st.max.clone(), ..spec.clone() };
+    check_container(c, &spec_box, dim, material_index)
+}
+
+/// The whole run's limits of a scene with an experiment: time and steps only, its stages ending
+/// by their own criteria.
+pub(super) fn check_experiment_limits(c: &mut Checker, limits: Option<&StopSpec>) -> Stop {
+    let Some(s) = limits else { return Stop::default() };
+    for (field, set) in [("packing_fraction", s.packing_fraction.is_some()), ("strain", s.strain.is_some())] {
+        if set {
+            c.fail(
+                format!("stop.{field}"),
+                "not with an experiment, whose stages end by their own criteria (stop may limit time and steps)",
+            );
+        }
+    }
+    if let Some(t) = s.time {
+        c.positive("stop.time", t);
+    }
+    if s.steps == Some(0) {
+        c.fail("stop.steps", "must be >= 1");
+    }
+    Stop { time: s.time, steps: s.steps, ..Stop::default() }
+}

@@ -153,3 +153,25 @@ pub(super) fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> M
         deformable: None,
     }
 }
+
+/// Checks the scene's materials, each by [`check_material`], and that those with a contact law
+/// share one (linear or Hertz–Mindlin).
+pub(super) fn check_materials(c: &mut Checker, spec: &SceneSpec) -> Vec<Material> {
+    if spec.materials.is_empty() {
+        c.fail("materials", "must define at least one material");
+    }
+    let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(c, name, m)).collect();
+    let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
+    let contact_materials: Vec<&Material> = materials.iter().filter(|m| m.deformable.is_none()).collect();
+    if let Some(first) = contact_materials.first() {
+        for m in &contact_materials[1..] {
+            if hertz(m) != hertz(first) {
+                c.fail(
+                    format!("materials.{}.contact.law", m.name),
+                    format!("all materials must use the same contact law ('{}' uses another one)", first.name),
+                );
+            }
+        }
+    }
+    materials
+}

@@ -302,3 +302,67 @@ fn check_grain_model(
     }
     model
 }
+
+/// A grain is measured whole across a periodic boundary from its primaries' nearest images
+/// (observe::grains): an aggregate must be less than half the period across.
+pub(super) fn check_aggregate_periods(c: &mut Checker, sets: &[ParticleSet], container: &Container, dim: usize) {
+    for (k, set) in sets.iter().enumerate().filter(|(_, s)| s.aggregate.is_some()) {
+        let grain = set.size.max_diameter();
+        for a in (0..dim).filter(|&a| container.periodic[a]) {
+            let period = container.hi[a] - container.lo[a];
+            if grain.is_finite() && period > 0.0 && 2.0 * grain >= period {
+                c.fail(
+                    format!("container.max[{a}]"),
+                    format!("the period along {} ({period} m) must exceed twice the largest grain of particles[{k}] ({grain} m), whose primaries are measured as one grain by their nearest images", AXES[a]),
+                );
+            }
+        }
+    }
+}
+
+/// The number of particles a scene places in all (primaries of aggregates included), bounded
+/// by [`MAX_PARTICLES`]: sets of valid counts may still add up (or multiply, by an aggregate's
+/// primaries) past what any machine holds; the sum saturates rather than wraps.
+pub(super) fn check_total(c: &mut Checker, from_state: usize, sets: &[ParticleSet]) {
+    let total = sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add);
+    if total > MAX_PARTICLES {
+        let shown = if total == usize::MAX { "more than that".to_string() } else { format!("{total}") };
+        c.fail(
+            "particles",
+            format!("the scene places at most {MAX_PARTICLES} particles in all (primaries of aggregates included), got {shown}"),
+        );
+    }
+}
+
+/// The grain scales an experiment's defaults are set from: the first set's (or the saved
+/// state's) mean diameter and material, the solid volume, and the capillary force of wet
+/// grains.
+pub(super) fn grain_scales(
+    dim: usize,
+    initial: Option<&super::state::InitialState>,
+    sets: &[ParticleSet],
+    materials: &[Material],
+) -> super::experiments::GrainScales {
+    let volume_of = |d: Real| crate::particles::Particles::volume_of(dim, 0.5 * d);
+    let (diameter, first_material, any_wet, solid_volume) = match (initial, sets.first()) {
+        (Some(st), _) => (
+            st.mean_diameter(),
+            st.material.first().copied(),
+            st.wet.iter().any(|&w| w),
+            st.radius.iter().map(|&r| volume_of(2.0 * r)).sum(),
+        ),
+        (None, Some(set)) => (
+            set.size.mean_diameter(),
+            Some(set.material),
+            sets.iter().any(|s| s.wet_fraction > 0.0),
+            sets.iter().map(|s| s.count as Real * volume_of(1.0) * s.size.mean_power(dim as Real)).sum(),
+        ),
+        (None, None) => (1.0, None, false, 0.0),
+    };
+    let material = first_material.and_then(|m| materials.get(m));
+    let capillary_force = material
+        .and_then(|m| m.liquid)
+        .filter(|_| any_wet)
+        .map(|l| 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos() * 0.5 * diameter);
+    super::experiments::GrainScales { diameter, density: material.map_or(1.0, |m| m.density), solid_volume, capillary_force }
+}

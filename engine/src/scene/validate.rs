@@ -1,14 +1,14 @@
 //! Turns a [`SceneSpec`] into a [`Scene`], reporting every broken rule at once.
 
-use super::container::{check_container, check_sampling, check_stop};
-use super::experiments::{check_experiment, GrainScales};
-use super::materials::check_material;
+use super::container::{check_box, check_experiment_limits, check_sampling, check_stop};
+use super::experiments::check_experiment;
+use super::materials::check_materials;
 use super::model::*;
-use super::sets::{check_set, fill_drum};
+use super::sets::{check_aggregate_periods, check_set, check_total, fill_drum, grain_scales};
 use super::spec::*;
 use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
-use crate::math::{vec_from_slice, Real, Vec3, AXES};
+use crate::math::{vec_from_slice, Vec3};
 
 /// Parses scene JSON text and validates the scene (not its method: a scene knows no method;
 /// `methods::plan_scene` reads both).
@@ -53,24 +53,8 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
         }
     };
 
-    // Materials.
     let names: Vec<String> = spec.materials.keys().cloned().collect();
-    if names.is_empty() {
-        c.fail("materials", "must define at least one material");
-    }
-    let materials: Vec<Material> = spec.materials.iter().map(|(name, m)| check_material(c, name, m)).collect();
-    let hertz = |m: &Material| matches!(m.law, ElasticLaw::HertzMindlin { .. });
-    let contact_materials: Vec<&Material> = materials.iter().filter(|m| m.deformable.is_none()).collect();
-    if let Some(first) = contact_materials.first() {
-        for m in &contact_materials[1..] {
-            if hertz(m) != hertz(first) {
-                c.fail(
-                    format!("materials.{}.contact.law", m.name),
-                    format!("all materials must use the same contact law ('{}' uses another one)", first.name),
-                );
-            }
-        }
-    }
+    let materials = check_materials(c, spec);
     let material_index = |c: &mut Checker, field: &str, name: &str| -> usize {
         match names.iter().position(|n| n == name) {
             Some(i) => i,
@@ -83,30 +67,7 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
 
     // A saved state to start from gives the particles and the box.
     let state = check_start_from(c, spec.start_from.as_ref(), spec.particles.is_empty());
-    let mut container = match state {
-        Some(st) => {
-            if !spec.container.min.is_empty() || !spec.container.max.is_empty() {
-                c.fail("container.min", "leave container.min and container.max out with start_from: the box is the state's");
-            }
-            let mut periodic: Vec<&str> = spec.container.periodic.iter().map(String::as_str).collect();
-            let mut theirs: Vec<&str> = st.periodic.iter().map(String::as_str).collect();
-            periodic.sort_unstable();
-            theirs.sort_unstable();
-            if periodic != theirs {
-                c.fail(
-                    "container.periodic",
-                    format!(
-                        "must match the periodic axes of the state it starts from ([{}]), got [{}]",
-                        theirs.join(", "),
-                        periodic.join(", ")
-                    ),
-                );
-            }
-            let spec_box = ContainerSpec { min: st.min.clone(), max: st.max.clone(), ..spec.container.clone() };
-            check_container(c, &spec_box, dim, &material_index)
-        }
-        None => check_container(c, &spec.container, dim, &material_index),
-    };
+    let mut container = check_box(c, &spec.container, state, dim, &material_index);
     let initial = state.map(|st| std::sync::Arc::new(check_state(c, "start_from.state", st, dim, &material_index)));
 
     let gravity = match &spec.gravity {
@@ -133,20 +94,7 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
         })
         .collect();
 
-    // A grain is measured whole across a periodic boundary from its primaries' nearest images
-    // (observe::grains): it must be less than half the period across.
-    for (k, set) in sets.iter().enumerate().filter(|(_, s)| s.aggregate.is_some()) {
-        let grain = set.size.max_diameter();
-        for a in (0..dim).filter(|&a| container.periodic[a]) {
-            let period = container.hi[a] - container.lo[a];
-            if grain.is_finite() && period > 0.0 && 2.0 * grain >= period {
-                c.fail(
-                    format!("container.max[{a}]"),
-                    format!("the period along {} ({period} m) must exceed twice the largest grain of particles[{k}] ({grain} m), whose primaries are measured as one grain by their nearest images", AXES[a]),
-                );
-            }
-        }
-    }
+    check_aggregate_periods(c, &sets, &container, dim);
 
     let (experiment, stop, stages) = match (&spec.experiment, &spec.stop) {
         (None, None) => {
@@ -159,28 +107,7 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
             (None, stop, vec![stage])
         }
         (Some(e), limits) => {
-            let volume_of = |d: Real| crate::particles::Particles::volume_of(dim, 0.5 * d);
-            let (diameter, first_material, any_wet, solid_volume) = match (&initial, sets.first()) {
-                (Some(st), _) => (
-                    st.mean_diameter(),
-                    st.material.first().copied(),
-                    st.wet.iter().any(|&w| w),
-                    st.radius.iter().map(|&r| volume_of(2.0 * r)).sum(),
-                ),
-                (None, Some(set)) => (
-                    set.size.mean_diameter(),
-                    Some(set.material),
-                    sets.iter().any(|s| s.wet_fraction > 0.0),
-                    sets.iter().map(|s| s.count as Real * volume_of(1.0) * s.size.mean_power(dim as Real)).sum(),
-                ),
-                (None, None) => (1.0, None, false, 0.0),
-            };
-            let material = first_material.and_then(|m| materials.get(m));
-            let capillary_force = material
-                .and_then(|m| m.liquid)
-                .filter(|_| any_wet)
-                .map(|l| 2.0 * std::f64::consts::PI * l.surface_tension * l.contact_angle.cos() * 0.5 * diameter);
-            let grains = GrainScales { diameter, density: material.map_or(1.0, |m| m.density), solid_volume, capillary_force };
+            let grains = grain_scales(dim, initial.as_deref(), &sets, &materials);
             let (experiment, stages) = check_experiment(c, e, dim, &container, &grains, &gravity);
             match &experiment {
                 Experiment::Drum { drum, .. } => {
@@ -192,26 +119,7 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
                 Experiment::GranuleCompression { ball, .. } => container.granule = Some(*ball),
                 _ => {}
             }
-            let stop = match limits {
-                None => Stop::default(),
-                Some(s) => {
-                    for (field, set) in [("packing_fraction", s.packing_fraction.is_some()), ("strain", s.strain.is_some())] {
-                        if set {
-                            c.fail(
-                                format!("stop.{field}"),
-                                "not with an experiment, whose stages end by their own criteria (stop may limit time and steps)",
-                            );
-                        }
-                    }
-                    if let Some(t) = s.time {
-                        c.positive("stop.time", t);
-                    }
-                    if s.steps == Some(0) {
-                        c.fail("stop.steps", "must be >= 1");
-                    }
-                    Stop { time: s.time, steps: s.steps, ..Stop::default() }
-                }
-            };
+            let stop = check_experiment_limits(c, limits.as_ref());
             (Some(experiment), stop, stages)
         }
     };
@@ -225,17 +133,7 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
         None => 0,
     });
 
-    // Sets of valid counts may still add up (or multiply, by an aggregate's primaries) past what
-    // any machine holds; the sum saturates rather than wraps.
-    let from_state = initial.as_ref().map_or(0, |st| st.radius.len());
-    let total = sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add);
-    if total > MAX_PARTICLES {
-        let shown = if total == usize::MAX { "more than that".to_string() } else { format!("{total}") };
-        c.fail(
-            "particles",
-            format!("the scene places at most {MAX_PARTICLES} particles in all (primaries of aggregates included), got {shown}"),
-        );
-    }
+    check_total(c, initial.as_ref().map_or(0, |st| st.radius.len()), &sets);
     Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".to_string()),
         dim,
