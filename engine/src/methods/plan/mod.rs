@@ -110,8 +110,7 @@ pub fn plan(spec: &SceneSpec) -> Result<Plan, Vec<Violation>> {
 /// The method `auto` takes for a valid scene: contact dynamics for aggregates of rigid
 /// primaries (as the sources ran them), else the advisor's choice.
 fn choose(scene: &Scene) -> (Box<dyn Method>, String, Option<Advice>) {
-    let aggregates = scene.sets.iter().any(|s| s.aggregate.is_some()) || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty());
-    if aggregates {
+    if super::fit::aggregates(scene).is_some() {
         let reason = "aggregates of rigid primaries run by contact dynamics, as Nezamabadi (2020, §1.2.1) ran them".to_string();
         return ((super::cd::params::ENTRY.defaults)(), reason, None);
     }
