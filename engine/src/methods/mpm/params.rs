@@ -1,68 +1,26 @@
 //! The parameters of the implicit material point method (`"method": "mpm"`): its grid and
 //! points beside the solver settings it shares with `fem` ([`SoftSolver`]).
 
-use serde::{Deserialize, Serialize};
-
 use crate::math::Real;
 use crate::methods::method::{read_spec, Method, MethodEntry};
-use crate::methods::soft::params::{soft_solver_spec, SoftSolver};
+use crate::methods::soft::params::{soft_params_spec, SoftSolver};
 use crate::scene::Checker;
 
-/// Parameters of the implicit material point method with contact dynamics, as written in a
-/// scene (all optional).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MpmParamsSpec {
-    /// Always `"mpm"`.
-    #[serde(default)]
-    pub kind: String,
-    /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of a cell
-    /// in one step.
-    #[serde(default)]
-    pub time_step: Option<f64>,
-    /// Largest expected displacement per step / grid cell (default time step). Default 0.05.
-    #[serde(default)]
-    pub max_displacement: Option<f64>,
-    /// Grid cells across the smallest grain diameter (>= 1). Default 8.
-    #[serde(default)]
-    pub cells_per_diameter: Option<f64>,
-    /// Material points per cell along each axis (>= 1). Default 2.
-    #[serde(default)]
-    pub points_per_cell: Option<u32>,
-    /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
-    #[serde(default)]
-    pub theta: Option<f64>,
-    /// FLIP fraction of the points' velocity update, in [0, 1]. Default 0 (PIC).
-    #[serde(default)]
-    pub flip: Option<f64>,
-    /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
-    #[serde(default)]
-    pub newton_tolerance: Option<f64>,
-    /// Newton iterations allowed per step. Default 25.
-    #[serde(default)]
-    pub max_newton: Option<u32>,
-    /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative to
-    /// Newton's velocity scale. Default 1e-6.
-    #[serde(default)]
-    pub tolerance: Option<f64>,
-    /// Contact solver: tolerance on the mean violation (m/s relative to the velocity scale).
-    /// Default 1e-6.
-    #[serde(default)]
-    pub violation_tolerance: Option<f64>,
-    /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
-    #[serde(default)]
-    pub max_iterations: Option<u32>,
-    /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9.
-    #[serde(default)]
-    pub acceleration: Option<f64>,
-    /// Contacts between grains hold the vertices of both grains' outlines outside the other's
-    /// (true), or only those of the grain of lower index (false). Default: true when a grain's
-    /// law is plastic (`elastoplastic`), false otherwise.
-    #[serde(default)]
-    pub symmetric_contact: Option<bool>,
-    /// Threads; 0 = rayon's global pool. Default 0.
-    #[serde(default)]
-    pub threads: Option<usize>,
+soft_params_spec! {
+    /// Parameters of the implicit material point method with contact dynamics, as written in a
+    /// scene (all optional): the settings shared with `fem`, and these.
+    MpmParamsSpec, "mpm" {
+        /// Grid cells across the smallest grain diameter (>= 1). Default 8.
+        cells_per_diameter: Option<f64>,
+        /// Material points per cell along each axis (>= 1). Default 2.
+        points_per_cell: Option<u32>,
+        /// FLIP fraction of the points' velocity update, in [0, 1]. Default 0 (PIC).
+        flip: Option<f64>,
+        /// Contacts between grains hold the vertices of both grains' outlines outside the
+        /// other's (true), or only those of the grain of lower index (false). Default: true
+        /// when a grain's law is plastic (`elastoplastic`), false otherwise.
+        symmetric_contact: Option<bool>,
+    }
 }
 
 /// Parameters of the implicit material point method ([`crate::methods::mpm`]), checked.
@@ -106,7 +64,7 @@ fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn 
 /// Checks the parameters a scene gives, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
     let mut p = MpmParams {
-        solver: crate::methods::soft::params::check(c, &soft_solver_spec!(s)),
+        solver: crate::methods::soft::params::check(c, &s.solver()),
         symmetric_contact: s.symmetric_contact,
         ..MpmParams::default()
     };

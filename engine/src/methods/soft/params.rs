@@ -81,25 +81,76 @@ pub struct SoftSolverSpec {
     pub threads: Option<usize>,
 }
 
-/// The shared settings of a method's spec, which holds them under the same names as fields of
-/// its own (`mpm`, `fem`).
-macro_rules! soft_solver_spec {
-    ($s:expr) => {
-        $crate::methods::soft::params::SoftSolverSpec {
-            time_step: $s.time_step,
-            max_displacement: $s.max_displacement,
-            theta: $s.theta,
-            newton_tolerance: $s.newton_tolerance,
-            max_newton: $s.max_newton,
-            tolerance: $s.tolerance,
-            violation_tolerance: $s.violation_tolerance,
-            max_iterations: $s.max_iterations,
-            acceleration: $s.acceleration,
-            threads: $s.threads,
+/// Declares a soft-grain method's spec (`$name`, for `"method": {"kind": $kind, ...}`): the
+/// settings every soft-grain method shares, written once here, then the method's own fields;
+/// unknown fields are refused. Its `solver()` hands the shared ones to [`check`].
+macro_rules! soft_params_spec {
+    ($(#[$meta:meta])* $name:ident, $kind:literal { $($(#[$fmeta:meta])* $field:ident: $ty:ty),* $(,)? }) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct $name {
+            #[doc = concat!("Always `\"", $kind, "\"`.")]
+            #[serde(default)]
+            pub kind: String,
+            /// Time step, s. Default: the fastest imposed motion covers `max_displacement` of a
+            /// grid cell (`mpm`) or an element (`fem`) in one step.
+            #[serde(default)]
+            pub time_step: Option<f64>,
+            /// Largest expected displacement per step / cell or element size (default time
+            /// step). Default 0.05.
+            #[serde(default)]
+            pub max_displacement: Option<f64>,
+            /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
+            #[serde(default)]
+            pub theta: Option<f64>,
+            /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
+            #[serde(default)]
+            pub newton_tolerance: Option<f64>,
+            /// Newton iterations allowed per step. Default 25.
+            #[serde(default)]
+            pub max_newton: Option<u32>,
+            /// Contact solver: tolerance on a sweep's change of the grains' velocities, relative
+            /// to Newton's velocity scale. Default 1e-6.
+            #[serde(default)]
+            pub tolerance: Option<f64>,
+            /// Contact solver: tolerance on the mean violation (m/s relative to the velocity
+            /// scale). Default 1e-6.
+            #[serde(default)]
+            pub violation_tolerance: Option<f64>,
+            /// Contact solver: sweeps allowed per Newton iteration. Default 20000.
+            #[serde(default)]
+            pub max_iterations: Option<u32>,
+            /// Contact solver: momentum factor of the accelerated sweep, in [0, 1). Default 0.9
+            /// with contacts held on one side, none with both (`symmetric_contact`).
+            #[serde(default)]
+            pub acceleration: Option<f64>,
+            /// Threads; 0 = rayon's global pool. Default 0.
+            #[serde(default)]
+            pub threads: Option<usize>,
+            $($(#[$fmeta])* #[serde(default)] pub $field: $ty,)*
+        }
+
+        impl $name {
+            /// The settings shared with the other soft-grain methods.
+            fn solver(&self) -> $crate::methods::soft::params::SoftSolverSpec {
+                $crate::methods::soft::params::SoftSolverSpec {
+                    time_step: self.time_step,
+                    max_displacement: self.max_displacement,
+                    theta: self.theta,
+                    newton_tolerance: self.newton_tolerance,
+                    max_newton: self.max_newton,
+                    tolerance: self.tolerance,
+                    violation_tolerance: self.violation_tolerance,
+                    max_iterations: self.max_iterations,
+                    acceleration: self.acceleration,
+                    threads: self.threads,
+                }
+            }
         }
     };
 }
-pub(crate) use soft_solver_spec;
+pub(crate) use soft_params_spec;
 
 /// Checks the shared settings, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &SoftSolverSpec) -> SoftSolver {
