@@ -12,6 +12,7 @@ pub mod method;
 pub mod mpm;
 pub mod plan;
 pub mod registry;
+pub mod rigid;
 pub mod soft;
 pub(crate) mod world;
 

@@ -45,7 +45,7 @@
 //! Experiments: every experiment of DEM runs (a stage with local damping makes impacts
 //! inelastic, [`laws::PairLaws::set_inelastic`]; a stage's equilibrium is judged on means over
 //! the check interval, [`balance`]; an experiment's loading stages take the looser
-//! `loading_violation_tolerance`, [`Cd::begin_stage`]). The rotating drum is the boundary after
+//! `loading_violation_tolerance`, [`Cd::stage`]). The rotating drum is the boundary after
 //! the walls (its contacts drive the grains with the rim's velocity and spin); the granule's
 //! centripetal field acts in the free motion. A grain glued to a wall (rough walls) is part of the
 //! wall: its contacts with the other grains are the wall's, seen from the free grain; a shearing
@@ -77,15 +77,16 @@ pub use params::{CdParams, CdParamsSpec, Sweep, AGGREGATE_TOLERANCE};
 mod relax;
 
 use crate::error::{EngineError, InstabilityCause};
-use crate::geometry::{Domain, NeighborList};
+use crate::geometry::NeighborList;
 use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};
 use crate::nscd::nlgs::{image_lever, law_for, RigidBodies};
 use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
-use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, Snapshot, SolverSample, SystemView};
+use crate::methods::rigid::{RigidMethod, RigidWorld, NOT_GLUED};
 use crate::particles::Particles;
-use crate::run::{Balance, Simulation};
-use crate::scene::{Controls, Deformation, Material, Scene, Stage, StateFile, WallMotion};
+use crate::observe::{ContactRecord, Sample, SolverSample};
+use crate::run::{Balance, GrainModel};
+use crate::scene::{Controls, Deformation, Scene, Stage, WallMotion};
 use balance::{Freedom, Window};
 use cell::Cell;
 use laws::PairLaws;
@@ -210,7 +211,8 @@ fn key_of(i: u32, other: Side) -> (u32, u32) {
 
 /// A contact-dynamics simulation.
 pub struct Cd {
-    dim: usize,
+    /// The particles, box, walls, drum and clock ([`RigidWorld`]).
+    w: RigidWorld,
     /// The time step, s (`method.time_step` or the default one).
     dt: Real,
     /// Length of the current (or last) step, s: `dt`, or less when grains move fast
@@ -218,17 +220,10 @@ pub struct Cd {
     h: Real,
     /// Smallest diameter, m.
     d_min: Real,
-    gravity: Vec3,
     params: CdParams,
-    materials: Vec<Material>,
     laws: PairLaws,
-    p: Particles,
-    domain: Domain,
-    walls: Vec<Wall>,
     /// Mass of a stress-controlled wall, kg ([`Cd::wall_mass`]).
     wall_mass: Real,
-    /// The rotating drum, if the scene has one: the boundary after the walls.
-    drum: Option<Drum>,
     /// Velocities of the boundaries (walls, then the drum) within the step (scratch for the
     /// solver), how each may move, and their spins (the drum's; empty without a drum).
     wall_vel: Vec<Vec3>,
@@ -240,15 +235,6 @@ pub struct Cd {
     cell_slot: usize,
     /// Velocity of the cell's lengths at the end of the last step, m/s.
     cell_vel: Vec3,
-    /// Grains glued to a wall (rough walls): (particle, wall), in particle order; and the wall
-    /// of each particle (`world::NOT_GLUED` for none; empty while none is). A glued grain is part
-    /// of its wall: its contacts with other grains are contacts of the wall.
-    glued: Vec<(u32, u16)>,
-    glued_to: Vec<u16>,
-    /// Centre of the scene's granule ball, where the centripetal field pulls.
-    granule_center: Option<Vec3>,
-    /// Centripetal field: centre and acceleration, m/s² (while a granule forms).
-    field: Option<(Vec3, Real)>,
     nl: NeighborList,
     /// The neighbour list must be rebuilt before the next step (particles moved from outside).
     force_rebuild: bool,
@@ -282,12 +268,6 @@ pub struct Cd {
     /// A step whose contact problem is not solved within the budget goes on with the impulses
     /// reached (the aggregates' relaxation, which is preparation, [`relax`]).
     lenient: bool,
-    step: u64,
-    time: Real,
-    len0: Vec3,
-    solid_volume: Real,
-    mean_diameter: Real,
-    pool: Option<rayon::ThreadPool>,
 }
 
 impl Cd {
@@ -336,42 +316,27 @@ impl Cd {
                 });
             }
         }
-        let walls: Vec<Wall> = world::container_walls(c);
-        let pool = world::own_pool(params.threads)?;
         let n = p.len();
-        let drum = c.drum.map(Drum::new);
+        let w = RigidWorld::new(scene, p, domain, world::container_walls(c), params.threads)?;
         // The walls, the drum, the periodic cell.
-        let cell_slot = walls.len() + usize::from(drum.is_some());
+        let cell_slot = w.walls.len() + usize::from(w.drum.is_some());
         let slots = cell_slot + 1;
-        let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
-        let mean_diameter = 2.0 * p.radius.iter().sum::<Real>() / n as Real;
         // One layer of grains across the box's largest length.
-        let span = (0..scene.dim).map(|a| domain.length(a)).fold(0.0, Real::max);
-        let wall_mass = p.mass.iter().sum::<Real>() * (mean_diameter / span).min(1.0);
+        let span = (0..scene.dim).map(|a| w.domain.length(a)).fold(0.0, Real::max);
+        let wall_mass = w.p.mass.iter().sum::<Real>() * (w.mean_diameter / span).min(1.0);
         let mut sim = Self {
-            dim: scene.dim,
             dt,
             h: dt,
             d_min: 2.0 * rmin,
-            gravity: scene.gravity,
             params: params.clone(),
-            materials: scene.materials.clone(),
             laws,
-            p,
-            len0: domain.hi - domain.lo,
-            domain,
             wall_vel: vec![Vec3::zeros(); slots],
             wall_mobility: vec![Mobility::FIXED; slots],
-            wall_omega: if drum.is_some() { vec![Vec3::zeros(); slots] } else { Vec::new() },
-            walls,
-            drum,
+            wall_omega: if w.drum.is_some() { vec![Vec3::zeros(); slots] } else { Vec::new() },
+            w,
             cell: c.deformation.map(|d| Cell::new(d, wall_mass)),
             cell_slot,
             cell_vel: Vec3::zeros(),
-            glued: Vec::new(),
-            glued_to: Vec::new(),
-            granule_center: c.granule.map(|b| b.center),
-            field: None,
             wall_mass,
             nl: NeighborList::new(reach, skin),
             force_rebuild: true,
@@ -398,15 +363,10 @@ impl Cd {
             window: Window::default(),
             experiment: scene.experiment.is_some(),
             lenient: false,
-            step: 0,
-            time: 0.0,
-            solid_volume,
-            mean_diameter,
-            pool,
         };
         sim.refresh_neighbors();
-        sim.window.open(&sim.p.vel, sim.walls.len());
-        if sim.p.aggregate_count() > 0 {
+        sim.window.open(&sim.w.p.vel, sim.w.walls.len());
+        if sim.w.p.aggregate_count() > 0 {
             sim.relax_aggregates()?;
         }
         Ok(sim)
@@ -419,24 +379,24 @@ impl Cd {
 
     /// The particles (read only).
     pub fn particles(&self) -> &Particles {
-        &self.p
+        &self.w.p
     }
 
     /// Mutable access to the particles, for tests and custom set-ups (the neighbour list is
     /// rebuilt before the next step).
     pub fn particles_mut(&mut self) -> &mut Particles {
         self.force_rebuild = true;
-        &mut self.p
+        &mut self.w.p
     }
 
     /// The walls.
     pub fn walls(&self) -> &[Wall] {
-        &self.walls
+        &self.w.walls
     }
 
     /// The rotating drum, if the scene has one (its force and torque from the last step).
     pub fn drum(&self) -> Option<&Drum> {
-        self.drum.as_ref()
+        self.w.drum.as_ref()
     }
 
     /// Mass of a stress-controlled wall, kg: that of one layer of grains across the box's
@@ -470,7 +430,7 @@ impl Cd {
 
     /// Heap bytes held by the simulation.
     pub fn heap_bytes(&self) -> usize {
-        self.p.heap_bytes()
+        self.w.p.heap_bytes()
             + self.nl.heap_bytes()
             + self.contacts.capacity() * std::mem::size_of::<RigidContact>()
             + self.status.capacity() * std::mem::size_of::<Status>()
@@ -481,30 +441,22 @@ impl Cd {
             + self.solver.heap_bytes()
             + self.previous.capacity() * std::mem::size_of::<Held>()
             + (self.vel_start.capacity() + self.omega_start.capacity() + self.wall_omega.capacity()) * std::mem::size_of::<Vec3>()
-            + self.glued.capacity() * std::mem::size_of::<(u32, u16)>()
-            + self.glued_to.capacity() * std::mem::size_of::<u16>()
+            + self.w.glued.capacity() * std::mem::size_of::<(u32, u16)>()
+            + self.w.glued_to.capacity() * std::mem::size_of::<u16>()
             + self.window.heap_bytes()
     }
 
-    /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
-    /// outermost grains.
-    fn close_walls(&mut self, axis: usize) {
-        if world::close_walls(&self.p, &mut self.walls, &mut self.domain, axis) {
-            self.force_rebuild = true;
-        }
-    }
-
     fn refresh_neighbors(&mut self) {
-        let domain = &self.domain;
+        let domain = &self.w.domain;
         // A grain brought back across the boundary of a deforming cell becomes its own image
         // `m` periods away, which moves at `v + m dL/dt` ([`cell`]); the sheared axis x keeps
         // the Lees-Edwards rule of `wrap`.
         // That change of reference grain is no force: the momentum it adds is taken off every
         // grain alike (a change of frame, which a periodic cell allows).
         let cell_vel = self.cell_vel;
-        let deforming: Vec<usize> = (0..self.dim).filter(|&a| cell_vel[a] != 0.0 && !(a == 0 && domain.sheared())).collect();
+        let deforming: Vec<usize> = (0..self.w.dim).filter(|&a| cell_vel[a] != 0.0 && !(a == 0 && domain.sheared())).collect();
         let mut momentum = Vec3::zeros();
-        for ((x, v), m) in self.p.pos.iter_mut().zip(self.p.vel.iter_mut()).zip(&self.p.mass) {
+        for ((x, v), m) in self.w.p.pos.iter_mut().zip(self.w.p.vel.iter_mut()).zip(&self.w.p.mass) {
             let before = *x;
             domain.wrap(x, v);
             for &a in &deforming {
@@ -514,15 +466,15 @@ impl Cd {
             }
         }
         if momentum != Vec3::zeros() {
-            let free: Real = self.p.mass.iter().zip(&self.p.inv_mass).filter(|(_, im)| **im > 0.0).map(|(m, _)| m).sum();
+            let free: Real = self.w.p.mass.iter().zip(&self.w.p.inv_mass).filter(|(_, im)| **im > 0.0).map(|(m, _)| m).sum();
             let dv = momentum / free;
-            for (v, im) in self.p.vel.iter_mut().zip(&self.p.inv_mass) {
+            for (v, im) in self.w.p.vel.iter_mut().zip(&self.w.p.inv_mass) {
                 if *im > 0.0 {
                     *v -= dv;
                 }
             }
         }
-        self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        self.nl.rebuild(&self.w.p.pos, &self.w.p.radius, &self.w.domain);
         self.force_rebuild = false;
     }
 }
@@ -541,27 +493,27 @@ impl Cd {
             WallMotion::Stress { stress, .. } | WallMotion::Shearing { stress, .. } => Some(stress),
             _ => None,
         };
-        for w in 0..self.walls.len() {
-            let wall = &self.walls[w];
+        for w in 0..self.w.walls.len() {
+            let wall = &self.w.walls[w];
             let a = wall.face.axis;
-            let area = world::wall_area(&self.domain, a);
+            let area = world::wall_area(&self.w.domain, a);
             let mut axis = Vec3::zeros();
             axis[a] = 1.0;
             let Some(target) = stress(wall) else {
-                let length = self.domain.length(a);
+                let length = self.w.domain.length(a);
                 // Sets the velocity of a wall driven at a strain rate (the others keep theirs).
-                let wall = &mut self.walls[w];
+                let wall = &mut self.w.walls[w];
                 wall.servo(area, length);
                 self.wall_vel[w] = wall.velocity;
                 self.wall_mobility[w] = Mobility::FIXED;
                 continue;
             };
-            let partner = (0..self.walls.len()).find(|&o| o != w && self.walls[o].face.axis == a && stress(&self.walls[o]).is_some());
+            let partner = (0..self.w.walls.len()).find(|&o| o != w && self.w.walls[o].face.axis == a && stress(&self.w.walls[o]).is_some());
             let (push, inv_mass) = match partner {
                 // The gap's velocity: each wall's inward speed, pushed by both targets against
                 // both masses.
                 Some(o) => {
-                    let other = stress(&self.walls[o]).unwrap_or(0.0);
+                    let other = stress(&self.w.walls[o]).unwrap_or(0.0);
                     (0.5 * (target + other) * area * h / self.wall_mass, 0.5 / self.wall_mass)
                 }
                 None => (target * area * h / self.wall_mass, 1.0 / self.wall_mass),
@@ -577,14 +529,14 @@ impl Cd {
             // A shearing wall slides along its flow axis at its shear rate times the gap.
             let mut slide = Vec3::zeros();
             if let WallMotion::Shearing { shear_rate, flow, .. } = wall.motion {
-                slide[flow] = shear_rate * self.domain.length(a);
+                slide[flow] = shear_rate * self.w.domain.length(a);
             }
             self.wall_vel[w] = n * (wall.velocity.dot(&n) + push) + slide;
             self.wall_mobility[w] = Mobility { direction: axis, inv_mass, partner: partner.map(|o| o as u32), max_speed };
         }
         let k = self.cell_slot;
         (self.wall_vel[k], self.wall_mobility[k]) = match &self.cell {
-            Some(cell) => cell.velocity(&self.domain, h),
+            Some(cell) => cell.velocity(&self.w.domain, h),
             None => (Vec3::zeros(), Mobility::FIXED),
         };
         if self.wall_mobility[k].inv_mass == 0.0 {
@@ -599,13 +551,13 @@ impl Cd {
         let h = self.h;
         let theta = self.params.theta;
         let ahead = (1.0 - theta) * h;
-        let gh = self.gravity.norm() * h;
+        let gh = self.w.gravity.norm() * h;
         let slop = self.params.slop;
         // Pairs this close (as a fraction of the smaller radius) that their start velocity does
         // not close within the step are contacts of it too ([`near_law`]; the module
         // documentation, `Detect`).
         let near_gap = self.params.max_interpenetration;
-        let (p, domain, nl, laws, dim) = (&self.p, &self.domain, &self.nl, &self.laws, self.dim);
+        let (p, domain, nl, laws, dim) = (&self.w.p, &self.w.domain, &self.nl, &self.laws, self.w.dim);
         self.contacts.clear();
         self.status.clear();
         let (mut worst, mut sum, mut count): (Real, Real, usize) = (0.0, 0.0, 0);
@@ -626,8 +578,8 @@ impl Cd {
             self.status.push(Status { key, touching, bridge, pressed: false });
         };
         // The wall a grain is glued to, if any.
-        let glued_to = &self.glued_to;
-        let glued = |i: usize| glued_to.get(i).copied().filter(|&w| w != world::NOT_GLUED).map(|w| w as usize);
+        let glued_to = &self.w.glued_to;
+        let glued = |i: usize| glued_to.get(i).copied().filter(|&w| w != NOT_GLUED).map(|w| w as usize);
         let wall_mobility = &self.wall_mobility;
         // The deforming cell: its slot, its velocity at the start of the step, and whether a
         // contact across the boundary along each axis sees it move.
@@ -804,15 +756,15 @@ impl Cd {
             };
             push(contact, key_of(i as u32, Side::Boundary(k as u32)), g <= alert, false);
         };
-        for (w, wall) in self.walls.iter().enumerate() {
+        for (w, wall) in self.w.walls.iter().enumerate() {
             let n = wall.normal();
             let a = wall.face.axis;
             for i in 0..p.len() {
                 boundary(i, w, n, (p.pos[i][a] - wall.position) * n[a], wall.velocity, Vec3::zeros());
             }
         }
-        if let Some(drum) = &self.drum {
-            let k = self.walls.len();
+        if let Some(drum) = &self.w.drum {
+            let k = self.w.walls.len();
             for i in 0..p.len() {
                 let d = drum.radial(&p.pos[i]);
                 let rho = d.norm();
@@ -842,12 +794,12 @@ impl Cd {
             return self.dt;
         }
         let fastest = |v: &[Vec3]| v.iter().map(|v| v.norm_squared()).fold(0.0, Real::max).sqrt();
-        let rim = self.drum.as_ref().map_or(0.0, |d| (d.angular_velocity * d.def.radius).abs());
-        let closing = 2.0 * fastest(&self.p.vel).max(fastest(&self.wall_vel)).max(rim);
+        let rim = self.w.drum.as_ref().map_or(0.0, |d| (d.angular_velocity * d.def.radius).abs());
+        let closing = 2.0 * fastest(&self.w.p.vel).max(fastest(&self.wall_vel)).max(rim);
         // Body forces close pairs too: two grains driven head on by accelerations up to
         // `accel` close by `accel h²` more over the step. The largest h with
         // `closing h + accel h² <= reach`, in the form that stays exact as accel goes to 0.
-        let accel = self.gravity.norm() + self.field.map_or(0.0, |(_, a)| a.abs());
+        let accel = self.w.gravity.norm() + self.w.field.map_or(0.0, |(_, a)| a.abs());
         let reach = self.params.max_displacement * self.d_min;
         let longest = 2.0 * reach / (closing + (closing * closing + 4.0 * accel * reach).sqrt());
         self.dt.min(longest)
@@ -858,13 +810,13 @@ impl Cd {
         self.h = self.step_length();
         let h = self.h;
         let theta = self.params.theta;
-        if self.force_rebuild || self.nl.needs_rebuild(&self.p.pos, &self.domain) {
+        if self.force_rebuild || self.nl.needs_rebuild(&self.w.p.pos, &self.w.domain) {
             self.refresh_neighbors();
         }
         // Glued grains move with their walls.
-        for &(i, w) in &self.glued {
-            self.p.vel[i as usize] = self.walls[w as usize].velocity;
-            self.p.omega[i as usize] = Vec3::zeros();
+        for &(i, w) in &self.w.glued {
+            self.w.p.vel[i as usize] = self.w.walls[w as usize].velocity;
+            self.w.p.omega[i as usize] = Vec3::zeros();
         }
         self.free_walls();
         self.detect();
@@ -880,11 +832,11 @@ impl Cd {
         // gain energy at every step (for a linear force the scheme's determinant is
         // 1 + h²ω²/2 at theta = 1/2); at the theta point it is 1 + (1 - 2 theta) h²ω²: none at
         // 1/2, damped above.
-        self.vel_start.copy_from_slice(&self.p.vel);
-        self.omega_start.copy_from_slice(&self.p.omega);
-        let g = self.gravity;
-        let field = self.field;
-        for ((v, im), x) in self.p.vel.iter_mut().zip(&self.p.inv_mass).zip(&self.p.pos) {
+        self.vel_start.copy_from_slice(&self.w.p.vel);
+        self.omega_start.copy_from_slice(&self.w.p.omega);
+        let g = self.w.gravity;
+        let field = self.w.field;
+        for ((v, im), x) in self.w.p.vel.iter_mut().zip(&self.w.p.inv_mass).zip(&self.w.p.pos) {
             if *im > 0.0 {
                 let ahead = x + *v * (theta * h);
                 *v += g * h;
@@ -897,7 +849,7 @@ impl Cd {
                 }
             }
         }
-        let p = &mut self.p;
+        let p = &mut self.w.p;
         // The parallel sweep: the contacts (and their status) stored in colour order.
         let coloured = self.params.sweep.coloured(self.contacts.len());
         if coloured {
@@ -918,7 +870,7 @@ impl Cd {
             boundary_mobility: &self.wall_mobility,
             boundary_omega: &self.wall_omega,
         };
-        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h, self.mean_diameter, coloured.then_some(&self.colours));
+        self.report = self.solver.solve(&mut self.contacts, &mut bodies, h, self.w.mean_diameter, coloured.then_some(&self.colours));
         self.sweeps += u64::from(self.report.iterations);
         if !self.report.converged && !self.lenient {
             let r = self.report;
@@ -933,11 +885,11 @@ impl Cd {
             }));
         }
         // The glued grains end the step with their walls.
-        for &(i, w) in &self.glued {
-            self.p.vel[i as usize] = self.wall_vel[w as usize];
+        for &(i, w) in &self.w.glued {
+            self.w.p.vel[i as usize] = self.wall_vel[w as usize];
         }
         // Theta-scheme positions; mean forces and torques over the step.
-        let p = &mut self.p;
+        let p = &mut self.w.p;
         for i in 0..p.len() {
             let (v0, v1) = (self.vel_start[i], p.vel[i]);
             let dx = (v1 * theta + v0 * (1.0 - theta)) * h;
@@ -948,25 +900,25 @@ impl Cd {
             p.torque[i] = (p.omega[i] - self.omega_start[i]) * (inertia / h);
         }
         // Walls and drum: the reaction of their contacts, then the walls' motion.
-        for w in &mut self.walls {
+        for w in &mut self.w.walls {
             w.force = Vec3::zeros();
         }
-        if let Some(d) = &mut self.drum {
+        if let Some(d) = &mut self.w.drum {
             (d.force, d.torque) = (Vec3::zeros(), 0.0);
         }
         for c in &self.contacts {
             let Side::Boundary(w) = c.j else { continue };
             let f = c.force(h);
-            match self.walls.get_mut(w as usize) {
+            match self.w.walls.get_mut(w as usize) {
                 Some(wall) => {
                     wall.force -= f;
                     self.window.wall_impulse(w as usize, -c.frame.to_global(&c.r));
                 }
                 None => {
-                    if let Some(d) = &mut self.drum {
+                    if let Some(d) = &mut self.w.drum {
                         // The force at the contact point, and the rolling moment.
                         d.force -= f;
-                        d.torque -= d.torque_of(&d.surface_point(&self.p.pos[c.i as usize]), &f) + c.rolling.m[d.def.axis] / h;
+                        d.torque -= d.torque_of(&d.surface_point(&self.w.p.pos[c.i as usize]), &f) + c.rolling.m[d.def.axis] / h;
                     }
                 }
             }
@@ -984,23 +936,23 @@ impl Cd {
                 }
             }
             self.window.cell_impulse(impulse);
-            self.cell_vel = cell.finish(&mut self.domain, self.cell_vel, self.wall_vel[self.cell_slot], h, theta);
+            self.cell_vel = cell.finish(&mut self.w.domain, self.cell_vel, self.wall_vel[self.cell_slot], h, theta);
         }
         self.window.advance(h);
-        self.domain.advance_shear(h);
-        for (wall, v1) in self.walls.iter_mut().zip(self.wall_vel.iter()) {
+        self.w.domain.advance_shear(h);
+        for (wall, v1) in self.w.walls.iter_mut().zip(self.wall_vel.iter()) {
             let a = wall.face.axis;
             wall.position += h * (theta * v1[a] + (1.0 - theta) * wall.velocity[a]);
             wall.velocity = *v1;
             if wall.face.upper {
-                self.domain.hi[a] = wall.position;
+                self.w.domain.hi[a] = wall.position;
             } else {
-                self.domain.lo[a] = wall.position;
+                self.w.domain.lo[a] = wall.position;
             }
         }
         // Which contacts press, from their impulses and end-of-step normal velocities.
         for (c, s) in self.contacts.iter().zip(self.status.iter_mut()) {
-            let u_n = c.frame.n.dot(&c.relative_velocity(&self.p.vel, &self.p.omega, &self.wall_vel));
+            let u_n = c.frame.n.dot(&c.relative_velocity(&self.w.p.vel, &self.w.p.omega, &self.wall_vel));
             s.pressed = c.law.contact_part(c.r.x, u_n) > 0.0;
         }
         // Warm start of the next step: this step's impulses by pair.
@@ -1016,24 +968,23 @@ impl Cd {
                 }),
         );
         self.previous.sort_unstable_by_key(|e| e.key);
-        self.step += 1;
-        self.time += h;
+        self.w.step += 1;
+        self.w.time += h;
         self.check()
     }
 
     /// Non-finite positions or velocities stop the run.
     fn check(&self) -> Result<(), EngineError> {
-        let p = &self.p;
-        if let Some(i) = (0..p.len()).find(|&i| !(p.pos[i].iter().all(|x| x.is_finite()) && p.vel[i].iter().all(|x| x.is_finite()))) {
-            return Err(self.unstable(InstabilityCause::NonFinite { particle: i }));
+        match self.w.non_finite() {
+            Some(i) => Err(self.unstable(InstabilityCause::NonFinite { particle: i })),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// Whether something imposes a motion on the grains: a wall's velocity or strain rate, the
     /// cell's strain rate, a Lees-Edwards shear, a turning drum.
     fn imposes_motion(&self) -> bool {
-        let walls = self.walls.iter().any(|w| match w.motion {
+        let walls = self.w.walls.iter().any(|w| match w.motion {
             WallMotion::Velocity(v) => v != Vec3::zeros(),
             WallMotion::StrainRate(r) => r != 0.0,
             WallMotion::Shearing { shear_rate, .. } => shear_rate != 0.0,
@@ -1041,14 +992,14 @@ impl Cd {
         });
         let cell = self.cell.as_ref().is_some_and(|c| matches!(c.kind, Deformation::StrainRate(r) if r != Vec3::zeros()));
         let drum = self.wall_omega.iter().any(|w| *w != Vec3::zeros());
-        walls || cell || drum || self.domain.sheared()
+        walls || cell || drum || self.w.domain.sheared()
     }
 
     /// Builds the typed error for `cause`, with what to change.
     fn unstable(&self, cause: InstabilityCause) -> EngineError {
-        // The violation bound in effect, and the field that sets it ([`Cd::begin_stage`]).
+        // The violation bound in effect, and the field that sets it ([`Cd::stage`]).
         let bound = self.solver.settings.violation_tolerance;
-        let field = if bound == self.params.violation_bound(self.dim) { "violation_tolerance" } else { "loading_violation_tolerance" };
+        let field = if bound == self.params.violation_bound(self.w.dim) { "violation_tolerance" } else { "loading_violation_tolerance" };
         let suggestion = match &cause {
             InstabilityCause::SolverBudget { .. } => {
                 // Rigid grains cannot follow an imposed motion that squeezes or shears a jammed
@@ -1070,7 +1021,7 @@ impl Cd {
             ),
             _ => format!("lower method.time_step (now {:.3e} s)", self.dt),
         };
-        EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
+        EngineError::Unstable { step: self.w.step, time: self.w.time, cause, suggestion }
     }
 
     /// Contact forces (mean over the last step) as records, for metrics and tests.
@@ -1081,7 +1032,7 @@ impl Cd {
             .zip(&self.status)
             .filter_map(|(c, s)| {
                 // A contact with a glued grain is a pair, seen from the free grain.
-                let pair = (s.key.1 as usize) < self.p.len();
+                let pair = (s.key.1 as usize) < self.w.p.len();
                 let j = pair.then_some(if s.key.0 == c.i { s.key.1 } else { s.key.0 });
                 let branch = c.frame.n * (c.a_i + c.a_j);
                 // Touching: in contact at the start of the step, or pressed by its end. Bonded:
@@ -1095,74 +1046,42 @@ impl Cd {
     }
 }
 
-impl Simulation for Cd {
-    fn method(&self) -> &'static str {
-        "cd"
+impl RigidMethod for Cd {
+    const NAME: &'static str = "cd";
+    const GRAIN_MODEL: GrainModel = GrainModel::Rigid;
+
+    fn world(&self) -> &RigidWorld {
+        &self.w
     }
 
-    fn grain_model(&self) -> crate::run::GrainModel {
-        crate::run::GrainModel::Rigid
+    fn world_mut(&mut self) -> &mut RigidWorld {
+        &mut self.w
     }
 
-    fn step(&mut self) -> Result<(), EngineError> {
-        world::in_own_pool(self, |s| &mut s.pool, Self::step_stages)
-    }
-
-    fn steps_done(&self) -> u64 {
-        self.step
-    }
-
-    fn solver_iterations(&self) -> u64 {
-        self.sweeps
-    }
-
-    fn time(&self) -> Real {
-        self.time
-    }
-
-    fn dt(&self) -> Real {
+    fn nominal_step(&self) -> Real {
         self.dt
     }
 
-    fn particle_count(&self) -> usize {
-        self.p.len()
+    fn advance(&mut self) -> Result<(), EngineError> {
+        self.step_stages()
     }
 
-    fn packing_fraction(&self) -> Real {
-        self.solid_volume / self.domain.volume()
+    fn contact_records(&self) -> Vec<ContactRecord> {
+        self.contacts()
     }
 
-    fn strain(&self) -> Real {
-        if self.domain.sheared() {
-            return (self.domain.shear_rate * self.time).abs();
-        }
-        (0..self.dim).map(|a| (self.domain.length(a) / self.len0[a]).ln().abs()).fold(0.0, f64::max)
+    fn drum_loads(&self) -> Vec<(Vec3, Vec3)> {
+        let drum = Side::Boundary(self.w.walls.len() as u32);
+        self.contacts.iter().filter(|c| c.j == drum).map(|c| (self.w.p.pos[c.i as usize], c.force(self.h))).collect()
     }
 
-    fn box_lengths(&self) -> Vec3 {
-        self.domain.hi - self.domain.lo
+    fn sweeps_done(&self) -> u64 {
+        self.sweeps
     }
 
-    fn sample(&mut self) -> Result<Sample, EngineError> {
+    fn measure(&mut self) -> Result<Sample, EngineError> {
         self.check()?;
-        let contacts = self.contacts();
-        let walls = world::wall_views(&self.walls, &self.domain);
-        let view = SystemView {
-            dim: self.dim,
-            step: self.step,
-            time: self.time,
-            particles: &self.p,
-            volume: self.domain.volume(),
-            contacts: &contacts,
-            walls: &walls,
-            shear: world::shear_geometry(&self.domain, &self.walls),
-            elastic_energy: 0.0,
-            rattler_threshold: rattler_threshold(self.dim, self.laws.frictional()),
-            drum: self.drum.as_ref().map(Drum::view),
-            deformable: None,
-            domain: &self.domain,
-        };
-        let mut s = measure(&view);
+        let mut s = self.w.measure(&self.contacts(), 0.0, self.laws.frictional());
         s.solver = Some(Box::new(SolverSample {
             iterations: self.report.iterations,
             change: self.report.last.change,
@@ -1177,55 +1096,17 @@ impl Simulation for Cd {
         Ok(s)
     }
 
-    fn snapshot(&self) -> Snapshot {
-        let p = &self.p;
-        let (position, velocity) = world::wrapped(&self.domain, p);
-        Snapshot {
-            dim: self.dim,
-            step: self.step,
-            time: self.time,
-            lo: self.domain.lo,
-            hi: self.domain.hi,
-            position,
-            radius: p.radius.clone(),
-            velocity,
-            omega: p.omega.clone(),
-            force: p.force.clone(),
-            contacts: self.contacts(),
-            walls: world::wall_faces(&self.walls),
-            drum: self.drum.as_ref().map(|d| {
-                let drum = self.walls.len() as u32;
-                let loads = self.contacts.iter().filter(|c| c.j == Side::Boundary(drum)).map(|c| (p.pos[c.i as usize], c.force(self.h)));
-                d.shell(loads)
-            }),
-            material_points: None,
-        }
-    }
-
-    fn memory_bytes(&self) -> usize {
+    fn heap_size(&self) -> usize {
         self.heap_bytes()
     }
 
-    fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
-        if let (Some(w), Some(drum)) = (controls.drum_angular_velocity, self.drum.as_mut()) {
-            drum.angular_velocity = w;
-            if let Some(spin) = self.wall_omega.last_mut() {
-                *spin = drum.axis_vector() * w;
-            }
+    fn controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
+        if self.w.apply_controls(controls) {
+            // Walls closed onto the grains.
+            self.force_rebuild = true;
         }
-        for def in &controls.walls {
-            if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
-                w.set_motion(def.motion);
-            }
-        }
-        if let Some(a) = controls.centripetal {
-            self.field = self.granule_center.filter(|_| a != 0.0).map(|c| (c, a));
-        }
-        if let Some(axis) = controls.close_walls {
-            self.close_walls(axis);
-        }
-        if let Some(gap) = controls.glue {
-            world::glue_to_walls(&mut self.p, &self.walls, &mut self.glued_to, &mut self.glued, gap);
+        if let (Some(w), Some(spin), Some(drum)) = (controls.drum_angular_velocity, self.wall_omega.last_mut(), self.w.drum.as_ref()) {
+            *spin = drum.axis_vector() * w;
         }
         if let Some(d) = controls.deformation {
             // A new deformation starts from rest (imposed rates take their velocity at the next
@@ -1237,25 +1118,24 @@ impl Simulation for Cd {
             // Into the box first (with the old images), so that every grain gets the profile of
             // its own position; the pairs across the sheared boundary are found again.
             self.refresh_neighbors();
-            world::impose_shear_rate(&mut self.domain, &mut self.p, rate);
+            self.w.impose_shear_rate(rate);
             self.force_rebuild = true;
         }
         self.laws.set_friction(controls.friction);
         self.laws.set_inelastic(controls.local_damping.is_some_and(|a| a > 0.0));
         Ok(())
     }
-
     /// Applies the stage's controls, and the violation bound of its kind: a loading stage — an
     /// experiment's stage that does not run until equilibrium, or a stage of a plain scene that
     /// imposes a motion — takes `loading_violation_tolerance`, every other stage
     /// `violation_tolerance` (the largest violation is bounded in every stage, by a tenth of
     /// the slop). The stage's first equilibrium check measures from its start.
-    fn begin_stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
-        self.apply_controls(&stage.controls)?;
+    fn stage(&mut self, stage: &Stage) -> Result<(), EngineError> {
+        self.controls(&stage.controls)?;
         let loading = stage.equilibrium.is_none() && (self.experiment || self.imposes_motion());
         self.solver.settings.violation_tolerance =
-            if loading { self.params.loading_violation_tolerance } else { self.params.violation_bound(self.dim) };
-        self.window.open(&self.p.vel, self.walls.len());
+            if loading { self.params.loading_violation_tolerance } else { self.params.violation_bound(self.w.dim) };
+        self.window.open(&self.w.p.vel, self.w.walls.len());
         Ok(())
     }
 
@@ -1264,60 +1144,47 @@ impl Simulation for Cd {
     /// step, and the walls' (and a stress-controlled cell's) mean stress against their targets;
     /// against the reference energy of the last step's contact forces
     /// ([`crate::run::rigid_reference_energy`]).
-    fn balance(&mut self) -> Balance {
+    fn equilibrium(&mut self) -> Balance {
         let h = self.h;
         let forces: Vec<Real> = self.contacts.iter().filter(|c| c.r != Vec3::zeros()).map(|c| c.force(h).norm()).collect();
         let mean_contact = if forces.is_empty() { 0.0 } else { forces.iter().sum::<Real>() / forces.len() as Real };
-        let p = &self.p;
+        let p = &self.w.p;
         // Nothing holds the grains in place and nothing pulls them: no boundary touches them
         // (contacts across a periodic cell's boundary are between grains), no gravity, no field.
         // Such grains keep their common drift, and their common spin too where no axis is
         // periodic (a periodic packing cannot turn as a body, and its wrapped positions would
         // not say how it turned).
-        let free = self.gravity == Vec3::zeros() && self.field.is_none() && self.contacts.iter().all(|c| c.j.body().is_some());
-        let freedom = match (free, self.domain.periodic.iter().any(|&a| a)) {
+        let free = self.w.gravity == Vec3::zeros() && self.w.field.is_none() && self.contacts.iter().all(|c| c.j.body().is_some());
+        let freedom = match (free, self.w.domain.periodic.iter().any(|&a| a)) {
             (false, _) => Freedom::Held,
             (true, true) => Freedom::Drift,
             (true, false) => Freedom::RigidBody,
         };
-        let (kinetic_energy, net, stress_error) = match self.window.close(&p.pos, &p.vel, &p.mass, &self.walls, freedom) {
+        let (kinetic_energy, net, stress_error) = match self.window.close(&p.pos, &p.vel, &p.mass, &self.w.walls, freedom) {
             Some(m) => {
                 // The stress-controlled cell against its target, from the mean generalised force
                 // of the contacts across its boundary.
-                let cell = self.cell.as_ref().and_then(|c| c.stress_error(&self.domain, m.cell_impulse, m.time)).unwrap_or(0.0);
-                (m.kinetic_energy, m.net_force, world::wall_stress_error(&m.walls, &self.domain).max(cell))
+                let cell = self.cell.as_ref().and_then(|c| c.stress_error(&self.w.domain, m.cell_impulse, m.time)).unwrap_or(0.0);
+                (m.kinetic_energy, m.net_force, world::wall_stress_error(&m.walls, &self.w.domain).max(cell))
             }
             // No step since the last check: the state of the last step.
-            None => (
-                0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>(),
-                p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real,
-                world::wall_stress_error(&self.walls, &self.domain),
-            ),
+            None => (self.w.kinetic_energy(), self.w.mean_net_force(), self.w.wall_stress_error()),
         };
         Balance {
             kinetic_energy,
-            reference_energy: crate::run::rigid_reference_energy(&forces, self.mean_diameter),
+            reference_energy: crate::run::rigid_reference_energy(&forces, self.w.mean_diameter),
             unbalanced_force: if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY },
             stress_error,
         }
     }
 
-    /// One: [`Cd::balance`] is a mean over the whole interval since the previous check (500
+    /// One: [`Cd::equilibrium`] is a mean over the whole interval since the previous check (500
     /// steps by default, about fifty inertial times `d sqrt(rho / p)` at the default step),
     /// not a snapshot that may catch a packing at a quiet instant; a drift over the interval
     /// fails it as a snapshot of that drift's velocity would. Three such windows in a row made
     /// the 400-disk biaxial preparation of `sable bench biaxial` wait 1,000 more steps (a
     /// fifth of its whole run) with its kinetic ratio already below 1e-4.
-    fn equilibrium_checks(&self) -> u32 {
+    fn checks_in_a_row(&self) -> u32 {
         1
-    }
-
-    fn grain_scales(&self) -> (Real, Real) {
-        let mass: Real = self.p.mass.iter().sum();
-        (self.mean_diameter, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
-    }
-
-    fn saved_state(&self) -> StateFile {
-        world::saved_state(self.time, self.step, &self.domain, &self.materials, &self.p)
     }
 }

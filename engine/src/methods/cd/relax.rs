@@ -14,7 +14,7 @@ use super::Cd;
 use crate::contact::attraction_lj::characteristic_stress;
 use crate::error::EngineError;
 use crate::math::Real;
-use crate::methods::world;
+use crate::methods::rigid::settle::{settle_aggregates, Held, Settling};
 use crate::particles::Particles;
 
 /// Kinetic energy, as a fraction of `N F_0 ⟨a_0⟩`, below which the aggregates have settled
@@ -30,11 +30,11 @@ impl Cd {
     /// Relaxes the aggregates in place (module documentation); the error names the scene's
     /// solver settings if they do not settle in [`MAX_STEPS`].
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
-        if self.p.aggregate_count() == 0 {
+        if self.w.p.aggregate_count() == 0 {
             return Ok(());
         }
-        let held = world::Held::hold(&mut self.walls, &mut self.gravity, &mut self.p);
-        let (field, cell) = (self.field.take(), self.cell.take());
+        let held = Held::hold(&mut self.w);
+        let cell = self.cell.take();
         let tolerance = self.params.tolerance;
         self.lenient = true;
         let not_settled = EngineError::Build {
@@ -43,15 +43,13 @@ impl Cd {
                 "the aggregates did not settle in {MAX_STEPS} steps (kinetic energy above {SETTLED:e} of N F_0 <a_0>): tighten the solver's tolerance (now {tolerance:e}; 1e-6 settled an aggregate of 227 primaries) or shorten method.time_step"
             ),
         };
-        let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
-        let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
+        let settling = Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
+        let outcome = settle_aggregates(self, settling, not_settled);
         self.lenient = false;
-        held.restore(&mut self.walls, &mut self.gravity, &mut self.p);
-        (self.field, self.cell) = (field, cell);
-        self.step = 0;
-        self.time = 0.0;
+        held.restore(&mut self.w);
+        self.cell = cell;
         self.sweeps = 0;
-        self.window.open(&self.p.vel, self.walls.len());
+        self.window.open(&self.w.p.vel, self.w.walls.len());
         outcome
     }
 }

@@ -145,7 +145,7 @@ impl Dem {
     /// The bonded pairs' attraction ([`Bonds::evaluate`]), with each block's reach widened to
     /// its bond records.
     pub(crate) fn bond_forces(&mut self) {
-        self.bonds.evaluate(&self.nl, &self.p, &self.domain);
+        self.bonds.evaluate(&self.nl, &self.w.p, &self.w.domain);
         for (r, b) in self.reach.iter_mut().zip(&self.bonds.blocks) {
             *r = (r.0.min(b.reach.0), r.1.max(b.reach.1));
         }
@@ -153,7 +153,7 @@ impl Dem {
 
     /// The bond energy of every bonded pair, J (J/m in 2D).
     pub(crate) fn bond_energy(&self) -> Real {
-        self.bonds.energies(&self.nl, &self.p, &self.domain).iter().sum()
+        self.bonds.energies(&self.nl, &self.w.p, &self.w.domain).iter().sum()
     }
 
     /// Diagonal of the bonded pairs' virial `Σ f ⊗ (r_i − r_j)` at the last evaluation, N·m
@@ -165,7 +165,7 @@ impl Dem {
             .par_iter()
             .map(|block| {
                 block.forces.iter().zip(&block.held).fold(Vec3::zeros(), |acc, (f, &q)| {
-                    acc + f.out.force.component_mul(&self.nl.separation(q as usize, &self.p.pos, &self.domain).0)
+                    acc + f.out.force.component_mul(&self.nl.separation(q as usize, &self.w.p.pos, &self.w.domain).0)
                 })
             })
             .collect();
@@ -178,7 +178,7 @@ impl Dem {
         let mut out = Vec::new();
         for block in &self.bonds.blocks {
             for (f, &q) in block.forces.iter().zip(&block.held) {
-                let (d, _) = self.nl.separation(q as usize, &self.p.pos, &self.domain);
+                let (d, _) = self.nl.separation(q as usize, &self.w.p.pos, &self.w.domain);
                 out.push((f.i, f.j, f.out.force, d));
             }
         }

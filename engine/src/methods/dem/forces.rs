@@ -264,7 +264,7 @@ impl Dem {
         if self.wall_slots() > 0 {
             self.wall_reactions();
         }
-        if !self.glued.is_empty() {
+        if !self.w.glued.is_empty() {
             self.glued_loads();
         }
     }
@@ -275,14 +275,14 @@ impl Dem {
         if !self.kin_current {
             self.pack_kinematics();
         }
-        let p = &self.p;
+        let p = &self.w.p;
         let nl = &self.nl;
-        let domain = &self.domain;
+        let domain = &self.w.domain;
         let scene = PairScene { p, kin: &self.kin, domain, table: &self.table, dt: self.dt, with_extra: self.needs_extra };
         // Positions and radii packed together: one load per neighbour in the loops below.
-        let pos = &self.p.pos;
+        let pos = &self.w.p.pos;
         if !self.xr_current {
-            let radius = &self.p.radius;
+            let radius = &self.w.p.radius;
             self.xr.par_chunks_mut(LOOP_CHUNK).zip(pos.par_chunks(LOOP_CHUNK)).zip(radius.par_chunks(LOOP_CHUNK)).for_each(
                 |((v, x), r)| {
                     for ((v, x), r) in v.iter_mut().zip(x).zip(r) {
@@ -410,7 +410,7 @@ impl Dem {
             .enumerate()
             .for_each(kernel);
         if refilter {
-            self.near.filtered(&self.domain);
+            self.near.filtered(&self.w.domain);
         }
         if !self.bonds.is_empty() {
             self.bond_forces();
@@ -427,18 +427,18 @@ impl Dem {
     /// several threads the particles go in several tasks per thread, so that a thread that joins
     /// late takes fewer. With `kick`, the task then gives its particles the second half kick.
     fn gather(&mut self, kick: bool) {
-        let g = self.gravity;
-        let field = self.field;
+        let g = self.w.gravity;
+        let field = self.w.field;
         let slots = self.wall_slots();
         let scene = WallScene {
-            walls: &self.walls,
-            drum: self.drum.as_ref(),
-            glued_to: &self.glued_to,
+            walls: &self.w.walls,
+            drum: self.w.drum.as_ref(),
+            glued_to: &self.w.glued_to,
             table: &self.wall_table,
             wall_material: self.wall_material,
             dt: self.dt,
         };
-        let p = &mut self.p;
+        let p = &mut self.w.p;
         let (pairs, reach, bonds) = (&self.pairs, &self.reach, &self.bonds.blocks);
         debug_assert!(
             pairs.iter().zip(reach).all(|(list, &(lo, hi))| list.forces.iter().all(|c| (lo..=hi).contains(&c.j))),
@@ -555,11 +555,11 @@ impl Dem {
     /// summed block by block in order.
     fn wall_reactions(&mut self) {
         let (on_walls, drum_torque) = self.wall_contacts.reactions();
-        for (wall, f) in self.walls.iter_mut().zip(&on_walls) {
+        for (wall, f) in self.w.walls.iter_mut().zip(&on_walls) {
             wall.force = *f;
         }
-        if let Some(d) = self.drum.as_mut() {
-            d.force = on_walls[self.walls.len()];
+        if let Some(d) = self.w.drum.as_mut() {
+            d.force = on_walls[self.w.walls.len()];
             d.torque = drum_torque;
         }
     }

@@ -22,13 +22,13 @@ use super::world;
 use crate::contact::{ContactTable, NormalForce};
 use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
-use crate::loading::{CellDeformation, Drum, Wall};
+use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
-use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView};
+use crate::methods::rigid::{RigidMethod, RigidWorld};
+use crate::observe::{ContactRecord, Sample};
 use crate::particles::Particles;
-use crate::run::Balance;
-use crate::run::Simulation;
-use crate::scene::{Controls, Deformation, Material, Scene, StateFile};
+use crate::run::{Balance, GrainModel};
+use crate::scene::{Controls, Deformation, Material, Scene};
 use forces::LOOP_CHUNK;
 use pair_state::{PairBlock, PairSprings};
 use stability::EnergyBudget;
@@ -93,34 +93,18 @@ const SERVO_EVERY: u64 = 10;
 
 /// A soft-contact DEM simulation.
 pub struct Dem {
-    dim: usize,
+    /// The particles, box, walls, drum and clock ([`RigidWorld`]).
+    w: RigidWorld,
     dt: Real,
-    gravity: Vec3,
     params: DemParams,
     collision: CollisionTime,
     table: ContactTable,
     /// Laws of the particle-wall contacts: those of the scene's materials (a stage's friction
     /// override applies between particles only).
     wall_table: ContactTable,
-    /// The scene's materials (the contact table is rebuilt from them when a stage overrides
-    /// the friction).
-    materials: Vec<Material>,
     /// The method's own local damping (a stage may override it).
     base_local_damping: Real,
     wall_material: usize,
-    p: Particles,
-    domain: Domain,
-    walls: Vec<Wall>,
-    /// The rotating drum, if the scene has one (its contacts take the last wall slot).
-    drum: Option<Drum>,
-    /// Grains glued to a wall (rough walls): (particle, wall), in particle order.
-    glued: Vec<(u32, u16)>,
-    /// The wall each particle is glued to (`world::NOT_GLUED` for none); empty while none is.
-    glued_to: Vec<u16>,
-    /// Centre of the scene's granule ball, where the centripetal field pulls.
-    granule_center: Option<Vec3>,
-    /// Centripetal field: centre and acceleration, m/s² (while a granule forms).
-    field: Option<(Vec3, Real)>,
     deformation: Option<CellDeformation>,
     nl: NeighborList,
     /// The pairs of `nl` close enough to touch within the next few steps.
@@ -154,11 +138,6 @@ pub struct Dem {
     /// The particle-wall contacts: candidates, records with their springs, reactions
     /// ([`wall_contacts`]); slots are the plane walls, then the drum.
     wall_contacts: WallContacts,
-    step: u64,
-    time: Real,
-    len0: Vec3,
-    solid_volume: Real,
-    pool: Option<rayon::ThreadPool>,
     budget: EnergyBudget,
     profile: Option<StageTimes>,
 }
@@ -240,32 +219,18 @@ impl Dem {
                 Wall::new(w.face, pos, w.motion, gain, dashpot_per_area)
             })
             .collect();
-        let drum = c.drum.map(Drum::new);
-        let nw = walls.len() + usize::from(drum.is_some());
+        let nw = walls.len() + usize::from(c.drum.is_some());
         let needs_extra = table.laws().iter().any(|l| l.rolling.is_some() || l.capillary.is_some());
         let n = p.len();
-        let len0 = domain.hi - domain.lo;
-        let solid_volume = p.radius.iter().map(|&r| Particles::volume_of(scene.dim, r)).sum();
-        let pool = world::own_pool(params.threads)?;
         let mut sim = Self {
-            dim: scene.dim,
+            w: RigidWorld::new(scene, p, domain, walls, params.threads)?,
             dt,
-            gravity: scene.gravity,
             params: params.clone(),
             collision,
             wall_table: table.clone(),
             table,
-            materials: scene.materials.clone(),
             base_local_damping: params.local_damping,
             wall_material,
-            p,
-            domain,
-            walls,
-            drum,
-            glued: Vec::new(),
-            glued_to: Vec::new(),
-            granule_center: c.granule.map(|b| b.center),
-            field: None,
             deformation: c.deformation.map(CellDeformation::new),
             nl: NeighborList::new(range, skin),
             near: NearPairs::new(n.div_ceil(forces::PARTICLE_BLOCK), NEAR_GAP * skin),
@@ -280,17 +245,12 @@ impl Dem {
             drift2: None,
             needs_extra,
             wall_contacts: WallContacts::new(n.div_ceil(forces::PARTICLE_BLOCK), nw),
-            step: 0,
-            time: 0.0,
-            len0,
-            solid_volume,
-            pool,
             budget: EnergyBudget::default(),
             profile: None,
         };
         sim.refresh_neighbors();
         sim.compute_forces(false);
-        if sim.p.aggregate_count() > 0 {
+        if sim.w.p.aggregate_count() > 0 {
             sim.relax_aggregates()?;
         }
         sim.budget = EnergyBudget::start(sim.mechanical_energy());
@@ -309,7 +269,7 @@ impl Dem {
 
     /// The particles (read only).
     pub fn particles(&self) -> &Particles {
-        &self.p
+        &self.w.p
     }
 
     /// Mutable access to the particles, for tests and custom set-ups. Call
@@ -319,17 +279,17 @@ impl Dem {
         self.near.invalidate();
         self.xr_current = false;
         self.kin_current = false;
-        &mut self.p
+        &mut self.w.p
     }
 
     /// The box.
     pub fn domain(&self) -> &Domain {
-        &self.domain
+        &self.w.domain
     }
 
     /// The walls.
     pub fn walls(&self) -> &[Wall] {
-        &self.walls
+        &self.w.walls
     }
 
     /// What the periodic cell's deformation imposes now, if anything.
@@ -409,7 +369,7 @@ impl Dem {
 
     /// Heap bytes held by the simulation.
     pub fn heap_bytes(&self) -> usize {
-        self.p.heap_bytes()
+        self.w.p.heap_bytes()
             + self.nl.heap_bytes()
             + self.near.heap_bytes()
             + self.pairs.iter().map(PairBlock::heap_bytes).sum::<usize>()
@@ -433,8 +393,8 @@ impl Dem {
             if c.out.force == Vec3::zeros() && !bridge && bond.is_none() {
                 continue;
             }
-            let (d, _) = self.nl.separation(c.q as usize, &self.p.pos, &self.domain);
-            let touching = d.norm() < self.p.radius[c.i as usize] + self.p.radius[c.j as usize];
+            let (d, _) = self.nl.separation(c.q as usize, &self.w.p.pos, &self.w.domain);
+            let touching = d.norm() < self.w.p.radius[c.i as usize] + self.w.p.radius[c.j as usize];
             let force = c.out.force + bond.unwrap_or_else(Vec3::zeros);
             let bonded = bridge || (touching && bond.is_some());
             records.push(ContactRecord { i: c.i, j: Some(c.j), force, branch: d, touching, bonded });
@@ -444,13 +404,13 @@ impl Dem {
         }
         for c in self.wall_contacts.iter().filter(|c| c.force != Vec3::zeros()) {
             let i = c.i as usize;
-            let branch = match self.walls.get(c.w as usize) {
+            let branch = match self.w.walls.get(c.w as usize) {
                 Some(wall) => {
                     let n = wall.normal();
-                    n * ((self.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis])
+                    n * ((self.w.p.pos[i][wall.face.axis] - wall.position) * n[wall.face.axis])
                 }
-                None => match self.drum.as_ref().and_then(|d| d.touch(&self.p.pos[i], self.p.radius[i])) {
-                    Some((n, delta)) => n * (self.p.radius[i] - delta),
+                None => match self.w.drum.as_ref().and_then(|d| d.touch(&self.w.p.pos[i], self.w.p.radius[i])) {
+                    Some((n, delta)) => n * (self.w.p.radius[i] - delta),
                     None => continue,
                 },
             };
@@ -460,37 +420,20 @@ impl Dem {
     }
 
     fn refresh_neighbors(&mut self) {
-        let domain = &self.domain;
+        let domain = &self.w.domain;
         // Wrapping may shift velocities (Lees-Edwards images).
         self.xr_current = false;
         self.kin_current = false;
-        self.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
+        self.w.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.w.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
             for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
                 domain.wrap(x, v);
             }
         });
-        self.nl.rebuild(&self.p.pos, &self.p.radius, &self.domain);
+        self.nl.rebuild(&self.w.p.pos, &self.w.p.radius, &self.w.domain);
         self.near.invalidate();
         pair_state::renumber(&mut self.pairs, &self.nl);
-        self.bonds.rebuild(&self.nl, &self.p);
-        self.wall_contacts.choose(&self.p, &self.walls, self.drum.as_ref(), self.nl.skin);
-    }
-
-    /// Glues to each wall the grains whose surface lies within `gap` mean diameters of it: they
-    /// keep their place against the wall, move with it and do not turn (infinite mass and
-    /// inertia for the integrator; `boundaries` sets their motion).
-    fn glue_to_walls(&mut self, gap: Real) {
-        world::glue_to_walls(&mut self.p, &self.walls, &mut self.glued_to, &mut self.glued, gap);
-        self.kin_current = false;
-    }
-
-    /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
-    /// outermost grains.
-    fn close_walls(&mut self, axis: usize) {
-        if world::close_walls(&self.p, &mut self.walls, &mut self.domain, axis) {
-            self.refresh_neighbors();
-            self.compute_forces(false);
-        }
+        self.bonds.rebuild(&self.nl, &self.w.p);
+        self.wall_contacts.choose(&self.w.p, &self.w.walls, self.w.drum.as_ref(), self.nl.skin);
     }
 
     /// Moves the glued grains with their walls: each takes its wall's new velocity, and its
@@ -498,14 +441,14 @@ impl Dem {
     fn move_glued(&mut self) {
         let dt = self.dt;
         let mut largest: Real = 0.0;
-        for &(i, w) in &self.glued {
-            let (i, v) = (i as usize, self.walls[w as usize].velocity);
-            let correction = (v - self.p.vel[i]) * dt;
-            self.p.pos[i] += correction;
-            self.p.vel[i] = v;
-            self.p.omega[i] = Vec3::zeros();
-            let x = self.p.pos[i];
-            self.xr[i] = [x.x, x.y, x.z, self.p.radius[i]];
+        for &(i, w) in &self.w.glued {
+            let (i, v) = (i as usize, self.w.walls[w as usize].velocity);
+            let correction = (v - self.w.p.vel[i]) * dt;
+            self.w.p.pos[i] += correction;
+            self.w.p.vel[i] = v;
+            self.w.p.omega[i] = Vec3::zeros();
+            let x = self.w.p.pos[i];
+            self.xr[i] = [x.x, x.y, x.z, self.w.p.radius[i]];
             // A glued grain has no inverse mass: no acceleration to predict.
             self.kin[i] = Kin { vp: v, wp: Vec3::zeros() };
             largest = largest.max(correction.norm());
@@ -515,20 +458,16 @@ impl Dem {
 
     /// Adds to each wall the load the other grains put on the grains glued to it.
     fn glued_loads(&mut self) {
-        for &(i, w) in &self.glued {
+        for &(i, w) in &self.w.glued {
             let i = i as usize;
-            let own = self.gravity * self.p.mass[i];
-            self.walls[w as usize].force += self.p.force[i] - own;
+            let own = self.w.gravity * self.w.p.mass[i];
+            self.w.walls[w as usize].force += self.w.p.force[i] - own;
         }
     }
 
     /// Wall contact slots per particle: the plane walls, then the drum.
     fn wall_slots(&self) -> usize {
-        self.walls.len() + usize::from(self.drum.is_some())
-    }
-
-    fn wall_area(&self, axis: usize) -> Real {
-        world::wall_area(&self.domain, axis)
+        self.w.walls.len() + usize::from(self.w.drum.is_some())
     }
 
     /// Diagonal of the stress tensor from the virial of the current forces and the kinetic part
@@ -541,7 +480,7 @@ impl Dem {
     /// The stiffness is the contacts' alone (the attraction only softens a stretched bond).
     fn stress_and_stiffness(&self) -> (Vec3, Real) {
         // Partial sums per particle block, added in order: the same result for any thread count.
-        let p = &self.p;
+        let p = &self.w.p;
         let partial: Vec<(Vec3, Real)> = self
             .pairs
             .par_iter()
@@ -549,7 +488,7 @@ impl Dem {
                 let (mut virial, mut stiff) = (Vec3::zeros(), 0.0);
                 for c in list.pairs() {
                     let (i, j) = (c.i as usize, c.j as usize);
-                    let l = self.nl.separation(c.q as usize, &p.pos, &self.domain).0;
+                    let l = self.nl.separation(c.q as usize, &p.pos, &self.w.domain).0;
                     virial += c.out.force.component_mul(&l);
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let delta = ri + rj - l.norm();
@@ -563,38 +502,38 @@ impl Dem {
             .collect();
         let (virial, stiff) = partial.iter().fold((Vec3::zeros(), 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
         let virial = virial + self.bond_virial();
-        let (rate, ymid) = (self.domain.shear_rate, 0.5 * (self.domain.lo.y + self.domain.hi.y));
+        let (rate, ymid) = (self.w.domain.shear_rate, 0.5 * (self.w.domain.lo.y + self.w.domain.hi.y));
         let kinetic: Vec3 = p.vel.iter().zip(&p.pos).zip(&p.mass).fold(Vec3::zeros(), |acc, ((v, x), m)| {
             let mut u = *v;
             u.x -= rate * (x.y - ymid);
             acc + u.component_mul(&u) * *m
         });
-        let (d, v) = (self.dim as Real, self.domain.volume());
+        let (d, v) = (self.w.dim as Real, self.w.domain.volume());
         ((virial + kinetic) / v, stiff / (d * d * v))
     }
 
     fn boundaries(&mut self) {
         let dt = self.dt;
-        for w in 0..self.walls.len() {
-            let area = self.wall_area(self.walls[w].face.axis);
-            let wall = &mut self.walls[w];
-            let length = self.domain.length(wall.face.axis);
+        for w in 0..self.w.walls.len() {
+            let area = self.w.wall_area(self.w.walls[w].face.axis);
+            let wall = &mut self.w.walls[w];
+            let length = self.w.domain.length(wall.face.axis);
             wall.servo(area, length);
             wall.advance(dt);
             let a = wall.face.axis;
             if wall.face.upper {
-                self.domain.hi[a] = wall.position;
+                self.w.domain.hi[a] = wall.position;
             } else {
-                self.domain.lo[a] = wall.position;
+                self.w.domain.lo[a] = wall.position;
             }
         }
-        if !self.glued.is_empty() {
+        if !self.w.glued.is_empty() {
             self.move_glued();
             self.drift2 = None;
         }
-        self.domain.advance_shear(dt);
+        self.w.domain.advance_shear(dt);
         if self.deformation.is_some() {
-            if self.step.is_multiple_of(SERVO_EVERY)
+            if self.w.step.is_multiple_of(SERVO_EVERY)
                 && matches!(
                     self.deformation.as_ref().map(|d| d.kind),
                     Some(Deformation::Pressure { .. } | Deformation::NormalStress { .. })
@@ -602,18 +541,18 @@ impl Dem {
             {
                 let (stress, bulk) = self.stress_and_stiffness();
                 if let Some(d) = self.deformation.as_mut() {
-                    d.servo(stress, bulk, dt, &self.domain);
+                    d.servo(stress, bulk, dt, &self.w.domain);
                 }
             }
             if let Some(d) = &self.deformation {
-                let (centre, scale) = d.deform(&mut self.domain, dt);
+                let (centre, scale) = d.deform(&mut self.w.domain, dt);
                 // Bound on the affine displacement: particles lie within half a box length plus
                 // the skin of the centre (they are wrapped only at neighbour builds).
-                let bound: Real = (0..self.dim).map(|a| ((0.5 * self.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
+                let bound: Real = (0..self.w.dim).map(|a| ((0.5 * self.w.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
                 self.near.add_motion(bound.sqrt());
                 self.xr_current = false;
                 self.drift2 = None;
-                self.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
+                self.w.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
                     for x in xs {
                         for a in 0..3 {
                             x[a] = centre[a] + (x[a] - centre[a]) * scale[a];
@@ -635,8 +574,8 @@ impl Dem {
         let dt = self.dt;
         let alpha = self.params.local_damping;
         let reference = self.nl.reference_positions();
-        let measured = reference.len() == self.p.len();
-        let p = &mut self.p;
+        let measured = reference.len() == self.w.p.len();
+        let p = &mut self.w.p;
         let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
         // No wrap after the drift: particles return into the box at the next neighbour build.
         let (largest2, drift2) = p
@@ -676,7 +615,7 @@ impl Dem {
     /// Packs every particle's velocities and predictions ([`Kin`]) from the current state.
     fn pack_kinematics(&mut self) {
         let h = 0.5 * self.dt;
-        let p = &self.p;
+        let p = &self.w.p;
         self.kin.par_chunks_mut(LOOP_CHUNK).enumerate().for_each(|(c, kins)| {
             for (k, kin) in kins.iter_mut().enumerate() {
                 let i = c * LOOP_CHUNK + k;
@@ -686,9 +625,6 @@ impl Dem {
         self.kin_current = true;
     }
 
-    fn shear_geometry(&self) -> Option<ShearGeometry> {
-        world::shear_geometry(&self.domain, &self.walls)
-    }
 }
 
 /// The end-of-step predictions of a particle's velocity and spin from its last force and torque
@@ -749,43 +685,36 @@ fn collision_stiffness(c: &CollisionTime, p: &Particles) -> Real {
     0.5 * m * (std::f64::consts::PI / c.t_c).powi(2)
 }
 
-impl Simulation for Dem {
-    fn method(&self) -> &'static str {
-        "dem"
+impl RigidMethod for Dem {
+    const NAME: &'static str = "dem";
+    const GRAIN_MODEL: GrainModel = GrainModel::SoftContacts;
+
+    fn world(&self) -> &RigidWorld {
+        &self.w
     }
 
-    fn step(&mut self) -> Result<(), EngineError> {
-        world::in_own_pool(self, |s| &mut s.pool, Self::step_stages)
+    fn world_mut(&mut self) -> &mut RigidWorld {
+        &mut self.w
     }
 
-    fn steps_done(&self) -> u64 {
-        self.step
-    }
-
-    fn time(&self) -> Real {
-        self.time
-    }
-
-    fn dt(&self) -> Real {
+    fn nominal_step(&self) -> Real {
         self.dt
     }
 
-    fn particle_count(&self) -> usize {
-        self.p.len()
+    fn advance(&mut self) -> Result<(), EngineError> {
+        self.step_stages()
     }
 
-    fn packing_fraction(&self) -> Real {
-        self.solid_volume / self.domain.volume()
+    fn contact_records(&self) -> Vec<ContactRecord> {
+        self.contacts()
     }
 
-    fn strain(&self) -> Real {
-        if self.domain.sheared() {
-            return (self.domain.shear_rate * self.time).abs();
-        }
-        (0..self.dim).map(|a| (self.domain.length(a) / self.len0[a]).ln().abs()).fold(0.0, f64::max)
+    fn drum_loads(&self) -> Vec<(Vec3, Vec3)> {
+        let slot = self.w.walls.len() as u16;
+        self.wall_contacts.iter().filter(|c| c.w == slot).map(|c| (self.w.p.pos[c.i as usize], c.force)).collect()
     }
 
-    fn sample(&mut self) -> Result<Sample, EngineError> {
+    fn measure(&mut self) -> Result<Sample, EngineError> {
         let clock = self.profile.map(|_| std::time::Instant::now());
         let sample = self.take_sample();
         if let (Some(c), Some(t)) = (clock, self.profile.as_mut()) {
@@ -794,34 +723,25 @@ impl Simulation for Dem {
         sample
     }
 
-    fn memory_bytes(&self) -> usize {
+    fn heap_size(&self) -> usize {
         self.heap_bytes()
     }
 
-    fn apply_controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
-        if let (Some(w), Some(drum)) = (controls.drum_angular_velocity, self.drum.as_mut()) {
-            drum.angular_velocity = w;
+    fn controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
+        if self.w.apply_controls(controls) {
+            // Walls closed onto the grains.
+            self.refresh_neighbors();
+            self.compute_forces(false);
         }
-        for def in &controls.walls {
-            if let Some(w) = self.walls.iter_mut().find(|w| w.face == def.face) {
-                w.set_motion(def.motion);
-            }
-        }
-        if let Some(gap) = controls.glue {
-            self.glue_to_walls(gap);
-        }
-        if let Some(a) = controls.centripetal {
-            self.field = self.granule_center.filter(|_| a != 0.0).map(|c| (c, a));
-        }
-        if let Some(axis) = controls.close_walls {
-            self.close_walls(axis);
+        if controls.glue.is_some() {
+            self.kin_current = false;
         }
         if let Some(d) = controls.deformation {
             self.deformation = d.map(CellDeformation::new);
         }
         // Friction between particles; the walls keep their material's.
         self.table = match controls.friction {
-            Some(mu) => ContactTable::new(&self.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>())
+            Some(mu) => ContactTable::new(&self.w.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>())
                 .with_history_of(&self.wall_table),
             None => self.wall_table.clone(),
         };
@@ -830,7 +750,7 @@ impl Simulation for Dem {
             // Into the box first (with the old images), so that every grain gets the profile of
             // its own position.
             self.refresh_neighbors();
-            world::impose_shear_rate(&mut self.domain, &mut self.p, rate);
+            self.w.impose_shear_rate(rate);
             // The shear velocities of the images changed: pairs across the boundary must be found
             // again.
             self.refresh_neighbors();
@@ -841,17 +761,10 @@ impl Simulation for Dem {
         Ok(())
     }
 
-    fn box_lengths(&self) -> Vec3 {
-        self.domain.hi - self.domain.lo
-    }
-
-    fn balance(&mut self) -> Balance {
-        let p = &self.p;
-        // Translational kinetic energy only: a rattler spinning between frictionless walls keeps
-        // its spin for ever (nothing exerts a torque on it), yet the packing is at rest.
-        let kinetic: Real = 0.5 * p.vel.iter().zip(&p.mass).map(|(v, m)| m * v.norm_squared()).sum::<Real>();
+    fn equilibrium(&mut self) -> Balance {
+        let kinetic = self.w.kinetic_energy();
         let elastic = self.elastic_energy();
-        let net: Real = p.force.iter().map(|f| f.norm()).sum::<Real>() / p.len().max(1) as Real;
+        let net = self.w.mean_net_force();
         let (mut sum, mut count) = (0.0, 0usize);
         for c in self.pairs.iter().flat_map(PairBlock::pairs) {
             if c.out.force != Vec3::zeros() {
@@ -866,11 +779,11 @@ impl Simulation for Dem {
         let mean_contact = if count > 0 { sum / count as Real } else { 0.0 };
         let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
         // Stress-controlled boundaries against their targets.
-        let mut stress_error = world::wall_stress_error(&self.walls, &self.domain);
+        let mut stress_error = self.w.wall_stress_error();
         match self.deformation.as_ref().map(|d| d.kind) {
             Some(Deformation::Pressure { target, .. }) => {
                 let (stress, _) = self.stress_and_stiffness();
-                let pressure = (0..self.dim).map(|a| stress[a]).sum::<Real>() / self.dim as Real;
+                let pressure = (0..self.w.dim).map(|a| stress[a]).sum::<Real>() / self.w.dim as Real;
                 stress_error = stress_error.max((pressure - target).abs() / target);
             }
             Some(Deformation::NormalStress { axis, target, .. }) => {
@@ -881,41 +794,6 @@ impl Simulation for Dem {
         }
         Balance { kinetic_energy: kinetic, reference_energy: elastic, unbalanced_force, stress_error }
     }
-
-    fn grain_scales(&self) -> (Real, Real) {
-        let n = self.p.len().max(1) as Real;
-        let mean_d = 2.0 * self.p.radius.iter().sum::<Real>() / n;
-        let mass: Real = self.p.mass.iter().sum();
-        (mean_d, if self.solid_volume > 0.0 { mass / self.solid_volume } else { 0.0 })
-    }
-
-    fn saved_state(&self) -> StateFile {
-        world::saved_state(self.time, self.step, &self.domain, &self.materials, &self.p)
-    }
-
-    fn snapshot(&self) -> Snapshot {
-        let p = &self.p;
-        let (position, velocity) = self.wrapped();
-        Snapshot {
-            dim: self.dim,
-            step: self.step,
-            time: self.time,
-            lo: self.domain.lo,
-            hi: self.domain.hi,
-            position,
-            radius: p.radius.clone(),
-            velocity,
-            omega: p.omega.clone(),
-            force: p.force.clone(),
-            contacts: self.contacts(),
-            walls: world::wall_faces(&self.walls),
-            drum: self.drum.as_ref().map(|d| {
-                let slot = self.walls.len() as u16;
-                d.shell(self.wall_contacts.iter().filter(|c| c.w == slot).map(|c| (p.pos[c.i as usize], c.force)))
-            }),
-            material_points: None,
-        }
-    }
 }
 
 impl Dem {
@@ -923,31 +801,12 @@ impl Dem {
     fn take_sample(&mut self) -> Result<Sample, EngineError> {
         let energies = self.check_stability()?;
         let contacts = self.contacts();
-        let walls = world::wall_views(&self.walls, &self.domain);
-        let view = SystemView {
-            dim: self.dim,
-            step: self.step,
-            time: self.time,
-            particles: &self.p,
-            volume: self.domain.volume(),
-            contacts: &contacts,
-            walls: &walls,
-            shear: self.shear_geometry(),
-            elastic_energy: energies.elastic,
-            rattler_threshold: rattler_threshold(self.dim, self.table.laws().iter().any(|l| l.friction > 0.0)),
-            drum: self.drum.as_ref().map(Drum::view),
-            deformable: None,
-            domain: &self.domain,
-        };
-        let s = measure(&view);
+        let frictional = self.table.laws().iter().any(|l| l.friction > 0.0);
+        let s = self.w.measure(&contacts, energies.elastic, frictional);
         if !s.is_finite() {
             return Err(self.unstable(crate::error::InstabilityCause::NonFinite { particle: 0 }));
         }
         Ok(s)
-    }
-
-    fn wrapped(&self) -> (Vec<Vec3>, Vec<Vec3>) {
-        world::wrapped(&self.domain, &self.p)
     }
 
     /// The stages of one step, in the order of [`Stage`].
@@ -968,9 +827,9 @@ impl Dem {
         lap(|t| &mut t.boundaries, &mut self.profile);
         // Stage::NeighborUpdate
         let rebuild = match self.drift2.take() {
-            Some(max2) => self.nl.needs_rebuild_after(max2, &self.domain),
-            None => self.nl.needs_rebuild(&self.p.pos, &self.domain),
-        } || self.wall_contacts.walls_moved(&self.walls, self.nl.skin);
+            Some(max2) => self.nl.needs_rebuild_after(max2, &self.w.domain),
+            None => self.nl.needs_rebuild(&self.w.p.pos, &self.w.domain),
+        } || self.wall_contacts.walls_moved(&self.w.walls, self.nl.skin);
         if rebuild {
             self.refresh_neighbors();
         }
@@ -980,12 +839,12 @@ impl Dem {
         lap(|t| &mut t.pairs, &mut self.profile);
         self.wall_forces_and_gather(true);
         lap(|t| &mut t.forces, &mut self.profile);
-        self.step += 1;
-        self.time += self.dt;
+        self.w.step += 1;
+        self.w.time += self.dt;
         self.record_wall_work();
         lap(|t| &mut t.integrate, &mut self.profile);
         // Stage::Check
-        if self.step.is_multiple_of(CHECK_EVERY) {
+        if self.w.step.is_multiple_of(CHECK_EVERY) {
             self.check_stability()?;
         }
         lap(|t| &mut t.check, &mut self.profile);

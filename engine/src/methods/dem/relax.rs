@@ -9,7 +9,7 @@
 //! grains' initial velocities start after it.
 
 use super::timestep::CollisionTime;
-use super::world;
+use crate::methods::rigid::settle::{settle_aggregates, Held, Settling};
 use super::Dem;
 use crate::error::EngineError;
 use crate::math::Real;
@@ -54,10 +54,10 @@ pub(super) fn with_bonds(c: CollisionTime, p: &Particles) -> CollisionTime {
 impl Dem {
     /// Relaxes the aggregates in place (module documentation).
     pub(super) fn relax_aggregates(&mut self) -> Result<(), EngineError> {
-        let held = world::Held::hold(&mut self.walls, &mut self.gravity, &mut self.p);
+        let held = Held::hold(&mut self.w);
         // The cell holds still too (as contact dynamics' does): a servo or imposed rate
         // running during the relaxation kept the aggregates moving, and they never settled.
-        let (field, deformation, damping) = (self.field.take(), self.deformation.take(), self.params.local_damping);
+        let (deformation, damping) = (self.deformation.take(), self.params.local_damping);
         self.params.local_damping = RELAX_DAMPING;
         self.kin_current = false;
         self.budget = super::stability::EnergyBudget::start(self.mechanical_energy());
@@ -69,13 +69,11 @@ impl Dem {
                 self.dt / self.collision.t_c
             ),
         };
-        let settling = world::Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
-        let outcome = world::settle_aggregates(self, |s| &s.p, Self::step_stages, settling, not_settled);
-        held.restore(&mut self.walls, &mut self.gravity, &mut self.p);
-        (self.field, self.deformation, self.params.local_damping) = (field, deformation, damping);
+        let settling = Settling { settled: SETTLED, check_every: CHECK_EVERY, max_steps: MAX_STEPS };
+        let outcome = settle_aggregates(self, settling, not_settled);
+        held.restore(&mut self.w);
+        (self.deformation, self.params.local_damping) = (deformation, damping);
         self.kin_current = false;
-        self.step = 0;
-        self.time = 0.0;
         self.compute_forces(false);
         outcome
     }

@@ -82,8 +82,8 @@ impl Dem {
     /// over the blocks of pair records, each block's terms summed in block order (the same
     /// value for any number of threads).
     fn scan(&self) -> Scan {
-        let p = &self.p;
-        let g = self.gravity;
+        let p = &self.w.p;
+        let g = self.w.gravity;
 
         // Per block of particles: the first non-finite particle, the kinetic energy, the
         // potential of gravity and of the centripetal field.
@@ -104,7 +104,7 @@ impl Dem {
                     }
                 }
                 // The centripetal field's potential, m a |x - c|.
-                if let Some((c, a)) = self.field {
+                if let Some((c, a)) = self.w.field {
                     for i in r.clone() {
                         potential += p.mass[i] * a * (p.pos[i] - c).norm();
                     }
@@ -123,7 +123,7 @@ impl Dem {
                 for c in walls {
                     let i = c.i as usize;
                     let rad = p.radius[i];
-                    let Some((_, delta, _)) = wall_contacts::touch(&self.walls, self.drum.as_ref(), &p.pos[i], rad, c.w as usize) else {
+                    let Some((_, delta, _)) = wall_contacts::touch(&self.w.walls, self.w.drum.as_ref(), &p.pos[i], rad, c.w as usize) else {
                         continue;
                     };
                     overlap = Real::max(overlap, delta / rad);
@@ -135,7 +135,7 @@ impl Dem {
                 }
                 for c in list.pairs() {
                     let (i, j) = (c.i as usize, c.j as usize);
-                    let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.domain);
+                    let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.w.domain);
                     let (ri, rj) = (p.radius[i], p.radius[j]);
                     let dist = d.norm();
                     let delta = ri + rj - dist;
@@ -173,19 +173,19 @@ impl Dem {
 
     /// Adds the work done by moving walls during the last step.
     pub(crate) fn record_wall_work(&mut self) {
-        for w in &self.walls {
+        for w in &self.w.walls {
             // The particles push the wall with `force`; the wall does -force·v on them.
             self.budget.work_in -= w.force.dot(&w.velocity) * self.dt;
         }
-        if let Some(d) = &self.drum {
+        if let Some(d) = &self.w.drum {
             // The drive turns the drum against the particles' torque.
             self.budget.work_in -= d.torque * d.angular_velocity * self.dt;
         }
     }
 
     fn energy_check_applies(&self) -> bool {
-        let gravity_along_periodic = (0..self.dim).any(|a| self.domain.periodic[a] && self.gravity[a] != 0.0);
-        self.deformation.is_none() && !self.domain.sheared() && !gravity_along_periodic
+        let gravity_along_periodic = (0..self.w.dim).any(|a| self.w.domain.periodic[a] && self.w.gravity[a] != 0.0);
+        self.deformation.is_none() && !self.w.domain.sheared() && !gravity_along_periodic
     }
 
     /// Builds the typed error for `cause`, with a suggestion that depends on the step in use:
@@ -226,7 +226,7 @@ impl Dem {
             }
             _ => smaller_step,
         };
-        EngineError::Unstable { step: self.step, time: self.time, cause, suggestion }
+        EngineError::Unstable { step: self.w.step, time: self.w.time, cause, suggestion }
     }
 
     /// Runs the guard now; returns the mechanical energy it measured on the way (a sample
