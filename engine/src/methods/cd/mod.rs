@@ -71,6 +71,7 @@
 
 mod balance;
 mod cell;
+mod detect;
 mod laws;
 pub mod params;
 pub use params::{CdParams, CdParamsSpec, Sweep, AGGREGATE_TOLERANCE};
@@ -80,15 +81,16 @@ use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::NeighborList;
 use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};
-use crate::nscd::nlgs::{image_lever, law_for, RigidBodies};
-use crate::nscd::{Colours, ContactFrame, Convergence, LocalLaw, Mobility, Nlgs, NlgsReport, RigidContact, Rolling, Side};
-use crate::methods::rigid::{RigidMethod, RigidWorld, NOT_GLUED};
-use crate::particles::Particles;
+use crate::methods::rigid::{RigidMethod, RigidWorld};
+use crate::nscd::nlgs::{image_lever, RigidBodies};
+use crate::nscd::{Colours, Convergence, Mobility, Nlgs, NlgsReport, RigidContact, Side};
 use crate::observe::{ContactRecord, Sample, SolverSample};
+use crate::particles::Particles;
 use crate::run::{Balance, GrainModel};
 use crate::scene::{Controls, Deformation, Scene, Stage, WallMotion};
 use balance::{Freedom, Window};
 use cell::Cell;
+use detect::{Held, Status};
 use laws::PairLaws;
 
 use super::world;
@@ -123,91 +125,6 @@ const WORST_VIOLATION: Real = 0.1;
 /// Fraction of the interpenetration beyond the slop that a contact removes per step (see
 /// [`WORST_VIOLATION`] for how the two bound the creep).
 pub const RESTORE: Real = 0.02;
-
-/// `law` with its Signorini bound raised, for a contact interpenetrated beyond `slop` of
-/// `radius` (gap `g` < 0, m), to the normal velocity that removes [`RESTORE`] of the excess over
-/// a step of `h` seconds (Baumgarte's stabilisation of the gap, kept gentle). Velocity Signorini
-/// stops approaches, not gaps: what a solve converged to `violation_tolerance` leaves as
-/// approach, a packing held at rest by stress-controlled walls accumulates step after step, until
-/// it creeps to the interpenetration limit. At 1/50 of the excess per step the restoration speed
-/// stays of the order of the violation that feeds it; the slop leaves alone the overlaps Moreau's
-/// anticipation makes anyway. The slop should lie above the interpenetration the solve leaves in
-/// the packing: contacts held at the slop's edge are pushed apart at every step, and the packing,
-/// stirred, creeps instead of coming to rest (docs/methods/cd.md, "Design measurements").
-fn restoring(mut law: LocalLaw, g: Real, radius: Real, h: Real, slop: Real) -> LocalLaw {
-    let excess = -g - slop * radius;
-    if excess > 0.0 {
-        law.target = law.target.max(RESTORE * excess / h);
-    }
-    law
-}
-
-/// The law of a pair that is open over the step but attracts (`cohesion` > 0, N·s): the
-/// Signorini bound at position level, `U_n >= -(g + (1 - theta) h u_n) / (theta h)` — the
-/// approach that closes the gap `g` by the end of the step under the theta-scheme — so that the
-/// attraction acts freely (`r_n = -cohesion`) unless it would pull the grains into each other,
-/// where the contact stops them. `ahead` is `(1 - theta) h`, `theta_h` is `theta h`, s. An impact
-/// within the range of attraction is inelastic.
-fn open_law(g: Real, u_n: Real, ahead: Real, theta_h: Real, mu: Real, cohesion: Real) -> LocalLaw {
-    LocalLaw { target: -(g + ahead * u_n) / theta_h, friction: mu, cohesion, viscosity: 0.0 }
-}
-
-/// The law of a pair that is open over the step and does not attract, and whose start
-/// velocity does not close it within the step, but is near (see the module documentation,
-/// `Detect`), for a step of `h` seconds (theta-scheme, `theta`): its gap `g` (m) may end the
-/// step `allow` (m) deep, no deeper, whatever happens within the step:
-/// `g + h (theta U_n + (1 - theta) u_n) >= -allow`, `u_n` its normal velocity at the start
-/// (m/s). Frictionless: it is a stop against grains driven within the step into neighbours the
-/// anticipation left out, not a contact the pair is known to make (with friction, such stops
-/// added enough redundancy to lock Gauss-Seidel into a cycle in a rotating drum of 300 disks).
-fn near_law(g: Real, u_n: Real, h: Real, theta: Real, allow: Real) -> LocalLaw {
-    LocalLaw { target: (-allow - g - (1.0 - theta) * h * u_n) / (theta * h), friction: 0.0, cohesion: 0.0, viscosity: 0.0 }
-}
-
-/// What a pair carried at the end of a step, for the next one.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Held {
-    /// The pair ([`key_of`]).
-    key: (u32, u32),
-    /// Impulse on the key's first grain, global components, N·s (the warm start; a contact
-    /// seen from the other grain, as one with a glued grain may be, takes its opposite).
-    r: Vec3,
-    /// Rolling moment impulse on the key's first grain, N·m·s (the warm start).
-    m: Vec3,
-    /// The contact pressed (compressive normal impulse): the next step's contact is a lasting
-    /// one, without restitution.
-    pressed: bool,
-    /// A capillary bridge joins the pair.
-    bridge: bool,
-}
-
-/// What a contact of the step is, beside its impulse.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Status {
-    /// The pair ([`key_of`]): two grains (one may be glued to a wall: its contact is then one
-    /// of the wall's), or a grain and a boundary.
-    key: (u32, u32),
-    /// The grains touch (gap within [`ALERT`] at the start of the step).
-    touching: bool,
-    /// A capillary bridge joins them.
-    bridge: bool,
-    /// The contact's part of the normal impulse is compressive at the end of the step
-    /// ([`LocalLaw::contact_part`]; set after the solve).
-    pressed: bool,
-}
-
-/// Key of a wall contact: `(i, WALL_KEY - w)` for wall `w`, above every particle index.
-const WALL_KEY: u32 = u32::MAX;
-
-/// The pair a contact joins, for the warm start: `(i, j)` with `i < j` as the neighbour list
-/// holds them (whichever of the two is glued to a wall), or `(i, WALL_KEY - w)` for grain `i`
-/// against boundary `w`.
-fn key_of(i: u32, other: Side) -> (u32, u32) {
-    match other {
-        Side::Body(j) | Side::Image { j, .. } => (i, j),
-        Side::Boundary(w) => (i, WALL_KEY - w),
-    }
-}
 
 /// A contact-dynamics simulation.
 pub struct Cd {
@@ -248,7 +165,7 @@ pub struct Cd {
     colours: Colours,
     unordered: Vec<RigidContact>,
     unordered_status: Vec<Status>,
-    /// What each pair carried at the end of the last step, sorted by pair ([`key_of`]).
+    /// What each pair carried at the end of the last step, sorted by pair ([`detect::key_of`]).
     previous: Vec<Held>,
     /// Velocities and spins at the start of the step (scratch).
     vel_start: Vec<Vec3>,
@@ -543,238 +460,6 @@ impl Cd {
             // Imposed rates: the velocity of the whole step.
             self.cell_vel = self.wall_vel[k];
         }
-    }
-
-    /// The contacts of the step from the current positions and velocities (see the module
-    /// documentation), with their warm-start impulses; records the interpenetration.
-    fn detect(&mut self) {
-        let h = self.h;
-        let theta = self.params.theta;
-        let ahead = (1.0 - theta) * h;
-        let gh = self.w.gravity.norm() * h;
-        let slop = self.params.slop;
-        // Pairs this close (as a fraction of the smaller radius) that their start velocity does
-        // not close within the step are contacts of it too ([`near_law`]; the module
-        // documentation, `Detect`).
-        let near_gap = self.params.max_interpenetration;
-        let (p, domain, nl, laws, dim) = (&self.w.p, &self.w.domain, &self.nl, &self.laws, self.w.dim);
-        self.contacts.clear();
-        self.status.clear();
-        let (mut worst, mut sum, mut count): (Real, Real, usize) = (0.0, 0.0, 0);
-        let mut overlap = |g: Real, r: Real| {
-            if g < 0.0 {
-                let f = -g / r;
-                worst = worst.max(f);
-                sum += f;
-            }
-            count += 1;
-        };
-        let previous = &self.previous;
-        // What the pair carried at the last step, if anything: the warm start, and whether it
-        // was pressed (a lasting contact, whose impact is over: no restitution) or bridged.
-        let held = |key: (u32, u32)| previous.binary_search_by(|e| e.key.cmp(&key)).ok().map(|k| previous[k]);
-        let mut push = |c: RigidContact, key: (u32, u32), touching: bool, bridge: bool| {
-            self.contacts.push(c);
-            self.status.push(Status { key, touching, bridge, pressed: false });
-        };
-        // The wall a grain is glued to, if any.
-        let glued_to = &self.w.glued_to;
-        let glued = |i: usize| glued_to.get(i).copied().filter(|&w| w != NOT_GLUED).map(|w| w as usize);
-        let wall_mobility = &self.wall_mobility;
-        // The deforming cell: its slot, its velocity at the start of the step, and whether a
-        // contact across the boundary along each axis sees it move.
-        let cell = self.cell_slot;
-        let (cell_v0, cell_mobility) = (self.cell_vel, wall_mobility[cell]);
-        let moving: [bool; 3] = std::array::from_fn(|a| self.cell.is_some() && (cell_v0[a] != 0.0 || cell_mobility.direction[a] != 0.0));
-        for i in 0..p.len() {
-            let (s, e) = (nl.start[i] as usize, nl.start[i + 1] as usize);
-            for pr in &nl.pair[s..e] {
-                let j = pr.j as usize;
-                let (glued_i, glued_j) = (glued(i), glued(j));
-                if glued_i.is_some() && glued_j.is_some() {
-                    continue;
-                }
-                let k = pr.image;
-                let across = (0..3).any(|a| k[a] != 0 && moving[a]);
-                let d = p.pos[i] - p.pos[j] - domain.image_shift(k);
-                let dist = d.norm();
-                let (ri, rj) = (p.radius[i], p.radius[j]);
-                let g = dist - ri - rj;
-                let r = ri.min(rj);
-                let attraction = laws.attraction(p.material[i], p.material[j]);
-                // Primaries of one aggregate: the bond's attraction instead of the materials'.
-                let bond = p.bonding(i, j);
-                let range = bond.map_or_else(|| attraction.range(), |b| b.attraction.range());
-                let near = g <= near_gap * r;
-                if !near && ahead == 0.0 && g > range {
-                    continue;
-                }
-                let n = d / dist;
-                let drive = Vec3::new(domain.image_velocity(k[1]), 0.0, 0.0);
-                // The spins do not move the contact point along the normal of round bodies.
-                let u_n = (p.vel[i] - p.vel[j] - drive - image_lever(k, &cell_v0)).dot(&n);
-                let alert = ALERT * r;
-                let closing = g + ahead * u_n <= alert;
-                // Not closing over the whole step at its start velocity either.
-                let near = near && g + h * u_n > 0.0;
-                if !closing && !near && g > range {
-                    continue;
-                }
-                let old = held((i as u32, pr.j));
-                let wet = p.wet[i] && p.wet[j] && bond.is_none();
-                // A capillary bridge forms on contact and holds up to its rupture distance.
-                let bridge =
-                    attraction.capillary.filter(|cap| wet && (g <= alert || (old.is_some_and(|o| o.bridge) && g <= cap.rupture_distance)));
-                let cohesion = match bond {
-                    // The bond's attraction at the step's start gap (F_0 in contact).
-                    Some(b) => -h * b.attraction.force(g, ri, rj),
-                    None => {
-                        h * (attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0)
-                            - bridge.map_or(0.0, |cap| cap.force(g, ri, rj)))
-                    }
-                };
-                if !closing && !near && cohesion == 0.0 {
-                    continue;
-                }
-                let (a_i, a_j) = (ri + 0.5 * g, rj + 0.5 * g);
-                // Primaries of one aggregate touch without bouncing (the sources' inelastic,
-                // frictionless contacts, or the bond's friction).
-                let (e, mu) = bond.map_or_else(|| laws.pair(p.material[i], p.material[j]), |b| (0.0, b.friction));
-                let mut law = if closing {
-                    overlap(g, r);
-                    let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
-                    restoring(law_for(u_n, e, mu, cohesion), g, r, h, slop)
-                } else if cohesion != 0.0 {
-                    open_law(g, u_n, ahead, theta * h, mu, cohesion)
-                } else {
-                    near_law(g, u_n, h, theta, slop * r)
-                };
-                // The bridge's liquid resists the approach, implicitly (force per m/s of
-                // approach at the gap of the step's start, times the step).
-                if let (true, Some(lub)) = (bridge.is_some(), attraction.lubrication) {
-                    law.viscosity = h * lub.force(g, 1.0, ri, rj);
-                }
-                // The contact from the free grain's side: a grain glued to a wall is part of it
-                // (the contact then is one of the wall's, seen from the other grain: normal,
-                // levers and drive turned round); across a deforming cell's boundary the image
-                // moves with the cell.
-                let (first, second, side, n, a_first, a_second, drive) = match (glued_i, glued_j) {
-                    (None, None) if across => (i, j, Side::Image { j: pr.j, cell: cell as u8, k }, n, a_i, a_j, drive),
-                    (None, None) => (i, j, Side::Body(pr.j), n, a_i, a_j, drive),
-                    (None, Some(w)) => (i, j, Side::Boundary(w as u32), n, a_i, a_j, drive),
-                    (Some(w), _) => (j, i, Side::Boundary(w as u32), -n, a_j, a_i, -drive),
-                };
-                let frame = ContactFrame::new(dim, n);
-                // -1 when the contact is seen from the key's second grain.
-                let turned = if first == i { 1.0 } else { -1.0 };
-                let (f, o) = (first, second);
-                let mut w = RigidContact::delassus(p.inv_mass[f], p.inv_inertia[f], a_first, p.inv_mass[o], p.inv_inertia[o], a_second);
-                let mobility = match side {
-                    Side::Boundary(b) => Some((wall_mobility[b as usize], wall_mobility[b as usize].direction)),
-                    Side::Image { k, .. } => Some((cell_mobility, image_lever(k, &cell_mobility.direction))),
-                    Side::Body(_) => None,
-                };
-                if let Some((m, lever)) = mobility.filter(|(m, _)| m.inv_mass > 0.0) {
-                    w = RigidContact::with_moving_boundary(w, &n, &lever, m.inv_mass);
-                }
-                let rolling = Rolling {
-                    bound: if bond.is_some() { 0.0 } else { laws.rolling(p.material[i], p.material[j]) * ri * rj / (ri + rj) },
-                    w: p.inv_inertia[i] + p.inv_inertia[j],
-                    m: old.map_or(Vec3::zeros(), |o| o.m * turned),
-                };
-                let contact = RigidContact {
-                    i: first as u32,
-                    j: side,
-                    near: !closing && cohesion == 0.0,
-                    frame,
-                    a_i: a_first,
-                    a_j: a_second,
-                    drive,
-                    w,
-                    law,
-                    r: old.map_or(Vec3::zeros(), |o| frame.to_local(&(o.r * turned))),
-                    rolling,
-                    scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + p.vel[j].norm())) / w.n + cohesion,
-                };
-                push(contact, (i as u32, pr.j), g <= alert, bridge.is_some());
-            }
-        }
-        // A grain against boundary `k` (a plane wall, or the drum's slot after them): `n` from
-        // the surface towards the grain, `dist` from the grain's centre to the contact point,
-        // `v_b` the surface's velocity there, `drive` its part that is not the boundary's
-        // translation (the drum's rotation).
-        let mut boundary = |i: usize, k: usize, n: Vec3, dist: Real, v_b: Vec3, drive: Vec3| {
-            if glued(i).is_some() {
-                return;
-            }
-            let r = p.radius[i];
-            let g = dist - r;
-            let attraction = laws.wall_attraction(p.material[i]);
-            let near = g <= near_gap * r;
-            if !near && ahead == 0.0 && g > attraction.range() {
-                return;
-            }
-            let u_n = (p.vel[i] - v_b).dot(&n);
-            let alert = ALERT * r;
-            let closing = g + ahead * u_n <= alert;
-            let near = near && g + h * u_n > 0.0;
-            if !closing && !near && g > attraction.range() {
-                return;
-            }
-            let cohesion = h * attraction.constant.filter(|&(_, d0)| g <= d0.max(alert)).map_or(0.0, |(f0, _)| f0);
-            if !closing && !near && cohesion == 0.0 {
-                return;
-            }
-            let frame = ContactFrame::new(dim, n);
-            let (e, mu) = laws.wall(p.material[i]);
-            let old = held((i as u32, WALL_KEY - k as u32));
-            let wd = RigidContact::delassus_boundary(p.inv_mass[i], p.inv_inertia[i], dist, wall_mobility[k].inv_mass);
-            let law = if closing {
-                overlap(g, r);
-                let e = if old.is_some_and(|o| o.pressed) { 0.0 } else { e };
-                restoring(law_for(u_n, e, mu, cohesion), g, r, h, slop)
-            } else if cohesion != 0.0 {
-                open_law(g, u_n, ahead, theta * h, mu, cohesion)
-            } else {
-                near_law(g, u_n, h, theta, slop * r)
-            };
-            let rolling =
-                Rolling { bound: laws.wall_rolling(p.material[i]) * r, w: p.inv_inertia[i], m: old.map_or(Vec3::zeros(), |o| o.m) };
-            let contact = RigidContact {
-                i: i as u32,
-                j: Side::Boundary(k as u32),
-                near: !closing && cohesion == 0.0,
-                frame,
-                a_i: dist,
-                a_j: 0.0,
-                drive,
-                w: wd,
-                law,
-                r: old.map_or(Vec3::zeros(), |o| frame.to_local(&o.r)),
-                rolling,
-                scale: (u_n.abs() + gh + SPEED_FLOOR * (p.vel[i].norm() + v_b.norm())) / wd.n + cohesion,
-            };
-            push(contact, key_of(i as u32, Side::Boundary(k as u32)), g <= alert, false);
-        };
-        for (w, wall) in self.w.walls.iter().enumerate() {
-            let n = wall.normal();
-            let a = wall.face.axis;
-            for i in 0..p.len() {
-                boundary(i, w, n, (p.pos[i][a] - wall.position) * n[a], wall.velocity, Vec3::zeros());
-            }
-        }
-        if let Some(drum) = &self.w.drum {
-            let k = self.w.walls.len();
-            for i in 0..p.len() {
-                let d = drum.radial(&p.pos[i]);
-                let rho = d.norm();
-                if rho > 0.0 {
-                    let v = drum.surface_velocity(&drum.surface_point(&p.pos[i]));
-                    boundary(i, k, -d / rho, drum.def.radius - rho, v, v);
-                }
-            }
-        }
-        self.interpenetration = (worst, if count > 0 { sum / count as Real } else { 0.0 });
     }
 
     /// Length of the next step: `dt` if the scene gave `method.time_step`; otherwise `dt`

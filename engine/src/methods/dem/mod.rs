@@ -548,7 +548,8 @@ impl Dem {
                 let (centre, scale) = d.deform(&mut self.w.domain, dt);
                 // Bound on the affine displacement: particles lie within half a box length plus
                 // the skin of the centre (they are wrapped only at neighbour builds).
-                let bound: Real = (0..self.w.dim).map(|a| ((0.5 * self.w.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
+                let bound: Real =
+                    (0..self.w.dim).map(|a| ((0.5 * self.w.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
                 self.near.add_motion(bound.sqrt());
                 self.xr_current = false;
                 self.drift2 = None;
@@ -624,7 +625,6 @@ impl Dem {
         });
         self.kin_current = true;
     }
-
 }
 
 /// The end-of-step predictions of a particle's velocity and spin from its last force and torque

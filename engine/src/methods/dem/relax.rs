@@ -9,10 +9,10 @@
 //! grains' initial velocities start after it.
 
 use super::timestep::CollisionTime;
-use crate::methods::rigid::settle::{settle_aggregates, Held, Settling};
 use super::Dem;
 use crate::error::EngineError;
 use crate::math::Real;
+use crate::methods::rigid::settle::{settle_aggregates, Held, Settling};
 use crate::particles::Particles;
 
 /// Kinetic energy, as a fraction of `N F_0 ⟨a_0⟩`, below which the aggregates have settled

@@ -123,7 +123,8 @@ impl Dem {
                 for c in walls {
                     let i = c.i as usize;
                     let rad = p.radius[i];
-                    let Some((_, delta, _)) = wall_contacts::touch(&self.w.walls, self.w.drum.as_ref(), &p.pos[i], rad, c.w as usize) else {
+                    let Some((_, delta, _)) = wall_contacts::touch(&self.w.walls, self.w.drum.as_ref(), &p.pos[i], rad, c.w as usize)
+                    else {
                         continue;
                     };
                     overlap = Real::max(overlap, delta / rad);
