@@ -17,7 +17,9 @@
 
 use rayon::prelude::*;
 
-use super::nlgs::{Mobility, Pass, RigidContact, Side, SolveBodies, Sums};
+use super::bodies::{Mobility, SolveBodies};
+use super::contact::{RigidContact, Side};
+use super::sweep::{Pass, Sums};
 use crate::math::Vec3;
 
 /// Contacts per parallel task; a colour of fewer contacts is swept by one.
@@ -152,7 +154,7 @@ impl Colours {
 mod tests {
     use super::*;
     use crate::math::Real;
-    use crate::nscd::nlgs::test_contact;
+    use crate::nscd::contact::test_contact;
 
     fn contact(i: u32, j: Side) -> RigidContact {
         test_contact(i, j, Vec3::x(), (0.5, 0.5), RigidContact::delassus(1.0, 2.0, 0.5, 1.0, 2.0, 0.5))

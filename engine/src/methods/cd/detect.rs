@@ -8,7 +8,7 @@ use crate::geometry::neighbors::PairRef;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
 use crate::methods::rigid::NOT_GLUED;
-use crate::nscd::nlgs::{image_lever, law_for};
+use crate::nscd::{image_lever, law_for};
 use crate::nscd::{ContactFrame, LocalLaw, Mobility, RigidContact, Rolling, Side};
 use crate::particles::Particles;
 

@@ -8,7 +8,7 @@ use super::{world, Cd};
 use crate::error::{EngineError, InstabilityCause};
 use crate::loading::Wall;
 use crate::math::{Real, Vec3};
-use crate::nscd::nlgs::{image_lever, RigidBodies};
+use crate::nscd::{image_lever, RigidBodies};
 use crate::nscd::{Mobility, Side};
 use crate::scene::{Deformation, WallMotion};
 
