@@ -23,7 +23,8 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some(Kind::State(s)) => println!("state: {:?} {}", s.state(), s.error_message),
             Some(Kind::Sample(s)) => {
                 if let Some(x) = s.sample {
-                    println!("{:5.1}%  step {:>8}  phi {:.4}  Z {:.3}  mu {:.3}", 100.0 * s.fraction, x.step, x.phi, x.z, x.mu);
+                    let ratio = x.mu.map_or_else(|| format!("zeta {:.3}", x.zeta), |mu| format!("mu {mu:.3}"));
+                    println!("{:5.1}%  step {:>8}  phi {:.4}  Z {:.3}  {ratio}", 100.0 * s.fraction, x.step, x.phi, x.z);
                 }
             }
             _ => {}

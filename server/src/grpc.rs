@@ -76,6 +76,7 @@ pub fn pb_sample(s: &Sample) -> pb::SampleSummary {
         time: s.time,
         phi: s.phi,
         z: s.z,
+        zeta: s.zeta,
         mu: s.mu,
         p: s.p,
         q: s.q,

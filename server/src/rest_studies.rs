@@ -100,7 +100,7 @@ async fn study_chart(st: &AppState, id: &str, format: Format) -> Result<Response
 #[serde(deny_unknown_fields)]
 #[into_params(parameter_in = Query)]
 pub(crate) struct ChartParams {
-    /// Sample field on the vertical axis, by path (`mu`, `p`, `phi`, `stress.xy`). Default `mu`.
+    /// Sample field on the vertical axis, by path (`zeta`, `mu`, `p`, `phi`, `stress.xy`). Default `zeta`.
     /// Or one path per job, comma-separated, in the jobs' order (this one, then `with`): models
     /// whose samples name a quantity differently (`grains.phi,phi`).
     y: Option<String>,
@@ -166,7 +166,7 @@ async fn samples_chart(
 ) -> Result<Response, ApiError> {
     let first = parse_id(id)?;
     let p = query(q)?;
-    let y = p.y.unwrap_or_else(|| "mu".into());
+    let y = p.y.unwrap_or_else(|| "zeta".into());
     let x = p.x.unwrap_or_else(|| "time".into());
     let mut ids = vec![first];
     for part in p.with.iter().flat_map(|w| w.split(',')).filter(|s| !s.trim().is_empty()) {

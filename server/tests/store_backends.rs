@@ -47,7 +47,7 @@ fn job(name: &str, priority: i64, key: Option<&str>) -> NewJob {
 
 fn sample(step: u64, phi: f64) -> Sample {
     serde_json::from_value(serde_json::json!({
-        "step": step, "time": step as f64 * 1e-3, "phi": phi, "z": 4.0, "z_no_rattlers": 4.2, "mu": 0.3, "p": 100.0, "q": 30.0,
+        "step": step, "time": step as f64 * 1e-3, "phi": phi, "z": 4.0, "z_no_rattlers": 4.2, "zeta": 0.3, "p": 100.0, "q": 30.0,
         "stress": {"xx": 1.0, "yy": 2.0, "zz": 0.0, "xy": 0.5, "xz": 0.0, "yz": 0.0},
         "inertial_number": null, "kinetic_energy": 1e-6, "elastic_energy": 2e-6, "walls": []
     }))
@@ -366,5 +366,76 @@ async fn one_idempotency_key_sent_to_two_servers_at_once_makes_one_job() {
     }
     for s in &stores {
         s.close().await;
+    }
+}
+
+/// A database made before samples had `zeta` (one `mu` column: τ/σ_n under shear, q/p
+/// otherwise) is converted when a server opens it: every stored sample and sample event
+/// reads back with `zeta` = q/p, and `mu` = the stored τ/σ_n where a shear was defined, absent
+/// otherwise. No sample is lost or left unreadable.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_database_from_before_zeta_is_converted_and_loses_nothing() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for at in locations(&dir).await {
+        // The schema as it was: the migrations before 0006, from a copy of their files.
+        let (source, backend) = match &at {
+            DbLocation::Sqlite(_) => ("sqlite", &sable_server::store::SQLITE_MIGRATOR),
+            DbLocation::Postgres(_) => ("postgres", &sable_server::store::POSTGRES_MIGRATOR),
+        };
+        let old = dir.path().join(format!("migrations-{source}"));
+        std::fs::create_dir_all(&old).expect("dir");
+        for m in backend.iter().filter(|m| m.version < 6) {
+            let from = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../migrations/{source}"));
+            let file = std::fs::read_dir(&from)
+                .expect("migrations")
+                .filter_map(Result::ok)
+                .find(|f| f.file_name().to_string_lossy().starts_with(&format!("{:04}_", m.version)))
+                .expect("the migration's file");
+            std::fs::copy(file.path(), old.join(file.file_name())).expect("copy");
+        }
+        let migrator = sqlx::migrate::Migrator::new(old.as_path()).await.expect("old migrations");
+        let shear = r#"{"step":10,"time":0.01,"phi":0.8,"z":4.0,"z_no_rattlers":4.0,"mu":0.25,"p":100.0,"q":40.0,
+            "stress":{"xx":100.0,"yy":100.0,"xy":25.0},"inertial_number":0.01,"kinetic_energy":0.0,"elastic_energy":0.0,"walls":[]}"#;
+        let biaxial = r#"{"step":0,"time":0.0,"phi":0.8,"z":4.0,"z_no_rattlers":4.0,"mu":0.3,"p":100.0,"q":30.0,
+            "stress":{"xx":70.0,"yy":130.0,"xy":0.0},"inertial_number":null,"kinetic_energy":0.0,"elastic_energy":0.0,"walls":[]}"#;
+        let script = format!(
+            "INSERT INTO jobs (name, state, method, method_reason, scene, scene_hash, engine_version, seed, max_attempts, created_at) \
+             VALUES ('old', 'succeeded', 'dem', 'test', '{{}}', 'h', '0', 1, 1, 0);
+             INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, mu, p, q, inertial_number, kinetic_energy, \
+             elastic_energy, data) VALUES (1, 1, 0, 0.0, 0.8, 4.0, 4.0, 0.3, 100.0, 30.0, NULL, 0.0, 0.0, '{biaxial}'), \
+             (1, 2, 10, 0.01, 0.8, 4.0, 4.0, 0.25, 100.0, 40.0, 0.01, 0.0, 0.0, '{shear}');
+             INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES \
+             (1, 1, 0, 'sample', '{{\"fraction\":0.5,\"remaining_seconds\":null,\"sample\":{biaxial}}}'), \
+             (1, 2, 0, 'sample', '{{\"fraction\":1.0,\"remaining_seconds\":null,\"sample\":{shear}}}');"
+        );
+        match &at {
+            DbLocation::Sqlite(path) => {
+                let options = sqlx::sqlite::SqliteConnectOptions::new().filename(path).create_if_missing(true);
+                let pool = sqlx::SqlitePool::connect_with(options).await.expect("sqlite");
+                migrator.run(&pool).await.expect("old schema");
+                sqlx::raw_sql(&script).execute(&pool).await.expect("old rows");
+                pool.close().await;
+            }
+            DbLocation::Postgres(url) => {
+                let pool = sqlx::PgPool::connect(url).await.expect("postgres");
+                migrator.run(&pool).await.expect("old schema");
+                sqlx::raw_sql(&script).execute(&pool).await.expect("old rows");
+                pool.close().await;
+            }
+        }
+        let store = open(&at, 30_000).await;
+        let samples = store.samples(1, 0, None).await.unwrap_or_else(|e| panic!("{at}: samples: {e}"));
+        assert_eq!(samples.len(), 2, "{at}");
+        assert_eq!((samples[0].zeta, samples[0].mu), (0.3, None), "{at}: q/p without shear, no τ/σ_n");
+        assert_eq!((samples[1].zeta, samples[1].mu), (0.4, Some(0.25)), "{at}: q/p and the stored τ/σ_n under shear");
+        let events = store.events_after(1, 0, 10).await.expect("events");
+        let replayed: Vec<Sample> = events
+            .iter()
+            .map(|e| {
+                let v: serde_json::Value = serde_json::from_str(&e.payload).expect("json");
+                serde_json::from_value(v["sample"].clone()).unwrap_or_else(|err| panic!("{at}: event {}: {err}", e.seq))
+            })
+            .collect();
+        assert_eq!(replayed, samples, "{at}: the events replay the same samples");
     }
 }

@@ -208,7 +208,7 @@ async fn submit_over_http_watch_over_grpc_and_read_samples(backend: Backend) {
     assert_eq!(status, 200);
     let samples = body["samples"].as_array().expect("samples");
     assert_eq!(samples.len(), 11);
-    for key in ["step", "time", "phi", "z", "z_no_rattlers", "mu", "p", "q", "stress", "kinetic_energy", "elastic_energy", "walls"] {
+    for key in ["step", "time", "phi", "z", "z_no_rattlers", "zeta", "p", "q", "stress", "kinetic_energy", "elastic_energy", "walls"] {
         assert!(samples[0].get(key).is_some(), "sample has {key}");
     }
     let (_, down) = h.get(&format!("/v1/jobs/{id}/samples?max_points=3&from_step=100")).await;
@@ -217,7 +217,7 @@ async fn submit_over_http_watch_over_grpc_and_read_samples(backend: Backend) {
     assert_eq!(steps, vec![100, 600, 1000]);
     let csv = h.http.get(format!("{}/v1/jobs/{id}/samples?format=csv", h.base)).send().await.expect("csv").text().await.expect("text");
     let mut lines = csv.lines();
-    assert!(lines.next().unwrap_or_default().starts_with("step,time,phi,z,z_no_rattlers,mu,p,q,stress_xx"));
+    assert!(lines.next().unwrap_or_default().starts_with("step,time,phi,z,z_no_rattlers,zeta,mu,p,q,stress_xx"));
     assert_eq!(lines.count(), 11);
 
     // The same numbers are in the database, readable with any SQL tool.
@@ -255,7 +255,7 @@ async fn an_unstable_run_fails_with_the_engines_reason_and_stores_no_nan(backend
     assert!(job["attempts"] == 1, "an unstable run is not retried: {job}");
     let (_, body) = h.get(&format!("/v1/jobs/{id}/samples")).await;
     for s in body["samples"].as_array().expect("samples") {
-        for key in ["time", "phi", "z", "mu", "p", "q", "kinetic_energy", "elastic_energy"] {
+        for key in ["time", "phi", "z", "zeta", "p", "q", "kinetic_energy", "elastic_energy"] {
             assert!(s[key].as_f64().is_some_and(f64::is_finite), "sample {key} = {}", s[key]);
         }
     }

@@ -67,7 +67,7 @@ def test_an_experiment_gives_its_derived_results(sable: Client) -> None:
     assert result["prepared"]["p"] == pytest.approx(100.0, rel=0.02)  # prepared at 100 Pa
     df = sable.samples(job)
     loading = df[df["stage"] != df["stage"].iloc[0]]
-    assert result["peak"]["zeta"] == pytest.approx(loading["mu"].max(), rel=1e-9)
+    assert result["peak"]["zeta"] == pytest.approx(loading["zeta"].max(), rel=1e-9)
     assert 0.2 < result["peak"]["zeta"] < 0.6  # μ = 0.5 disks (docs/scene-format.md: 0.41)
 
 

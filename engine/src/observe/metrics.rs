@@ -174,6 +174,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         }
         (1.5 * s.component_mul(&s).sum()).sqrt()
     };
+    let zeta = if pressure > 0.0 { q / pressure } else { 0.0 };
     let (mu, inertial_number) = match v.shear {
         Some(s) => {
             let sn = sigma[(s.gradient, s.gradient)];
@@ -182,9 +183,9 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
             let mean_d = if n > 0 { 2.0 * p.radius.iter().sum::<Real>() / n as Real } else { 0.0 };
             let rho = if solid > 0.0 { total_mass / solid } else { 0.0 };
             let i = (sn > 0.0).then(|| s.rate.abs() * mean_d * (rho / sn).sqrt());
-            (mu, i)
+            (Some(mu), i)
         }
-        None => (if pressure > 0.0 { q / pressure } else { 0.0 }, None),
+        None => (None, None),
     };
 
     let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
@@ -204,6 +205,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         phi,
         z,
         z_no_rattlers,
+        zeta,
         mu,
         p: pressure,
         q,

@@ -86,7 +86,7 @@ impl State {
             z: s.z,
             z_no_rattlers: s.z_no_rattlers,
             p: s.p,
-            zeta: s.mu,
+            zeta: s.zeta,
             grains: s.grains.as_deref().copied(),
         }
     }
@@ -491,7 +491,7 @@ impl Analysis {
                             })
                         };
                         let wall_stress = |s: &Sample| s.walls.iter().find(|w| w.name == "y_max").map_or(0.0, |w| w.normal_stress);
-                        let mu_of = |s: &Sample| if *rough_walls { wall_mu(s) } else { s.mu };
+                        let mu_of = |s: &Sample| if *rough_walls { wall_mu(s) } else { s.mu.unwrap_or(0.0) };
                         let mu = mean(&mu_of);
                         let normal_stress = if *rough_walls { mean(&wall_stress) } else { mean(&|s| s.stress.yy) };
                         let i = if *rough_walls {
@@ -645,8 +645,8 @@ impl Analysis {
 fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
     let Some(&(end, _)) = loading.last() else { return };
     let ev = |s: &Sample| s.strain.as_ref().map_or(0.0, |e| e.volumetric);
-    if let Some(&(ea, s)) = loading.iter().filter(|(ea, _)| *ea > 0.0).max_by(|a, b| a.1.mu.total_cmp(&b.1.mu)) {
-        r.peak = Some(Peak { zeta: s.mu, axial_strain: ea, volumetric_strain: ev(s), phi: s.phi, grains: s.grains.as_deref().copied() });
+    if let Some(&(ea, s)) = loading.iter().filter(|(ea, _)| *ea > 0.0).max_by(|a, b| a.1.zeta.total_cmp(&b.1.zeta)) {
+        r.peak = Some(Peak { zeta: s.zeta, axial_strain: ea, volumetric_strain: ev(s), phi: s.phi, grains: s.grains.as_deref().copied() });
     }
     if let Some(&(ea, s)) = loading.iter().max_by(|a, b| ev(a.1).total_cmp(&ev(b.1))) {
         r.dilatancy =
@@ -657,8 +657,8 @@ fn triaxial_results(r: &mut ExperimentResult, loading: &[(Real, &Sample)]) {
     if window.len() >= 2 {
         let n = window.len() as Real;
         let mean = |f: &dyn Fn(&Sample) -> Real| window.iter().map(|(_, s)| f(s)).sum::<Real>() / n;
-        let zeta = mean(&|s| s.mu);
-        let zeta_std = (window.iter().map(|(_, s)| (s.mu - zeta).powi(2)).sum::<Real>() / n).sqrt();
+        let zeta = mean(&|s| s.zeta);
+        let zeta_std = (window.iter().map(|(_, s)| (s.zeta - zeta).powi(2)).sum::<Real>() / n).sqrt();
         // Least-squares slope of eps_v against eps_a.
         let xa = window.iter().map(|(ea, _)| ea).sum::<Real>() / n;
         let ya = mean(&ev);
@@ -720,7 +720,8 @@ mod tests {
             phi: 0.8 - 0.5 * (0.002 - ev).max(0.0),
             z: 4.0,
             z_no_rattlers: 4.0,
-            mu: zeta,
+            zeta,
+            mu: None,
             p: 100.0,
             q: 100.0 * zeta,
             stress: Stress::default(),

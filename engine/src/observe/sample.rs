@@ -56,8 +56,12 @@ pub struct Sample {
     pub z: f64,
     /// Mean coordination of the force-bearing backbone, rattlers removed recursively.
     pub z_no_rattlers: f64,
-    /// Effective friction: τ/σ_n under shear, q/p otherwise.
-    pub mu: f64,
+    /// Stress ratio ζ = q/p (0 when p ≤ 0): the friction of a biaxial or triaxial test.
+    pub zeta: f64,
+    /// Effective friction μ = τ/σ_n on the shear plane, where a shear is defined (Lees-Edwards
+    /// or a sliding wall; 0 when σ_n ≤ 0); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<f64>,
     /// Mean pressure p, Pa (tr σ / D).
     pub p: f64,
     /// Deviatoric stress q, Pa ((σ1 - σ2)/2 in 2D; von Mises sqrt(3/2 s:s) in 3D).
@@ -175,7 +179,8 @@ impl StrainSample {
 impl Sample {
     /// Column names of the CSV form, in order.
     pub fn csv_header(dim: usize) -> Vec<String> {
-        let mut h: Vec<String> = ["step", "time", "phi", "z", "z_no_rattlers", "mu", "p", "q"].iter().map(|s| s.to_string()).collect();
+        let mut h: Vec<String> =
+            ["step", "time", "phi", "z", "z_no_rattlers", "zeta", "mu", "p", "q"].iter().map(|s| s.to_string()).collect();
         let comps: &[&str] = if dim == 2 { &["xx", "yy", "xy"] } else { &["xx", "yy", "zz", "xy", "xz", "yz"] };
         h.extend(comps.iter().map(|c| format!("stress_{c}")));
         h.extend(["inertial_number", "kinetic_energy", "elastic_energy"].iter().map(|s| s.to_string()));
@@ -185,8 +190,9 @@ impl Sample {
     /// Values of the CSV form, matching [`Sample::csv_header`] (walls are left to JSON).
     pub fn csv_row(&self, dim: usize) -> Vec<String> {
         let f = |x: f64| format!("{x:e}");
-        let mut r =
-            vec![self.step.to_string(), f(self.time), f(self.phi), f(self.z), f(self.z_no_rattlers), f(self.mu), f(self.p), f(self.q)];
+        let mut r = vec![self.step.to_string(), f(self.time), f(self.phi), f(self.z), f(self.z_no_rattlers), f(self.zeta)];
+        r.push(self.mu.map(f).unwrap_or_default());
+        r.extend([f(self.p), f(self.q)]);
         let s = &self.stress;
         if dim == 2 {
             r.extend([f(s.xx), f(s.yy), f(s.xy)]);
@@ -207,7 +213,7 @@ impl Sample {
             self.phi,
             self.z,
             self.z_no_rattlers,
-            self.mu,
+            self.zeta,
             self.p,
             self.q,
             s.xx,
@@ -217,7 +223,7 @@ impl Sample {
             self.elastic_energy,
         ]
         .iter()
-        .chain([s.zz, s.xz, s.yz, self.inertial_number].iter().flatten())
+        .chain([s.zz, s.xz, s.yz, self.mu, self.inertial_number].iter().flatten())
         .all(|x| x.is_finite())
             && self.walls.iter().all(|w| w.position.is_finite() && w.normal_stress.is_finite() && w.force.iter().all(|x| x.is_finite()))
             && self

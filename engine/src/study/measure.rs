@@ -62,7 +62,7 @@ pub struct When {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeasureSpec {
-    /// A sample field, by path (`mu`, `p`, `stress.xy`, `solver.iterations`).
+    /// A sample field, by path (`zeta`, `mu`, `p`, `stress.xy`, `solver.iterations`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample: Option<String>,
     /// How the sample field is reduced. Default `end`.
@@ -80,7 +80,7 @@ pub struct MeasureSpec {
     /// `walls.y_max.normal_stress` reaches 1e5 Pa).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub when: Option<When>,
-    /// A field of the experiment's results, by path (`peak.zeta`, `steady.mu`, `shear.mu`).
+    /// A field of the experiment's results, by path (`peak.zeta`, `steady.zeta`, `shear.mu`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub result: Option<String>,
     /// A derived quantity.
@@ -228,17 +228,18 @@ mod tests {
     use super::*;
     use crate::observe::Stress;
 
-    fn sample(step: u64, mu: f64, ke: f64, stage: &str) -> Sample {
+    fn sample(step: u64, zeta: f64, ke: f64, stage: &str) -> Sample {
         Sample {
             step,
             time: step as f64,
             phi: 0.8,
             z: 4.0,
             z_no_rattlers: 4.0,
-            mu,
+            zeta,
+            mu: None,
             p: 1.0,
-            q: mu,
-            stress: Stress { xy: 2.0 * mu, ..Default::default() },
+            q: zeta,
+            stress: Stress { xy: 2.0 * zeta, ..Default::default() },
             inertial_number: None,
             kinetic_energy: ke,
             elastic_energy: 0.0,
@@ -258,34 +259,36 @@ mod tests {
             (0..10).map(|k| sample(k, k as f64, 4.0 / (1.0 + k as f64), if k < 4 { "preparation" } else { "shear" })).collect();
         let m = |json: serde_json::Value| serde_json::from_value::<MeasureSpec>(json).expect("spec");
         let eval = |json: serde_json::Value| m(json).evaluate(&s, None);
-        assert_eq!(eval(serde_json::json!({"sample": "mu"})), Ok(9.0));
+        assert_eq!(eval(serde_json::json!({"sample": "zeta"})), Ok(9.0));
         // Stage shear is samples 4..10; the mean of its second half is that of 7, 8, 9.
-        assert_eq!(eval(serde_json::json!({"sample": "mu", "at": "mean", "stage": "shear"})), Ok(8.0));
+        assert_eq!(eval(serde_json::json!({"sample": "zeta", "at": "mean", "stage": "shear"})), Ok(8.0));
         assert_eq!(eval(serde_json::json!({"sample": "stress.xy", "at": "peak", "stage": "preparation"})), Ok(6.0));
-        assert_eq!(eval(serde_json::json!({"sample": "mu", "at": "min", "from": 0.5})), Ok(5.0));
+        assert_eq!(eval(serde_json::json!({"sample": "zeta", "at": "min", "from": 0.5})), Ok(5.0));
         assert_eq!(eval(serde_json::json!({"derived": "restitution"})), Ok((0.4f64 / 4.0).sqrt()));
         let r = serde_json::json!({"peak": {"zeta": 0.43}});
         assert_eq!(m(serde_json::json!({"result": "peak.zeta"})).evaluate(&s, Some(&r)), Ok(0.43));
         assert!(eval(serde_json::json!({"sample": "nothing"})).is_err());
-        assert!(eval(serde_json::json!({"sample": "mu", "stage": "loading"})).is_err_and(|e| e.contains("no sample of stage 'loading'")));
+        // μ = τ/σ_n is defined under shear only: these samples have none.
+        assert!(eval(serde_json::json!({"sample": "mu"})).is_err());
+        assert!(eval(serde_json::json!({"sample": "zeta", "stage": "loading"})).is_err_and(|e| e.contains("no sample of stage 'loading'")));
         assert!(m(serde_json::json!({"result": "peak.zeta"})).evaluate(&s, None).is_err());
-        assert_eq!(m(serde_json::json!({"sample": "mu", "derived": "restitution"})).check().len(), 1);
+        assert_eq!(m(serde_json::json!({"sample": "zeta", "derived": "restitution"})).check().len(), 1);
         assert_eq!(m(serde_json::json!({"result": "x", "at": "mean"})).check()[0].0, "at");
-        // mu = k, stress.xy = 2k: mu is 3.5 where stress.xy first reaches 7 (between samples 3
+        // zeta = k, stress.xy = 2k: zeta is 3.5 where stress.xy first reaches 7 (between samples 3
         // and 4), and the first sample's where the level is already reached.
-        assert_eq!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 7.0}})), Ok(3.5));
-        assert_eq!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": -1.0}})), Ok(0.0));
-        assert!(eval(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 40.0}}))
+        assert_eq!(eval(serde_json::json!({"sample": "zeta", "when": {"sample": "stress.xy", "reaches": 7.0}})), Ok(3.5));
+        assert_eq!(eval(serde_json::json!({"sample": "zeta", "when": {"sample": "stress.xy", "reaches": -1.0}})), Ok(0.0));
+        assert!(eval(serde_json::json!({"sample": "zeta", "when": {"sample": "stress.xy", "reaches": 40.0}}))
             .is_err_and(|e| e.contains("never reaches 40 (at most 18)")));
-        assert_eq!(m(serde_json::json!({"sample": "mu", "at": "end", "when": {"sample": "p", "reaches": 1.0}})).check()[0].0, "when");
+        assert_eq!(m(serde_json::json!({"sample": "zeta", "at": "end", "when": {"sample": "p", "reaches": 1.0}})).check()[0].0, "when");
         // A level crossed upwards twice: stress.xy = 2k except a drop to 1 at sample 5.
         let mut t = s.clone();
         t[5].stress.xy = 1.0;
         let at = |which: &str| {
-            m(serde_json::json!({"sample": "mu", "when": {"sample": "stress.xy", "reaches": 7.0, "crossing": which}})).evaluate(&t, None)
+            m(serde_json::json!({"sample": "zeta", "when": {"sample": "stress.xy", "reaches": 7.0, "crossing": which}})).evaluate(&t, None)
         };
         assert_eq!(at("first"), Ok(3.5));
-        // From sample 5 (xy 1) to 6 (xy 12): 7 is 6/11 of the way, mu 5 + 6/11.
+        // From sample 5 (xy 1) to 6 (xy 12): 7 is 6/11 of the way, zeta 5 + 6/11.
         assert_eq!(at("last"), Ok(5.0 + 6.0 / 11.0));
     }
 }

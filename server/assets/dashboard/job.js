@@ -13,7 +13,7 @@ const MAX_POINTS = 4000;
 const PLOTS = [
   { id: "phi", title: "Packing fraction Φ", y: "Φ (—)", series: [["phi", "Φ"]] },
   { id: "z", title: "Coordination Z", y: "Z (—)", series: [["z", "Z"], ["z_no_rattlers", "Z without rattlers"]] },
-  { id: "mu", title: "Stress ratio μ = q/p (τ/σ under shear)", y: "μ (—)", series: [["mu", "μ"]] },
+  { id: "zeta", title: "Stress ratio ζ = q/p; friction μ = τ/σ_n under shear", y: "ζ, μ (—)", series: [["zeta", "ζ"], ["mu", "μ"]] },
   { id: "stress", title: "Mean and deviatoric stress", y: "p, q (Pa)", series: [["p", "p"], ["q", "q"]] },
   { id: "energy", title: "Energies", y: "E (J; J/m in 2D)", series: [["kinetic_energy", "kinetic"], ["elastic_energy", "elastic"], ["deformable.dissipated_energy", "dissipated"]] },
 ];

@@ -197,7 +197,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         if let Some(b) = &bar {
             b.set_position((p.fraction * 1000.0) as u64);
             let stage = s.stage.as_deref().map(|n| format!("{n}  ")).unwrap_or_default();
-            b.set_message(format!("{stage}t={:.3e}s  Φ={:.4}  Z={:.2}  μ={:.3}", s.time, s.phi, s.z, s.mu));
+            let ratio = s.mu.map_or_else(|| format!("ζ={:.3}", s.zeta), |mu| format!("μ={mu:.3}"));
+            b.set_message(format!("{stage}t={:.3e}s  Φ={:.4}  Z={:.2}  {ratio}", s.time, s.phi, s.z));
         }
     };
     let sink = trace.as_ref().map(|t| t.sink());

@@ -312,7 +312,8 @@ pub fn submit(a: SubmitArgs) -> anyhow::Result<()> {
                 Some(Kind::Sample(s)) => {
                     if let (Some(b), Some(x)) = (&bar, &s.sample) {
                         b.set_position((s.fraction * 1000.0) as u64);
-                        b.set_message(format!("step {}  Φ={:.4}  Z={:.2}  μ={:.3}", x.step, x.phi, x.z, x.mu));
+                        let ratio = x.mu.map_or_else(|| format!("ζ={:.3}", x.zeta), |mu| format!("μ={mu:.3}"));
+                        b.set_message(format!("step {}  Φ={:.4}  Z={:.2}  {ratio}", x.step, x.phi, x.z));
                     }
                 }
                 Some(Kind::State(s)) => {

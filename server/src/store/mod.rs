@@ -612,8 +612,8 @@ impl JobStore {
             seq += 1;
             let data = serde_json::to_string(s).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
             sqlx::query(
-                "INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, mu, p, q, inertial_number, kinetic_energy, \
-                 elastic_energy, data) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
+                "INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, zeta, mu, p, q, inertial_number, \
+                 kinetic_energy, elastic_energy, data) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
             )
             .bind(lease.job_id)
             .bind(seq)
@@ -622,6 +622,7 @@ impl JobStore {
             .bind(s.phi)
             .bind(s.z)
             .bind(s.z_no_rattlers)
+            .bind(s.zeta)
             .bind(s.mu)
             .bind(s.p)
             .bind(s.q)

@@ -8,7 +8,7 @@ Submit a scene, watch it run, and read its samples as pandas DataFrames::
         job = sable.submit("biaxial_test_2d")       # scenes/biaxial_test_2d.json
         sable.watch(job)                            # progress bar with live Φ, Z, p, μ
         df = sable.samples(job)                     # one row per sample
-        df.plot(x="strain.deviatoric", y="mu")      # ζ = q/p against strain
+        df.plot(x="strain.deviatoric", y="zeta")    # ζ = q/p against strain
 
 Every call is a route of the service's OpenAPI document (``GET /v1/openapi.json``); the
 package's version is the service's.

@@ -23,7 +23,7 @@ JobRef = Union[int, Job]
 StudyRef = Union[int, Study]
 
 #: The sample fields shown beside the progress bar while a job runs.
-LIVE_FIELDS = ("phi", "z", "p", "mu")
+LIVE_FIELDS = ("phi", "z", "p", "zeta", "mu")
 
 
 @contextmanager

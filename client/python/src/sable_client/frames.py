@@ -9,7 +9,8 @@ column                                     meaning
 ``step``, ``time``                         step number; simulated time, s
 ``phi``                                    packing fraction Φ (area fraction in 2D)
 ``z``, ``z_no_rattlers``                   coordination number, with and without rattlers
-``mu``                                     effective friction: τ/σ_n under shear, q/p otherwise
+``zeta``                                   stress ratio ζ = q/p
+``mu``                                     effective friction μ = τ/σ_n where a shear is defined
 ``p``, ``q``                               mean and deviatoric stress, Pa
 ``stress.xx`` ... ``stress.xy``            Love–Weber stress tensor, Pa
 ``inertial_number``                        I = γ̇ d sqrt(ρ/P) where a shear rate is defined
