@@ -244,9 +244,9 @@ fn assert_fields(violations: &[sable_engine::scene::Violation], want: &[&str]) {
 /// stored energy (which depends on every point's deformation gradient and plastic history), the
 /// grains' mean aspect ratio and the top wall's stress.
 fn soft_measures(s: &Sample) -> [f64; 4] {
-    let d = s.deformable.as_ref().expect("deformable sample");
+    let g = s.grains.as_ref().expect("the grains' sample");
     let top = s.walls.iter().find(|w| w.name == "y_max").expect("top wall");
-    [s.phi, s.elastic_energy, d.mean_aspect_ratio, top.normal_stress]
+    [s.phi, s.elastic_energy, g.mean_aspect_ratio, top.normal_stress]
 }
 
 /// A state saved by `mpm` past jamming holds its material points, its steps' splitting level

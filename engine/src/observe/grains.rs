@@ -36,11 +36,12 @@ use crate::particles::Particles;
 /// Grid cells across the smallest primary's diameter for a grain's area (2D) and volume (3D).
 const CELLS_PER_PRIMARY: [Real; 2] = [8.0, 4.0];
 
-/// The grains' own measures (scenes whose grains are aggregates of primaries).
+/// The grains' own measures, in the same fields whatever the method: aggregates of primaries
+/// ([`measure_grains`]) or deformable grains ([`measure_whole_grains`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GrainSample {
-    /// Number of grains (aggregates).
+    /// Number of grains.
     pub count: u64,
     /// Packing fraction of the grains: their areas (volumes in 3D: the closed union of their
     /// primaries, module documentation) over the box's.
@@ -152,6 +153,37 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         max_aspect_ratio: aspects.fold(1.0, Real::max),
         mean_area: area / n as Real,
     })
+}
+
+/// The grains' measures when every particle of `p` is a grain (deformable grains, measured as
+/// disks or spheres of their current area or volume), in the same fields as aggregates':
+/// `shape` the grains' mean and largest aspect ratios. The pressure is that of
+/// [`measure_grains`], `−Σ_g Σ_c f·(x_c − x_g) / (D Σ A_g)`, which for grains with one centre
+/// each is `Σ_c f·ℓ_c / (D Σ A_g)` over the load-bearing contacts, `ℓ_c` their branch vectors
+/// (grain to grain, or wall contact point to grain).
+pub fn measure_whole_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], volume: Real, shape: (Real, Real)) -> GrainSample {
+    let n = p.len();
+    let size = |r: Real| if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
+    let area: Real = p.radius.iter().map(|&r| size(r)).sum();
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    let mut virial = 0.0;
+    for c in contacts.iter().filter(|c| c.bears_load()) {
+        virial += c.force.dot(&c.branch);
+        if let Some(j) = c.j.filter(|&j| j != c.i) {
+            pairs.push((c.i.min(j), c.i.max(j)));
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    GrainSample {
+        count: n as u64,
+        phi: if volume > 0.0 { area / volume } else { 0.0 },
+        z: if n > 0 { 2.0 * pairs.len() as Real / n as Real } else { 0.0 },
+        pressure: if area > 0.0 { virial / (dim as Real * area) } else { 0.0 },
+        mean_aspect_ratio: shape.0,
+        max_aspect_ratio: shape.1,
+        mean_area: if n > 0 { area / n as Real } else { 0.0 },
+    }
 }
 
 /// The whole periods (along x, y, z) of a lattice vector `shift` of `domain` (Lees-Edwards: a

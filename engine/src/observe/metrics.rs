@@ -102,7 +102,10 @@ pub struct SystemView<'a> {
 pub struct DeformableView {
     /// Kinetic energy of all the material, J (replaces the grains' rigid-body one).
     pub kinetic_energy: Real,
-    /// Shape, Jacobian, dissipation and cost.
+    /// Mean and largest aspect ratio of the grains (1 for a disk): the square root of the ratio
+    /// of the principal second moments of each grain's area about its centroid.
+    pub aspect_ratios: (Real, Real),
+    /// Jacobian, dissipation and cost.
     pub sample: DeformableSample,
 }
 
@@ -219,7 +222,11 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
         solver: None,
         deformable: v.deformable.map(|d| Box::new(d.sample)),
-        grains: super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain).map(Box::new),
+        grains: match v.deformable {
+            Some(d) => Some(super::grains::measure_whole_grains(p, dim, v.contacts, v.volume, d.aspect_ratios)),
+            None => super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain),
+        }
+        .map(Box::new),
     }
 }
 

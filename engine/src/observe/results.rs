@@ -572,10 +572,11 @@ impl Analysis {
                 let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
                 let final_stress = stress_of(last);
                 let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
-                // Aggregates of primaries are judged by their grains' Φ, Z and shapes.
-                let grains = last.grains.is_some();
-                let phi = |s: &Sample| s.grains.as_ref().map_or(s.phi, |g| g.phi);
-                let z = |s: &Sample| s.grains.as_ref().map_or(s.z, |g| g.z);
+                // Grains are judged by their own Φ, Z and shapes (for aggregates of primaries
+                // these differ from the primaries' in the sample's top fields).
+                let grains = last.grains.is_some() && last.deformable.is_none();
+                let phi = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.phi, |g| g.phi);
+                let z = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.z, |g| g.z);
                 let phi_onset = onset.map(|k| phi(run[k]));
                 let strain = last.strain.as_ref().and_then(|e| e.axes.get(*axis).copied()).unwrap_or(0.0);
                 let (coordination_fit, stress_fit) = match onset {
@@ -588,10 +589,7 @@ impl Analysis {
                     }
                     None => (None, None),
                 };
-                let shape = match &last.grains {
-                    Some(g) => Some((g.mean_aspect_ratio, g.max_aspect_ratio)),
-                    None => last.deformable.as_ref().map(|d| (d.mean_aspect_ratio, d.max_aspect_ratio)),
-                };
+                let shape = last.grains.as_ref().map(|g| (g.mean_aspect_ratio, g.max_aspect_ratio));
                 r.compaction = Some(CompactionResult {
                     phi_onset,
                     phi_final: phi(last),

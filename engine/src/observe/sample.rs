@@ -91,21 +91,19 @@ pub struct Sample {
     /// The grains' own deformation and the energy it took (deformable grains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deformable: Option<Box<DeformableSample>>,
-    /// The grains' own measures when they are aggregates of primaries (the fields above are then
-    /// the primaries'): their packing fraction, coordination, pressure and shape.
+    /// The grains' own measures, the same fields for every method with grains that are not
+    /// single rigid particles: aggregates of primaries (bonded particle method; the fields above
+    /// are then the primaries') and deformable grains (MPM, FEM; the fields above are then the
+    /// grains' too): their packing fraction, coordination, pressure and shape.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grains: Option<Box<GrainSample>>,
 }
 
-/// The state of deformable grains at a sample (method `mpm`).
+/// The state of deformable grains at a sample (methods `mpm` and `fem`) besides their
+/// [`GrainSample`] (Φ, Z, pressure and shape).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DeformableSample {
-    /// Mean aspect ratio of the grains (1 for a disk): the square root of the ratio of the
-    /// principal second moments of each grain's area about its centroid.
-    pub mean_aspect_ratio: f64,
-    /// Largest aspect ratio of a grain.
-    pub max_aspect_ratio: f64,
     /// Smallest `det F` of a material point (1 undeformed; never <= 0).
     pub min_jacobian: f64,
     /// Energy dissipated since the start, J (per metre of thickness in 2D): the work of the
@@ -244,10 +242,9 @@ impl Sample {
                 .solver
                 .as_ref()
                 .is_none_or(|v| [v.change, v.violation, v.max_interpenetration, v.mean_interpenetration].iter().all(|x| x.is_finite()))
-            && self.deformable.as_ref().is_none_or(|d| {
-                [d.mean_aspect_ratio, d.max_aspect_ratio, d.min_jacobian, d.dissipated_energy, d.interpenetration]
-                    .iter()
-                    .all(|x| x.is_finite())
-            })
+            && self
+                .deformable
+                .as_ref()
+                .is_none_or(|d| [d.min_jacobian, d.dissipated_energy, d.interpenetration].iter().all(|x| x.is_finite()))
     }
 }

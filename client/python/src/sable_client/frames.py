@@ -21,10 +21,11 @@ column                                     meaning
 ``walls.<name>.force.x`` ...               force of the grains on the wall, N (N/m in 2D)
 ``walls.<name>.normal_stress``             compressive normal stress on the wall, Pa
 ``solver.*``                               contact dynamics: sweeps, contacts, violations
-``deformable.*``                           deformable grains: aspect ratios, ``min_jacobian``,
+``deformable.*``                           deformable grains: ``min_jacobian``,
                                            ``interpenetration``, ``dissipated_energy`` (J)
-``grains.*``                               aggregates: the grains' ``phi``, ``z``, ``pressure``
-                                           (Pa), aspect ratios, ``mean_area`` (m²; m³ in 3D)
+``grains.*``                               aggregates and deformable grains: the grains' ``phi``,
+                                           ``z``, ``pressure`` (Pa), aspect ratios, ``mean_area``
+                                           (m²; m³ in 3D)
 ``drum.*``                                 rotating drum: angles (degrees), fill, torque (N·m)
 =========================================  =====================================================
 

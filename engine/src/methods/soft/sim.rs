@@ -298,9 +298,11 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
             drum: None,
             deformable: Some(DeformableView {
                 kinetic_energy: kinetic,
+                aspect_ratios: (
+                    grains.iter().map(|g| g.aspect_ratio).sum::<Real>() / n,
+                    grains.iter().map(|g| g.aspect_ratio).fold(1.0, Real::max),
+                ),
                 sample: DeformableSample {
-                    mean_aspect_ratio: grains.iter().map(|g| g.aspect_ratio).sum::<Real>() / n,
-                    max_aspect_ratio: grains.iter().map(|g| g.aspect_ratio).fold(1.0, Real::max),
                     min_jacobian: self.sys.min_jacobian(),
                     dissipated_energy: self.work - (kinetic + strain - self.energy0),
                     interpenetration: self.sys.interpenetration(v2(&self.domain.lo), v2(&self.domain.hi)) / self.domain.volume(),
