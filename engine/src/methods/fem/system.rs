@@ -4,14 +4,14 @@
 //!
 //! **Contacts.** A boundary node of one grain within `reach` of the boundary of another grain
 //! (the nearest segment, its outward normal and the signed gap; at a reflex corner of that
-//! boundary, the segment beyond the corner too: [`contact::candidates`]), as for the material
+//! boundary, the segment beyond the corner too: [`contact::candidates()`]), as for the material
 //! point method's outlines. A node acts through itself, a place on a segment through the
 //! segment's two nodes with the weights of its position: the contact moves exactly as the
 //! nodes do. A boundary node within `reach` of a wall touches it. `reach` is the longest
 //! boundary segment of any grain. By default both grains' nodes are held outside the other's
 //! boundary (the symmetric two-pass treatment, [`contact::Sides::Both`]); where the boundaries
 //! lie flat on each other the two sets of contacts are redundant, and the contact solves
-//! measure their change in the grains' velocities ([`contact::solve`]). One-sided
+//! measure their change in the grains' velocities ([`contact::solve()`]). One-sided
 //! (`symmetric_contact: false`, only the nodes of the grain of lower index) the other grain's
 //! nodes cross the first's segments by the sagitta of the boundary's chord, `s²/8R` for
 //! segments `s` on a radius `R` (3% of an element with eight across the diameter), and further

@@ -277,7 +277,7 @@ fn two_meshed_disks_collide_and_part() {
 /// The same collision with both disks' boundary nodes held outside the other's boundary
 /// ([`Sides::Both`]): where the boundaries lie flat on each other the two sets of contacts are
 /// redundant, their impulses are not unique, and the contact solves measure their change in the
-/// grains' velocities ([`crate::methods::soft::contact::solve`]; measured on the impulses, the
+/// grains' velocities ([`crate::methods::soft::contact::solve()`]; measured on the impulses, the
 /// first solve of the collision ran out of its 20,000 sweeps with its change stalled at 2.2e-6
 /// against 1e-6). Measured: 0.87 of the approach speed kept (0.88 one-sided), the energy never
 /// above its start, 340,000 sweeps in all (73,000 one-sided) and one step split.

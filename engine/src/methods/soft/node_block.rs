@@ -10,13 +10,17 @@
 //! each other, so that a new block takes half the forward solves and a quarter of the dot
 //! products. A node new to a block kept with the same factor is added with full solves of its
 //! two columns (its entries against every held node read off them).
+//!
+//! [`GrainContacts::inverse`]: super::contact::GrainContacts::inverse
 
-use super::contact::{GrainContacts, Support};
+use super::contact::records::Support;
 use crate::math::Real;
 
 /// Which solve [`GrainContacts::invert_by_nodes`] asks its caller for, in place on columns of
 /// the grain's unknowns stored one after the other (each projected on the grain's free
 /// unknowns by the caller, before and after).
+///
+/// [`GrainContacts::invert_by_nodes`]: super::contact::GrainContacts::invert_by_nodes
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Half {
     /// `y = L⁻¹ Pᵀ b` for the factorisation `A = P L Lᵀ Pᵀ`: `bᵀ A⁻¹ c = y_b · y_c`.
@@ -57,6 +61,24 @@ impl NodeBlock {
     /// True when no node is held.
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
+    }
+
+    /// The samples' block `Hᵀ A⁻¹ H` into `out` (`(2S)x(2S)`, row-major), from the held nodes'
+    /// block brought up to the samples' nodes first: anew when `factor` (the generation of the
+    /// grain's factorised matrix, counted by the caller) changed, otherwise only for nodes not
+    /// held. `solve(cols, half)` does [`Half`]'s solve on the columns `cols`, each `unknowns`
+    /// long; `work` is scratch.
+    pub fn samples_block(
+        &mut self,
+        samples: &[Support],
+        unknowns: usize,
+        factor: u64,
+        work: &mut Vec<Real>,
+        solve: impl FnMut(&mut [Real], Half),
+        out: &mut Vec<Real>,
+    ) {
+        self.hold(samples, unknowns, factor, work, solve);
+        self.samples_inverse(samples, out);
     }
 
     fn at(&self, r: usize, c: usize) -> Real {
@@ -235,103 +257,5 @@ fn gram(cols: &[Real], unknowns: usize, m: usize, out: &mut Vec<Real>) {
         for y in 0..x {
             out[y * m + x] = out[x * m + y];
         }
-    }
-}
-
-impl GrainContacts {
-    /// [`GrainContacts::inverse`] from the held nodes' block ([`NodeBlock`]), which is brought
-    /// up to the samples' nodes first: anew when `factor` (the generation of the grain's
-    /// factorised matrix, counted by the caller) changed, otherwise only for nodes not held.
-    /// `solve(cols, half)` does [`Half`]'s solve on the columns `cols`, each `unknowns` long.
-    pub fn invert_by_nodes(&mut self, unknowns: usize, factor: u64, solve: impl FnMut(&mut [Real], Half)) {
-        self.nodes.hold(&self.samples, unknowns, factor, &mut self.work, solve);
-        self.nodes.samples_inverse(&self.samples, &mut self.inverse);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use nalgebra::DMatrix;
-
-    /// A symmetric positive definite matrix of `n` unknowns, and its Cholesky factor.
-    fn spd(n: usize) -> (DMatrix<Real>, DMatrix<Real>) {
-        let b = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 11) as Real / 11.0 - 0.4);
-        let a = &b * b.transpose() + DMatrix::identity(n, n) * (n as Real);
-        let l = a.clone().cholesky().expect("positive definite").l();
-        (a, l)
-    }
-
-    fn solver<'a>(a: &'a DMatrix<Real>, l: &'a DMatrix<Real>) -> impl FnMut(&mut [Real], Half) + 'a {
-        let n = a.nrows();
-        move |cols: &mut [Real], half: Half| {
-            for col in cols.chunks_exact_mut(n) {
-                let b = nalgebra::DVector::from_column_slice(col);
-                let x = match half {
-                    Half::Forward => l.solve_lower_triangular(&b).expect("regular"),
-                    Half::Full => a.clone().cholesky().expect("positive definite").solve(&b),
-                };
-                col.copy_from_slice(x.as_slice());
-            }
-        }
-    }
-
-    fn support(entries: &[(u32, Real)]) -> Support {
-        Support::from_entries(&mut entries.to_vec()).expect("small")
-    }
-
-    /// `Hᵀ A⁻¹ H` for the samples, directly.
-    fn direct(a: &DMatrix<Real>, samples: &[Support]) -> DMatrix<Real> {
-        let n = a.nrows();
-        let h = DMatrix::from_fn(n, 2 * samples.len(), |r, c| {
-            samples[c / 2].iter().filter(|&(k, _)| 2 * k + c % 2 == r).map(|(_, w)| w).sum::<Real>()
-        });
-        h.transpose() * a.clone().try_inverse().expect("regular") * h
-    }
-
-    #[test]
-    fn the_samples_block_is_that_of_the_inverse_whether_nodes_are_new_held_or_dropped() {
-        let (a, l) = spd(24);
-        let mut side = GrainContacts::default();
-        let check = |side: &GrainContacts, what: &str| {
-            let want = direct(&a, &side.samples);
-            let m = 2 * side.samples.len();
-            for x in 0..m {
-                for y in 0..m {
-                    let got = side.inverse[x * m + y];
-                    assert!((got - want[(x, y)]).abs() < 1e-12, "{what}: ({x}, {y}) {got} against {}", want[(x, y)]);
-                    assert_eq!(got.to_bits(), side.inverse[y * m + x].to_bits(), "{what}: not symmetric at ({x}, {y})");
-                }
-            }
-        };
-        // A vertex and a place on a segment sharing a node: three nodes for two samples.
-        side.push(support(&[(3, 1.0)]), 0, true);
-        side.push(support(&[(3, 0.3), (4, 0.7)]), 1, false);
-        side.invert_by_nodes(24, 1, solver(&a, &l));
-        assert_eq!(side.nodes.len(), 2);
-        check(&side, "anew");
-        // The place slides on and a node is added by full solves, with the same factor.
-        side.clear();
-        side.push(support(&[(3, 1.0)]), 0, true);
-        side.push(support(&[(4, 0.9), (5, 0.1)]), 1, false);
-        side.push(support(&[(9, 1.0)]), 2, true);
-        side.invert_by_nodes(24, 1, solver(&a, &l));
-        assert_eq!(side.nodes.len(), 4);
-        check(&side, "added");
-        // Most held nodes no longer needed: they are dropped.
-        side.clear();
-        side.push(support(&[(11, -0.2), (10, 1.2)]), 0, true);
-        side.invert_by_nodes(24, 1, solver(&a, &l));
-        assert_eq!(side.nodes.len(), 2);
-        check(&side, "dropped");
-        // A new factor computes the block anew, from forward halves.
-        let mut calls = Vec::new();
-        let mut inner = solver(&a, &l);
-        side.invert_by_nodes(24, 2, |cols: &mut [Real], half| {
-            calls.push(half);
-            inner(cols, half)
-        });
-        assert_eq!(calls, vec![Half::Forward]);
-        check(&side, "new factor");
     }
 }

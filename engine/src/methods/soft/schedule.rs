@@ -1,5 +1,5 @@
 //! The order a soft-grain contact solve sweeps its contacts in, so that a sweep runs on every
-//! thread ([`super::contact::solve`]).
+//! thread ([`super::contact::solve()`]).
 //!
 //! A contact's turn changes the sample velocities of its two grains (of one, against a wall)
 //! through their dense blocks of `A⁻¹`, so turns on contacts that share no grain commute. The
@@ -14,7 +14,8 @@
 use std::collections::HashMap;
 use std::ops::Range;
 
-use super::contact::{GrainContacts, Other, VertexContact};
+use super::contact::grain_contacts::GrainContacts;
+use super::contact::records::{Other, VertexContact};
 
 /// One task of a sweep: contacts `contacts` (contiguous), between grain `a` and grain `b` (or
 /// the walls).
@@ -146,7 +147,8 @@ mod tests {
 
     use super::*;
     use crate::math::Real;
-    use crate::methods::soft::contact::{enter, Against, Entry, Support, Warm};
+    use crate::methods::soft::contact::records::Support;
+    use crate::methods::soft::contact::warm::{enter, Against, Entry, Warm};
 
     /// A tangle of random contacts between 12 grains and two walls, groups of a vertex's
     /// contacts among them: the order is a permutation that keeps each pair's contacts in their

@@ -1,0 +1,120 @@
+//! A step's contacts entered ([`enter`]): each with its samples on its grains' sides, its
+//! impulse warm-started from the last solve's by its key ([`Warm`]).
+
+use std::collections::HashMap;
+
+use nalgebra::Vector2;
+
+use super::grain_contacts::GrainContacts;
+use super::records::{Other, Support, VertexContact};
+use crate::math::{Real, Vec3};
+use crate::nscd::local::{Delassus, LocalLaw};
+use crate::nscd::ContactFrame;
+
+type V2 = Vector2<Real>;
+
+/// The impulses of the last solve kept for the next step's warm start, by contact key.
+#[derive(Debug, Clone, Default)]
+pub struct Warm(HashMap<(usize, u32, i64), Vec3>);
+
+impl Warm {
+    /// Keeps the impulses of `contacts` (those not zero), forgetting the others.
+    pub fn remember(&mut self, contacts: &[VertexContact]) {
+        self.0.clear();
+        for c in contacts {
+            if c.r != Vec3::zeros() {
+                self.0.insert(c.key(), c.r);
+            }
+        }
+    }
+
+    /// The impulse kept for `contact`'s key, or zero.
+    pub fn start(&self, contact: &VertexContact) -> Vec3 {
+        self.0.get(&contact.key()).copied().unwrap_or_else(Vec3::zeros)
+    }
+
+    /// Every kept impulse with its key ([`VertexContact::key`]), in the keys' order (a saved
+    /// state's).
+    pub fn entries(&self) -> Vec<((usize, u32, i64), Vec3)> {
+        let mut all: Vec<_> = self.0.iter().map(|(k, r)| (*k, *r)).collect();
+        all.sort_unstable_by_key(|e| e.0);
+        all
+    }
+
+    /// Keeps `entries` ([`Warm::entries`]) for the next step.
+    pub fn restore(&mut self, entries: impl IntoIterator<Item = ((usize, u32, i64), Vec3)>) {
+        self.0 = entries.into_iter().collect();
+    }
+}
+
+/// The second member of a contact being entered: a grain with the support its place has on
+/// it, or a wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Against {
+    /// Grain `grain`, its place carried by `support`.
+    Grain {
+        /// Grain index.
+        grain: u32,
+        /// The place on its outline.
+        support: Support,
+    },
+    /// Wall index.
+    Wall(u32),
+}
+
+/// A contact of the step to enter ([`enter`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Entry {
+    /// The vertex of grain `a`'s outline it is measured from.
+    pub vertex: usize,
+    /// The contact point, m.
+    pub at: V2,
+    /// First grain.
+    pub a: u32,
+    /// The vertex's support on grain `a`.
+    pub support: Support,
+    /// Second member.
+    pub b: Against,
+    /// Unit normal from `b` towards `a`.
+    pub normal: V2,
+    /// Gap along it, m.
+    pub gap: Real,
+    /// Friction coefficient of the pair.
+    pub friction: Real,
+    /// Radius of grain `a`, m.
+    pub lever: Real,
+    /// The segment whose line alone holds the vertex ([`VertexContact::line`]).
+    pub line: Option<u32>,
+    /// The segment of the other outline it was found against ([`VertexContact::segment`]).
+    pub segment: u32,
+}
+
+/// Adds a contact of the step, warm-started, with its samples on its grains' sides.
+pub fn enter(contacts: &mut Vec<VertexContact>, sides: &mut [GrainContacts], warm: &Warm, e: Entry) {
+    let index = contacts.len() as u32;
+    let b = match e.b {
+        Against::Grain { grain, support } => Other::Grain { grain, slot: sides[grain as usize].push(support, index, false) },
+        Against::Wall(w) => Other::Wall(w),
+    };
+    let slot = sides[e.a as usize].push(e.support, index, true);
+    let mut contact = VertexContact {
+        vertex: e.vertex,
+        at: e.at,
+        a: e.a,
+        slot,
+        b,
+        frame: ContactFrame::new(2, Vec3::new(e.normal.x, e.normal.y, 0.0)),
+        gap: e.gap,
+        drift: 0.0,
+        // The Signorini target is set by each solve ([`solve`]).
+        law: LocalLaw { target: 0.0, friction: e.friction, cohesion: 0.0, viscosity: 0.0 },
+        w: Delassus { n: 0.0, t: 0.0 },
+        r: Vec3::zeros(),
+        scale: 0.0,
+        lever: e.lever,
+        line: e.line,
+        segment: e.segment,
+    };
+    contact.r = warm.start(&contact);
+    contacts.push(contact);
+}
