@@ -41,7 +41,7 @@
 use super::bodies::{BodyStore, Cells, RigidBodies, SolveBodies};
 use super::colour::Colours;
 use super::contact::RigidContact;
-pub(crate) use super::sweep::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Pass, Sums, Turn};
+use super::sweep::{ContactProblem, Pass, Sums};
 use crate::math::{Real, Vec3};
 
 /// The solver's settings.

@@ -15,7 +15,7 @@ use crate::methods::soft::schedule::Schedule;
 use crate::methods::soft::Scheme;
 use crate::nscd::local::within_disk;
 use crate::nscd::local::Delassus;
-use crate::nscd::nlgs::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Pass, Sums, Turn};
+use crate::nscd::sweep::{carry_local, measure_violation, tally_change, visit_local, ContactProblem, Pass, Sums, Turn};
 use crate::nscd::{Nlgs, NlgsReport};
 
 type V2 = Vector2<Real>;
