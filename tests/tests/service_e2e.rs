@@ -595,7 +595,7 @@ async fn health_metrics_and_openapi_describe_the_service(backend: Backend) {
         assert!(doc["components"]["schemas"].get(schema).is_some(), "OpenAPI lacks the {schema} schema");
     }
     let sample_fields = doc["components"]["schemas"]["Sample"]["properties"].as_object().map(|m| m.len());
-    assert_eq!(sample_fields, Some(19), "every Sample field is documented");
+    assert_eq!(sample_fields, Some(20), "every Sample field is documented");
     assert!(doc["components"]["schemas"].get("DrumSample").is_some(), "the drum's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("SolverSample").is_some(), "the contact solver's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("DeformableSample").is_some(), "the deformable grains' part of a sample has its schema");
@@ -1165,7 +1165,9 @@ async fn a_soft_grain_compaction_runs_as_a_job(backend: Backend) {
     assert!(last["stress"]["yy"].as_f64().unwrap_or(0.0) > 0.0, "{last}");
     let d = &last["deformable"];
     assert!(d["min_jacobian"].as_f64().is_some_and(|j| j > 0.0 && j < 1.0), "{d}");
-    assert!(d["mean_aspect_ratio"].as_f64().is_some_and(|a| a > 1.0), "{d}");
+    let g = &last["grains"];
+    assert!(g["mean_aspect_ratio"].as_f64().is_some_and(|a| a > 1.0), "{g}");
+    assert_eq!(g["phi"], last["phi"], "a deformable grain is a particle: the grains' Φ is the sample's");
     let pool = h.db_pool().await;
     let (n, phi_last): (i64, f64) =
         sqlx::query_as("SELECT COUNT(*), MAX(phi) FROM samples WHERE job_id = $1").bind(id).fetch_one(&pool).await.expect("query");
