@@ -1,0 +1,99 @@
+//! The compaction's results ([`CompactionResult`]): the onset of load, the packing fractions,
+//! the power laws of Z and of the wall's stress beyond the onset, the grains' shapes.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Analysis, ExperimentResult, Flow, ONSET_FRACTION};
+use crate::observe::power::{power_fit, PowerFit};
+use crate::observe::sample::Sample;
+use crate::scene::CompactionDrive;
+
+/// Results of a compaction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct CompactionResult {
+    /// Packing fraction when the moving wall first carries 1% of its final stress.
+    pub phi_onset: Option<f64>,
+    /// Final packing fraction.
+    pub phi_final: f64,
+    /// Final stress on the moving wall, Pa.
+    pub wall_stress: f64,
+    /// Final strain `|ln(h/h_i)|` of the compacted axis.
+    pub strain: f64,
+    /// Largest packing fraction reached.
+    pub phi_max: f64,
+    /// The coordination beyond the onset, `Z − Z_J = a (Φ − Φ_J)^b` over the samples after
+    /// it (`Φ_J`, `Z_J`: those of the onset's sample; Z over all grains). Soft grains: `b ≈ ½`
+    /// (docs/physics.md §9; Nezamabadi 2020, eq. 2.20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coordination_fit: Option<PowerFit>,
+    /// The moving wall's stress beyond the onset, `σ = a (Φ − Φ_J)^b` (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stress_fit: Option<PowerFit>,
+    /// The grains' mean aspect ratio at the end (deformable grains; 1 for disks): how much
+    /// their shape changed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_aspect_ratio: Option<f64>,
+    /// The largest aspect ratio of a grain at the end (deformable grains).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_aspect_ratio: Option<f64>,
+    /// `"grains"` when the grains are aggregates of primaries (the bonded particle method): Φ,
+    /// Z and the aspect ratios above are then the grains' own ([`Sample::grains`]), not the
+    /// primaries'; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
+}
+
+impl Analysis {
+    /// The results of the `compaction` stage's samples `run` along `axis`, driven by `drive`.
+    pub(super) fn compaction(&self, r: &mut ExperimentResult, run: &[&Sample], axis: usize, drive: &CompactionDrive, flow: &Flow) {
+        let Some(last) = self.samples.last() else { return };
+        let wall = format!("{}_max", crate::math::AXES[axis]);
+        let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
+        let final_stress = stress_of(last);
+        let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
+        // Grains are judged by their own Φ, Z and shapes (for aggregates of primaries
+        // these differ from the primaries' in the sample's top fields).
+        let grains = last.grains.is_some() && last.deformable.is_none();
+        let phi = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.phi, |g| g.phi);
+        let z = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.z, |g| g.z);
+        let phi_onset = onset.map(|k| phi(run[k]));
+        let strain = last.strain.as_ref().and_then(|e| e.axes.get(axis).copied()).unwrap_or(0.0);
+        let (coordination_fit, stress_fit) = match onset {
+            Some(k) => {
+                let (jammed, beyond) = (run[k], &run[k + 1..]);
+                (
+                    power_fit(beyond.iter().map(|s| (phi(s) - phi(jammed), z(s) - z(jammed)))),
+                    power_fit(beyond.iter().map(|s| (phi(s) - phi(jammed), stress_of(s)))),
+                )
+            }
+            None => (None, None),
+        };
+        let shape = last.grains.as_ref().map(|g| (g.mean_aspect_ratio, g.max_aspect_ratio));
+        r.compaction = Some(CompactionResult {
+            phi_onset,
+            phi_final: phi(last),
+            wall_stress: final_stress,
+            strain,
+            phi_max: run.iter().map(|s| phi(s)).fold(phi(last), f64::max),
+            coordination_fit,
+            stress_fit,
+            mean_aspect_ratio: shape.map(|s| s.0),
+            max_aspect_ratio: shape.map(|s| s.1),
+            level: grains.then(|| "grains".to_string()),
+        });
+        r.stiffness_number = self.stiffness_number(final_stress, flow.mean_diameter);
+        if let CompactionDrive::Velocity { speed, .. } = drive {
+            // Strain rate at the end: speed over the current height.
+            let h = last
+                .walls
+                .iter()
+                .find(|w| w.name == wall)
+                .map(|w| w.position)
+                .zip(last.walls.iter().find(|w| w.name == format!("{}_min", crate::math::AXES[axis])).map(|w| w.position));
+            if let Some((hi, lo)) = h.filter(|(hi, lo)| hi > lo) {
+                r.inertial_number = flow.inertial(speed / (hi - lo), final_stress);
+            }
+        }
+    }
+}
