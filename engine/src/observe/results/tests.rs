@@ -59,10 +59,7 @@ fn drum_means_start_after_the_transient_and_find_the_flowing_layer() {
         centroid_offset: 0.008,
         airborne_fraction: 0.0,
         drive_torque: 0.1,
-        profile: vec![
-            ProfileBin { depth: 5e-4, velocity: surface_v, count: 2 },
-            ProfileBin { depth: 1.5e-3, velocity: -0.1, count: 2 },
-        ],
+        profile: vec![ProfileBin { depth: 5e-4, velocity: surface_v, count: 2 }, ProfileBin { depth: 1.5e-3, velocity: -0.1, count: 2 }],
     };
     let mut filling = sample(0, "filling", 0.0, 0.0, 0.0);
     filling.drum = Some(Box::new(drum(0.0, 0.0)));
