@@ -49,6 +49,9 @@ pub struct MethodEntry {
     pub parse: ParseMethod,
     /// Its parameters when the advisor picks it (`"method": "auto"`).
     pub defaults: fn() -> Box<dyn Method>,
+    /// It solves each step by Newton iterations that `--trace` can record
+    /// ([`crate::run::Simulation::trace_newton`]).
+    pub newton: bool,
 }
 
 /// A method object's parameters as `T`, unknown fields rejected at their path under `method.`.

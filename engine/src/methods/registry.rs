@@ -20,6 +20,11 @@ pub fn entry(name: &str) -> Option<&'static MethodEntry> {
     REGISTRY.iter().find(|e| e.name == name)
 }
 
+/// The methods whose steps `--trace` can record ([`MethodEntry::newton`]).
+pub fn traced() -> Vec<&'static str> {
+    REGISTRY.iter().filter(|e| e.newton).map(|e| e.name).collect()
+}
+
 /// The names a scene may give: the registry's and `auto`.
 pub fn names() -> Vec<&'static str> {
     REGISTRY.iter().map(|e| e.name).chain(["auto"]).collect()

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
+use sable_engine::methods::registry;
 use sable_engine::methods::soft::trace::NewtonSink;
 
 /// The file the records go to, written from the method's thread.
@@ -20,8 +21,8 @@ impl TraceFile {
     /// Creates `path` for a run of `method`; an error names the flag when the method has no
     /// Newton iterations (nothing is created then).
     pub(super) fn create(path: &Path, method: &str) -> anyhow::Result<Self> {
-        if !matches!(method, "mpm" | "fem") {
-            anyhow::bail!("--trace: method {method} has no Newton iterations to trace (mpm and fem have)");
+        if !registry::entry(method).is_some_and(|e| e.newton) {
+            anyhow::bail!("--trace: method {method} has no Newton iterations to trace ({} have)", registry::traced().join(" and "));
         }
         let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         Ok(Self { path: path.to_path_buf(), out: Arc::new(Mutex::new(std::io::BufWriter::new(file))), error: Arc::new(Mutex::new(None)) })

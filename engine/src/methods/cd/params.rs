@@ -186,7 +186,7 @@ impl Sweep {
 pub const AGGREGATE_TOLERANCE: Real = 1e-6;
 
 /// The registry's line for contact dynamics.
-pub const ENTRY: MethodEntry = MethodEntry { name: "cd", parse, defaults: || Box::new(CdParams::default()) };
+pub const ENTRY: MethodEntry = MethodEntry { name: "cd", parse, defaults: || Box::new(CdParams::default()), newton: false };
 
 fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn Method>> {
     let s: CdParamsSpec = read_spec(c, object)?;

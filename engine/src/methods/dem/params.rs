@@ -74,7 +74,7 @@ impl Default for DemParams {
 }
 
 /// The registry's line for DEM.
-pub const ENTRY: MethodEntry = MethodEntry { name: "dem", parse, defaults: || Box::new(DemParams::default()) };
+pub const ENTRY: MethodEntry = MethodEntry { name: "dem", parse, defaults: || Box::new(DemParams::default()), newton: false };
 
 fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn Method>> {
     let s: DemParamsSpec = read_spec(c, object)?;

@@ -40,7 +40,7 @@ impl Default for FemParams {
 }
 
 /// The registry's line for the finite element method.
-pub const ENTRY: MethodEntry = MethodEntry { name: "fem", parse, defaults: || Box::new(FemParams::default()) };
+pub const ENTRY: MethodEntry = MethodEntry { name: "fem", parse, defaults: || Box::new(FemParams::default()), newton: true };
 
 fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn Method>> {
     let s: FemParamsSpec = read_spec(c, object)?;

@@ -54,7 +54,7 @@ impl Default for MpmParams {
 }
 
 /// The registry's line for the material point method.
-pub const ENTRY: MethodEntry = MethodEntry { name: "mpm", parse, defaults: || Box::new(MpmParams::default()) };
+pub const ENTRY: MethodEntry = MethodEntry { name: "mpm", parse, defaults: || Box::new(MpmParams::default()), newton: true };
 
 fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn Method>> {
     let s: MpmParamsSpec = read_spec(c, object)?;
