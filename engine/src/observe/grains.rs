@@ -163,8 +163,7 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
 /// (grain to grain, or wall contact point to grain).
 pub fn measure_whole_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], volume: Real, shape: (Real, Real)) -> GrainSample {
     let n = p.len();
-    let size = |r: Real| if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
-    let area: Real = p.radius.iter().map(|&r| size(r)).sum();
+    let area: Real = p.radius.iter().map(|&r| Particles::volume_of(dim, r)).sum();
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     let mut virial = 0.0;
     for c in contacts.iter().filter(|c| c.bears_load()) {

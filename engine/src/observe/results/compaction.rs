@@ -54,7 +54,7 @@ impl Analysis {
         let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
         // Grains are judged by their own Φ, Z and shapes (for aggregates of primaries
         // these differ from the primaries' in the sample's top fields).
-        let grains = last.grains.is_some() && last.deformable.is_none();
+        let grains = last.grains.is_some() && !self.deformable;
         let phi = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.phi, |g| g.phi);
         let z = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.z, |g| g.z);
         let phi_onset = onset.map(|k| phi(run[k]));

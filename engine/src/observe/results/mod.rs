@@ -347,7 +347,7 @@ impl Analysis {
     /// are particles.
     fn grain_diameter(&self, last: &Sample) -> Option<Real> {
         self.aggregate_diameter.or_else(|| {
-            last.grains.as_ref().filter(|g| g.mean_area > 0.0 && self.aggregates).map(|g| {
+            last.grains.as_ref().filter(|g| g.mean_area > 0.0 && !self.deformable).map(|g| {
                 if self.dim == 3 {
                     (6.0 * g.mean_area / std::f64::consts::PI).cbrt()
                 } else {
