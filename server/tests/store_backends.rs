@@ -369,6 +369,57 @@ async fn one_idempotency_key_sent_to_two_servers_at_once_makes_one_job() {
     }
 }
 
+/// A database at `at` with the schema as it was before migration `version` (from a copy of
+/// the earlier migrations' files), holding the rows `script` inserts.
+async fn old_database(dir: &tempfile::TempDir, at: &DbLocation, version: i64, script: &str) {
+    let (source, backend) = match at {
+        DbLocation::Sqlite(_) => ("sqlite", &sable_server::store::SQLITE_MIGRATOR),
+        DbLocation::Postgres(_) => ("postgres", &sable_server::store::POSTGRES_MIGRATOR),
+    };
+    let old = dir.path().join(format!("migrations-{source}-{version}"));
+    std::fs::create_dir_all(&old).expect("dir");
+    for m in backend.iter().filter(|m| m.version < version) {
+        let from = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../migrations/{source}"));
+        let file = std::fs::read_dir(&from)
+            .expect("migrations")
+            .filter_map(Result::ok)
+            .find(|f| f.file_name().to_string_lossy().starts_with(&format!("{:04}_", m.version)))
+            .expect("the migration's file");
+        std::fs::copy(file.path(), old.join(file.file_name())).expect("copy");
+    }
+    let migrator = sqlx::migrate::Migrator::new(old.as_path()).await.expect("old migrations");
+    match at {
+        DbLocation::Sqlite(path) => {
+            let options = sqlx::sqlite::SqliteConnectOptions::new().filename(path).create_if_missing(true);
+            let pool = sqlx::SqlitePool::connect_with(options).await.expect("sqlite");
+            migrator.run(&pool).await.expect("old schema");
+            sqlx::raw_sql(script).execute(&pool).await.expect("old rows");
+            pool.close().await;
+        }
+        DbLocation::Postgres(url) => {
+            let pool = sqlx::PgPool::connect(url).await.expect("postgres");
+            migrator.run(&pool).await.expect("old schema");
+            sqlx::raw_sql(script).execute(&pool).await.expect("old rows");
+            pool.close().await;
+        }
+    }
+}
+
+/// The samples and the replayed sample events of job 1 in `store`, which must agree.
+async fn samples_and_events(store: &JobStore, at: &DbLocation) -> Vec<Sample> {
+    let samples = store.samples(1, 0, None).await.unwrap_or_else(|e| panic!("{at}: samples: {e}"));
+    let events = store.events_after(1, 0, 10).await.expect("events");
+    let replayed: Vec<Sample> = events
+        .iter()
+        .map(|e| {
+            let v: serde_json::Value = serde_json::from_str(&e.payload).expect("json");
+            serde_json::from_value(v["sample"].clone()).unwrap_or_else(|err| panic!("{at}: event {}: {err}", e.seq))
+        })
+        .collect();
+    assert_eq!(replayed, samples, "{at}: the events replay the same samples");
+    samples
+}
+
 /// A database made before samples had `zeta` (one `mu` column: τ/σ_n under shear, q/p
 /// otherwise) is converted when a server opens it: every stored sample and sample event
 /// reads back with `zeta` = q/p, and `mu` = the stored τ/σ_n where a shear was defined, absent
@@ -377,23 +428,6 @@ async fn one_idempotency_key_sent_to_two_servers_at_once_makes_one_job() {
 async fn a_database_from_before_zeta_is_converted_and_loses_nothing() {
     let dir = tempfile::tempdir().expect("tempdir");
     for at in locations(&dir).await {
-        // The schema as it was: the migrations before 0006, from a copy of their files.
-        let (source, backend) = match &at {
-            DbLocation::Sqlite(_) => ("sqlite", &sable_server::store::SQLITE_MIGRATOR),
-            DbLocation::Postgres(_) => ("postgres", &sable_server::store::POSTGRES_MIGRATOR),
-        };
-        let old = dir.path().join(format!("migrations-{source}"));
-        std::fs::create_dir_all(&old).expect("dir");
-        for m in backend.iter().filter(|m| m.version < 6) {
-            let from = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../migrations/{source}"));
-            let file = std::fs::read_dir(&from)
-                .expect("migrations")
-                .filter_map(Result::ok)
-                .find(|f| f.file_name().to_string_lossy().starts_with(&format!("{:04}_", m.version)))
-                .expect("the migration's file");
-            std::fs::copy(file.path(), old.join(file.file_name())).expect("copy");
-        }
-        let migrator = sqlx::migrate::Migrator::new(old.as_path()).await.expect("old migrations");
         let shear = r#"{"step":10,"time":0.01,"phi":0.8,"z":4.0,"z_no_rattlers":4.0,"mu":0.25,"p":100.0,"q":40.0,
             "stress":{"xx":100.0,"yy":100.0,"xy":25.0},"inertial_number":0.01,"kinetic_energy":0.0,"elastic_energy":0.0,"walls":[]}"#;
         let biaxial = r#"{"step":0,"time":0.0,"phi":0.8,"z":4.0,"z_no_rattlers":4.0,"mu":0.3,"p":100.0,"q":30.0,
@@ -408,34 +442,76 @@ async fn a_database_from_before_zeta_is_converted_and_loses_nothing() {
              (1, 1, 0, 'sample', '{{\"fraction\":0.5,\"remaining_seconds\":null,\"sample\":{biaxial}}}'), \
              (1, 2, 0, 'sample', '{{\"fraction\":1.0,\"remaining_seconds\":null,\"sample\":{shear}}}');"
         );
-        match &at {
-            DbLocation::Sqlite(path) => {
-                let options = sqlx::sqlite::SqliteConnectOptions::new().filename(path).create_if_missing(true);
-                let pool = sqlx::SqlitePool::connect_with(options).await.expect("sqlite");
-                migrator.run(&pool).await.expect("old schema");
-                sqlx::raw_sql(&script).execute(&pool).await.expect("old rows");
-                pool.close().await;
-            }
-            DbLocation::Postgres(url) => {
-                let pool = sqlx::PgPool::connect(url).await.expect("postgres");
-                migrator.run(&pool).await.expect("old schema");
-                sqlx::raw_sql(&script).execute(&pool).await.expect("old rows");
-                pool.close().await;
-            }
-        }
+        old_database(&dir, &at, 6, &script).await;
         let store = open(&at, 30_000).await;
-        let samples = store.samples(1, 0, None).await.unwrap_or_else(|e| panic!("{at}: samples: {e}"));
+        let samples = samples_and_events(&store, &at).await;
         assert_eq!(samples.len(), 2, "{at}");
         assert_eq!((samples[0].zeta, samples[0].mu), (0.3, None), "{at}: q/p without shear, no τ/σ_n");
         assert_eq!((samples[1].zeta, samples[1].mu), (0.4, Some(0.25)), "{at}: q/p and the stored τ/σ_n under shear");
-        let events = store.events_after(1, 0, 10).await.expect("events");
-        let replayed: Vec<Sample> = events
-            .iter()
-            .map(|e| {
-                let v: serde_json::Value = serde_json::from_str(&e.payload).expect("json");
-                serde_json::from_value(v["sample"].clone()).unwrap_or_else(|err| panic!("{at}: event {}: {err}", e.seq))
-            })
-            .collect();
-        assert_eq!(replayed, samples, "{at}: the events replay the same samples");
+    }
+}
+
+/// A database made while a sample of aggregates (bonded particle method) held the primaries'
+/// Φ and Z in its own fields is converted when a server opens it: those move under
+/// `primaries`, the grains' take their place (the grains' Z standing for their backbone's,
+/// which was not measured), in the columns, the stored samples and the replayed events; a
+/// sample of deformable grains only gains its backbone's Z in `grains`; a sample of rigid
+/// grains is left as it was.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_database_from_before_grains_first_is_converted_and_loses_nothing() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grains =
+        r#""grains":{"count":4,"phi":0.55,"z":2.5,"pressure":1e5,"mean_aspect_ratio":1.1,"max_aspect_ratio":1.2,"mean_area":2e-6}"#;
+    let rest = r#""zeta":0.2,"p":100.0,"q":20.0,"stress":{"xx":100.0,"yy":100.0,"xy":0.0},"inertial_number":null,"kinetic_energy":0.0,"elastic_energy":0.0,"walls":[]"#;
+    let aggregates = format!(r#"{{"step":0,"time":0.0,"phi":0.45,"z":5.5,"z_no_rattlers":5.75,{rest},{grains}}}"#);
+    let soft = format!(
+        r#"{{"step":10,"time":0.01,"phi":0.55,"z":2.5,"z_no_rattlers":3.0,{rest},"deformable":{{"min_jacobian":0.9,"dissipated_energy":0.0,"newton_iterations":1,"sweeps":0}},{grains}}}"#
+    );
+    let rigid = format!(r#"{{"step":20,"time":0.02,"phi":0.8,"z":4.0,"z_no_rattlers":4.0,{rest}}}"#);
+    for at in locations(&dir).await {
+        let row = |seq: u32, phi: f64, z: f64, znr: f64, data: &str| {
+            format!("(1, {seq}, {seq}, 0.0, {phi}, {z}, {znr}, 0.2, NULL, 100.0, 20.0, NULL, 0.0, 0.0, '{data}')")
+        };
+        let event =
+            |seq: u32, data: &str| format!("(1, {seq}, 0, 'sample', '{{\"fraction\":0.5,\"remaining_seconds\":null,\"sample\":{data}}}')");
+        let script = format!(
+            "INSERT INTO jobs (name, state, method, method_reason, scene, scene_hash, engine_version, seed, max_attempts, created_at) \
+             VALUES ('old', 'succeeded', 'cd', 'test', '{{}}', 'h', '0', 1, 1, 0);
+             INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, zeta, mu, p, q, inertial_number, kinetic_energy, \
+             elastic_energy, data) VALUES {}, {}, {};
+             INSERT INTO job_events (job_id, seq, at, kind, payload) VALUES {}, {}, {};",
+            row(1, 0.45, 5.5, 5.75, &aggregates),
+            row(2, 0.55, 2.5, 3.0, &soft),
+            row(3, 0.8, 4.0, 4.0, &rigid),
+            event(1, &aggregates),
+            event(2, &soft),
+            event(3, &rigid),
+        );
+        old_database(&dir, &at, 7, &script).await;
+        let store = open(&at, 30_000).await;
+        let samples = samples_and_events(&store, &at).await;
+        assert_eq!(samples.len(), 3, "{at}");
+        let (a, s, r) = (&samples[0], &samples[1], &samples[2]);
+        let primaries = a.primaries.expect("the primaries' measures");
+        assert_eq!((primaries.phi, primaries.z, primaries.z_no_rattlers), (0.45, 5.5, 5.75), "{at}");
+        assert_eq!((a.phi, a.z, a.z_no_rattlers), (0.55, 2.5, 2.5), "{at}: the grains' Φ and Z");
+        assert_eq!(a.grains.as_ref().map(|g| g.z_no_rattlers), Some(2.5), "{at}");
+        assert_eq!((s.phi, s.z, s.z_no_rattlers, s.primaries), (0.55, 2.5, 3.0, None), "{at}");
+        assert_eq!(s.grains.as_ref().map(|g| g.z_no_rattlers), Some(3.0), "{at}: deformable grains' backbone");
+        assert_eq!((r.phi, r.z, r.primaries.is_none(), r.grains.is_none()), (0.8, 4.0, true, true), "{at}");
+        // The columns a user's SQL reads agree with the samples.
+        let query = "SELECT phi, z, z_no_rattlers FROM samples WHERE job_id = 1 ORDER BY seq";
+        let columns: Vec<(f64, f64, f64)> = match &at {
+            DbLocation::Sqlite(path) => {
+                let pool = sqlx::SqlitePool::connect_with(sqlx::sqlite::SqliteConnectOptions::new().filename(path)).await.expect("sqlite");
+                sqlx::query_as(query).fetch_all(&pool).await.expect("columns")
+            }
+            DbLocation::Postgres(url) => {
+                let pool = sqlx::PgPool::connect(url).await.expect("postgres");
+                sqlx::query_as(query).fetch_all(&pool).await.expect("columns")
+            }
+        };
+        let of = |x: &Sample| (x.phi, x.z, x.z_no_rattlers);
+        assert_eq!(columns, vec![of(a), of(s), of(r)], "{at}: the columns");
     }
 }

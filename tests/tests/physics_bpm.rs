@@ -10,7 +10,7 @@
 use crate::common;
 
 use sable_engine::methods::cd::AGGREGATE_TOLERANCE;
-use sable_engine::observe::GrainSample;
+use sable_engine::observe::{GrainSample, PrimarySample};
 use sable_engine::run::Simulation;
 use serde_json::json;
 
@@ -72,6 +72,14 @@ fn grains(s: &sable_engine::observe::Sample) -> GrainSample {
     }
 }
 
+/// The primaries' measures of a sample of aggregates.
+fn primaries_of(s: &sable_engine::observe::Sample) -> PrimarySample {
+    match s.primaries {
+        Some(a) => a,
+        None => panic!("a sample of aggregates without the primaries' measures"),
+    }
+}
+
 /// One aggregate of the sources' size alone ([`one_grain`]): once relaxed (at build), 2e4 steps
 /// move no primary by more than 1% of the smallest primary's diameter, the grain keeps its area
 /// within 0.1% and stays round (aspect ratio below 1.1), and its primaries keep touching (their
@@ -117,12 +125,12 @@ fn stays_intact<S: Simulation>(sim: &mut S, particles: fn(&S) -> &sable_engine::
         g1.mean_area,
         g0.max_aspect_ratio,
         g1.max_aspect_ratio,
-        last.z
+        primaries_of(&last).z
     );
     assert!(drift < 0.01 * d_min, "a primary moved {drift:e} m ({:.2e} of d_min)", drift / d_min);
     assert!((g1.mean_area / g0.mean_area - 1.0).abs() < 1e-3, "area {:e} -> {:e} m²", g0.mean_area, g1.mean_area);
     assert!(g1.max_aspect_ratio < 1.1, "aspect ratio {}", g1.max_aspect_ratio);
-    assert!(last.z >= z_min, "primaries' coordination {}", last.z);
+    assert!(primaries_of(&last).z >= z_min, "primaries' coordination {}", primaries_of(&last).z);
 }
 
 /// Two aggregates in a box: the saved state keeps each primary's aggregate and the laws of
@@ -411,7 +419,7 @@ fn pressed_levels(levels: &[f64]) -> Vec<(f64, GrainSample, f64)> {
             g.mean_aspect_ratio,
             g.max_aspect_ratio,
             g.pressure,
-            s.phi,
+            primaries_of(&s).phi,
             s.walls.iter().map(|w| w.normal_stress).sum::<f64>() / s.walls.len() as f64
         );
         let walls = s.walls.iter().map(|w| w.normal_stress).sum::<f64>() / s.walls.len() as f64;
@@ -652,12 +660,13 @@ fn cell_closes_on_an_unloaded_aggregate<S: Simulation>(
     }
     let s1 = sim.sample().expect("sample");
     let (g0, g1) = (grains(&s0), grains(&s1));
-    let exponent = (s1.phi / s0.phi).ln() / (2.0 * 50.0 * (s1.time - s0.time));
+    let (a0, a1) = (primaries_of(&s0), primaries_of(&s1));
+    let exponent = (a1.phi / a0.phi).ln() / (2.0 * 50.0 * (s1.time - s0.time));
     eprintln!(
         "by {}: Φ {} -> {} in {:e} s: exponent {exponent} of full rate; p {} Pa; grain area {:e} -> {:e}",
         sim.method(),
-        s0.phi,
-        s1.phi,
+        a0.phi,
+        a1.phi,
         s1.time - s0.time,
         s1.p,
         g0.mean_area,
@@ -718,7 +727,7 @@ fn pressed_in_a_cell(levels: &[f64]) -> Vec<(f64, GrainSample, f64)> {
             g.mean_aspect_ratio,
             g.max_aspect_ratio,
             g.pressure,
-            s.phi,
+            primaries_of(&s).phi,
             s.p,
         );
         out.push((level, g, s.p));

@@ -1,6 +1,7 @@
 //! The measures at the scale of the grains when the grains are aggregates of primaries (the
-//! bonded particle method, [`crate::particles::aggregate`]): the sample's own Φ, Z and stress
-//! are those of the primaries; [`GrainSample`] holds the grains'.
+//! bonded particle method, [`crate::particles::aggregate`]) or deformable grains (MPM, FEM):
+//! [`GrainSample`] holds the grains' Φ, Z, pressure and shape, and the sample's own Φ and Z are
+//! the grains'; for aggregates [`PrimarySample`] keeps the primaries' beside them.
 //!
 //! - **Area** of a grain (2D; its volume in 3D): the union of its primaries closed by a disk (a
 //!   ball) of radius `h = d_min / 2` (half the smallest primary's diameter), with its holes filled:
@@ -17,6 +18,11 @@
 //!   contact between their primaries; in a periodic box, pairs of a grain and an image of
 //!   another (or of itself): in a cell two grains across, a grain may touch the same grain on
 //!   both sides, two neighbours of the packing.
+//! - **Rattlers** among grains: a grain with fewer than two force-bearing contacts with grains
+//!   still in the backbone (walls included) is removed, recursively, as a frictional particle
+//!   would be ([`super::metrics::rattlers`]): an aggregate's rough outline bears tangential
+//!   load though its primaries slide freely. A grain's contacts with the walls count once per
+//!   wall, the wall told by the axis and side its contacts face.
 //! - **Shape**: the aspect ratio `sqrt(λ_max / λ_min)` of the primaries' second moments about
 //!   the grain's centre of mass, each primary a uniform disk (ball) of its radius: the
 //!   eigenvalues of `Σ m (d dᵀ + r²/4 I)` (`r²/5` for a ball), 1 for a round grain.
@@ -48,6 +54,10 @@ pub struct GrainSample {
     pub phi: f64,
     /// Mean coordination of the grains, `2 N_gg / N_g`, `N_gg` the pairs of grains in contact.
     pub z: f64,
+    /// Mean coordination of the grains' backbone, rattlers removed recursively (module
+    /// documentation). Samples stored before it was measured read 0.
+    #[serde(default)]
+    pub z_no_rattlers: f64,
     /// Mean pressure of the grains, weighted by area (volume in 3D), Pa.
     pub pressure: f64,
     /// Mean aspect ratio of the grains (1 for a round grain).
@@ -56,6 +66,31 @@ pub struct GrainSample {
     pub max_aspect_ratio: f64,
     /// Mean area of a grain, m² (2D); its mean volume in 3D, m³.
     pub mean_area: f64,
+}
+
+impl GrainSample {
+    /// The diameter of the disk (ball in 3D) of the grains' mean area (volume), m: the grains'
+    /// size for an inertial number.
+    pub fn mean_diameter(&self, dim: usize) -> Real {
+        if dim == 3 {
+            (6.0 * self.mean_area / std::f64::consts::PI).cbrt()
+        } else {
+            2.0 * (self.mean_area / std::f64::consts::PI).sqrt()
+        }
+    }
+}
+
+/// The primaries' own packing fraction and coordination when the grains are aggregates of
+/// primaries (bonded particle method): the measures of every particle the method moves.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct PrimarySample {
+    /// Packing fraction of the primaries: their disks' areas (balls' volumes) over the box's.
+    pub phi: f64,
+    /// Mean coordination of the primaries, `2 N_c / N` (within and between grains).
+    pub z: f64,
+    /// Mean coordination of the primaries' backbone, rattlers removed recursively.
+    pub z_no_rattlers: f64,
 }
 
 /// One grain's measures.
@@ -103,6 +138,7 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
     let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, &pos, dim, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
     let mut pairs: Vec<(u32, u32, [i64; 3])> = Vec::new();
+    let mut walls: Vec<(u32, usize, bool)> = Vec::new();
     let mut moment = vec![0.0; n];
     for c in contacts.iter().filter(|c| c.bears_load()) {
         let (a, b) = (grain_of(c.i), c.j.and_then(grain_of));
@@ -132,14 +168,19 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         if let Some(b) = b {
             moment[b as usize] -= c.force.dot(&(at_j - shapes[b as usize].centre));
         }
-        if let (Some(a), Some(b)) = (a, b) {
-            pairs.push(grain_pair(a, b, image));
+        match (a, b, c.j) {
+            (Some(a), Some(b), _) => pairs.push(grain_pair(a, b, image)),
+            (Some(a), None, None) => walls.push((a, c.branch.iamax(), c.branch[c.branch.iamax()] > 0.0)),
+            _ => {}
         }
     }
     // One pair per two grains in contact, and per image: in a cell two grains across, a grain
     // touches another on both sides (two neighbours of the packing, one pair each).
     pairs.sort_unstable();
     pairs.dedup();
+    walls.sort_unstable();
+    walls.dedup();
+    let z_no_rattlers = grain_backbone(n, dim, pairs.iter().map(|&(a, b, _)| (a, Some(b))).chain(walls.iter().map(|&(a, ..)| (a, None))));
     let area: Real = shapes.iter().map(|s| s.area).sum();
     // p_g = −tr σ_g / d: the contact forces press inward, against the lever.
     let pressure = if area > 0.0 { -moment.iter().sum::<Real>() / (dim as Real * area) } else { 0.0 };
@@ -148,6 +189,7 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         count: n as u64,
         phi: if volume > 0.0 { area / volume } else { 0.0 },
         z: 2.0 * pairs.len() as Real / n as Real,
+        z_no_rattlers,
         pressure,
         mean_aspect_ratio: aspects.clone().sum::<Real>() / n as Real,
         max_aspect_ratio: aspects.fold(1.0, Real::max),
@@ -155,13 +197,30 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
     })
 }
 
+/// The mean coordination of the backbone of `n` grains whose force-bearing contacts are
+/// `contacts` (a grain and another, or a wall), rattlers removed recursively as for frictional
+/// particles (module documentation).
+fn grain_backbone(n: usize, dim: usize, contacts: impl Iterator<Item = (u32, Option<u32>)>) -> Real {
+    let records: Vec<ContactRecord> =
+        contacts.map(|(i, j)| ContactRecord { i, j, force: Vec3::x(), branch: Vec3::zeros(), touching: true, bonded: false }).collect();
+    super::metrics::coordination(n, super::metrics::rattler_threshold(dim, true), &records).1
+}
+
 /// The grains' measures when every particle of `p` is a grain (deformable grains, measured as
 /// disks or spheres of their current area or volume), in the same fields as aggregates':
-/// `shape` the grains' mean and largest aspect ratios. The pressure is that of
+/// `shape` the grains' mean and largest aspect ratios, `z_no_rattlers` the backbone's
+/// coordination the sample measured. The pressure is that of
 /// [`measure_grains`], `−Σ_g Σ_c f·(x_c − x_g) / (D Σ A_g)`, which for grains with one centre
 /// each is `Σ_c f·ℓ_c / (D Σ A_g)` over the load-bearing contacts, `ℓ_c` their branch vectors
 /// (grain to grain, or wall contact point to grain).
-pub fn measure_whole_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], volume: Real, shape: (Real, Real)) -> GrainSample {
+pub fn measure_whole_grains(
+    p: &Particles,
+    dim: usize,
+    contacts: &[ContactRecord],
+    volume: Real,
+    shape: (Real, Real),
+    z_no_rattlers: Real,
+) -> GrainSample {
     let n = p.len();
     let area: Real = p.radius.iter().map(|&r| Particles::volume_of(dim, r)).sum();
     let mut pairs: Vec<(u32, u32)> = Vec::new();
@@ -178,6 +237,7 @@ pub fn measure_whole_grains(p: &Particles, dim: usize, contacts: &[ContactRecord
         count: n as u64,
         phi: if volume > 0.0 { area / volume } else { 0.0 },
         z: if n > 0 { 2.0 * pairs.len() as Real / n as Real } else { 0.0 },
+        z_no_rattlers,
         pressure: if area > 0.0 { virial / (dim as Real * area) } else { 0.0 },
         mean_aspect_ratio: shape.0,
         max_aspect_ratio: shape.1,
@@ -508,6 +568,90 @@ mod tests {
         assert!((g.phi - area / 100.0).abs() < 1e-15);
         let g = measure_grains(&p, 2, &[idle], 100.0, &walled(2)).expect("grains");
         assert_eq!((g.z, g.pressure), (0.0, 0.0));
+    }
+
+    /// Three grains on a floor (a walled box's y_min: contacts facing +y): grain 0 (two
+    /// primaries) touches only the floor, through both primaries; grains 1 and 2 (one primary
+    /// each) press on each other and on the floor. Z over the three is 2/3; grain 0's two wall
+    /// contacts are one wall, too few to keep it (a grain needs two), so the backbone is grains 1
+    /// and 2 and its coordination 1. Counting each wall contact apart would keep grain 0 (2/3).
+    #[test]
+    fn a_grain_on_one_wall_alone_is_a_rattler() {
+        let mut p = grain(&[(0.0, 1.0, 1.0), (2.0, 1.0, 1.0), (6.0, 1.0, 1.0), (8.0, 1.0, 1.0)]);
+        let bond = p.bondings[0];
+        p.bondings.extend([bond, bond]);
+        p.aggregate[2] = 1;
+        p.aggregate[3] = 2;
+        let floor = |i: u32| ContactRecord {
+            i,
+            j: None,
+            force: Vec3::new(0.0, 1.0, 0.0),
+            branch: Vec3::new(0.0, 1.0, 0.0),
+            touching: true,
+            bonded: false,
+        };
+        let between = ContactRecord {
+            i: 2,
+            j: Some(3),
+            force: Vec3::new(-1.0, 0.0, 0.0),
+            branch: Vec3::new(-2.0, 0.0, 0.0),
+            touching: true,
+            bonded: false,
+        };
+        let g = measure_grains(&p, 2, &[floor(0), floor(1), floor(2), floor(3), between], 100.0, &walled(2)).expect("grains");
+        assert!((g.z - 2.0 / 3.0).abs() < 1e-15, "Z {}", g.z);
+        assert_eq!(g.z_no_rattlers, 1.0);
+        // A second wall (x_min: contacts facing +x) keeps grain 0 in the backbone.
+        let side = ContactRecord { branch: Vec3::new(1.0, 0.0, 0.0), force: Vec3::new(1.0, 0.0, 0.0), ..floor(0) };
+        let g = measure_grains(&p, 2, &[floor(0), floor(1), side, floor(2), floor(3), between], 100.0, &walled(2)).expect("grains");
+        assert!((g.z_no_rattlers - 2.0 / 3.0).abs() < 1e-15, "Z without rattlers {}", g.z_no_rattlers);
+    }
+
+    /// A sample of aggregates ([`super::super::metrics::measure`]) reports the grains' Φ and Z
+    /// in its own fields, the same as its `grains` block, and the primaries' beside them: two
+    /// grains of two disks of radius 1 in a box of area 100, pressed by one contact, each
+    /// grain's own primaries bonded. The primaries' Φ is their disks' area, 4π / 100, their Z
+    /// counts the bonds (3 pairs over 4 disks); the grains' Φ is larger (closed outlines) and
+    /// their Z is 1.
+    #[test]
+    fn a_sample_of_aggregates_reports_its_grains_and_its_primaries() {
+        let mut p = grain(&[(0.0, 0.0, 1.0), (2.0, 0.0, 1.0), (4.0, 0.0, 1.0), (6.0, 0.0, 1.0)]);
+        let bond = p.bondings[0];
+        p.bondings.push(bond);
+        p.aggregate[2] = 1;
+        p.aggregate[3] = 1;
+        let pair = |i: u32, bonded: bool| ContactRecord {
+            i,
+            j: Some(i + 1),
+            force: Vec3::new(-1.0, 0.0, 0.0),
+            branch: Vec3::new(-2.0, 0.0, 0.0),
+            touching: true,
+            bonded,
+        };
+        let contacts = [pair(0, true), pair(1, false), pair(2, true)];
+        let domain = walled(2);
+        let view = super::super::metrics::SystemView {
+            dim: 2,
+            step: 0,
+            time: 0.0,
+            particles: &p,
+            volume: 100.0,
+            contacts: &contacts,
+            walls: &[],
+            shear: None,
+            elastic_energy: 0.0,
+            rattler_threshold: 3,
+            drum: None,
+            deformable: None,
+            domain: &domain,
+        };
+        let s = super::super::metrics::measure(&view);
+        let g = s.grains.as_deref().copied().expect("grains");
+        let primaries = s.primaries.expect("primaries");
+        assert_eq!((s.phi, s.z, s.z_no_rattlers), (g.phi, g.z, g.z_no_rattlers));
+        assert_eq!((g.count, g.z), (2, 1.0));
+        assert!((primaries.phi - 4.0 * std::f64::consts::PI / 100.0).abs() < 1e-15 && primaries.z == 1.5, "{primaries:?}");
+        assert!(g.phi > primaries.phi * 1.05, "the grains' outline closes their pores: {} against {}", g.phi, primaries.phi);
     }
 
     /// One disk alone: closing changes nothing, the area is `π r²` within the grid's error

@@ -1,6 +1,7 @@
 //! Computation of a [`Sample`] from a method-independent view of the system.
 
 use super::drum::{measure_drum, DrumView};
+use super::grains::PrimarySample;
 use super::sample::{DeformableSample, Sample, Stress, WallSample};
 use crate::math::{Mat3, Real, Vec3};
 use crate::particles::Particles;
@@ -178,20 +179,36 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         (1.5 * s.component_mul(&s).sum()).sqrt()
     };
     let zeta = if pressure > 0.0 { q / pressure } else { 0.0 };
+    let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
+    // Soft grains: the sample's Φ and Z are the grains'; an aggregate's primaries keep theirs.
+    let (grains, primaries) = match v.deformable {
+        Some(d) => (Some(super::grains::measure_whole_grains(p, dim, v.contacts, v.volume, d.aspect_ratios, z_no_rattlers)), None),
+        None => match super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain) {
+            Some(g) => (Some(g), Some(PrimarySample { phi, z, z_no_rattlers })),
+            None => (None, None),
+        },
+    };
+    let (phi, z, z_no_rattlers) = match (&grains, &primaries) {
+        (Some(g), Some(_)) => (g.phi, g.z, g.z_no_rattlers),
+        _ => (phi, z, z_no_rattlers),
+    };
     let (mu, inertial_number) = match v.shear {
         Some(s) => {
             let sn = sigma[(s.gradient, s.gradient)];
             let tau = sym(s.flow, s.gradient).abs();
             let mu = if sn > 0.0 { tau / sn } else { 0.0 };
-            let mean_d = if n > 0 { 2.0 * p.radius.iter().sum::<Real>() / n as Real } else { 0.0 };
+            // The grains' size: the number-mean diameter, or for aggregates their own.
+            let mean_d = match (&grains, &primaries) {
+                (Some(g), Some(_)) => g.mean_diameter(dim),
+                _ if n > 0 => 2.0 * p.radius.iter().sum::<Real>() / n as Real,
+                _ => 0.0,
+            };
             let rho = if solid > 0.0 { total_mass / solid } else { 0.0 };
             let i = (sn > 0.0).then(|| s.rate.abs() * mean_d * (rho / sn).sqrt());
             (Some(mu), i)
         }
         None => (None, None),
     };
-
-    let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
     let walls = v
         .walls
         .iter()
@@ -222,11 +239,8 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
         solver: None,
         deformable: v.deformable.map(|d| Box::new(d.sample)),
-        grains: match v.deformable {
-            Some(d) => Some(super::grains::measure_whole_grains(p, dim, v.contacts, v.volume, d.aspect_ratios)),
-            None => super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain),
-        }
-        .map(Box::new),
+        grains: grains.map(Box::new),
+        primaries,
     }
 }
 

@@ -16,7 +16,7 @@ pub mod snapshot;
 pub mod vtk;
 
 pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
-pub use grains::GrainSample;
+pub use grains::{GrainSample, PrimarySample};
 pub use granule::GranuleResult;
 pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, ShearGeometry, SystemView, WallView};
 pub use power::{power_fit, PowerFit};

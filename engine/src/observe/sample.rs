@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::drum::DrumSample;
-use super::grains::GrainSample;
+use super::grains::{GrainSample, PrimarySample};
 
 /// Stress tensor components, Pa (compression positive; 2D: force per metre of thickness per
 /// metre, i.e. Pa for unit thickness). `zz`, `xz`, `yz` are absent in 2D.
@@ -50,11 +50,14 @@ pub struct Sample {
     pub step: u64,
     /// Simulated time, s.
     pub time: f64,
-    /// Packing fraction Φ (solid volume / container volume; area fraction in 2D).
+    /// Packing fraction Φ of the grains (solid volume / container volume; area fraction in 2D).
+    /// For aggregates (bonded particle method) the grains' areas ([`GrainSample::phi`]); the
+    /// primaries' are under [`Sample::primaries`].
     pub phi: f64,
-    /// Mean coordination 2 N_c / N over all particles (particle-particle force-bearing contacts).
+    /// Mean coordination of the grains, 2 N_c / N (grain-grain force-bearing contacts; pairs of
+    /// aggregates in contact for the bonded particle method).
     pub z: f64,
-    /// Mean coordination of the force-bearing backbone, rattlers removed recursively.
+    /// Mean coordination of the grains' force-bearing backbone, rattlers removed recursively.
     pub z_no_rattlers: f64,
     /// Stress ratio ζ = q/p (0 when p ≤ 0): the friction of a biaxial or triaxial test.
     pub zeta: f64,
@@ -92,11 +95,15 @@ pub struct Sample {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deformable: Option<Box<DeformableSample>>,
     /// The grains' own measures, the same fields for every method with grains that are not
-    /// single rigid particles: aggregates of primaries (bonded particle method; the fields above
-    /// are then the primaries') and deformable grains (MPM, FEM; the fields above are then the
-    /// grains' too): their packing fraction, coordination, pressure and shape.
+    /// single rigid particles: aggregates of primaries (bonded particle method) and deformable
+    /// grains (MPM, FEM): their packing fraction, coordination, pressure and shape (Φ and Z
+    /// equal the fields above).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grains: Option<Box<GrainSample>>,
+    /// The primaries' packing fraction and coordination, when the grains are aggregates of
+    /// primaries (bonded particle method).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub primaries: Option<PrimarySample>,
 }
 
 /// The state of deformable grains at a sample (methods `mpm` and `fem`) besides their
@@ -229,8 +236,11 @@ impl Sample {
                 .as_ref()
                 .is_none_or(|e| e.volumetric.is_finite() && e.deviatoric.is_finite() && e.axes.iter().all(|x| x.is_finite()))
             && self.grains.as_ref().is_none_or(|g| {
-                [g.phi, g.z, g.pressure, g.mean_aspect_ratio, g.max_aspect_ratio, g.mean_area].iter().all(|x| x.is_finite())
+                [g.phi, g.z, g.z_no_rattlers, g.pressure, g.mean_aspect_ratio, g.max_aspect_ratio, g.mean_area]
+                    .iter()
+                    .all(|x| x.is_finite())
             })
+            && self.primaries.as_ref().is_none_or(|a| [a.phi, a.z, a.z_no_rattlers].iter().all(|x| x.is_finite()))
             && self.drum.as_ref().is_none_or(|d| {
                 [d.mass_angle, d.fill, d.centroid_offset, d.airborne_fraction, d.drive_torque]
                     .iter()

@@ -250,6 +250,7 @@ mod tests {
             solver: None,
             deformable: None,
             grains: None,
+            primaries: None,
         }
     }
 

@@ -63,9 +63,8 @@ pub struct SeriesSpec {
     #[serde(default)]
     pub sweep: Vec<SweepSpec>,
     /// What is measured on this series' runs instead of the study's `measure`: two models
-    /// whose samples name or scale the same quantity differently (the grains' Φ of aggregates
-    /// is `grains.phi`, of MPM grains `phi`; each model's wall stress at its own characteristic
-    /// stress).
+    /// whose samples scale the same quantity differently (each model's wall stress at its own
+    /// characteristic stress).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measure: Option<MeasureSpec>,
 }

@@ -24,8 +24,10 @@ column                                     meaning
 ``deformable.*``                           deformable grains: ``min_jacobian``,
                                            ``interpenetration``, ``dissipated_energy`` (J)
 ``grains.*``                               aggregates and deformable grains: the grains' ``phi``,
-                                           ``z``, ``pressure`` (Pa), aspect ratios, ``mean_area``
-                                           (m²; m³ in 3D)
+                                           ``z``, ``z_no_rattlers``, ``pressure`` (Pa), aspect
+                                           ratios, ``mean_area`` (m²; m³ in 3D)
+``primaries.*``                            aggregates: the primaries' own ``phi``, ``z``,
+                                           ``z_no_rattlers`` (the top-level ones are the grains')
 ``drum.*``                                 rotating drum: angles (degrees), fill, torque (N·m)
 =========================================  =====================================================
 

@@ -23,7 +23,7 @@ pub struct CompactionResult {
     /// Largest packing fraction reached.
     pub phi_max: f64,
     /// The coordination beyond the onset, `Z − Z_J = a (Φ − Φ_J)^b` over the samples after
-    /// it (`Φ_J`, `Z_J`: those of the onset's sample; Z over all grains). Soft grains: `b ≈ ½`
+    /// it (`Φ_J`, `Z_J`: those of the onset's sample; the grains' Φ and Z, [`Sample::phi`]). Soft grains: `b ≈ ½`
     /// (docs/physics.md §9; Nezamabadi 2020, eq. 2.20).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub coordination_fit: Option<PowerFit>,
@@ -37,11 +37,6 @@ pub struct CompactionResult {
     /// The largest aspect ratio of a grain at the end (deformable grains).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_aspect_ratio: Option<f64>,
-    /// `"grains"` when the grains are aggregates of primaries (the bonded particle method): Φ,
-    /// Z and the aspect ratios above are then the grains' own ([`Sample::grains`]), not the
-    /// primaries'; absent otherwise.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub level: Option<String>,
 }
 
 impl Analysis {
@@ -52,11 +47,8 @@ impl Analysis {
         let stress_of = |s: &Sample| s.walls.iter().find(|w| w.name == wall).map_or(0.0, |w| w.normal_stress);
         let final_stress = stress_of(last);
         let onset = run.iter().position(|s| final_stress > 0.0 && stress_of(s) >= ONSET_FRACTION * final_stress);
-        // Grains are judged by their own Φ, Z and shapes (for aggregates of primaries
-        // these differ from the primaries' in the sample's top fields).
-        let grains = last.grains.is_some() && !self.deformable;
-        let phi = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.phi, |g| g.phi);
-        let z = |s: &Sample| s.grains.as_ref().filter(|_| grains).map_or(s.z, |g| g.z);
+        let phi = |s: &Sample| s.phi;
+        let z = |s: &Sample| s.z;
         let phi_onset = onset.map(|k| phi(run[k]));
         let strain = last.strain.as_ref().and_then(|e| e.axes.get(axis).copied()).unwrap_or(0.0);
         let (coordination_fit, stress_fit) = match onset {
@@ -80,7 +72,6 @@ impl Analysis {
             stress_fit,
             mean_aspect_ratio: shape.map(|s| s.0),
             max_aspect_ratio: shape.map(|s| s.1),
-            level: grains.then(|| "grains".to_string()),
         });
         r.stiffness_number = self.stiffness_number(final_stress, flow.mean_diameter);
         if let CompactionDrive::Velocity { speed, .. } = drive {

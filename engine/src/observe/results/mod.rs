@@ -85,7 +85,7 @@ pub struct State {
     /// Stress ratio q/p.
     pub zeta: f64,
     /// The grains' own measures ([`Sample::grains`]): Φ, Z, pressure and shape, for aggregates
-    /// of primaries (the fields above are then the primaries') and deformable grains.
+    /// of primaries and deformable grains.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grains: Option<super::grains::GrainSample>,
 }
@@ -346,15 +346,8 @@ impl Analysis {
     /// (ball) of their measured mean area (volume), not the primaries'; `None` for grains that
     /// are particles.
     fn grain_diameter(&self, last: &Sample) -> Option<Real> {
-        self.aggregate_diameter.or_else(|| {
-            last.grains.as_ref().filter(|g| g.mean_area > 0.0 && !self.deformable).map(|g| {
-                if self.dim == 3 {
-                    (6.0 * g.mean_area / std::f64::consts::PI).cbrt()
-                } else {
-                    2.0 * (g.mean_area / std::f64::consts::PI).sqrt()
-                }
-            })
-        })
+        self.aggregate_diameter
+            .or_else(|| last.grains.as_ref().filter(|g| g.mean_area > 0.0 && !self.deformable).map(|g| g.mean_diameter(self.dim)))
     }
 
     /// The warnings of a result whose test is not quasi-static or not in the rigid limit.

@@ -20,8 +20,8 @@ pub struct Peak {
     pub volumetric_strain: f64,
     /// Packing fraction at the peak.
     pub phi: f64,
-    /// The grains' own measures at the peak, for aggregates of primaries (`phi` is then the
-    /// primaries') and deformable grains.
+    /// The grains' own measures at the peak, for aggregates of primaries and deformable
+    /// grains.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grains: Option<GrainSample>,
 }
@@ -44,9 +44,9 @@ pub struct Steady {
     pub z_no_rattlers: f64,
     /// Dilatancy rate `-d eps_v / d eps_a` over the window (least squares; 0 at a critical state).
     pub dilatancy_rate: f64,
-    /// The grains' own measures averaged over the window, for aggregates of primaries (`phi`
-    /// and `z_no_rattlers` are then the primaries') and deformable grains: the steady Φ, Z,
-    /// pressure and shape of the grains (`max_aspect_ratio` the mean of each sample's largest).
+    /// The grains' own measures averaged over the window, for aggregates of primaries and
+    /// deformable grains: the steady Φ, Z, pressure and shape of the grains
+    /// (`max_aspect_ratio` the mean of each sample's largest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grains: Option<GrainSample>,
 }
@@ -107,6 +107,7 @@ fn mean_grains<'a>(samples: impl Iterator<Item = Option<&'a GrainSample>>) -> Op
         sum.count = g.count;
         sum.phi += g.phi;
         sum.z += g.z;
+        sum.z_no_rattlers += g.z_no_rattlers;
         sum.pressure += g.pressure;
         sum.mean_aspect_ratio += g.mean_aspect_ratio;
         sum.max_aspect_ratio += g.max_aspect_ratio;
@@ -119,6 +120,7 @@ fn mean_grains<'a>(samples: impl Iterator<Item = Option<&'a GrainSample>>) -> Op
             count: sum.count,
             phi: sum.phi / k,
             z: sum.z / k,
+            z_no_rattlers: sum.z_no_rattlers / k,
             pressure: sum.pressure / k,
             mean_aspect_ratio: sum.mean_aspect_ratio / k,
             max_aspect_ratio: sum.max_aspect_ratio / k,
