@@ -13,6 +13,7 @@ pub mod spec;
 pub mod state;
 pub mod state_meshes;
 pub mod state_points;
+mod state_rules;
 pub mod validate;
 mod violation;
 

@@ -15,7 +15,8 @@
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
-use super::state_points::{StateImpulse, MAX_SPLIT_DEPTH as MAX_DEPTH};
+use super::state_points::StateImpulse;
+use super::state_rules as rules;
 use super::violation::{Checker, EntryRule};
 use crate::geometry::quad::Geometry;
 
@@ -74,33 +75,22 @@ type V2 = Vector2<f64>;
 /// current ones (at its Gauss points), the histories are admissible.
 pub(crate) fn check_meshes(c: &mut Checker, path: &str, s: &StateMeshes, grains: usize, lo: [f64; 2], hi: [f64; 2]) -> bool {
     let before = c.violations.len();
-    for (name, len) in [
+    let counts = [
         ("radius0", s.radius0.len()),
         ("node_count", s.node_count.len()),
         ("element_count", s.element_count.len()),
         ("boundary_count", s.boundary_count.len()),
-    ] {
-        if len != grains {
-            c.fail(format!("{path}.{name}"), format!("must have one entry per particle of the state ({grains}), got {len}"));
-        }
-    }
+    ];
+    rules::per_particle(c, path, &counts, grains);
     if c.violations.len() > before {
         return false;
     }
-    let sum = |v: &[u32]| v.iter().map(|&k| u64::from(k)).sum::<u64>();
-    let (nodes, elements, loop_len) = (sum(&s.node_count), sum(&s.element_count), sum(&s.boundary_count));
+    let nodes = [("reference", s.reference.len()), ("displacement", s.displacement.len()), ("velocity", s.velocity.len())];
+    rules::lengths(c, path, &nodes, rules::total(&s.node_count), "node (the sum of node_count");
+    let elements = rules::total(&s.element_count);
+    rules::lengths(c, path, &[("elements", s.elements.len())], elements, "element (the sum of element_count");
+    rules::lengths(c, path, &[("boundary", s.boundary.len())], rules::total(&s.boundary_count), "boundary node (the sum of boundary_count");
     let points = elements * GAUSS_POINTS as u64;
-    for (name, len, want, what) in [
-        ("reference", s.reference.len(), nodes, "node (the sum of node_count"),
-        ("displacement", s.displacement.len(), nodes, "node (the sum of node_count"),
-        ("velocity", s.velocity.len(), nodes, "node (the sum of node_count"),
-        ("elements", s.elements.len(), elements, "element (the sum of element_count"),
-        ("boundary", s.boundary.len(), loop_len, "boundary node (the sum of boundary_count"),
-    ] {
-        if len as u64 != want {
-            c.fail(format!("{path}.{name}"), format!("must have one entry per {what}, {want}), got {len}"));
-        }
-    }
     if s.plastic.len() != s.plastic_strain.len() || !(s.plastic.is_empty() || s.plastic.len() as u64 == points) {
         let field = if s.plastic.is_empty() { "plastic_strain" } else { "plastic" };
         c.fail(
@@ -112,35 +102,36 @@ pub(crate) fn check_meshes(c: &mut Checker, path: &str, s: &StateMeshes, grains:
             ),
         );
     }
-    if s.split_depth > MAX_DEPTH {
-        c.fail(
-            format!("{path}.split_depth"),
-            format!("must be at most {MAX_DEPTH} (a step splits into at most {} parts), got {}", 1 << MAX_DEPTH, s.split_depth),
-        );
-    }
+    rules::split_depth(c, path, s.split_depth);
     if c.violations.len() > before {
         return false;
     }
-    for (name, counts, least, what) in [
-        ("node_count", &s.node_count, 4, "nodes"),
-        ("element_count", &s.element_count, 1, "element"),
-        ("boundary_count", &s.boundary_count, 3, "boundary nodes"),
-    ] {
-        let mut rule = EntryRule::new(c, format!("{path}.{name}"), "entries");
-        for (k, &m) in counts.iter().enumerate() {
-            if m < least {
-                rule.fail(k, format!("a grain's mesh needs at least {least} {what}, got {m}"));
-            }
-        }
-    }
+    rules::at_least(c, path, "node_count", &s.node_count, 4, "a grain's mesh needs at least 4 nodes", false);
+    rules::at_least(c, path, "element_count", &s.element_count, 1, "a grain's mesh needs at least 1 element", false);
+    rules::at_least(c, path, "boundary_count", &s.boundary_count, 3, "a grain's mesh needs at least 3 boundary nodes", false);
+    rules::positive(c, path, "radius0", &s.radius0);
+    let vectors_ok = check_node_vectors(c, path, s, lo, hi);
+    check_elements(c, path, s, vectors_ok);
+    rules::numbered_within(c, path, "boundary", &s.boundary, &s.boundary_count, &s.node_count, "a node");
     {
-        let mut rule = EntryRule::new(c, format!("{path}.radius0"), "entries");
-        for (i, v) in s.radius0.iter().enumerate() {
-            if !(v.is_finite() && *v > 0.0) {
-                rule.fail(i, format!("must be > 0, got {v}"));
+        let mut rule = EntryRule::new(c, format!("{path}.plastic"), "entries");
+        for (i, v) in s.plastic.iter().enumerate() {
+            if v.len() != 4 || v.iter().any(|x| !x.is_finite()) {
+                rule.fail(i, format!("must be 4 finite numbers [xx, xy, yy, zz], got {v:?}"));
+            } else if let Some(wrong) = rules::plastic_tensor(v) {
+                rule.fail(i, wrong);
             }
         }
     }
+    rules::plastic_strain(c, path, &s.plastic_strain);
+    rules::impulses(c, path, &s.impulses, grains);
+    c.violations.len() == before
+}
+
+/// Checks the nodes' positions, displacements and velocities (2 finite components each; no
+/// node more than the largest grain's radius outside the box `[lo, hi]`); true when all are
+/// numbers the elements' checks can use.
+fn check_node_vectors(c: &mut Checker, path: &str, s: &StateMeshes, lo: [f64; 2], hi: [f64; 2]) -> bool {
     let reach = s.radius0.iter().copied().filter(|r| r.is_finite()).fold(0.0, f64::max);
     let mut vectors_ok = true;
     for (name, values) in [("reference", &s.reference), ("displacement", &s.displacement), ("velocity", &s.velocity)] {
@@ -168,79 +159,40 @@ pub(crate) fn check_meshes(c: &mut Checker, path: &str, s: &StateMeshes, grains:
             }
         }
     }
-    {
-        // Each element's nodes, then — where they are its grain's and the positions finite —
-        // its shape at its reference and current positions.
-        let mut rule = EntryRule::new(c, format!("{path}.elements"), "entries");
-        let (mut node, mut element) = (0usize, 0usize);
-        for (&n, &e) in s.node_count.iter().zip(&s.element_count) {
-            let at = |k: u32, moved: bool| {
-                let i = node + k as usize;
-                let (x, u) = (&s.reference[i], &s.displacement[i]);
-                if moved {
-                    V2::new(x[0] + u[0], x[1] + u[1])
-                } else {
-                    V2::new(x[0], x[1])
-                }
-            };
-            for i in element..element + e as usize {
-                let q = &s.elements[i];
-                if q.len() != 4 {
-                    rule.fail(i, format!("must list 4 nodes, got {}", q.len()));
-                } else if let Some(bad) = q.iter().find(|&&k| k >= n) {
-                    rule.fail(i, format!("must number nodes of its grain (0..{n}), got {bad}"));
-                } else if vectors_ok {
-                    let corners = |moved: bool| [at(q[0], moved), at(q[1], moved), at(q[2], moved), at(q[3], moved)];
-                    if Geometry::new(&corners(false)).is_none() {
-                        rule.fail(i, "is degenerate, or not counter-clockwise, at its reference positions".to_string());
-                    } else if Geometry::new(&corners(true)).is_none() {
-                        rule.fail(i, "is inverted at its current positions (det F <= 0 at a Gauss point): it cannot go on".to_string());
-                    }
-                }
+    vectors_ok
+}
+
+/// Checks each element's nodes, then — where they are its grain's and the positions finite
+/// (`vectors_ok`) — its shape at its reference and current positions.
+fn check_elements(c: &mut Checker, path: &str, s: &StateMeshes, vectors_ok: bool) {
+    let mut rule = EntryRule::new(c, format!("{path}.elements"), "entries");
+    let (mut node, mut element) = (0usize, 0usize);
+    for (&n, &e) in s.node_count.iter().zip(&s.element_count) {
+        let at = |k: u32, moved: bool| {
+            let i = node + k as usize;
+            let (x, u) = (&s.reference[i], &s.displacement[i]);
+            if moved {
+                V2::new(x[0] + u[0], x[1] + u[1])
+            } else {
+                V2::new(x[0], x[1])
             }
-            node += n as usize;
-            element += e as usize;
-        }
-    }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.boundary"), "entries");
-        let mut at = 0usize;
-        for (&n, &b) in s.node_count.iter().zip(&s.boundary_count) {
-            for i in at..at + b as usize {
-                if s.boundary[i] >= n {
-                    rule.fail(i, format!("must number a node of its grain (0..{n}), got {}", s.boundary[i]));
+        };
+        for i in element..element + e as usize {
+            let q = &s.elements[i];
+            if q.len() != 4 {
+                rule.fail(i, format!("must list 4 nodes, got {}", q.len()));
+            } else if let Some(bad) = q.iter().find(|&&k| k >= n) {
+                rule.fail(i, format!("must number nodes of its grain (0..{n}), got {bad}"));
+            } else if vectors_ok {
+                let corners = |moved: bool| [at(q[0], moved), at(q[1], moved), at(q[2], moved), at(q[3], moved)];
+                if Geometry::new(&corners(false)).is_none() {
+                    rule.fail(i, "is degenerate, or not counter-clockwise, at its reference positions".to_string());
+                } else if Geometry::new(&corners(true)).is_none() {
+                    rule.fail(i, "is inverted at its current positions (det F <= 0 at a Gauss point): it cannot go on".to_string());
                 }
             }
-            at += b as usize;
         }
+        node += n as usize;
+        element += e as usize;
     }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.plastic"), "entries");
-        for (i, v) in s.plastic.iter().enumerate() {
-            if v.len() != 4 || v.iter().any(|x| !x.is_finite()) {
-                rule.fail(i, format!("must be 4 finite numbers [xx, xy, yy, zz], got {v:?}"));
-            } else if !(v[0] > 0.0 && v[0] * v[2] - v[1] * v[1] > 0.0 && v[3] > 0.0) {
-                rule.fail(i, "must be positive definite".to_string());
-            }
-        }
-    }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.plastic_strain"), "entries");
-        for (i, v) in s.plastic_strain.iter().enumerate() {
-            if !(v.is_finite() && *v >= 0.0) {
-                rule.fail(i, format!("must be >= 0, got {v}"));
-            }
-        }
-    }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.impulses"), "entries");
-        for (i, e) in s.impulses.iter().enumerate() {
-            if e.grain as usize >= grains {
-                rule.fail(i, format!("grain must number a particle of the state (0..{grains}), got {}", e.grain));
-            } else if e.impulse.len() != 2 || e.impulse.iter().any(|x| !x.is_finite()) {
-                rule.fail(i, format!("impulse must be 2 finite numbers (normal, tangent), got {:?}", e.impulse));
-            }
-        }
-    }
-    c.violations.len() == before
 }

@@ -15,6 +15,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::state_rules as rules;
 use super::violation::{Checker, EntryRule};
 
 /// The deepest a soft-grain method may split a step (into `2^MAX_SPLIT_DEPTH` parts): the bound
@@ -89,12 +90,12 @@ pub struct StateImpulse {
 /// their field path (`start_from.state.material_points`). True when every rule holds.
 pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains: usize, lo: [f64; 2], hi: [f64; 2]) -> bool {
     let before = c.violations.len();
-    for (name, len) in [("count", s.count.len()), ("radius0", s.radius0.len()), ("outline_count", s.outline_count.len())] {
-        if len != grains {
-            c.fail(format!("{path}.{name}"), format!("must have one entry per particle of the state ({grains}), got {len}"));
-        }
-    }
-    let n: u64 = s.count.iter().map(|&k| u64::from(k)).sum();
+    rules::per_particle(
+        c,
+        path,
+        &[("count", s.count.len()), ("radius0", s.radius0.len()), ("outline_count", s.outline_count.len())],
+        grains,
+    );
     let arrays = [
         ("mass", s.mass.len()),
         ("area0", s.area0.len()),
@@ -105,61 +106,19 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
         ("plastic", s.plastic.len()),
         ("plastic_strain", s.plastic_strain.len()),
     ];
-    for (name, len) in arrays {
-        if len as u64 != n {
-            c.fail(format!("{path}.{name}"), format!("must have one entry per point ({n}, the sum of count), got {len}"));
-        }
-    }
-    let vertices: u64 = s.outline_count.iter().map(|&k| u64::from(k)).sum();
-    for (name, len) in [("outline_point", s.outline_point.len()), ("outline_offset", s.outline_offset.len())] {
-        if len as u64 != vertices {
-            c.fail(
-                format!("{path}.{name}"),
-                format!("must have one entry per outline vertex ({vertices}, the sum of outline_count), got {len}"),
-            );
-        }
-    }
-    if s.split_depth > MAX_SPLIT_DEPTH {
-        c.fail(
-            format!("{path}.split_depth"),
-            format!("must be at most {MAX_SPLIT_DEPTH} (a step splits into at most {} parts), got {}", 1 << MAX_SPLIT_DEPTH, s.split_depth),
-        );
-    }
+    rules::lengths(c, path, &arrays, rules::total(&s.count), "point (the sum of count");
+    let outline = [("outline_point", s.outline_point.len()), ("outline_offset", s.outline_offset.len())];
+    rules::lengths(c, path, &outline, rules::total(&s.outline_count), "outline vertex (the sum of outline_count");
+    rules::split_depth(c, path, s.split_depth);
     if c.violations.len() > before {
         return false;
     }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.count"), "entries");
-        for (k, &m) in s.count.iter().enumerate() {
-            if m < 4 {
-                rule.fail(k, format!("a grain needs at least 4 points, got {m}"));
-            }
-        }
-    }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.outline_count"), "entries");
-        for (k, &m) in s.outline_count.iter().enumerate() {
-            if m != 0 && m < 3 {
-                rule.fail(k, format!("an outline needs at least 3 vertices (or 0: none), got {m}"));
-            }
-        }
-    }
+    rules::at_least(c, path, "count", &s.count, 4, "a grain needs at least 4 points", false);
+    rules::at_least(c, path, "outline_count", &s.outline_count, 3, "an outline needs at least 3 vertices", true);
     for (name, values) in [("radius0", &s.radius0), ("mass", &s.mass), ("area0", &s.area0), ("side0", &s.side0)] {
-        let mut rule = EntryRule::new(c, format!("{path}.{name}"), "entries");
-        for (i, v) in values.iter().enumerate() {
-            if !(v.is_finite() && *v > 0.0) {
-                rule.fail(i, format!("must be > 0, got {v}"));
-            }
-        }
+        rules::positive(c, path, name, values);
     }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.plastic_strain"), "entries");
-        for (i, v) in s.plastic_strain.iter().enumerate() {
-            if !(v.is_finite() && *v >= 0.0) {
-                rule.fail(i, format!("must be >= 0, got {v}"));
-            }
-        }
-    }
+    rules::plastic_strain(c, path, &s.plastic_strain);
     // A point may stand a little past a wall that presses its grain; a grain's size past one
     // is a corrupted state.
     let reach = s.radius0.iter().copied().fold(0.0, f64::max);
@@ -183,32 +142,12 @@ pub(crate) fn check_points(c: &mut Checker, path: &str, s: &StatePoints, grains:
                 );
             } else if name == "deformation" && v[0] * v[3] - v[1] * v[2] <= 0.0 {
                 rule.fail(i, "must have a positive determinant (an inverted point cannot go on)".to_string());
-            } else if name == "plastic" && !(v[0] > 0.0 && v[0] * v[2] - v[1] * v[1] > 0.0 && v[3] > 0.0) {
-                rule.fail(i, "must be positive definite".to_string());
+            } else if let Some(wrong) = (name == "plastic").then(|| rules::plastic_tensor(v)).flatten() {
+                rule.fail(i, wrong);
             }
         }
     }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.impulses"), "entries");
-        for (i, e) in s.impulses.iter().enumerate() {
-            if e.grain as usize >= grains {
-                rule.fail(i, format!("grain must number a particle of the state (0..{grains}), got {}", e.grain));
-            } else if e.impulse.len() != 2 || e.impulse.iter().any(|x| !x.is_finite()) {
-                rule.fail(i, format!("impulse must be 2 finite numbers (normal, tangent), got {:?}", e.impulse));
-            }
-        }
-    }
-    {
-        let mut rule = EntryRule::new(c, format!("{path}.outline_point"), "entries");
-        let mut at = 0usize;
-        for (&points, &vertices) in s.count.iter().zip(&s.outline_count) {
-            for i in at..at + vertices as usize {
-                if s.outline_point[i] >= points {
-                    rule.fail(i, format!("must number a point of its grain (0..{points}), got {}", s.outline_point[i]));
-                }
-            }
-            at += vertices as usize;
-        }
-    }
+    rules::impulses(c, path, &s.impulses, grains);
+    rules::numbered_within(c, path, "outline_point", &s.outline_point, &s.outline_count, &s.count, "a point");
     c.violations.len() == before
 }
