@@ -18,16 +18,14 @@ use super::points::Points;
 use super::system::{Settings, System};
 use crate::constitutive::{build, ConstitutiveLaw, History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
-use crate::math::{Real, Vec3};
+use crate::math::Real;
 use crate::methods::method::Method;
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
-use crate::methods::soft::params::soft_momentum;
 use crate::methods::soft::parts::Cost;
 use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
-use crate::nscd::Convergence;
 use crate::observe::{ContactRecord, MaterialPoints};
 use crate::run::Simulation;
 use crate::scene::state_points::{StateImpulse, StatePoints};
@@ -221,21 +219,13 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
         gravity: V2::new(scene.gravity.x, scene.gravity.y),
         newton_tolerance: params.solver.newton_tolerance,
         max_newton: params.solver.max_newton,
-        contact: Convergence {
-            tolerance: params.solver.tolerance,
-            violation_tolerance: params.solver.violation_tolerance,
-            worst_tolerance: 1e-4,
-            max_iterations: params.solver.max_iterations,
-            relaxation: 1.0,
-            acceleration: soft_momentum(params.solver.acceleration, both),
-        },
+        contact: params.solver.contact(both),
         sides: if both { Sides::Both } else { Sides::One },
     };
     let mut sys = System::new(grid, points, grains, laws, planes, settings);
     if let Some(saved) = saved {
         sys.splitting.resume(saved.split_depth, saved.split_calm);
-        sys.warm
-            .restore(saved.impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
+        sys.warm.restore_saved(&saved.impulses);
     }
     SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.solver.threads)
 }

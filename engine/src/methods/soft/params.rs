@@ -36,6 +36,21 @@ pub struct SoftSolver {
     pub threads: usize,
 }
 
+impl SoftSolver {
+    /// The contact solver's settings for a step, contacts held on both sides of each pair
+    /// (`both`) or on one ([`soft_momentum`]).
+    pub fn contact(&self, both: bool) -> crate::nscd::Convergence {
+        crate::nscd::Convergence {
+            tolerance: self.tolerance,
+            violation_tolerance: self.violation_tolerance,
+            worst_tolerance: 1e-4,
+            max_iterations: self.max_iterations,
+            relaxation: 1.0,
+            acceleration: soft_momentum(self.acceleration, both),
+        }
+    }
+}
+
 impl Default for SoftSolver {
     /// Backward Euler for quasi-static loadings, Newton to 1e-5 in at most 25 iterations, the
     /// contact solve to 1e-6: the settings of the compaction tests (`methods::mpm::tests`).

@@ -41,6 +41,11 @@ impl Warm {
         all
     }
 
+    /// Keeps the impulses a saved state holds for the next step.
+    pub fn restore_saved(&mut self, impulses: &[crate::scene::state_points::StateImpulse]) {
+        self.restore(impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
+    }
+
     /// Keeps `entries` ([`Warm::entries`]) for the next step.
     pub fn restore(&mut self, entries: impl IntoIterator<Item = ((usize, u32, i64), Vec3)>) {
         self.0 = entries.into_iter().collect();
