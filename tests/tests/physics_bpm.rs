@@ -437,7 +437,7 @@ fn pressed_levels(levels: &[f64]) -> Vec<(f64, GrainSample, f64)> {
 /// - the grains carry the walls' stress: their area-weighted pressure times their Φ (the
 ///   grains' share of the box) is the walls' pressure within 2% (measured 0.2%, 0.04% and
 ///   0.02%), as it must be when every force between grains and walls passes through the grains'
-///   contacts (Love–Weber over the grains, `observe/grains.rs`).
+///   contacts (Love–Weber over the grains, `observe/grains/`).
 #[test]
 fn pressed_aggregates_densify_with_the_pressure_over_p_i() {
     let r = pressed_levels(&[0.1, 0.3, 1.0]);

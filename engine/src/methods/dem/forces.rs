@@ -6,9 +6,10 @@
 
 use rayon::prelude::*;
 
+use super::integrate::{half_kick, Kin};
 use super::pair_state::{PairBlock, PairExtra, PairForce, PairSprings};
 use super::wall_contacts::{evaluate_block, Grains, Owned, WallScene};
-use super::{half_kick, Dem, Kin};
+use super::Dem;
 use crate::contact::batch::{BatchInput, BatchOutput, BatchSprings, LANES};
 use crate::contact::{ContactOutput, ContactTable};
 use crate::geometry::near_pairs::NearPair;

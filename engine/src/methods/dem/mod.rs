@@ -3,20 +3,23 @@
 //! Newton-Euler equations with the contact laws of [`crate::contact`], cell-list Verlet
 //! neighbour search and parallel force loops.
 //!
-//! One step runs the stages of [`Stage`] in their declared order.
+//! One step runs the stages of [`Stage`] in their declared order (`step.rs`; velocity Verlet's
+//! kicks and drift in `integrate.rs`). `rigid_method.rs` answers what the rigid-grain runner
+//! asks of DEM: controls, samples, equilibrium.
 
 pub mod bench_suite;
 mod bonds;
 mod forces;
+mod integrate;
 mod pair_state;
 pub mod params;
 pub use params::{DemParams, DemParamsSpec};
 mod relax;
+mod rigid_method;
 mod stability;
+mod step;
 pub mod timestep;
 mod wall_contacts;
-
-use rayon::prelude::*;
 
 use super::world;
 use crate::contact::{ContactTable, NormalForce};
@@ -24,12 +27,11 @@ use crate::error::EngineError;
 use crate::geometry::{Domain, NearPairs, NeighborList};
 use crate::loading::{CellDeformation, Wall};
 use crate::math::{Real, Vec3};
-use crate::methods::rigid::{RigidMethod, RigidWorld};
-use crate::observe::{ContactRecord, Sample};
+use crate::methods::rigid::RigidWorld;
+use crate::observe::ContactRecord;
 use crate::particles::Particles;
-use crate::run::{Balance, GrainModel};
-use crate::scene::{Controls, Deformation, Material, Scene};
-use forces::LOOP_CHUNK;
+use crate::scene::{Deformation, Scene};
+use integrate::Kin;
 use pair_state::{PairBlock, PairSprings};
 use stability::EnergyBudget;
 use timestep::{collision_time, Bodies, CollisionTime};
@@ -419,435 +421,14 @@ impl Dem {
         records
     }
 
-    fn refresh_neighbors(&mut self) {
-        let domain = &self.w.domain;
-        // Wrapping may shift velocities (Lees-Edwards images).
-        self.xr_current = false;
-        self.kin_current = false;
-        self.w.p.pos.par_chunks_mut(LOOP_CHUNK).zip(self.w.p.vel.par_chunks_mut(LOOP_CHUNK)).for_each(|(xs, vs)| {
-            for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
-                domain.wrap(x, v);
-            }
-        });
-        self.nl.rebuild(&self.w.p.pos, &self.w.p.radius, &self.w.domain);
-        self.near.invalidate();
-        pair_state::renumber(&mut self.pairs, &self.nl);
-        self.bonds.rebuild(&self.nl, &self.w.p);
-        self.wall_contacts.choose(&self.w.p, &self.w.walls, self.w.drum.as_ref(), self.nl.skin);
-    }
-
-    /// Moves the glued grains with their walls: each takes its wall's new velocity, and its
-    /// position the correction of this step's drift (made with the velocity before the servo).
-    fn move_glued(&mut self) {
-        let dt = self.dt;
-        let mut largest: Real = 0.0;
-        for &(i, w) in &self.w.glued {
-            let (i, v) = (i as usize, self.w.walls[w as usize].velocity);
-            let correction = (v - self.w.p.vel[i]) * dt;
-            self.w.p.pos[i] += correction;
-            self.w.p.vel[i] = v;
-            self.w.p.omega[i] = Vec3::zeros();
-            let x = self.w.p.pos[i];
-            self.xr[i] = [x.x, x.y, x.z, self.w.p.radius[i]];
-            // A glued grain has no inverse mass: no acceleration to predict.
-            self.kin[i] = Kin { vp: v, wp: Vec3::zeros() };
-            largest = largest.max(correction.norm());
-        }
-        self.near.add_motion(largest);
-    }
-
-    /// Adds to each wall the load the other grains put on the grains glued to it.
-    fn glued_loads(&mut self) {
-        for &(i, w) in &self.w.glued {
-            let i = i as usize;
-            let own = self.w.gravity * self.w.p.mass[i];
-            self.w.walls[w as usize].force += self.w.p.force[i] - own;
-        }
-    }
-
     /// Wall contact slots per particle: the plane walls, then the drum.
     fn wall_slots(&self) -> usize {
         self.w.walls.len() + usize::from(self.w.drum.is_some())
     }
-
-    /// Diagonal of the stress tensor from the virial of the current forces and the kinetic part
-    /// (Pa; velocities relative to the Lees-Edwards profile), and the affine estimate of the bulk
-    /// stiffness of the contact network, `sum k |l|² / (D² V)` (Pa).
-    ///
-    /// The forces are the contacts' and the attraction of aggregates' primaries ([`bonds`]):
-    /// without the attraction, the repulsion that balances it inside every aggregate reads as a
-    /// pressure of order `p_I`, and a cell servoed to a lower pressure opened instead of closing.
-    /// The stiffness is the contacts' alone (the attraction only softens a stretched bond).
-    fn stress_and_stiffness(&self) -> (Vec3, Real) {
-        // Partial sums per particle block, added in order: the same result for any thread count.
-        let p = &self.w.p;
-        let partial: Vec<(Vec3, Real)> = self
-            .pairs
-            .par_iter()
-            .map(|list| {
-                let (mut virial, mut stiff) = (Vec3::zeros(), 0.0);
-                for c in list.pairs() {
-                    let (i, j) = (c.i as usize, c.j as usize);
-                    let l = self.nl.separation(c.q as usize, &p.pos, &self.w.domain).0;
-                    virial += c.out.force.component_mul(&l);
-                    let (ri, rj) = (p.radius[i], p.radius[j]);
-                    let delta = ri + rj - l.norm();
-                    if delta > 0.0 {
-                        let law = self.table.get(p.material[i] as usize, p.material[j] as usize);
-                        stiff += law.normal.stiffness(delta, ri * rj / (ri + rj)) * l.norm_squared();
-                    }
-                }
-                (virial, stiff)
-            })
-            .collect();
-        let (virial, stiff) = partial.iter().fold((Vec3::zeros(), 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-        let virial = virial + self.bond_virial();
-        let (rate, ymid) = (self.w.domain.shear_rate, 0.5 * (self.w.domain.lo.y + self.w.domain.hi.y));
-        let kinetic: Vec3 = p.vel.iter().zip(&p.pos).zip(&p.mass).fold(Vec3::zeros(), |acc, ((v, x), m)| {
-            let mut u = *v;
-            u.x -= rate * (x.y - ymid);
-            acc + u.component_mul(&u) * *m
-        });
-        let (d, v) = (self.w.dim as Real, self.w.domain.volume());
-        ((virial + kinetic) / v, stiff / (d * d * v))
-    }
-
-    fn boundaries(&mut self) {
-        let dt = self.dt;
-        for w in 0..self.w.walls.len() {
-            let area = self.w.wall_area(self.w.walls[w].face.axis);
-            let wall = &mut self.w.walls[w];
-            let length = self.w.domain.length(wall.face.axis);
-            wall.servo(area, length);
-            wall.advance(dt);
-            let a = wall.face.axis;
-            if wall.face.upper {
-                self.w.domain.hi[a] = wall.position;
-            } else {
-                self.w.domain.lo[a] = wall.position;
-            }
-        }
-        if !self.w.glued.is_empty() {
-            self.move_glued();
-            self.drift2 = None;
-        }
-        self.w.domain.advance_shear(dt);
-        if self.deformation.is_some() {
-            if self.w.step.is_multiple_of(SERVO_EVERY)
-                && matches!(
-                    self.deformation.as_ref().map(|d| d.kind),
-                    Some(Deformation::Pressure { .. } | Deformation::NormalStress { .. })
-                )
-            {
-                let (stress, bulk) = self.stress_and_stiffness();
-                if let Some(d) = self.deformation.as_mut() {
-                    d.servo(stress, bulk, dt, &self.w.domain);
-                }
-            }
-            if let Some(d) = &self.deformation {
-                let (centre, scale) = d.deform(&mut self.w.domain, dt);
-                // Bound on the affine displacement: particles lie within half a box length plus
-                // the skin of the centre (they are wrapped only at neighbour builds).
-                let bound: Real =
-                    (0..self.w.dim).map(|a| ((0.5 * self.w.domain.length(a) + self.nl.skin) * (scale[a] - 1.0)).powi(2)).sum();
-                self.near.add_motion(bound.sqrt());
-                self.xr_current = false;
-                self.drift2 = None;
-                self.w.p.pos.par_chunks_mut(LOOP_CHUNK).for_each(|xs| {
-                    for x in xs {
-                        for a in 0..3 {
-                            x[a] = centre[a] + (x[a] - centre[a]) * scale[a];
-                        }
-                    }
-                });
-            }
-        }
-    }
-
-    /// Half kick of velocities and spins, then drift of the particles by `v dt` with the new
-    /// velocity, in one pass (the first half of velocity Verlet), which saves a sweep over memory
-    /// and a parallel region per step; the pass also packs positions and velocities for the
-    /// force stage. The drift reports the largest displacement to the near pairs, and the
-    /// largest displacement since the last neighbour build to the neighbour stage
-    /// ([`Dem::drift2`]). (The second half kick runs inside the gather of the force stage.)
-    fn kick_and_drift(&mut self) {
-        let h = 0.5 * self.dt;
-        let dt = self.dt;
-        let alpha = self.params.local_damping;
-        let reference = self.nl.reference_positions();
-        let measured = reference.len() == self.w.p.len();
-        let p = &mut self.w.p;
-        let (force, torque, inv_mass, inv_inertia, radius) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia, &p.radius);
-        // No wrap after the drift: particles return into the box at the next neighbour build.
-        let (largest2, drift2) = p
-            .vel
-            .par_chunks_mut(LOOP_CHUNK)
-            .zip(p.omega.par_chunks_mut(LOOP_CHUNK))
-            .zip(p.pos.par_chunks_mut(LOOP_CHUNK))
-            .zip(self.xr.par_chunks_mut(LOOP_CHUNK).zip(self.kin.par_chunks_mut(LOOP_CHUNK)))
-            .enumerate()
-            .map(|(c, (((vs, ws), xs), (xrs, kins)))| {
-                let (mut largest2, mut drift2): (Real, Real) = (0.0, 0.0);
-                let r = c * LOOP_CHUNK..c * LOOP_CHUNK + vs.len();
-                let refs = if measured { &reference[r.clone()] } else { &[] };
-                let parts =
-                    force[r.clone()].iter().zip(&torque[r.clone()]).zip(&inv_mass[r.clone()]).zip(&inv_inertia[r.clone()]).zip(&radius[r]);
-                let state = vs.iter_mut().zip(ws.iter_mut()).zip(xs.iter_mut()).zip(xrs.iter_mut().zip(kins.iter_mut()));
-                for (k, ((((v, w), x), (xr, kin)), ((((f, t), im), ii), rad))) in state.zip(parts).enumerate() {
-                    half_kick(v, w, f, t, h * im, h * ii, alpha);
-                    *kin = Kin::predicted(v, w, f, t, h * im, h * ii);
-                    let step = *v * dt;
-                    *x += step;
-                    largest2 = largest2.max(step.norm_squared());
-                    if let Some(x0) = refs.get(k) {
-                        drift2 = drift2.max((*x - x0).norm_squared());
-                    }
-                    *xr = [x.x, x.y, x.z, *rad];
-                }
-                (largest2, drift2)
-            })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
-        self.near.add_motion(largest2.sqrt());
-        self.drift2 = measured.then_some(drift2);
-        self.xr_current = true;
-        self.kin_current = true;
-    }
-
-    /// Packs every particle's velocities and predictions ([`Kin`]) from the current state.
-    fn pack_kinematics(&mut self) {
-        let h = 0.5 * self.dt;
-        let p = &self.w.p;
-        self.kin.par_chunks_mut(LOOP_CHUNK).enumerate().for_each(|(c, kins)| {
-            for (k, kin) in kins.iter_mut().enumerate() {
-                let i = c * LOOP_CHUNK + k;
-                *kin = Kin::predicted(&p.vel[i], &p.omega[i], &p.force[i], &p.torque[i], h * p.inv_mass[i], h * p.inv_inertia[i]);
-            }
-        });
-        self.kin_current = true;
-    }
-}
-
-/// The end-of-step predictions of a particle's velocity and spin from its last force and torque
-/// (`v + F h/m`, `w + T h/I`), which the contact dashpots use; written by the drift for the force
-/// stage.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Kin {
-    /// Predicted velocity at the end of the step, m/s.
-    pub vp: Vec3,
-    /// Predicted angular velocity at the end of the step, rad/s.
-    pub wp: Vec3,
-}
-
-impl Kin {
-    /// The prediction for a particle with velocity `v`, spin `w`, last force `f` and torque `t`
-    /// (`h_im` = h/m, `h_ii` = h/I, h half the step).
-    #[inline(always)]
-    pub(crate) fn predicted(v: &Vec3, w: &Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real) -> Self {
-        Self { vp: v + f * h_im, wp: w + t * h_ii }
-    }
-}
-
-/// Half kick of one particle: `v += F h/m`, `w += T h/I` (`h_im` = h/m, `h_ii` = h/I), with
-/// Cundall's local damping when `alpha > 0`.
-#[inline(always)]
-pub(crate) fn half_kick(v: &mut Vec3, w: &mut Vec3, f: &Vec3, t: &Vec3, h_im: Real, h_ii: Real, alpha: Real) {
-    if alpha > 0.0 {
-        *v += local_damping(f, v, alpha) * h_im;
-        *w += local_damping(t, w, alpha) * h_ii;
-    } else {
-        *v += f * h_im;
-        *w += t * h_ii;
-    }
-}
-
-/// Cundall's local damping (Cundall & Strack 1979; Yade's `NewtonIntegrator.damping`): each
-/// component of the force is reduced by `alpha` times its magnitude when it drives the motion
-/// and increased when it opposes it, `F_k (1 - alpha sign(F_k v_k))`.
-#[inline(always)]
-fn local_damping(f: &Vec3, v: &Vec3, alpha: Real) -> Vec3 {
-    let damp = |fk: Real, vk: Real| {
-        let s = fk * vk;
-        let sign = if s > 0.0 {
-            1.0
-        } else if s < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
-        fk * (1.0 - alpha * sign)
-    };
-    Vec3::new(damp(f.x, v.x), damp(f.y, v.y), damp(f.z, v.z))
 }
 
 /// Effective stiffness of the limiting contact, N/m: m* (pi / t_c)², for servo gains.
 fn collision_stiffness(c: &CollisionTime, p: &Particles) -> Real {
     let m = p.mass.iter().copied().fold(Real::INFINITY, f64::min);
     0.5 * m * (std::f64::consts::PI / c.t_c).powi(2)
-}
-
-impl RigidMethod for Dem {
-    const NAME: &'static str = "dem";
-    const GRAIN_MODEL: GrainModel = GrainModel::SoftContacts;
-
-    fn world(&self) -> &RigidWorld {
-        &self.w
-    }
-
-    fn world_mut(&mut self) -> &mut RigidWorld {
-        &mut self.w
-    }
-
-    fn nominal_step(&self) -> Real {
-        self.dt
-    }
-
-    fn advance(&mut self) -> Result<(), EngineError> {
-        self.step_stages()
-    }
-
-    fn contact_records(&self) -> Vec<ContactRecord> {
-        self.contacts()
-    }
-
-    fn drum_loads(&self) -> Vec<(Vec3, Vec3)> {
-        let slot = self.w.walls.len() as u16;
-        self.wall_contacts.iter().filter(|c| c.w == slot).map(|c| (self.w.p.pos[c.i as usize], c.force)).collect()
-    }
-
-    fn measure(&mut self) -> Result<Sample, EngineError> {
-        let clock = self.profile.map(|_| std::time::Instant::now());
-        let sample = self.take_sample();
-        if let (Some(c), Some(t)) = (clock, self.profile.as_mut()) {
-            t.sampling += c.elapsed().as_secs_f64();
-        }
-        sample
-    }
-
-    fn heap_size(&self) -> usize {
-        self.heap_bytes()
-    }
-
-    fn controls(&mut self, controls: &Controls) -> Result<(), EngineError> {
-        if self.w.apply_controls(controls) {
-            // Walls closed onto the grains.
-            self.refresh_neighbors();
-            self.compute_forces(false);
-        }
-        if controls.glue.is_some() {
-            self.kin_current = false;
-        }
-        if let Some(d) = controls.deformation {
-            self.deformation = d.map(CellDeformation::new);
-        }
-        // Friction between particles; the walls keep their material's.
-        self.table = match controls.friction {
-            Some(mu) => ContactTable::new(&self.w.materials.iter().map(|m| Material { friction: mu, ..m.clone() }).collect::<Vec<_>>())
-                .with_history_of(&self.wall_table),
-            None => self.wall_table.clone(),
-        };
-        self.params.local_damping = controls.local_damping.unwrap_or(self.base_local_damping);
-        if let Some(rate) = controls.shear_rate {
-            // Into the box first (with the old images), so that every grain gets the profile of
-            // its own position.
-            self.refresh_neighbors();
-            self.w.impose_shear_rate(rate);
-            // The shear velocities of the images changed: pairs across the boundary must be found
-            // again.
-            self.refresh_neighbors();
-            self.compute_forces(false);
-        }
-        // New boundary work and forces from here: the energy budget restarts.
-        self.budget = EnergyBudget::start(self.mechanical_energy());
-        Ok(())
-    }
-
-    fn equilibrium(&mut self) -> Balance {
-        let kinetic = self.w.kinetic_energy();
-        let elastic = self.elastic_energy();
-        let net = self.w.mean_net_force();
-        let (mut sum, mut count) = (0.0, 0usize);
-        for c in self.pairs.iter().flat_map(PairBlock::pairs) {
-            if c.out.force != Vec3::zeros() {
-                sum += c.out.force.norm();
-                count += 1;
-            }
-        }
-        for c in self.wall_contacts.iter().filter(|c| c.force != Vec3::zeros()) {
-            sum += c.force.norm();
-            count += 1;
-        }
-        let mean_contact = if count > 0 { sum / count as Real } else { 0.0 };
-        let unbalanced_force = if mean_contact > 0.0 { net / mean_contact } else { Real::INFINITY };
-        // Stress-controlled boundaries against their targets.
-        let mut stress_error = self.w.wall_stress_error();
-        match self.deformation.as_ref().map(|d| d.kind) {
-            Some(Deformation::Pressure { target, .. }) => {
-                let (stress, _) = self.stress_and_stiffness();
-                let pressure = (0..self.w.dim).map(|a| stress[a]).sum::<Real>() / self.w.dim as Real;
-                stress_error = stress_error.max((pressure - target).abs() / target);
-            }
-            Some(Deformation::NormalStress { axis, target, .. }) => {
-                let (stress, _) = self.stress_and_stiffness();
-                stress_error = stress_error.max((stress[axis] - target).abs() / target);
-            }
-            _ => {}
-        }
-        Balance { kinetic_energy: kinetic, reference_energy: elastic, unbalanced_force, stress_error }
-    }
-}
-
-impl Dem {
-    /// Takes a sample: the guard's scan (its elastic energy), the contacts, the metrics.
-    fn take_sample(&mut self) -> Result<Sample, EngineError> {
-        let energies = self.check_stability()?;
-        let contacts = self.contacts();
-        let frictional = self.table.laws().iter().any(|l| l.friction > 0.0);
-        let s = self.w.measure(&contacts, energies.elastic, frictional);
-        if !s.is_finite() {
-            return Err(self.unstable(crate::error::InstabilityCause::NonFinite { particle: 0 }));
-        }
-        Ok(s)
-    }
-
-    /// The stages of one step, in the order of [`Stage`].
-    fn step_stages(&mut self) -> Result<(), EngineError> {
-        let mut clock = self.profile.map(|_| std::time::Instant::now());
-        let mut lap = |slot: fn(&mut StageTimes) -> &mut f64, profile: &mut Option<StageTimes>| {
-            if let (Some(c), Some(p)) = (clock.as_mut(), profile.as_mut()) {
-                let now = std::time::Instant::now();
-                *slot(p) += (now - *c).as_secs_f64();
-                *c = now;
-            }
-        };
-        // Stage::InitialIntegrate
-        self.kick_and_drift();
-        lap(|t| &mut t.integrate, &mut self.profile);
-        // Stage::Boundaries
-        self.boundaries();
-        lap(|t| &mut t.boundaries, &mut self.profile);
-        // Stage::NeighborUpdate
-        let rebuild = match self.drift2.take() {
-            Some(max2) => self.nl.needs_rebuild_after(max2, &self.w.domain),
-            None => self.nl.needs_rebuild(&self.w.p.pos, &self.w.domain),
-        } || self.wall_contacts.walls_moved(&self.w.walls, self.nl.skin);
-        if rebuild {
-            self.refresh_neighbors();
-        }
-        lap(|t| &mut t.neighbors, &mut self.profile);
-        // Stage::Force, with Stage::FinalIntegrate fused into its gather.
-        self.pair_forces();
-        lap(|t| &mut t.pairs, &mut self.profile);
-        self.wall_forces_and_gather(true);
-        lap(|t| &mut t.forces, &mut self.profile);
-        self.w.step += 1;
-        self.w.time += self.dt;
-        self.record_wall_work();
-        lap(|t| &mut t.integrate, &mut self.profile);
-        // Stage::Check
-        if self.w.step.is_multiple_of(CHECK_EVERY) {
-            self.check_stability()?;
-        }
-        lap(|t| &mut t.check, &mut self.profile);
-        Ok(())
-    }
 }

@@ -37,14 +37,14 @@
 //! **Drift.** The contact's prediction is linear in the step's displacements. The outlines'
 //! gap at the step's end also holds what is not: the other outline turning and sliding under
 //! the vertex (grains spin fast as a packing rearranges, and the flat faces their neighbours
-//! pressed into them come round under their vertices). At the first `system::DRIFT_ITERATIONS`
-//! Newton iterates every outline is moved where the iterate takes it and each contact's gap
-//! measured anew; its difference from the linear prediction, the drift, joins the contact's
-//! target. Measured at the first iterates only: at every iterate the drift lowers the overlap
-//! further, but Newton then slows and fails its budget on dense packings. The drift must stay
-//! second order, so the contacts act at the outline's vertices, not at the outer points'
-//! centres, where the drift held most of the motion and changed after the iterates it was
-//! measured at (docs/methods/mpm.md).
+//! pressed into them come round under their vertices). At the first
+//! `system::step::DRIFT_ITERATIONS` Newton iterates every outline is moved where the iterate
+//! takes it and each contact's gap measured anew; its difference from the linear prediction,
+//! the drift, joins the contact's target. Measured at the first iterates only: at every
+//! iterate the drift lowers the overlap further, but Newton then slows and fails its budget on
+//! dense packings. The drift must stay second order, so the contacts act at the outline's
+//! vertices, not at the outer points' centres, where the drift held most of the motion and
+//! changed after the iterates it was measured at (docs/methods/mpm.md).
 //!
 //! The contacts' types, the Signorini condition and the Delassus operator are those of every
 //! soft-grain method ([`crate::methods::soft::contact`]).
