@@ -12,6 +12,26 @@ use crate::particles::{generate::place_particles, Particles};
 use crate::scene::state::{StateBonding, StateParticles, STATE_FORMAT, STATE_VERSION};
 use crate::scene::{Deformation, Material, Scene, StateFile, WallMotion};
 
+/// Checks that each periodic length of `domain` holds twice the interaction reach of a pair
+/// of the largest particles (radius `rmax`, m) whose laws act across `reach` and whose
+/// neighbour lists keep `skin` more, m: minimum images must be unique.
+pub(crate) fn check_periodic_room(domain: &Domain, rmax: Real, reach: Real, skin: Real) -> Result<(), EngineError> {
+    let need = 2.0 * (2.0 * rmax + reach + skin);
+    for (a, axis) in AXES.iter().enumerate().take(domain.dim) {
+        if domain.periodic[a] && domain.length(a) < need {
+            return Err(EngineError::Build {
+                field: format!("container.max[{a}]"),
+                reason: format!(
+                    "periodic length {:e} m along {} is below {need:e} m (twice the interaction reach): enlarge the box",
+                    domain.length(a),
+                    axis
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// The scene's box and its particles, placed, given the Lees-Edwards velocity profile and
 /// sorted by cell (neighbours close in memory).
 pub(crate) fn initial_particles(scene: &Scene) -> Result<(Particles, Domain), EngineError> {

@@ -42,8 +42,8 @@ pub struct WallSample {
 }
 
 /// The measured state at one instant (field names are part of the API: CSV columns, JSON keys,
-/// database columns).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// database columns). The default is an empty box at step 0, every measure 0 or absent.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Sample {
     /// Step number.

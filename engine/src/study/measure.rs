@@ -236,21 +236,12 @@ mod tests {
             z: 4.0,
             z_no_rattlers: 4.0,
             zeta,
-            mu: None,
             p: 1.0,
             q: zeta,
             stress: Stress { xy: 2.0 * zeta, ..Default::default() },
-            inertial_number: None,
             kinetic_energy: ke,
-            elastic_energy: 0.0,
-            walls: Vec::new(),
             stage: Some(stage.into()),
-            strain: None,
-            drum: None,
-            solver: None,
-            deformable: None,
-            grains: None,
-            primaries: None,
+            ..Default::default()
         }
     }
 

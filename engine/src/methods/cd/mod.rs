@@ -220,19 +220,7 @@ impl Cd {
         let laws = PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None);
         // An aggregate's primaries attract to the bond's cut-off.
         let reach = p.bondings.iter().map(|b| b.attraction.range()).fold(laws.range(), Real::max);
-        for a in 0..scene.dim {
-            let need = 2.0 * (2.0 * rmax + reach + skin);
-            if c.periodic[a] && domain.length(a) < need {
-                return Err(EngineError::Build {
-                    field: format!("container.max[{a}]"),
-                    reason: format!(
-                        "periodic length {:e} m along {} is below {need:e} m (twice the interaction reach): enlarge the box",
-                        domain.length(a),
-                        crate::math::AXES[a]
-                    ),
-                });
-            }
-        }
+        world::check_periodic_room(&domain, rmax, reach, skin)?;
         let n = p.len();
         let w = RigidWorld::new(scene, p, domain, world::container_walls(c), params.threads)?;
         // The walls, the drum, the periodic cell.

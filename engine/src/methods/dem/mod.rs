@@ -188,20 +188,7 @@ impl Dem {
         let range =
             p.bondings.iter().map(|b| b.attraction.range()).fold(table.laws().iter().map(|l| l.range()).fold(0.0, f64::max), f64::max);
         let skin = params.skin * 2.0 * rmin;
-        // Periodic boxes must be wide enough for minimum images to be unique.
-        for a in 0..scene.dim {
-            let need = 2.0 * (2.0 * rmax + range + skin);
-            if c.periodic[a] && domain.length(a) < need {
-                return Err(EngineError::Build {
-                    field: format!("container.max[{a}]"),
-                    reason: format!(
-                        "periodic length {:e} m along {} is below {need:e} m (twice the interaction reach): enlarge the box",
-                        domain.length(a),
-                        crate::math::AXES[a]
-                    ),
-                });
-            }
-        }
+        world::check_periodic_room(&domain, rmax, range, skin)?;
         let k_eff = collision_stiffness(&collision, &p);
         // Largest normal dashpot of a particle-wall contact (at an overlap of 1% of the radius,
         // for laws whose damping depends on it).

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::observe::drum::{drum_regime, ProfileBin};
-use crate::observe::{GrainSample, StrainSample, Stress, WallSample};
+use crate::observe::{GrainSample, StrainSample, WallSample};
 use crate::scene::parse_scene;
 
 fn sample(step: u64, stage: &str, axial: f64, zeta: f64, ev: f64) -> Sample {
@@ -13,21 +13,12 @@ fn sample(step: u64, stage: &str, axial: f64, zeta: f64, ev: f64) -> Sample {
         z: 4.0,
         z_no_rattlers: 4.0,
         zeta,
-        mu: None,
         p: 100.0,
         q: 100.0 * zeta,
-        stress: Stress::default(),
-        inertial_number: None,
-        kinetic_energy: 0.0,
         elastic_energy: 1.0,
-        walls: Vec::new(),
         stage: Some(stage.into()),
         strain: Some(StrainSample { axes: vec![ev - axial, axial], volumetric: ev, deviatoric: 0.0 }),
-        drum: None,
-        solver: None,
-        deformable: None,
-        grains: None,
-        primaries: None,
+        ..Default::default()
     }
 }
 

@@ -47,20 +47,9 @@ impl System {
                     }
                 }
                 Candidate::Wall { g, k, w, gap } => {
-                    let wall = self.walls[w];
-                    Entry {
-                        vertex: k,
-                        at: shapes[g][k] - wall.normal * gap,
-                        a: g as u32,
-                        support: self.vertex_support(g, &[(k, 1.0)], &mut entries),
-                        b: Against::Wall(w as u32),
-                        normal: wall.normal,
-                        gap,
-                        friction: (self.grains[g].friction * wall.friction).sqrt(),
-                        lever: self.grains[g].radius,
-                        line: None,
-                        segment: 0,
-                    }
+                    let support = self.vertex_support(g, &[(k, 1.0)], &mut entries);
+                    let grain = &self.grains[g];
+                    Entry::against_wall(k, shapes[g][k], g, support, w, &self.walls[w], gap, grain.friction, grain.radius)
                 }
             };
             enter(&mut self.contacts, &mut self.sides, &self.warm, e);

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use nalgebra::Vector2;
 
 use super::grain_contacts::GrainContacts;
-use super::records::{Other, Support, VertexContact};
+use super::records::{Other, Support, VertexContact, Wall};
 use crate::math::{Real, Vec3};
 use crate::nscd::local::{Delassus, LocalLaw};
 use crate::nscd::ContactFrame;
@@ -92,6 +92,38 @@ pub struct Entry {
     pub line: Option<u32>,
     /// The segment of the other outline it was found against ([`VertexContact::segment`]).
     pub segment: u32,
+}
+
+impl Entry {
+    /// The contact of vertex `vertex` of grain `a` (at `x`, held by `support`) with `wall`
+    /// (number `w`) across `gap`, the grain's friction coefficient and radius being `friction`
+    /// and `lever`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn against_wall(
+        vertex: usize,
+        x: V2,
+        a: usize,
+        support: Support,
+        w: usize,
+        wall: &Wall,
+        gap: Real,
+        friction: Real,
+        lever: Real,
+    ) -> Self {
+        Self {
+            vertex,
+            at: x - wall.normal * gap,
+            a: a as u32,
+            support,
+            b: Against::Wall(w as u32),
+            normal: wall.normal,
+            gap,
+            friction: (friction * wall.friction).sqrt(),
+            lever,
+            line: None,
+            segment: 0,
+        }
+    }
 }
 
 /// Adds a contact of the step, warm-started, with its samples on its grains' sides.
