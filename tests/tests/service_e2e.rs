@@ -1192,9 +1192,11 @@ async fn an_aggregate_compaction_runs_as_a_job_with_its_grain_measures_stored(ba
     assert!(grains.iter().all(|g| g["count"] == 4), "four aggregates: {grains:?}");
     let phi: Vec<f64> = grains.iter().map(|g| g["phi"].as_f64().unwrap_or(0.0)).collect();
     assert!(phi.windows(2).all(|w| w[1] > w[0]), "the grains' Φ must grow as the wall comes down: {phi:?}");
-    // The grains' Φ counts the pores inside each grain: above the primaries' own Φ.
+    // The sample's Φ is the grains' (issue 69); the grains' Φ counts the pores inside each grain:
+    // above the primaries' own Φ, kept under `primaries`.
     for s in &samples {
-        let (g, p) = (s["grains"]["phi"].as_f64().unwrap_or(0.0), s["phi"].as_f64().unwrap_or(1.0));
+        assert_eq!(s["phi"], s["grains"]["phi"], "a sample's Φ is its grains'");
+        let (g, p) = (s["grains"]["phi"].as_f64().unwrap_or(0.0), s["primaries"]["phi"].as_f64().unwrap_or(1.0));
         assert!(g > p && g < 1.0, "grains' Φ {g} against the primaries' {p}");
     }
     // The wall meets the top grains within these steps: some sample has a loaded grain.
