@@ -316,7 +316,7 @@ async fn learned(
     scene_path: &str,
 ) -> Result<(Plan, String), ApiError> {
     let Some(mut advice) = scene.advice.clone() else { return Ok((scene, text)) };
-    advice.expected_cost = crate::studies::expected_cost(store, value).await?;
+    advice.expected_cost = store.expected_cost(value).await?;
     let Some(run) = advice.learn() else { return Ok((scene, text)) };
     let method =
         store.get(run.job_id).await.ok().and_then(|j| serde_json::from_str::<serde_json::Value>(&j.scene).ok()?.get("method").cloned());
@@ -449,7 +449,7 @@ pub async fn advise(
     let text = serde_json::to_string(scene).map_err(|e| ApiError::Internal(e.to_string()))?;
     let checked = check_scene(store, limits, scene, &text, scene_path, Vec::new()).await?;
     let mut advice = checked.advice();
-    advice.expected_cost = crate::studies::expected_cost(store, scene).await?;
+    advice.expected_cost = store.expected_cost(scene).await?;
     advice.learn();
     Ok(advice)
 }

@@ -1,7 +1,7 @@
 //! # sable-server
 //!
 //! The Sable service: the SQLite job store ([`store`]), the operations shared by both APIs
-//! ([`api`]), the REST API ([`rest`]), the gRPC API ([`grpc`]), event streams ([`watch`]),
+//! ([`api`]), the REST API ([`rest`], its routes in `routes`), the gRPC API ([`grpc`]), event streams ([`watch`]),
 //! Prometheus metrics ([`metrics`]), studies and their driver ([`studies`]) and the server that
 //! runs them with a local worker pool ([`serve`]), with bearer tokens ([`auth`]) and TLS
 //! ([`tls`]). The `sable` binary is built from this crate.
@@ -15,6 +15,7 @@ pub mod metrics;
 pub mod openapi;
 pub mod rest;
 mod rest_studies;
+mod routes;
 pub mod serve;
 pub mod start_from;
 pub mod store;

@@ -26,8 +26,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
-use axum::routing::{get, post};
-use axum::{Json, Router};
+use axum::Json;
 use sable_engine::observe::Sample;
 use serde::Deserialize;
 use serde_json::json;
@@ -66,35 +65,22 @@ impl IntoResponse for ApiError {
     }
 }
 
-/// The router of the REST API.
-pub fn router(state: AppState) -> Router {
-    let limit = state.limits.max_body_bytes;
-    Router::new()
-        .route("/v1/jobs", post(submit).get(list))
-        .route("/v1/jobs/{id}", get(get_job).post(job_action))
-        .route("/v1/jobs/{id}/samples", get(samples))
-        .route("/v1/jobs/{id}/events", get(events))
-        .route("/v1/jobs/{id}/snapshots", get(snapshots))
-        .route("/v1/jobs/{id}/snapshots/{index}/{part}", get(snapshot_file))
-        .route("/v1/jobs/{id}/state", get(final_state))
-        .route("/v1/jobs/{id}/chart.svg", get(crate::rest_studies::job_chart))
-        .route("/v1/jobs/{id}/chart.png", get(crate::rest_studies::job_chart_png))
-        .route("/v1/studies", post(crate::rest_studies::create).get(crate::rest_studies::list))
-        .route("/v1/studies/{id}", get(crate::rest_studies::get))
-        .route("/v1/studies/{id}/chart.svg", get(crate::rest_studies::chart))
-        .route("/v1/studies/{id}/chart.png", get(crate::rest_studies::chart_png))
-        .route("/v1/advice", post(advice))
-        .route("/v1/openapi.json", get(openapi))
-        .route("/healthz", get(healthz))
-        .route("/metrics", get(metrics))
-        .merge(crate::dashboard::router())
-        .fallback(not_found)
-        .layer(axum::extract::DefaultBodyLimit::max(limit))
-        .with_state(state)
-}
-
-async fn not_found() -> ApiError {
-    ApiError::NotFound("no such route; see GET /v1/openapi.json".into())
+/// The body of `POST /v1/jobs` in its wrapped form (a bare scene is accepted too).
+#[derive(Debug, serde::Deserialize, utoipa::ToSchema)]
+#[allow(dead_code)] // documents the wrapper that rest::submit reads field by field
+pub struct SubmitBody {
+    /// The scene (docs/scene-format.md).
+    #[schema(value_type = Object)]
+    scene: serde_json::Value,
+    /// Job name (default: the scene's).
+    #[schema(max_length = 200)]
+    name: Option<String>,
+    /// Higher runs first; FIFO within a priority.
+    #[schema(minimum = -1000, maximum = 1000)]
+    priority: Option<i64>,
+    /// Leases allowed before the job fails (default 3).
+    #[schema(minimum = 1, maximum = 20)]
+    max_attempts: Option<u32>,
 }
 
 /// A request body read as JSON (413 over the server's limit, 400 when it is not JSON).
@@ -128,7 +114,7 @@ pub(crate) fn query<T>(q: Result<Query<T>, QueryRejection>) -> Result<T, ApiErro
     path = "/v1/jobs",
     tag = "jobs",
     summary = "Validate and queue a scene",
-    request_body(content = crate::openapi::SubmitBody, description = "A scene (docs/scene-format.md), or {\"scene\", \"name\", \"priority\", \"max_attempts\"}"),
+    request_body(content = SubmitBody, description = "A scene (docs/scene-format.md), or {\"scene\", \"name\", \"priority\", \"max_attempts\"}"),
     params(("Idempotency-Key" = Option<String>, Header, description = "The same key returns the first job (200); with another scene it is a 409")),
     responses(
         (status = 201, description = "Queued", body = api::JobView),
@@ -193,7 +179,7 @@ pub(crate) async fn submit(
     path = "/v1/advice",
     tag = "jobs",
     summary = "The method advisor's choice for a scene, without running it",
-    request_body(content = crate::openapi::SubmitBody, description = "A scene (docs/scene-format.md) whose method may be auto or a name, or {\"scene\": ...}"),
+    request_body(content = SubmitBody, description = "A scene (docs/scene-format.md) whose method may be auto or a name, or {\"scene\": ...}"),
     responses(
         (status = 200, description = "The choice, its reasons, the scene's dimensionless numbers, what it does not need", body = sable_engine::advise::Advice),
         (status = 400, description = "The body is not a JSON object", body = api::ErrorBody),
@@ -558,13 +544,6 @@ pub(crate) async fn healthz(State(st): State<AppState>) -> Response {
         Ok(_) => (StatusCode::OK, Json(json!({"status": "ok"}))).into_response(),
         Err(e) => (StatusCode::SERVICE_UNAVAILABLE, Json(json!({"status": "unavailable", "reason": e.to_string()}))).into_response(),
     }
-}
-
-/// `GET /v1/openapi.json`.
-#[utoipa::path(get, path = "/v1/openapi.json", tag = "service", summary = "This document (OpenAPI 3.1)",
-    responses((status = 200, description = "The OpenAPI document", content_type = "application/json")))]
-pub(crate) async fn openapi() -> Response {
-    Json(crate::openapi::document()).into_response()
 }
 
 /// `GET /metrics`: Prometheus text format.

@@ -16,7 +16,8 @@ use tonic::service::interceptor::InterceptedService;
 
 use crate::auth::{GrpcGuard, Role, Tokens};
 use crate::grpc::{SimulationsService, WorkersService};
-use crate::rest::{router, AppState};
+use crate::rest::AppState;
+use crate::routes::router;
 use crate::store::{Backend, DbLocation, JobStore, LeaseConfig, StoreError};
 
 /// Settings of a server.

@@ -9,7 +9,6 @@
 
 use std::time::Duration;
 
-use sable_engine::advise::ExpectedCost;
 use sable_engine::study::report::{Cost, PointReport, StudyReport, Theory};
 use sable_engine::study::search::{FailureMode, Next, Probe};
 use sable_engine::study::{parse_checked_study, parse_study, probe_scene, theory, ReferenceSpec, Study, StudySpec};
@@ -164,50 +163,6 @@ pub async fn list(store: &JobStore, limit: i64) -> Result<Vec<StudyView>, ApiErr
     for row in store.studies(None, limit).await? {
         let runs = store.study_runs(row.id).await?;
         out.push(StudyView::of(row, &runs));
-    }
-    Ok(out)
-}
-
-/// The runs that succeeded in the stored studies of this scene (the same scene whatever its
-/// method, name, sampling and snapshots, which do not change what is simulated), those on
-/// their study's Pareto front marked: what the advice quotes as the expected cost. Every run,
-/// not the front alone: a method whose runs another beats on both cost and error is still
-/// quoted with what it needed.
-pub async fn expected_cost(store: &JobStore, scene: &serde_json::Value) -> Result<Vec<ExpectedCost>, ApiError> {
-    let strip = |s: &serde_json::Value| {
-        let mut s = s.clone();
-        if let Some(m) = s.as_object_mut() {
-            for field in ["method", "name", "sampling", "snapshots"] {
-                m.remove(field);
-            }
-        }
-        s
-    };
-    let wanted = strip(scene);
-    let mut out = Vec::new();
-    for row in store.studies(None, 1000).await? {
-        let Ok(spec) = serde_json::from_str::<StudySpec>(&row.spec) else { continue };
-        if strip(&spec.scene) != wanted {
-            continue;
-        }
-        let Some(report) = row.report.as_deref().and_then(|r| serde_json::from_str::<StudyReport>(r).ok()) else { continue };
-        // One query per matching study for the runs' methods, not one read per run.
-        let methods: std::collections::HashMap<i64, String> =
-            store.study_runs(row.id).await?.into_iter().map(|r| (r.job_id, r.method)).collect();
-        for p in report.points.iter().filter(|p| p.state == "succeeded") {
-            let method = methods.get(&p.job_id).cloned().unwrap_or_default();
-            out.push(ExpectedCost {
-                study_id: row.id,
-                job_id: p.job_id,
-                series: p.series.clone(),
-                label: p.label.clone(),
-                method,
-                cpu_seconds: p.cost.cpu_seconds,
-                wall_seconds: p.cost.wall_seconds,
-                error: p.relative_error.or(p.error),
-                pareto: p.pareto,
-            });
-        }
     }
     Ok(out)
 }

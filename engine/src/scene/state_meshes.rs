@@ -15,8 +15,8 @@
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
-use super::state_points::StateImpulse;
 use super::state_rules as rules;
+use super::state_rules::StateImpulse;
 use super::violation::{Checker, EntryRule};
 use crate::geometry::quad::Geometry;
 

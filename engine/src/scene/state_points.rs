@@ -16,11 +16,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::state_rules as rules;
+pub use super::state_rules::{StateImpulse, MAX_SPLIT_DEPTH};
 use super::violation::{Checker, EntryRule};
-
-/// The deepest a soft-grain method may split a step (into `2^MAX_SPLIT_DEPTH` parts): the bound
-/// of a saved state's `split_depth` (here and in [`super::state_meshes`]).
-pub const MAX_SPLIT_DEPTH: u32 = 4;
 
 /// The material points of a state's grains, in the order of its `particles` (grain `k`'s points
 /// follow grain `k − 1`'s). Vectors are in-plane (2 components); tensors list their
@@ -68,22 +65,6 @@ pub struct StatePoints {
     /// as the saving run would have, to round-off.
     #[serde(default)]
     pub impulses: Vec<StateImpulse>,
-}
-
-/// One contact's impulse in a saved state ([`StatePoints::impulses`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StateImpulse {
-    /// The grain whose outline's vertex the contact is measured from.
-    pub grain: u32,
-    /// That vertex, numbered along the grain's outline.
-    pub vertex: u32,
-    /// The other side: a grain's index, that index plus 2³² for the second side of a reflex
-    /// corner of its outline, or `−1 − w` for wall `w`.
-    pub other: i64,
-    /// The impulse over the step's last part in the contact's frame `[normal, tangent]`,
-    /// N·s/m.
-    pub impulse: Vec<f64>,
 }
 
 /// Checks the points of a state with `grains` particles in the box `[lo, hi]` (2D); `path` is

@@ -1,10 +1,31 @@
 //! The rules a saved state of deformable grains obeys whatever the method that saved it: the
 //! checks [`super::state_points`] (MPM's material points) and [`super::state_meshes`] (FEM's
-//! meshes) share. Each takes the field path of the arrays it checks and reports every broken
+//! meshes) share, and the two types they share. Each check takes the field path of the arrays it checks and reports every broken
 //! entry through the [`Checker`] (a few per array, then a count).
 
-use super::state_points::{StateImpulse, MAX_SPLIT_DEPTH};
+use serde::{Deserialize, Serialize};
+
 use super::violation::{Checker, EntryRule};
+
+/// The deepest a soft-grain method may split a step (into `2^MAX_SPLIT_DEPTH` parts): the bound
+/// of a saved state's `split_depth` ([`super::state_points`] and [`super::state_meshes`]).
+pub const MAX_SPLIT_DEPTH: u32 = 4;
+
+/// One contact's impulse in a saved state ([`super::state_points::StatePoints::impulses`], [`super::state_meshes::StateMeshes::impulses`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateImpulse {
+    /// The grain whose outline's vertex the contact is measured from.
+    pub grain: u32,
+    /// That vertex, numbered along the grain's outline.
+    pub vertex: u32,
+    /// The other side: a grain's index, that index plus 2³² for the second side of a reflex
+    /// corner of its outline, or `−1 − w` for wall `w`.
+    pub other: i64,
+    /// The impulse over the step's last part in the contact's frame `[normal, tangent]`,
+    /// N·s/m.
+    pub impulse: Vec<f64>,
+}
 
 /// Each array of `fields` (name, length) has one entry per particle of the state (`grains`).
 pub(super) fn per_particle(c: &mut Checker, path: &str, fields: &[(&str, usize)], grains: usize) {

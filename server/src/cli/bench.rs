@@ -44,6 +44,7 @@ pub enum BenchCommand {
 /// Runs the chosen benchmark.
 pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
+        BenchCommand::Dem(a) if !a.scaling.is_empty() => super::bench_scaling::sweep(&a),
         BenchCommand::Dem(a) => super::bench_dem::bench(a),
         BenchCommand::Cd(a) => bench_cd(a),
         BenchCommand::Biaxial(a) => bench_biaxial(a),

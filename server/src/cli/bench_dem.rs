@@ -178,11 +178,8 @@ fn prepared_state(prep: &serde_json::Value, name: &str, cache: &Path, pool: &ray
     Ok((state, seconds))
 }
 
-/// `sable bench dem`.
+/// `sable bench dem` at one count (a `--scaling` sweep is `bench_scaling`'s).
 pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
-    if !a.scaling.is_empty() {
-        return super::bench_scaling::sweep(&a);
-    }
     let r = measure(&a, a.particles)?;
     if a.json {
         println!("{}", serde_json::to_string(&r)?);

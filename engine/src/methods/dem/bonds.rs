@@ -16,8 +16,8 @@
 
 use rayon::prelude::*;
 
-use super::forces::PARTICLE_BLOCK;
 use super::pair_state::PairForce;
+use super::tasks::PARTICLE_BLOCK;
 use super::Dem;
 use crate::contact::attraction_lj::AttractionLj;
 use crate::contact::ContactOutput;

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::integrate::{half_kick, Kin};
 use super::pair_state::{PairBlock, PairExtra, PairForce, PairSprings};
+pub(super) use super::tasks::{LOOP_CHUNK, PARTICLE_BLOCK};
 use super::wall_contacts::{evaluate_block, Grains, Owned, WallScene};
 use super::Dem;
 use crate::contact::batch::{BatchInput, BatchOutput, BatchSprings, LANES};
@@ -20,12 +21,6 @@ use crate::particles::Particles;
 /// What a force task owns: its block's pairs, the springs of the evaluation before, its near
 /// pairs and reach (see `Dem::reach`).
 type BlockState<'a> = (((&'a mut PairBlock, &'a mut PairSprings), &'a mut Vec<NearPair>), &'a mut (u32, u32));
-
-/// Particles per task in the simple per-particle loops (plain slice loops inside each task).
-pub(crate) const LOOP_CHUNK: usize = 2048;
-
-/// Particles per force task: their pairs form one contiguous block of the neighbour list.
-pub(crate) const PARTICLE_BLOCK: usize = 256;
 
 /// Gather tasks per thread when there are several threads (each walks only the blocks that
 /// reach its particles, so more tasks cost little).

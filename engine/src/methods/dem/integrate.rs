@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::forces::LOOP_CHUNK;
+use super::tasks::LOOP_CHUNK;
 use super::Dem;
 use crate::math::{Real, Vec3};
 

@@ -18,6 +18,7 @@ mod relax;
 mod rigid_method;
 mod stability;
 mod step;
+mod tasks;
 pub mod timestep;
 mod wall_contacts;
 

@@ -4,8 +4,8 @@
 
 use rayon::prelude::*;
 
-use super::forces::LOOP_CHUNK;
 use super::integrate::Kin;
+use super::tasks::LOOP_CHUNK;
 use super::{pair_state, Dem, StageTimes, CHECK_EVERY, SERVO_EVERY};
 use crate::contact::NormalForce;
 use crate::error::EngineError;

@@ -3,7 +3,7 @@
 //! A box of 10,000 grains with six walls has about 2,000 grains near a wall and fewer touching
 //! one; an array of springs and forces for every particle against every wall made the force stage
 //! write 4 MB a step, most of it zeros (70% of a walled deposition's time). Here each block of
-//! particles (the blocks of [`super::forces::PARTICLE_BLOCK`]) keeps
+//! particles (the blocks of [`super::tasks::PARTICLE_BLOCK`]) keeps
 //!
 //! - its **candidates**: the (particle, wall) pairs whose gap was below the Verlet skin when the
 //!   neighbour list was last built, in particle then wall order. The list is exact by the skin's
@@ -21,7 +21,7 @@
 
 use rayon::prelude::*;
 
-use super::forces::PARTICLE_BLOCK;
+use super::tasks::PARTICLE_BLOCK;
 use crate::contact::{ContactInput, ContactTable};
 use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};

@@ -52,6 +52,8 @@ pub enum BodyFailure {
         iterations: u32,
         /// The last correction, relative to its scale.
         correction: Real,
+        /// The last matrix was made definite by positive parts ([`Body::damped`]).
+        damped: bool,
     },
 }
 
@@ -107,6 +109,10 @@ pub struct Body {
     pub residual: Vec<Real>,
     /// The Newton matrix (factorised after [`Body::iterate`] with `refresh`).
     pub matrix: SparseSpd,
+    /// The factorised matrix is not Newton's own: the elements' stiffnesses were replaced by
+    /// their positive parts to make it definite ([`Body::iterate`]); Newton then converges
+    /// linearly at best.
+    pub damped: bool,
     /// Where each element's 8×8 block goes in the matrix (`usize::MAX`: the upper triangle,
     /// added through its mirror).
     slots: Vec<[usize; 64]>,
@@ -162,6 +168,7 @@ impl Body {
             trial: vec![rest; e],
             residual: vec![0.0; 2 * n],
             matrix,
+            damped: false,
             slots,
             total: Vec::with_capacity(n),
             force: Vec::with_capacity(n),
@@ -276,6 +283,7 @@ impl Body {
         }
         for positive in [false, true] {
             self.assemble(law, sc, Some(positive))?;
+            self.damped = positive;
             match self.matrix.factorise() {
                 Ok(()) => return Ok(()),
                 Err(SparseError::NotPositiveDefinite) if !positive => {}
@@ -385,7 +393,7 @@ impl Body {
                 return Ok(it);
             }
         }
-        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last })
+        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last, damped: self.damped })
     }
 
     /// Static equilibrium under the nodal loads `load` (N/m) with the displacements
@@ -424,6 +432,6 @@ impl Body {
                 return Ok(it);
             }
         }
-        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last })
+        Err(BodyFailure::NewtonBudget { iterations: max_newton, correction: last, damped: false })
     }
 }

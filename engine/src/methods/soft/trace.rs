@@ -44,9 +44,10 @@ pub struct NewtonRecord {
     /// `fem`: grains whose matrices the iteration assembled anew.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refreshed_grains: Option<usize>,
-    /// `mpm`: grains whose current matrix is not Newton's own (its diagonal scaled, or its
-    /// points' tangents replaced by their positive parts, to make it definite); while any
-    /// is, the iterations converge linearly at best.
+    /// Grains whose current matrix is not Newton's own, made definite (`mpm`: its diagonal
+    /// scaled, or its points' tangents replaced by their positive parts; `fem`: its elements'
+    /// stiffnesses replaced by their positive parts); while any is, the iterations converge
+    /// linearly at best.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damped_grains: Option<usize>,
     /// `mpm`: the iteration's correction turned back on the previous one (their mass-weighted

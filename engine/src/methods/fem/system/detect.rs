@@ -3,7 +3,7 @@
 
 use super::{Grain, System, V2};
 use crate::math::Real;
-use crate::methods::soft::contact::{self, candidates, enter, Against, Candidate, Entry, Support};
+use crate::methods::soft::contact::{self, candidates, enter, Candidate, Entry, Support};
 use crate::methods::soft::Scheme;
 
 /// How far the current iterate moves the place `s` of grain `g`'s boundary over the step, m.
@@ -32,19 +32,8 @@ impl System {
                     let next = (near.segment + 1) % shapes[b].len();
                     let on_b = Support::from_entries(&mut [(node(b, near.segment), 1.0 - near.t), (node(b, next), near.t)]);
                     let (Some(support), Some(on_b)) = (Support::from_entries(&mut [(node(a, k), 1.0)]), on_b) else { continue };
-                    Entry {
-                        vertex: k,
-                        at: shapes[a][k] - near.normal * (0.5 * near.gap),
-                        a: a as u32,
-                        support,
-                        b: Against::Grain { grain: b as u32, support: on_b },
-                        normal: near.normal,
-                        gap: near.gap,
-                        friction: self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt()),
-                        lever: self.grains[a].radius,
-                        line: line.then_some(near.segment as u32),
-                        segment: near.segment as u32,
-                    }
+                    let friction = self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt());
+                    Entry::between_grains(k, shapes[a][k], a, support, b, on_b, &near, line, friction, self.grains[a].radius)
                 }
                 Candidate::Wall { g, k, w, gap } => {
                     let Some(support) = Support::from_entries(&mut [(node(g, k), 1.0)]) else { continue };

@@ -24,8 +24,8 @@ fn body_failure(grain: usize, f: BodyFailure, tolerance: Real) -> StepFailure {
             InstabilityCause::InvertedElement { grain, element, jacobian }
         }
         BodyFailure::NotPositiveDefinite => InstabilityCause::NotPositiveDefinite { grain },
-        BodyFailure::NewtonBudget { iterations, correction } => {
-            InstabilityCause::NewtonBudget { iterations, correction, tolerance, grain: Some(grain), damped: false }
+        BodyFailure::NewtonBudget { iterations, correction, damped } => {
+            InstabilityCause::NewtonBudget { iterations, correction, tolerance, grain: Some(grain), damped }
         }
     })
 }
@@ -81,9 +81,11 @@ impl System {
             let relative = correction / scale.max(Real::MIN_POSITIVE);
             if self.tracer.on() {
                 let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
+                let damped = self.grains.iter().filter(|g| g.body.damped).count();
                 let part = (self.steps + 1, self.time, sc.dt);
                 self.tracer.emit(|| NewtonRecord {
                     refreshed_grains: Some(refreshed),
+                    damped_grains: Some(damped),
                     ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
                 });
             }
@@ -118,13 +120,8 @@ impl System {
             last = relative;
         }
         let grain = largest(self.pace.iter().map(|p| p.correction));
-        Err(fail(InstabilityCause::NewtonBudget {
-            iterations: self.settings.max_newton,
-            correction: last,
-            tolerance,
-            grain,
-            damped: false,
-        }))
+        let damped = grain.is_some_and(|g| self.grains[g].body.damped);
+        Err(fail(InstabilityCause::NewtonBudget { iterations: self.settings.max_newton, correction: last, tolerance, grain, damped }))
     }
 
     /// Every grain's residual at the iterate and — when its [`Pace::refresh`] says so — its

@@ -4,7 +4,7 @@
 
 use super::System;
 use crate::math::Real;
-use crate::methods::mpm::contact::{self, candidates, enter, Against, Candidate, Entry, Support, SUPPORT_NODES};
+use crate::methods::mpm::contact::{self, candidates, enter, Candidate, Entry, Support, SUPPORT_NODES};
 use crate::methods::mpm::field::Scheme;
 use crate::methods::mpm::grid::V2;
 
@@ -32,19 +32,8 @@ impl System {
                     let next = (near.segment + 1) % shapes[b].len();
                     let support = self.vertex_support(a, &[(k, 1.0)], &mut entries);
                     let on_b = self.vertex_support(b, &[(near.segment, 1.0 - near.t), (next, near.t)], &mut entries);
-                    Entry {
-                        vertex: k,
-                        at: shapes[a][k] - near.normal * (0.5 * near.gap),
-                        a: a as u32,
-                        support,
-                        b: Against::Grain { grain: b as u32, support: on_b },
-                        normal: near.normal,
-                        gap: near.gap,
-                        friction: self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt()),
-                        lever: self.grains[a].radius,
-                        line: line.then_some(near.segment as u32),
-                        segment: near.segment as u32,
-                    }
+                    let friction = self.pair_friction.unwrap_or_else(|| (self.grains[a].friction * self.grains[b].friction).sqrt());
+                    Entry::between_grains(k, shapes[a][k], a, support, b, on_b, &near, line, friction, self.grains[a].radius)
                 }
                 Candidate::Wall { g, k, w, gap } => {
                     let support = self.vertex_support(g, &[(k, 1.0)], &mut entries);

@@ -8,6 +8,7 @@ use nalgebra::Vector2;
 use super::grain_contacts::GrainContacts;
 use super::records::{Other, Support, VertexContact, Wall};
 use crate::math::{Real, Vec3};
+use crate::methods::soft::polygon::Nearest;
 use crate::nscd::local::{Delassus, LocalLaw};
 use crate::nscd::ContactFrame;
 
@@ -95,6 +96,38 @@ pub struct Entry {
 }
 
 impl Entry {
+    /// The contact of vertex `vertex` of grain `a` (at `x`, held by `support`) with the outline
+    /// of grain `b` at `near` (held there by `on_b`), on that segment's line alone when `line`
+    /// ([`crate::methods::soft::contact::Candidate::Grain`]); the contact point is midway across
+    /// the gap, `friction` the pair's coefficient and `lever` grain `a`'s radius.
+    #[allow(clippy::too_many_arguments)]
+    pub fn between_grains(
+        vertex: usize,
+        x: V2,
+        a: usize,
+        support: Support,
+        b: usize,
+        on_b: Support,
+        near: &Nearest,
+        line: bool,
+        friction: Real,
+        lever: Real,
+    ) -> Self {
+        Self {
+            vertex,
+            at: x - near.normal * (0.5 * near.gap),
+            a: a as u32,
+            support,
+            b: Against::Grain { grain: b as u32, support: on_b },
+            normal: near.normal,
+            gap: near.gap,
+            friction,
+            lever,
+            line: line.then_some(near.segment as u32),
+            segment: near.segment as u32,
+        }
+    }
+
     /// The contact of vertex `vertex` of grain `a` (at `x`, held by `support`) with `wall`
     /// (number `w`) across `gap`, the grain's friction coefficient and radius being `friction`
     /// and `lever`.
