@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::integrate::{half_kick, Kin};
 use super::pair_state::{PairBlock, PairExtra, PairForce, PairSprings};
-pub(super) use super::tasks::{LOOP_CHUNK, PARTICLE_BLOCK};
+use super::tasks::{LOOP_CHUNK, PARTICLE_BLOCK};
 use super::wall_contacts::{evaluate_block, Grains, Owned, WallScene};
 use super::Dem;
 use crate::contact::batch::{BatchInput, BatchOutput, BatchSprings, LANES};
