@@ -1,6 +1,7 @@
 //! The interface every method implements ([`Simulation`]) and the loop that drives it
 //! ([`Runner`]): stop criteria, sampling, progress, cancellation.
 
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -349,109 +350,46 @@ impl Runner {
     ) -> Result<RunSummary, EngineError> {
         let mut analysis = self.analysis.clone();
         analysis.for_grains(sim.grain_model());
-        let mut last_snapshot = None;
-        let mut snapshot = |sim: &dyn Simulation, last_snapshot: &mut Option<u64>| {
-            if self.snapshot_every.is_some() && *last_snapshot != Some(sim.steps_done()) {
-                *last_snapshot = Some(sim.steps_done());
-                on_snapshot(&sim.snapshot());
-            }
-        };
         let started = std::time::Instant::now();
-        let phi0 = sim.packing_fraction();
-        let annotate = self.stages.len() > 1 || self.stages.iter().any(|s| !s.name.is_empty());
-        let mut take = |sim: &mut dyn Simulation, start: &StageStart, analysis: &mut Analysis| -> Result<Sample, EngineError> {
-            let mut s = sim.sample()?;
-            if annotate {
-                let stage = &self.stages[start.index];
-                s.stage = (!stage.name.is_empty()).then(|| stage.name.clone());
-                let (a, b) = (start.lengths, sim.box_lengths());
-                s.strain = Some(StrainSample::between(self.dim, a.as_slice(), b.as_slice()));
-            }
-            analysis.push(&s);
-            let fraction = self.fraction(sim, phi0, start);
-            let elapsed = started.elapsed().as_secs_f64();
-            let remaining = (fraction > 1e-6).then(|| elapsed * (1.0 - fraction) / fraction);
-            on_sample(&s, &Progress { fraction, elapsed, remaining });
-            Ok(s)
+        let mut run = RunState {
+            runner: self,
+            analysis,
+            on_sample,
+            on_snapshot,
+            last_snapshot: None,
+            started,
+            phi0: sim.packing_fraction(),
+            annotate: self.stages.len() > 1 || self.stages.iter().any(|s| !s.name.is_empty()),
+            next_time: match self.sampling {
+                Sampling::Time(t) => t,
+                Sampling::Steps(_) => Real::INFINITY,
+            },
         };
-        let begin = |sim: &mut dyn Simulation, index: usize| -> Result<StageStart, EngineError> {
-            sim.begin_stage(&self.stages[index])?;
-            Ok(StageStart { index, step: sim.steps_done(), time: sim.time(), lengths: sim.box_lengths(), strain: sim.strain() })
-        };
-        let mut start = begin(sim, 0)?;
-        let mut last = take(sim, &start, &mut analysis)?;
-        snapshot(sim, &mut last_snapshot);
-        let mut next_time = match self.sampling {
-            Sampling::Time(t) => t,
-            Sampling::Steps(_) => Real::INFINITY,
-        };
-        let reason = 'stages: loop {
+        let mut start = self.begin(sim, 0)?;
+        let mut last = run.take(sim, &start)?;
+        run.snapshot(sim);
+        let reason = loop {
             let stage = &self.stages[start.index];
-            let mut settled = 0u32;
-            let mut balance = None;
-            let ended = loop {
-                if let Some(r) = self.reached_global(sim) {
-                    break 'stages r;
-                }
-                if let Some(eq) = &stage.equilibrium {
-                    if (sim.steps_done() - start.step).is_multiple_of(eq.check_every) {
-                        let b = sim.balance();
-                        settled = if b.satisfies(eq) { settled + 1 } else { 0 };
-                        balance = Some(b);
-                        if settled >= eq.consecutive.unwrap_or_else(|| sim.equilibrium_checks()) {
-                            break StopReason::Equilibrium;
-                        }
-                    }
-                }
-                if let Some(r) = self.reached_stage(sim, stage, &start) {
-                    if let Some(eq) = &stage.equilibrium {
-                        return Err(not_converged(stage, sim.steps_done(), balance.unwrap_or_else(|| sim.balance()), eq));
-                    }
-                    break r;
-                }
-                if self.cancel.load(Ordering::Relaxed) {
-                    return Err(EngineError::Cancelled { step: sim.steps_done() });
-                }
-                sim.step()?;
-                let due = match self.sampling {
-                    Sampling::Steps(n) => sim.steps_done().is_multiple_of(n),
-                    Sampling::Time(t) => {
-                        if sim.time() >= next_time - 0.5 * sim.dt() {
-                            next_time += t;
-                            true
-                        } else {
-                            false
-                        }
-                    }
-                };
-                let going_on = self.reached_global(sim).is_none() && self.reached_stage(sim, stage, &start).is_none();
-                if due && going_on {
-                    last = take(sim, &start, &mut analysis)?;
-                }
-                let snapshot_due = match self.snapshot_every {
-                    Some(0) => due,
-                    Some(n) => sim.steps_done().is_multiple_of(n),
-                    None => false,
-                };
-                if snapshot_due && going_on {
-                    snapshot(sim, &mut last_snapshot);
-                }
+            let ended = match self.run_stage(&mut run, sim, &start, &mut last)? {
+                ControlFlow::Break(r) => break r,
+                ControlFlow::Continue(r) => r,
             };
             // Every stage ends with a sample of its final state.
-            if last.step != sim.steps_done() || last.stage.as_deref() != Some(stage.name.as_str()) && annotate {
-                last = take(sim, &start, &mut analysis)?;
+            if last.step != sim.steps_done() || last.stage.as_deref() != Some(stage.name.as_str()) && run.annotate {
+                last = run.take(sim, &start)?;
             }
             if start.index + 1 == self.stages.len() {
                 break ended;
             }
-            start = begin(sim, start.index + 1)?;
+            start = self.begin(sim, start.index + 1)?;
             // And every later stage starts with one (same step, zero strain), the origin of its curves.
-            last = take(sim, &start, &mut analysis)?;
+            last = run.take(sim, &start)?;
         };
         if last.step != sim.steps_done() {
-            last = take(sim, &start, &mut analysis)?;
+            last = run.take(sim, &start)?;
         }
-        snapshot(sim, &mut last_snapshot);
+        run.snapshot(sim);
+        let mut analysis = run.analysis;
         if analysis.needs_final_state() {
             analysis.final_state(&sim.saved_state());
         }
@@ -466,6 +404,134 @@ impl Runner {
             last,
             result,
         })
+    }
+
+    /// Applies stage `index`'s controls and notes where it starts.
+    fn begin(&self, sim: &mut dyn Simulation, index: usize) -> Result<StageStart, EngineError> {
+        sim.begin_stage(&self.stages[index])?;
+        Ok(StageStart { index, step: sim.steps_done(), time: sim.time(), lengths: sim.box_lengths(), strain: sim.strain() })
+    }
+
+    /// Steps the stage that began at `start`, sampling and snapshotting as due, until it ends
+    /// (`Continue` with why) or the whole run does (`Break` with why).
+    fn run_stage(
+        &self,
+        run: &mut RunState,
+        sim: &mut dyn Simulation,
+        start: &StageStart,
+        last: &mut Sample,
+    ) -> Result<ControlFlow<StopReason, StopReason>, EngineError> {
+        let stage = &self.stages[start.index];
+        let mut settled = 0u32;
+        let mut balance = None;
+        loop {
+            if let Some(r) = self.reached_global(sim) {
+                return Ok(ControlFlow::Break(r));
+            }
+            if let Some(eq) = &stage.equilibrium {
+                if (sim.steps_done() - start.step).is_multiple_of(eq.check_every) {
+                    let b = sim.balance();
+                    settled = if b.satisfies(eq) { settled + 1 } else { 0 };
+                    balance = Some(b);
+                    if settled >= eq.consecutive.unwrap_or_else(|| sim.equilibrium_checks()) {
+                        return Ok(ControlFlow::Continue(StopReason::Equilibrium));
+                    }
+                }
+            }
+            if let Some(r) = self.reached_stage(sim, stage, start) {
+                if let Some(eq) = &stage.equilibrium {
+                    return Err(not_converged(stage, sim.steps_done(), balance.unwrap_or_else(|| sim.balance()), eq));
+                }
+                return Ok(ControlFlow::Continue(r));
+            }
+            if self.cancel.load(Ordering::Relaxed) {
+                return Err(EngineError::Cancelled { step: sim.steps_done() });
+            }
+            sim.step()?;
+            let due = run.sample_due(sim);
+            let going_on = self.reached_global(sim).is_none() && self.reached_stage(sim, stage, start).is_none();
+            if due && going_on {
+                *last = run.take(sim, start)?;
+            }
+            if run.snapshot_due(sim, due) && going_on {
+                run.snapshot(sim);
+            }
+        }
+    }
+}
+
+/// What one run carries from step to step: its analysis, its callbacks, and when the last
+/// snapshot and the next timed sample are.
+struct RunState<'a> {
+    /// The runner whose stages run.
+    runner: &'a Runner,
+    /// The analysis the samples feed.
+    analysis: Analysis,
+    /// Called with every sample and the progress.
+    on_sample: &'a mut dyn FnMut(&Sample, &Progress),
+    /// Called with every snapshot.
+    on_snapshot: &'a mut dyn FnMut(&Snapshot),
+    /// Step of the last snapshot taken.
+    last_snapshot: Option<u64>,
+    /// When the run started.
+    started: std::time::Instant,
+    /// Packing fraction at the start.
+    phi0: Real,
+    /// Whether samples name their stage and carry its strain.
+    annotate: bool,
+    /// Time of the next sample when sampling by time.
+    next_time: Real,
+}
+
+impl RunState<'_> {
+    /// Takes a sample, annotated with its stage, feeds it to the analysis and reports it.
+    fn take(&mut self, sim: &mut dyn Simulation, start: &StageStart) -> Result<Sample, EngineError> {
+        let runner = self.runner;
+        let mut s = sim.sample()?;
+        if self.annotate {
+            let stage = &runner.stages[start.index];
+            s.stage = (!stage.name.is_empty()).then(|| stage.name.clone());
+            let (a, b) = (start.lengths, sim.box_lengths());
+            s.strain = Some(StrainSample::between(runner.dim, a.as_slice(), b.as_slice()));
+        }
+        self.analysis.push(&s);
+        let fraction = runner.fraction(sim, self.phi0, start);
+        let elapsed = self.started.elapsed().as_secs_f64();
+        let remaining = (fraction > 1e-6).then(|| elapsed * (1.0 - fraction) / fraction);
+        (self.on_sample)(&s, &Progress { fraction, elapsed, remaining });
+        Ok(s)
+    }
+
+    /// Reports a snapshot, when snapshots are asked for and this step has none yet.
+    fn snapshot(&mut self, sim: &dyn Simulation) {
+        if self.runner.snapshot_every.is_some() && self.last_snapshot != Some(sim.steps_done()) {
+            self.last_snapshot = Some(sim.steps_done());
+            (self.on_snapshot)(&sim.snapshot());
+        }
+    }
+
+    /// Whether a sample is due after the step just taken (moving on the next sampling time).
+    fn sample_due(&mut self, sim: &dyn Simulation) -> bool {
+        match self.runner.sampling {
+            Sampling::Steps(n) => sim.steps_done().is_multiple_of(n),
+            Sampling::Time(t) => {
+                if sim.time() >= self.next_time - 0.5 * sim.dt() {
+                    self.next_time += t;
+                    true
+                } else {
+                    false
+                }
+            }
+        }
+    }
+
+    /// Whether a snapshot is due after the step just taken (`every 0`: with each sample).
+    fn snapshot_due(&self, sim: &dyn Simulation, sample_due: bool) -> bool {
+        match self.runner.snapshot_every {
+            Some(0) => sample_due,
+            Some(n) => sim.steps_done().is_multiple_of(n),
+            None => false,
+        }
     }
 }
 

@@ -53,13 +53,53 @@ pub const DILUTE_FRACTION: Real = 0.5;
 /// ([`Advice::learn`]). A percent is below the agreement the soft-grain methods are asked for
 /// (2% on Φ at a wall stress) and above the scatter of a converged run.
 pub const LEARNED_ACCURACY: Real = 0.01;
+/// The grains' mean diameter, density and initial solid fraction, from which the numbers follow.
+struct Grains {
+    /// Number-mean diameter, m.
+    d: Real,
+    /// Volume-weighted density, kg/m³.
+    rho: Real,
+    /// Solid fraction in the box at the start.
+    phi0: Real,
+}
+
 /// Advises on a validated scene.
 pub fn advise(scene: &Scene) -> Advice {
+    let grains = grains(scene);
+    let mut l = loading(scene, &grains);
+    let numbers = numbers(scene, &l, &grains);
+    let (regime, why) = match l.regime.take() {
+        Some(r) => r,
+        None => regime_of(&numbers),
+    };
+    if let Some(name) = first_deformable(scene) {
+        return deformable_advice(scene, name, regime, numbers, why);
+    }
+    let mut reasons = Vec::new();
+    let needs = soft_needs(scene, &numbers, &mut reasons);
+    let method = choose_method(regime, why, &numbers, needs.is_some(), &mut reasons);
+    if let Some(xi) = numbers.cohesion_index.filter(|x| *x > 1.0) {
+        reasons.push(format!("cohesion dominates the confining stress: ξ = {xi:.1e} > 1"));
+    }
+    Advice {
+        method: method.to_string(),
+        requested: String::new(),
+        regime,
+        numbers,
+        reasons,
+        dropped: dropped(scene),
+        needs,
+        suggestions: suggestions(scene),
+        expected_cost: Vec::new(),
+    }
+}
+
+/// The grains' mean diameter, density (volume-weighted over the sets) and solid fraction.
+fn grains(scene: &Scene) -> Grains {
     let dim = scene.dim;
     let c = &scene.container;
     let length = |a: usize| c.hi[a] - c.lo[a];
     let box_volume: Real = (0..dim).map(length).product();
-    // Grains: mean diameter, density (volume-weighted over the sets), solid volume.
     let ball = |d: Real| crate::particles::Particles::volume_of(dim, 0.5 * d);
     let (mut count, mut dsum, mut solid, mut mass) = (0.0, 0.0, 0.0, 0.0);
     match &scene.initial {
@@ -86,8 +126,16 @@ pub fn advise(scene: &Scene) -> Advice {
     let d = if count > 0.0 { dsum / count } else { 0.0 };
     let rho = if solid > 0.0 { mass / solid } else { scene.materials.first().map_or(0.0, |m| m.density) };
     let phi0 = if box_volume > 0.0 { solid / box_volume } else { 0.0 };
-    let g = scene.gravity.norm();
+    Grains { d, rho, phi0 }
+}
 
+/// The stress and rate the scene's experiment (or, without one, its container) imposes.
+fn loading(scene: &Scene, grains: &Grains) -> Loading {
+    let dim = scene.dim;
+    let c = &scene.container;
+    let length = |a: usize| c.hi[a] - c.lo[a];
+    let Grains { d, rho, phi0 } = *grains;
+    let g = scene.gravity.norm();
     let mut l = Loading::default();
     match &scene.experiment {
         Some(Experiment::Isotropic { preparation }) => {
@@ -134,7 +182,13 @@ pub fn advise(scene: &Scene) -> Advice {
         }
         None => loading_of_container(scene, &mut l, rho, phi0, g),
     }
+    l
+}
 
+/// The dimensionless numbers of the grains under the loading.
+fn numbers(scene: &Scene, l: &Loading, grains: &Grains) -> Numbers {
+    let dim = scene.dim;
+    let Grains { d, rho, phi0 } = *grains;
     let p = l.pressure.as_ref().map(|x| x.0);
     let rate = l.rate.as_ref().map(|x| x.0);
     let law = scene.materials.first().map(|m| m.law);
@@ -147,7 +201,7 @@ pub fn advise(scene: &Scene) -> Advice {
     let cohesion_index = adhesion(scene, d).zip(p).map(|(f, p)| f / (p * d.powi(dim as i32 - 1)));
     let viscosity = scene.materials.iter().filter_map(|m| m.liquid).map(|l| l.viscosity).fold(0.0, Real::max);
     let stokes = rate.filter(|_| viscosity > 0.0 && wet(scene)).map(|r| rho * d * d * r / viscosity);
-    let numbers = Numbers {
+    Numbers {
         mean_diameter: d,
         density: rho,
         pressure: p,
@@ -160,69 +214,68 @@ pub fn advise(scene: &Scene) -> Advice {
         deflection: kappa.map(|k| 1.0 / k),
         cohesion_index,
         stokes_number: stokes,
-    };
+    }
+}
 
-    // The regime.
-    let (regime, why) = match l.regime.take() {
-        Some(r) => r,
-        None => match (inertial, p) {
-            (_, None) if rate.is_some() => {
-                (Regime::KinematicSqueeze, "an imposed motion loads the grains and no boundary holds a stress".into())
-            }
-            (_, None) => (Regime::Unloaded, "nothing imposes a stress or a motion".into()),
-            (Some(i), Some(_)) if i >= QUASI_STATIC_INERTIAL => {
-                (Regime::DenseFlow, format!("dense inertial flow: I = {i:.1e} ≥ {QUASI_STATIC_INERTIAL:.0e} (GDR MiDi 2004)"))
-            }
-            (i, Some(_)) => {
-                (Regime::QuasiStatic, format!("quasi-static loading: I = {:.1e} < {QUASI_STATIC_INERTIAL:.0e}", i.unwrap_or(0.0)))
-            }
-        },
-    };
-
-    let mut reasons = Vec::new();
-    let mut needs = None;
-    let mut method = "dem";
-    let deflection = kappa.map(|k| 1.0 / k);
-    let deformable: Vec<&str> = scene
-        .sets
-        .iter()
-        .filter_map(|s| scene.materials.get(s.material))
-        .filter(|m| m.deformable.is_some())
-        .map(|m| m.name.as_str())
-        .collect();
-    if let Some(name) = deformable.first() {
-        // Deformable grains have one method: their shape is the unknown.
-        let mut reasons = vec![format!(
-            "deformable grains (materials.{name}.deformable): the material point method with contact dynamics follows their shape (Nezamabadi 2020, §1.2.2)"
-        )];
-        if let Some(x) = deflection {
-            reasons.push(format!("contact deflection ~ 1/κ = {x:.2e} of the diameter at the loading's stress"));
+/// The regime the numbers put the loading in, and why, when the experiment does not fix it.
+fn regime_of(numbers: &Numbers) -> (Regime, String) {
+    match (numbers.inertial_number, numbers.pressure) {
+        (_, None) if numbers.strain_rate.is_some() => {
+            (Regime::KinematicSqueeze, "an imposed motion loads the grains and no boundary holds a stress".into())
         }
-        reasons.push(why);
-        return Advice {
-            method: "mpm".to_string(),
-            requested: String::new(),
-            regime,
-            numbers,
-            reasons,
-            dropped: dropped(scene),
-            needs: None,
-            suggestions: suggestions(scene),
-            expected_cost: Vec::new(),
-        };
+        (_, None) => (Regime::Unloaded, "nothing imposes a stress or a motion".into()),
+        (Some(i), Some(_)) if i >= QUASI_STATIC_INERTIAL => {
+            (Regime::DenseFlow, format!("dense inertial flow: I = {i:.1e} ≥ {QUASI_STATIC_INERTIAL:.0e} (GDR MiDi 2004)"))
+        }
+        (i, Some(_)) => (Regime::QuasiStatic, format!("quasi-static loading: I = {:.1e} < {QUASI_STATIC_INERTIAL:.0e}", i.unwrap_or(0.0))),
     }
-    if let Some(x) = deflection.filter(|x| *x > DEFORMABLE_DEFLECTION) {
-        needs = Some(if scene.dim == 2 {
-            "deformable grains: give the material a `deformable` constitutive law (its Young's modulus and Poisson's ratio) and method mpm"
-                .to_string()
-        } else {
-            "a soft-particle method in 3D, which this version does not have (method mpm is 2D)".to_string()
-        });
-        reasons.push(format!(
-            "the grains deform: contact deflection ~ 1/κ = {x:.2} of the diameter (> {DEFORMABLE_DEFLECTION}, κ < {:.0}); DEM's overlaps stand in for the deformation beyond their validity",
-            1.0 / DEFORMABLE_DEFLECTION
-        ));
+}
+
+/// The name of the first deformable material a set of grains is made of, if any.
+fn first_deformable(scene: &Scene) -> Option<&str> {
+    scene.sets.iter().filter_map(|s| scene.materials.get(s.material)).find(|m| m.deformable.is_some()).map(|m| m.name.as_str())
+}
+
+/// The advice for deformable grains, which have one method: their shape is the unknown.
+fn deformable_advice(scene: &Scene, name: &str, regime: Regime, numbers: Numbers, why: String) -> Advice {
+    let mut reasons = vec![format!(
+        "deformable grains (materials.{name}.deformable): the material point method with contact dynamics follows their shape (Nezamabadi 2020, §1.2.2)"
+    )];
+    if let Some(x) = numbers.deflection {
+        reasons.push(format!("contact deflection ~ 1/κ = {x:.2e} of the diameter at the loading's stress"));
     }
+    reasons.push(why);
+    Advice {
+        method: "mpm".to_string(),
+        requested: String::new(),
+        regime,
+        numbers,
+        reasons,
+        dropped: dropped(scene),
+        needs: None,
+        suggestions: suggestions(scene),
+        expected_cost: Vec::new(),
+    }
+}
+
+/// What the scene needs beyond DEM when its grains deform past point contacts, with the reason.
+fn soft_needs(scene: &Scene, numbers: &Numbers, reasons: &mut Vec<String>) -> Option<String> {
+    let x = numbers.deflection.filter(|x| *x > DEFORMABLE_DEFLECTION)?;
+    reasons.push(format!(
+        "the grains deform: contact deflection ~ 1/κ = {x:.2} of the diameter (> {DEFORMABLE_DEFLECTION}, κ < {:.0}); DEM's overlaps stand in for the deformation beyond their validity",
+        1.0 / DEFORMABLE_DEFLECTION
+    ));
+    Some(if scene.dim == 2 {
+        "deformable grains: give the material a `deformable` constitutive law (its Young's modulus and Poisson's ratio) and method mpm"
+            .to_string()
+    } else {
+        "a soft-particle method in 3D, which this version does not have (method mpm is 2D)".to_string()
+    })
+}
+
+/// The method for rigid or soft point-contact grains in the regime, pushing the reasons for it.
+fn choose_method(regime: Regime, why: String, numbers: &Numbers, needs: bool, reasons: &mut Vec<String>) -> &'static str {
+    let mut method = "dem";
     match regime {
         Regime::Collisional => reasons.push(format!("collisional: {why}; DEM resolves each collision in time")),
         Regime::DenseFlow => reasons.push(format!("{why}: the grains' inertia and collisions matter, which DEM resolves")),
@@ -230,8 +283,8 @@ pub fn advise(scene: &Scene) -> Advice {
             "{why}: once the packing jams, rigid grains cannot follow an imposed squeeze at constant volume (contact dynamics has no solution), soft contacts can"
         )),
         Regime::Unloaded => reasons.push(format!("{why}: no stiffness or inertial number to weigh, DEM by default")),
-        Regime::QuasiStatic => match kappa {
-            Some(k) if k >= RIGID_STIFFNESS && needs.is_none() => {
+        Regime::QuasiStatic => match numbers.stiffness_number {
+            Some(k) if k >= RIGID_STIFFNESS && !needs => {
                 method = "cd";
                 reasons.push(format!("{why} (ε̇ from {})", numbers.strain_rate_source.as_deref().unwrap_or("nothing: the grains only relax")));
                 reasons.push(format!(
@@ -241,27 +294,14 @@ pub fn advise(scene: &Scene) -> Advice {
             }
             Some(k) => {
                 reasons.push(why);
-                if needs.is_none() {
+                if !needs {
                     reasons.push(format!("moderately soft grains: κ = {k:.1e} < {RIGID_STIFFNESS:.0e} (Roux & Chevoir 2005, §2.3.4), the contact deflections (~ {:.1e} d) shape the response, which DEM models", 1.0 / k));
                 }
             }
             None => reasons.push(why),
         },
     }
-    if let Some(xi) = cohesion_index.filter(|x| *x > 1.0) {
-        reasons.push(format!("cohesion dominates the confining stress: ξ = {xi:.1e} > 1"));
-    }
-    Advice {
-        method: method.to_string(),
-        requested: String::new(),
-        regime,
-        numbers,
-        reasons,
-        dropped: dropped(scene),
-        needs,
-        suggestions: suggestions(scene),
-        expected_cost: Vec::new(),
-    }
+    method
 }
 
 /// The terms the scene does not need, which the engine leaves out.

@@ -23,9 +23,11 @@
 //!
 //! `drum_result` averages the samples of the rotation into the experiment's result, and
 //! [`drum_regime`] names the flow regime.
+//! The frames, the surface fit and the profile of one sample are in `drum_surface.rs`.
 
 use serde::{Deserialize, Serialize};
 
+use super::drum_surface::{fit_surface, load_bearing, mass_centroid, velocity_profile, DrumFrame, SurfaceFrame};
 use super::metrics::ContactRecord;
 use super::sample::Sample;
 use crate::math::{Real, Vec3};
@@ -100,20 +102,6 @@ pub struct DrumSample {
     pub profile: Vec<ProfileBin>,
 }
 
-/// Least-squares line `w = a + b s` through points; `None` with fewer than two distinct `s`.
-fn fit(points: &[(Real, Real)]) -> Option<(Real, Real)> {
-    let n = points.len() as Real;
-    if points.len() < 2 {
-        return None;
-    }
-    let (ms, mw) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let (sxx, sxy) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + (p.0 - ms).powi(2), a.1 + (p.0 - ms) * (p.1 - mw)));
-    (sxx > 0.0).then(|| {
-        let b = sxy / sxx;
-        (mw - b * ms, b)
-    })
-}
-
 /// Fraction of a circle of radius `r` lying below a chord at signed height `w` from its centre.
 pub fn segment_fraction(w: Real, r: Real) -> Real {
     let x = (w / r).clamp(-1.0, 1.0);
@@ -125,121 +113,36 @@ pub fn segment_fraction(w: Real, r: Real) -> Real {
 /// and the drum.
 pub fn measure_drum(dim: usize, p: &Particles, contacts: &[ContactRecord], d: &DrumView) -> DrumSample {
     let n = p.len();
-    let mut e_axis = Vec3::zeros();
-    e_axis[d.axis] = 1.0;
-    // The bed rises towards +h: the drum's surface moves up on that side.
-    let sense = if d.angular_velocity < 0.0 { -1.0 } else { 1.0 };
-    let e_h = e_axis.cross(&d.down) * sense;
-    let e_up = -d.down;
-    let frame = |x: &Vec3| {
-        let mut r = x - d.center;
-        r[d.axis] = 0.0;
-        (r.dot(&e_h), r.dot(&e_up))
-    };
-    let mut touching = vec![false; n];
-    for c in contacts.iter().filter(|c| c.bears_load()) {
-        touching[c.i as usize] = true;
-        if let Some(j) = c.j {
-            touching[j as usize] = true;
-        }
-    }
-    let (mut vol, mut ch, mut cu) = (0.0, 0.0, 0.0);
-    for k in 0..n {
-        let v = Particles::volume_of(dim, p.radius[k]);
-        let (h, u) = frame(&p.pos[k]);
-        vol += v;
-        ch += v * h;
-        cu += v * u;
-    }
-    if vol > 0.0 {
-        ch /= vol;
-        cu /= vol;
-    }
+    let frame = DrumFrame::new(d);
+    let touching = load_bearing(n, contacts);
+    let (ch, cu) = mass_centroid(dim, p, &frame);
     let theta = ch.atan2(-cu);
     let mean_d = if n > 0 { 2.0 * p.radius.iter().sum::<Real>() / n as Real } else { 0.0 };
-    // The frame of the surface: s along it (rising), w across it (up, out of the bed).
-    let (t, nrm) = ((theta.cos(), theta.sin()), (-theta.sin(), theta.cos()));
-    let to_surface = |x: &Vec3| {
-        let (h, u) = frame(x);
-        (h * t.0 + u * t.1, h * nrm.0 + u * nrm.1)
-    };
+    let surface = SurfaceFrame { drum: &frame, t: (theta.cos(), theta.sin()), nrm: (-theta.sin(), theta.cos()) };
     let tops: Vec<(Real, Real)> =
-        (0..n).filter(|&k| touching[k]).map(|k| (to_surface(&p.pos[k]), p.radius[k])).map(|((s, w), r)| (s, w + r)).collect();
-    // First guess of the surface height at mid-chord, then the chord.
-    let w0 = tops.iter().filter(|(s, _)| s.abs() < 2.0 * mean_d).map(|x| x.1).fold(Real::NEG_INFINITY, Real::max);
-    let (mut surface_angle, mut upper_angle, mut lower_angle) = (None, None, None);
-    let mut surface_w = w0;
-    let mut line = None;
-    if w0.is_finite() && w0.abs() < d.radius && mean_d > 0.0 {
-        let half = SURFACE_SPAN * (d.radius * d.radius - w0 * w0).sqrt();
-        let width = 2.0 * mean_d;
-        let bins = ((2.0 * half / width).floor() as usize).max(1);
-        let mut top = vec![Real::NEG_INFINITY; bins];
-        for &(s, w) in &tops {
-            if s.abs() < half {
-                let b = (((s + half) / width) as usize).min(bins - 1);
-                top[b] = top[b].max(w);
-            }
-        }
-        let points: Vec<(Real, Real)> =
-            top.iter().enumerate().filter(|(_, w)| w.is_finite()).map(|(b, &w)| (-half + (b as Real + 0.5) * width, w)).collect();
-        let deg = |slope: Real| (theta + slope.atan()).to_degrees();
-        if let Some((a, b)) = fit(&points) {
-            surface_angle = Some(deg(b));
-            surface_w = a;
-            line = Some((a, b));
-        }
-        let lower: Vec<(Real, Real)> = points.iter().copied().filter(|p| p.0 < 0.0).collect();
-        let upper: Vec<(Real, Real)> = points.iter().copied().filter(|p| p.0 >= 0.0).collect();
-        lower_angle = fit(&lower).map(|(_, b)| deg(b));
-        upper_angle = fit(&upper).map(|(_, b)| deg(b));
-    }
+        (0..n).filter(|&k| touching[k]).map(|k| (surface.at(&p.pos[k]), p.radius[k])).map(|((s, w), r)| (s, w + r)).collect();
+    let fitted = fit_surface(&tops, theta, mean_d, d.radius);
+    let surface_w = fitted.surface_w;
     let fill = if surface_w.is_finite() { segment_fraction(surface_w, d.radius) } else { 0.0 };
-    // Velocity profile along the mid-chord normal, from the surface down to the wall.
-    let mut profile = Vec::new();
-    if surface_w.is_finite() && mean_d > 0.0 {
-        let depth_max = surface_w + d.radius;
-        let bins = (depth_max / mean_d).ceil().max(0.0) as usize;
-        let mut sum = vec![0.0; bins];
-        let mut count = vec![0u64; bins];
-        for k in (0..n).filter(|&k| touching[k]) {
-            let (s, w) = to_surface(&p.pos[k]);
-            let depth = surface_w - w;
-            if s.abs() > PROFILE_STRIP * mean_d || depth < 0.0 {
-                continue;
-            }
-            if bins == 0 {
-                continue;
-            }
-            let b = ((depth / mean_d) as usize).min(bins - 1);
-            let v = &p.vel[k];
-            let (vh, vu) = (v.dot(&e_h), v.dot(&e_up));
-            // Down the slope is -t.
-            sum[b] -= vh * t.0 + vu * t.1;
-            count[b] += 1;
-        }
-        profile = (0..bins)
-            .map(|b| ProfileBin {
-                depth: (b as Real + 0.5) * mean_d,
-                velocity: if count[b] > 0 { sum[b] / count[b] as Real } else { 0.0 },
-                count: count[b],
-            })
-            .collect();
-    }
+    let profile = if surface_w.is_finite() && mean_d > 0.0 {
+        velocity_profile(p, &touching, &surface, surface_w, mean_d, d.radius)
+    } else {
+        Vec::new()
+    };
     // In flight: touching nothing, and more than a mean diameter above the surface (grains of
     // a dense flowing layer are often between two collisions).
     let airborne = (0..n)
         .filter(|&k| !touching[k])
         .filter(|&k| {
-            let (s, w) = to_surface(&p.pos[k]);
-            line.is_none_or(|(a, b)| w - (a + b * s) > mean_d)
+            let (s, w) = surface.at(&p.pos[k]);
+            fitted.line.is_none_or(|(a, b)| w - (a + b * s) > mean_d)
         })
         .count();
     DrumSample {
         mass_angle: theta.to_degrees(),
-        surface_angle,
-        upper_angle,
-        lower_angle,
+        surface_angle: fitted.surface_angle,
+        upper_angle: fitted.upper_angle,
+        lower_angle: fitted.lower_angle,
         fill,
         bed_depth: if surface_w.is_finite() { surface_w + d.radius } else { 0.0 },
         centroid_offset: (ch * ch + cu * cu).sqrt(),
@@ -354,51 +257,15 @@ pub(crate) fn drum_result(
     }
     let n = window.len() as Real;
     let mean = |f: &dyn Fn(&DrumSample) -> Real| window.iter().map(|d| f(d)).sum::<Real>() / n;
-    let mean_opt = |f: &dyn Fn(&DrumSample) -> Option<Real>| {
-        let v: Vec<Real> = window.iter().filter_map(|d| f(d)).collect();
-        if v.is_empty() {
-            0.0
-        } else {
-            v.iter().sum::<Real>() / v.len() as Real
-        }
-    };
-    let surface_angle = mean_opt(&|d| d.surface_angle);
-    let angles: Vec<Real> = window.iter().filter_map(|d| d.surface_angle).collect();
-    let surface_angle_std = if angles.is_empty() {
-        0.0
-    } else {
-        (angles.iter().map(|a| (a - surface_angle).powi(2)).sum::<Real>() / angles.len() as Real).sqrt()
-    };
-    let (upper_angle, lower_angle) = (mean_opt(&|d| d.upper_angle), mean_opt(&|d| d.lower_angle));
+    let surface_angle = mean_present(&window, |d| d.surface_angle);
+    let surface_angle_std = surface_angle_std(&window, surface_angle);
+    let (upper_angle, lower_angle) = (mean_present(&window, |d| d.upper_angle), mean_present(&window, |d| d.lower_angle));
     let fill = mean(&|d| d.fill);
     // Solid volume over the volume below the surface: Φ_box × box cross-section (2R)² / (fill π R²).
     let phi_box = rotation.iter().filter(|s| s.time >= from - 1e-12 * period).map(|s| s.phi).sum::<Real>() / n;
     let phi_bed = if fill > 0.0 { phi_box * 4.0 / (std::f64::consts::PI * fill) } else { 0.0 };
-    // Mean profile, bins weighted by their counts.
-    let bins = window.iter().map(|d| d.profile.len()).max().unwrap_or(0);
-    let mut profile: Vec<ProfileBin> =
-        (0..bins).map(|b| ProfileBin { depth: (b as Real + 0.5) * mean_diameter, velocity: 0.0, count: 0 }).collect();
-    for d in &window {
-        for (acc, bin) in profile.iter_mut().zip(&d.profile) {
-            acc.velocity += bin.velocity * bin.count as Real;
-            acc.count += bin.count;
-        }
-    }
-    for b in &mut profile {
-        if b.count > 0 {
-            b.velocity /= b.count as Real;
-        }
-    }
-    let filled: Vec<&ProfileBin> = profile.iter().filter(|b| b.count > 0).collect();
-    let surface_velocity = filled.first().map_or(0.0, |b| b.velocity);
-    let flowing_layer_depth = if surface_velocity > 0.0 {
-        filled.windows(2).find(|w| w[1].velocity <= 0.0).map(|w| {
-            let (a, b) = (w[0], w[1]);
-            a.depth + a.velocity / (a.velocity - b.velocity) * (b.depth - a.depth)
-        })
-    } else {
-        None
-    };
+    let profile = mean_profile(&window, mean_diameter);
+    let (surface_velocity, flowing_layer_depth) = surface_flow(&profile);
     let mass_angle = mean(&|d| d.mass_angle);
     // g from Fr = ω² R / g.
     let gravity = angular_velocity * angular_velocity * drum.radius / froude;
@@ -432,6 +299,61 @@ pub(crate) fn drum_result(
         profile,
     };
     Some((result, bottom))
+}
+
+/// Mean of the values the samples have, 0 when none has one.
+fn mean_present(window: &[&DrumSample], f: impl Fn(&DrumSample) -> Option<Real>) -> Real {
+    let v: Vec<Real> = window.iter().filter_map(|d| f(d)).collect();
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<Real>() / v.len() as Real
+    }
+}
+
+/// Standard deviation of the samples' surface angles about their mean, 0 when none has one.
+fn surface_angle_std(window: &[&DrumSample], surface_angle: Real) -> Real {
+    let angles: Vec<Real> = window.iter().filter_map(|d| d.surface_angle).collect();
+    if angles.is_empty() {
+        0.0
+    } else {
+        (angles.iter().map(|a| (a - surface_angle).powi(2)).sum::<Real>() / angles.len() as Real).sqrt()
+    }
+}
+
+/// Mean velocity profile of the samples, bins weighted by their counts.
+fn mean_profile(window: &[&DrumSample], mean_diameter: Real) -> Vec<ProfileBin> {
+    let bins = window.iter().map(|d| d.profile.len()).max().unwrap_or(0);
+    let mut profile: Vec<ProfileBin> =
+        (0..bins).map(|b| ProfileBin { depth: (b as Real + 0.5) * mean_diameter, velocity: 0.0, count: 0 }).collect();
+    for d in window {
+        for (acc, bin) in profile.iter_mut().zip(&d.profile) {
+            acc.velocity += bin.velocity * bin.count as Real;
+            acc.count += bin.count;
+        }
+    }
+    for b in &mut profile {
+        if b.count > 0 {
+            b.velocity /= b.count as Real;
+        }
+    }
+    profile
+}
+
+/// The surface velocity (top filled bin) of a mean profile, and the depth where the velocity
+/// down the slope changes sign (when the surface flows).
+fn surface_flow(profile: &[ProfileBin]) -> (Real, Option<Real>) {
+    let filled: Vec<&ProfileBin> = profile.iter().filter(|b| b.count > 0).collect();
+    let surface_velocity = filled.first().map_or(0.0, |b| b.velocity);
+    let flowing_layer_depth = if surface_velocity > 0.0 {
+        filled.windows(2).find(|w| w[1].velocity <= 0.0).map(|w| {
+            let (a, b) = (w[0], w[1]);
+            a.depth + a.velocity / (a.velocity - b.velocity) * (b.depth - a.depth)
+        })
+    } else {
+        None
+    };
+    (surface_velocity, flowing_layer_depth)
 }
 
 #[cfg(test)]

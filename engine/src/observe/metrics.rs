@@ -1,7 +1,7 @@
 //! Computation of a [`Sample`] from a method-independent view of the system.
 
 use super::drum::{measure_drum, DrumView};
-use super::grains::PrimarySample;
+use super::grains::{GrainSample, PrimarySample};
 use super::sample::{DeformableSample, Sample, Stress, WallSample};
 use crate::math::{Mat3, Real, Vec3};
 use crate::particles::Particles;
@@ -126,8 +126,56 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
     let dim = v.dim;
     let solid: Real = p.radius.iter().map(|&r| Particles::volume_of(dim, r)).sum();
     let phi = if v.volume > 0.0 { solid / v.volume } else { 0.0 };
+    let (sigma, kinetic, total_mass) = love_weber_stress(v);
+    let (stress, pressure, q) = stress_invariants(dim, &sigma);
+    let zeta = if pressure > 0.0 { q / pressure } else { 0.0 };
+    let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
+    // Soft grains: the sample's Φ and Z are the grains'; an aggregate's primaries keep theirs.
+    let (grains, primaries) = match v.deformable {
+        Some(d) => (Some(super::grains::measure_whole_grains(p, dim, v.contacts, v.volume, d.aspect_ratios, z_no_rattlers)), None),
+        None => match super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain) {
+            Some(g) => (Some(g), Some(PrimarySample { phi, z, z_no_rattlers })),
+            None => (None, None),
+        },
+    };
+    let (phi, z, z_no_rattlers) = match (&grains, &primaries) {
+        (Some(g), Some(_)) => (g.phi, g.z, g.z_no_rattlers),
+        _ => (phi, z, z_no_rattlers),
+    };
+    let aggregates = grains.as_ref().filter(|_| primaries.is_some());
+    let (mu, inertial_number) = shear_response(v, &sigma, aggregates, solid, total_mass);
+    let walls = wall_samples(v);
+    Sample {
+        step: v.step,
+        time: v.time,
+        phi,
+        z,
+        z_no_rattlers,
+        zeta,
+        mu,
+        p: pressure,
+        q,
+        stress,
+        inertial_number,
+        kinetic_energy: v.deformable.map_or(kinetic, |d| d.kinetic_energy),
+        elastic_energy: v.elastic_energy,
+        walls,
+        stage: None,
+        strain: None,
+        drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
+        solver: None,
+        deformable: v.deformable.map(|d| Box::new(d.sample)),
+        grains: grains.map(Box::new),
+        primaries,
+    }
+}
 
-    // Velocity fluctuations.
+/// The Love-Weber stress tensor (velocity fluctuations about the mean and the streaming
+/// profile, and contact forces), the kinetic energy (of the fluctuations when the shear
+/// streams) and the grains' total mass.
+fn love_weber_stress(v: &SystemView<'_>) -> (Mat3, Real, Real) {
+    let p = v.particles;
+    let n = p.len();
     let total_mass: Real = p.mass.iter().sum();
     let streaming = |x: &Vec3| -> Vec3 {
         match v.shear {
@@ -160,88 +208,82 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
     if v.volume > 0.0 {
         sigma /= v.volume;
     }
-    let sym = |a: usize, b: usize| 0.5 * (sigma[(a, b)] + sigma[(b, a)]);
+    (sigma, kinetic, total_mass)
+}
+
+/// The symmetric part of a tensor's `(a, b)` component.
+fn sym(sigma: &Mat3, a: usize, b: usize) -> Real {
+    0.5 * (sigma[(a, b)] + sigma[(b, a)])
+}
+
+/// The stress components of a stress tensor in `dim` dimensions, its mean stress `p` and its
+/// deviatoric stress `q`.
+fn stress_invariants(dim: usize, sigma: &Mat3) -> (Stress, Real, Real) {
     let stress = if dim == 2 {
-        Stress { xx: sigma[(0, 0)], yy: sigma[(1, 1)], zz: None, xy: sym(0, 1), xz: None, yz: None }
+        Stress { xx: sigma[(0, 0)], yy: sigma[(1, 1)], zz: None, xy: sym(sigma, 0, 1), xz: None, yz: None }
     } else {
-        Stress { xx: sigma[(0, 0)], yy: sigma[(1, 1)], zz: Some(sigma[(2, 2)]), xy: sym(0, 1), xz: Some(sym(0, 2)), yz: Some(sym(1, 2)) }
+        Stress {
+            xx: sigma[(0, 0)],
+            yy: sigma[(1, 1)],
+            zz: Some(sigma[(2, 2)]),
+            xy: sym(sigma, 0, 1),
+            xz: Some(sym(sigma, 0, 2)),
+            yz: Some(sym(sigma, 1, 2)),
+        }
     };
     let pressure = (0..dim).map(|a| sigma[(a, a)]).sum::<Real>() / dim as Real;
     let q = if dim == 2 {
-        (0.25 * (sigma[(0, 0)] - sigma[(1, 1)]).powi(2) + sym(0, 1).powi(2)).sqrt()
+        (0.25 * (sigma[(0, 0)] - sigma[(1, 1)]).powi(2) + sym(sigma, 0, 1).powi(2)).sqrt()
     } else {
         let mut s = Mat3::zeros();
         for a in 0..3 {
             for b in 0..3 {
-                s[(a, b)] = sym(a, b) - if a == b { pressure } else { 0.0 };
+                s[(a, b)] = sym(sigma, a, b) - if a == b { pressure } else { 0.0 };
             }
         }
         (1.5 * s.component_mul(&s).sum()).sqrt()
     };
-    let zeta = if pressure > 0.0 { q / pressure } else { 0.0 };
-    let (z, z_no_rattlers) = coordination(n, v.rattler_threshold, v.contacts);
-    // Soft grains: the sample's Φ and Z are the grains'; an aggregate's primaries keep theirs.
-    let (grains, primaries) = match v.deformable {
-        Some(d) => (Some(super::grains::measure_whole_grains(p, dim, v.contacts, v.volume, d.aspect_ratios, z_no_rattlers)), None),
-        None => match super::grains::measure_grains(p, dim, v.contacts, v.volume, v.domain) {
-            Some(g) => (Some(g), Some(PrimarySample { phi, z, z_no_rattlers })),
-            None => (None, None),
-        },
+    (stress, pressure, q)
+}
+
+/// Effective friction and inertial number of a sheared system (none without shear); the
+/// grains' size is that of the `aggregates` when the grains are aggregates, else the
+/// number-mean diameter.
+fn shear_response(
+    v: &SystemView<'_>,
+    sigma: &Mat3,
+    aggregates: Option<&GrainSample>,
+    solid: Real,
+    total_mass: Real,
+) -> (Option<Real>, Option<Real>) {
+    let Some(s) = v.shear else { return (None, None) };
+    let p = v.particles;
+    let n = p.len();
+    let sn = sigma[(s.gradient, s.gradient)];
+    let tau = sym(sigma, s.flow, s.gradient).abs();
+    let mu = if sn > 0.0 { tau / sn } else { 0.0 };
+    // The grains' size: the number-mean diameter, or for aggregates their own.
+    let mean_d = match aggregates {
+        Some(g) => g.mean_diameter(v.dim),
+        _ if n > 0 => 2.0 * p.radius.iter().sum::<Real>() / n as Real,
+        _ => 0.0,
     };
-    let (phi, z, z_no_rattlers) = match (&grains, &primaries) {
-        (Some(g), Some(_)) => (g.phi, g.z, g.z_no_rattlers),
-        _ => (phi, z, z_no_rattlers),
-    };
-    let (mu, inertial_number) = match v.shear {
-        Some(s) => {
-            let sn = sigma[(s.gradient, s.gradient)];
-            let tau = sym(s.flow, s.gradient).abs();
-            let mu = if sn > 0.0 { tau / sn } else { 0.0 };
-            // The grains' size: the number-mean diameter, or for aggregates their own.
-            let mean_d = match (&grains, &primaries) {
-                (Some(g), Some(_)) => g.mean_diameter(dim),
-                _ if n > 0 => 2.0 * p.radius.iter().sum::<Real>() / n as Real,
-                _ => 0.0,
-            };
-            let rho = if solid > 0.0 { total_mass / solid } else { 0.0 };
-            let i = (sn > 0.0).then(|| s.rate.abs() * mean_d * (rho / sn).sqrt());
-            (Some(mu), i)
-        }
-        None => (None, None),
-    };
-    let walls = v
-        .walls
+    let rho = if solid > 0.0 { total_mass / solid } else { 0.0 };
+    let i = (sn > 0.0).then(|| s.rate.abs() * mean_d * (rho / sn).sqrt());
+    (Some(mu), i)
+}
+
+/// The load on each wall: its force and normal stress.
+fn wall_samples(v: &SystemView<'_>) -> Vec<WallSample> {
+    v.walls
         .iter()
         .map(|w| WallSample {
             name: w.name.clone(),
             position: w.position,
-            force: w.force.as_slice()[..dim].to_vec(),
+            force: w.force.as_slice()[..v.dim].to_vec(),
             normal_stress: if w.area > 0.0 { -w.force.dot(&w.normal) / w.area } else { 0.0 },
         })
-        .collect();
-    Sample {
-        step: v.step,
-        time: v.time,
-        phi,
-        z,
-        z_no_rattlers,
-        zeta,
-        mu,
-        p: pressure,
-        q,
-        stress,
-        inertial_number,
-        kinetic_energy: v.deformable.map_or(kinetic, |d| d.kinetic_energy),
-        elastic_energy: v.elastic_energy,
-        walls,
-        stage: None,
-        strain: None,
-        drum: v.drum.as_ref().map(|d| Box::new(measure_drum(dim, p, v.contacts, d))),
-        solver: None,
-        deformable: v.deformable.map(|d| Box::new(d.sample)),
-        grains: grains.map(Box::new),
-        primaries,
-    }
+        .collect()
 }
 
 /// Returns (Z, Z without rattlers). A contact counts if it carries force (touching with a

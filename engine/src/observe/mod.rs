@@ -6,6 +6,7 @@
 //! [`measure`] turns it into a [`Sample`].
 
 pub mod drum;
+mod drum_surface;
 pub mod grains;
 pub mod granule;
 pub mod metrics;

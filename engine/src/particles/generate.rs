@@ -12,7 +12,7 @@ use super::Particles;
 use crate::error::EngineError;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
-use crate::scene::{Aabb, Ball, DrumDef, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
+use crate::scene::{Aabb, Ball, DrumDef, InitialState, InitialVelocity, LatticeKind, ParticleSet, Placement, Scene, SizeDist};
 
 /// Attempts per particle before random placement gives up.
 const MAX_ATTEMPTS: usize = 20_000;
@@ -20,29 +20,10 @@ const MAX_ATTEMPTS: usize = 20_000;
 /// Places every particle set of `scene` in `domain` (Lees-Edwards offset zero).
 pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, EngineError> {
     if let Some(st) = &scene.initial {
-        // A saved state: its particles as they were (checked by the scene's validation).
-        let mut out = Particles::default();
-        for k in 0..st.pos.len() {
-            let density = scene.materials.get(st.material[k]).map_or(1.0, |m| m.density);
-            out.push(scene.dim, st.pos[k], st.vel[k], st.radius[k], density, st.material[k] as u16, st.wet[k]);
-            if let Some(w) = out.omega.last_mut() {
-                *w = st.omega[k];
-            }
-        }
-        out.aggregate.clone_from(&st.aggregate);
-        out.bondings.clone_from(&st.bondings);
-        return Ok(out);
+        return Ok(restore_state(scene, st));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);
-    let dmax = scene
-        .sets
-        .iter()
-        .map(|s| match &s.placement {
-            Placement::List { diameters: Some(d), .. } => d.iter().copied().fold(0.0, f64::max),
-            _ => s.size.max_diameter(),
-        })
-        .fold(0.0, f64::max);
-    let mut grid = OverlapGrid::new(dmax.max(1e-300));
+    let mut grid = OverlapGrid::new(largest_diameter(scene).max(1e-300));
     let mut out = Particles::default();
     let confine = Confinement { drum: scene.container.drum.as_ref(), ball: scene.container.granule.as_ref() };
     // Each set's grains in `out`: where they start.
@@ -52,21 +33,11 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         let path = format!("particles[{k}]");
         let diameters = draw_diameters(set, &mut rng);
         let mat = &scene.materials[set.material];
-        let mut wet = vec![false; set.count];
-        let n_wet = (set.wet_fraction * set.count as f64).round() as usize;
-        wet.iter_mut().take(n_wet).for_each(|w| *w = true);
-        wet.shuffle(&mut rng);
+        let wet = wet_flags(set, &mut rng);
         let positions: Vec<Vec3> = match &set.placement {
             Placement::Random(region) => random_positions(&diameters, region, domain, confine, &mut grid, &mut out, &mut rng, &path)?,
             Placement::Lattice { kind, region, spacing, random_select } => {
-                let s = spacing.unwrap_or(1.01 * diameters.iter().copied().fold(0.0, f64::max));
-                let dm = diameters.iter().copied().fold(0.0, f64::max);
-                if s < dm {
-                    return Err(EngineError::Build {
-                        field: format!("{path}.placement.spacing"),
-                        reason: format!("{s} m is smaller than the largest diameter {dm} m: particles would overlap"),
-                    });
-                }
+                let (s, dm) = lattice_spacing(*spacing, &diameters, &path)?;
                 let mut sites = lattice_sites(*kind, region, s, dm / 2.0, domain);
                 sites.retain(|p| confine.holds(p, dm / 2.0));
                 if sites.len() < set.count {
@@ -79,13 +50,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                         ),
                     });
                 }
-                if *random_select {
-                    sites.shuffle(&mut rng);
-                    sites.truncate(set.count);
-                    sites.sort_by(|a, b| a.z.total_cmp(&b.z).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
-                } else {
-                    sites.truncate(set.count);
-                }
+                select_sites(&mut sites, set.count, *random_select, &mut rng);
                 for (p, d) in sites.iter().zip(&diameters) {
                     // Sites of one lattice cannot overlap each other (spacing >= diameter).
                     check_free(&grid, &out, &[], &[], domain, p, d / 2.0, &path)?;
@@ -95,20 +60,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
                 grid.flush();
                 sites
             }
-            Placement::List { positions, .. } => {
-                let radii: Vec<Real> = diameters.iter().map(|d| d / 2.0).collect();
-                for (idx, (p, d)) in positions.iter().zip(&diameters).enumerate() {
-                    let field = format!("{path}.placement.positions[{idx}]");
-                    if !confine.holds(p, d / 2.0) {
-                        return Err(EngineError::Build { field, reason: format!("particle lies outside {}", confine.name()) });
-                    }
-                    check_free(&grid, &out, &positions[..idx], &radii[..idx], domain, p, d / 2.0, &field)?;
-                    grid.insert_in(domain, p, out.len() + grid.pending());
-                    grid.pending_push();
-                }
-                grid.flush();
-                positions.clone()
-            }
+            Placement::List { positions, .. } => list_positions(positions, &diameters, domain, confine, &mut grid, &out, &path)?,
         };
         let listed_vel = match &set.placement {
             Placement::List { velocities: Some(v), .. } => Some(v.clone()),
@@ -118,13 +70,7 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
             let v = match (&listed_vel, set.velocity) {
                 (Some(v), _) => v[idx],
                 (None, InitialVelocity::Uniform(v)) => v,
-                (None, InitialVelocity::Gaussian(std)) => {
-                    let mut v = Vec3::zeros();
-                    for a in 0..scene.dim {
-                        v[a] = std * standard_normal(&mut rng);
-                    }
-                    v
-                }
+                (None, InitialVelocity::Gaussian(std)) => gaussian_velocity(scene.dim, std, &mut rng),
             };
             out.push(scene.dim, *p, v, d / 2.0, mat.density, set.material as u16, wet[idx]);
         }
@@ -134,6 +80,103 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         return fill_aggregates(scene, &out, &starts, &mut rng);
     }
     Ok(out)
+}
+
+/// The particles of a saved state, as they were (checked by the scene's validation).
+fn restore_state(scene: &Scene, st: &InitialState) -> Particles {
+    let mut out = Particles::default();
+    for k in 0..st.pos.len() {
+        let density = scene.materials.get(st.material[k]).map_or(1.0, |m| m.density);
+        out.push(scene.dim, st.pos[k], st.vel[k], st.radius[k], density, st.material[k] as u16, st.wet[k]);
+        if let Some(w) = out.omega.last_mut() {
+            *w = st.omega[k];
+        }
+    }
+    out.aggregate.clone_from(&st.aggregate);
+    out.bondings.clone_from(&st.bondings);
+    out
+}
+
+/// The largest diameter any set can draw (its listed diameters, or its size distribution's).
+fn largest_diameter(scene: &Scene) -> Real {
+    scene
+        .sets
+        .iter()
+        .map(|s| match &s.placement {
+            Placement::List { diameters: Some(d), .. } => d.iter().copied().fold(0.0, f64::max),
+            _ => s.size.max_diameter(),
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Which of the set's grains are wet: its wet fraction of them, at random.
+fn wet_flags(set: &ParticleSet, rng: &mut ChaCha8Rng) -> Vec<bool> {
+    let mut wet = vec![false; set.count];
+    let n_wet = (set.wet_fraction * set.count as f64).round() as usize;
+    wet.iter_mut().take(n_wet).for_each(|w| *w = true);
+    wet.shuffle(rng);
+    wet
+}
+
+/// A lattice's spacing (by default just over the largest diameter) and the largest diameter;
+/// an error when the grains would overlap.
+fn lattice_spacing(spacing: Option<Real>, diameters: &[Real], path: &str) -> Result<(Real, Real), EngineError> {
+    let s = spacing.unwrap_or(1.01 * diameters.iter().copied().fold(0.0, f64::max));
+    let dm = diameters.iter().copied().fold(0.0, f64::max);
+    if s < dm {
+        return Err(EngineError::Build {
+            field: format!("{path}.placement.spacing"),
+            reason: format!("{s} m is smaller than the largest diameter {dm} m: particles would overlap"),
+        });
+    }
+    Ok((s, dm))
+}
+
+/// Keeps `count` lattice sites: the first ones, or (`random_select`) a random choice in
+/// lattice order.
+fn select_sites(sites: &mut Vec<Vec3>, count: usize, random_select: bool, rng: &mut ChaCha8Rng) {
+    if random_select {
+        sites.shuffle(rng);
+        sites.truncate(count);
+        sites.sort_by(|a, b| a.z.total_cmp(&b.z).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+    } else {
+        sites.truncate(count);
+    }
+}
+
+/// Checks listed positions (inside the confinement, free of the grains placed and of each
+/// other) and registers them in the overlap grid.
+fn list_positions(
+    positions: &[Vec3],
+    diameters: &[Real],
+    domain: &Domain,
+    confine: Confinement<'_>,
+    grid: &mut OverlapGrid,
+    placed: &Particles,
+    path: &str,
+) -> Result<Vec<Vec3>, EngineError> {
+    let radii: Vec<Real> = diameters.iter().map(|d| d / 2.0).collect();
+    for (idx, (p, d)) in positions.iter().zip(diameters).enumerate() {
+        let field = format!("{path}.placement.positions[{idx}]");
+        if !confine.holds(p, d / 2.0) {
+            return Err(EngineError::Build { field, reason: format!("particle lies outside {}", confine.name()) });
+        }
+        check_free(grid, placed, &positions[..idx], &radii[..idx], domain, p, d / 2.0, &field)?;
+        grid.insert_in(domain, p, placed.len() + grid.pending());
+        grid.pending_push();
+    }
+    grid.flush();
+    Ok(positions.to_vec())
+}
+
+/// A velocity with independent Gaussian components of standard deviation `std` in `dim`
+/// dimensions.
+fn gaussian_velocity(dim: usize, std: Real, rng: &mut ChaCha8Rng) -> Vec3 {
+    let mut v = Vec3::zeros();
+    for a in 0..dim {
+        v[a] = std * standard_normal(rng);
+    }
+    v
 }
 
 /// The particles of `grains` (the placed grains, those of set `k` from `starts[k]` to

@@ -6,6 +6,8 @@ use super::spec::*;
 use super::violation::Checker;
 use crate::math::{vec_from_slice, Vec3, AXES};
 
+/// Checks the container section: box, periodic axes, walls and their material, Lees-Edwards
+/// shear and imposed deformation.
 pub(super) fn check_container(
     c: &mut Checker,
     s: &ContainerSpec,
@@ -31,43 +33,7 @@ pub(super) fn check_container(
             }
         }
     }
-    let mut walls = Vec::new();
-    for axis in (0..dim).filter(|&a| !periodic[a]) {
-        for upper in [false, true] {
-            let face = Face { axis, upper };
-            let motion = match s.walls.get(&face.name()) {
-                None | Some(WallSpec::Fixed) => WallMotion::Fixed,
-                Some(WallSpec::Velocity { velocity }) => {
-                    let path = format!("container.walls.{}.velocity", face.name());
-                    if c.vector(&path, velocity, dim) {
-                        WallMotion::Velocity(vec_from_slice(velocity))
-                    } else {
-                        WallMotion::Fixed
-                    }
-                }
-                Some(WallSpec::Stress { stress, gain, max_speed }) => {
-                    let path = format!("container.walls.{}", face.name());
-                    c.positive(&format!("{path}.stress"), *stress);
-                    if let Some(g) = gain {
-                        c.positive(&format!("{path}.gain"), *g);
-                    }
-                    if let Some(v) = max_speed {
-                        c.positive(&format!("{path}.max_speed"), *v);
-                    }
-                    WallMotion::Stress { stress: *stress, gain: *gain, max_speed: max_speed.unwrap_or(f64::INFINITY), integral: false }
-                }
-            };
-            walls.push(WallDef { face, motion });
-        }
-    }
-    for key in s.walls.keys() {
-        let known = (0..dim).any(|a| [false, true].iter().any(|&u| Face { axis: a, upper: u }.name() == *key));
-        if !known {
-            c.fail(format!("container.walls.{key}"), "unknown wall; names are x_min, x_max, y_min, y_max (and z_min, z_max in 3D)");
-        } else if (0..dim).any(|a| periodic[a] && key.starts_with(AXES[a])) {
-            c.fail(format!("container.walls.{key}"), "this axis is periodic: it has no walls");
-        }
-    }
+    let walls = check_walls(c, s, dim, &periodic);
     let wall_material = match (&s.wall_material, walls.is_empty()) {
         (Some(name), _) => Some(material_index(c, "container.wall_material", name)),
         (None, false) => {
@@ -85,7 +51,64 @@ pub(super) fn check_container(
         }
         (le.shear_rate, le.initial_profile)
     });
-    let deformation = s.deformation.as_ref().map(|d| match d {
+    let deformation = s.deformation.as_ref().map(|d| check_deformation(c, d, dim, &periodic));
+    if lees_edwards.is_some() && deformation.is_some() {
+        c.fail("container.deformation", "cannot be combined with lees_edwards in this version");
+    }
+    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation, drum: None, granule: None }
+}
+
+/// The walls on the non-periodic faces with their motions; names of unknown or periodic walls
+/// are refused.
+fn check_walls(c: &mut Checker, s: &ContainerSpec, dim: usize, periodic: &[bool; 3]) -> Vec<WallDef> {
+    let mut walls = Vec::new();
+    for axis in (0..dim).filter(|&a| !periodic[a]) {
+        for upper in [false, true] {
+            let face = Face { axis, upper };
+            let motion = check_wall_motion(c, &face, s.walls.get(&face.name()), dim);
+            walls.push(WallDef { face, motion });
+        }
+    }
+    for key in s.walls.keys() {
+        let known = (0..dim).any(|a| [false, true].iter().any(|&u| Face { axis: a, upper: u }.name() == *key));
+        if !known {
+            c.fail(format!("container.walls.{key}"), "unknown wall; names are x_min, x_max, y_min, y_max (and z_min, z_max in 3D)");
+        } else if (0..dim).any(|a| periodic[a] && key.starts_with(AXES[a])) {
+            c.fail(format!("container.walls.{key}"), "this axis is periodic: it has no walls");
+        }
+    }
+    walls
+}
+
+/// The motion of the wall on `face`: fixed, at a velocity, or holding a stress.
+fn check_wall_motion(c: &mut Checker, face: &Face, spec: Option<&WallSpec>, dim: usize) -> WallMotion {
+    match spec {
+        None | Some(WallSpec::Fixed) => WallMotion::Fixed,
+        Some(WallSpec::Velocity { velocity }) => {
+            let path = format!("container.walls.{}.velocity", face.name());
+            if c.vector(&path, velocity, dim) {
+                WallMotion::Velocity(vec_from_slice(velocity))
+            } else {
+                WallMotion::Fixed
+            }
+        }
+        Some(WallSpec::Stress { stress, gain, max_speed }) => {
+            let path = format!("container.walls.{}", face.name());
+            c.positive(&format!("{path}.stress"), *stress);
+            if let Some(g) = gain {
+                c.positive(&format!("{path}.gain"), *g);
+            }
+            if let Some(v) = max_speed {
+                c.positive(&format!("{path}.max_speed"), *v);
+            }
+            WallMotion::Stress { stress: *stress, gain: *gain, max_speed: max_speed.unwrap_or(f64::INFINITY), integral: false }
+        }
+    }
+}
+
+/// The deformation imposed on a periodic cell: a strain rate, or a servo to a pressure.
+fn check_deformation(c: &mut Checker, d: &DeformationSpec, dim: usize, periodic: &[bool; 3]) -> Deformation {
+    match d {
         DeformationSpec::StrainRate { rate } => {
             if c.vector("container.deformation.rate", rate, dim) {
                 for (a, r) in rate.iter().enumerate() {
@@ -107,11 +130,7 @@ pub(super) fn check_container(
             }
             Deformation::Pressure { target: *target, max_strain_rate: *max_strain_rate, gain: gain.unwrap_or(max_strain_rate / target) }
         }
-    });
-    if lees_edwards.is_some() && deformation.is_some() {
-        c.fail("container.deformation", "cannot be combined with lees_edwards in this version");
     }
-    Container { lo, hi, periodic, walls, wall_material, lees_edwards, deformation, drum: None, granule: None }
 }
 
 pub(super) fn check_stop(c: &mut Checker, s: &StopSpec, container: &Container) -> Stop {

@@ -41,58 +41,9 @@ pub(super) fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> M
     let p = format!("materials.{name}");
     c.positive(&format!("{p}.density"), m.density);
     if let Some(d) = &m.deformable {
-        let deformable = check_deformable(c, &p, d);
-        for (given, key) in [
-            (m.contact.is_some(), "contact"),
-            (m.restitution.is_some(), "restitution"),
-            (m.rolling.is_some(), "rolling"),
-            (m.liquid.is_some(), "liquid"),
-            (m.cohesion.is_some(), "cohesion"),
-            (m.tangential_damping_ratio.is_some(), "tangential_damping_ratio"),
-            (m.limit_damping.is_some(), "limit_damping"),
-        ] {
-            if given {
-                c.fail(
-                    format!("{p}.{key}"),
-                    "not for a deformable material: its grains touch through their constitutive law (leave it out)",
-                );
-            }
-        }
-        c.non_negative(&format!("{p}.friction"), m.friction);
-        let (young, poisson) = deformable.young_poisson();
-        return Material {
-            name: name.to_string(),
-            density: m.density,
-            law: ElasticLaw::HertzMindlin { young, poisson },
-            restitution: 0.0,
-            friction: m.friction,
-            tangential_damping_ratio: 0.0,
-            limit_damping: true,
-            rolling: None,
-            liquid: None,
-            cohesion: None,
-            deformable: Some(deformable),
-        };
+        return deformable_material(c, name, &p, m, d);
     }
-    let law = match m.contact {
-        Some(ContactLawSpec::Linear { k_n, k_t }) => {
-            c.positive(&format!("{p}.contact.k_n"), k_n);
-            let k_t = k_t.unwrap_or(2.0 / 7.0 * k_n);
-            c.non_negative(&format!("{p}.contact.k_t"), k_t);
-            ElasticLaw::Linear { k_n, k_t }
-        }
-        Some(ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio }) => {
-            c.positive(&format!("{p}.contact.young_modulus"), young_modulus);
-            if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
-                c.fail(format!("{p}.contact.poisson_ratio"), format!("must be > -1 and < 0.5, got {poisson_ratio}"));
-            }
-            ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
-        }
-        None => {
-            c.fail(format!("{p}.contact"), "required (the elastic contact law), unless the material is deformable");
-            ElasticLaw::Linear { k_n: 1.0, k_t: 0.0 }
-        }
-    };
+    let law = check_contact_law(c, &p, m.contact.as_ref());
     let restitution = m.restitution.unwrap_or_else(|| {
         c.fail(format!("{p}.restitution"), "required, unless the material is deformable");
         1.0
@@ -109,31 +60,7 @@ pub(super) fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> M
         c.non_negative(&format!("{p}.rolling.friction"), r.friction);
         Rolling { stiffness: r.stiffness, friction: r.friction }
     });
-    let liquid = m.liquid.as_ref().map(|l| {
-        let q = format!("{p}.liquid");
-        c.positive(&format!("{q}.surface_tension"), l.surface_tension);
-        c.within(&format!("{q}.contact_angle"), l.contact_angle, 0.0, std::f64::consts::FRAC_PI_2 - 1e-9);
-        c.positive(&format!("{q}.bridge_volume"), l.bridge_volume);
-        c.non_negative(&format!("{q}.viscosity"), l.viscosity);
-        let roughness = match l.roughness {
-            Some(h) => {
-                c.positive(&format!("{q}.roughness"), h);
-                h
-            }
-            None if l.viscosity > 0.0 => {
-                c.fail(format!("{q}.roughness"), "required when viscosity > 0 (it bounds the lubrication force)");
-                0.0
-            }
-            None => 0.0,
-        };
-        Liquid {
-            surface_tension: l.surface_tension,
-            contact_angle: l.contact_angle,
-            bridge_volume: l.bridge_volume,
-            viscosity: l.viscosity,
-            roughness,
-        }
-    });
+    let liquid = m.liquid.as_ref().map(|l| check_liquid(c, &p, l));
     let cohesion = m.cohesion.as_ref().map(|k| {
         c.positive(&format!("{p}.cohesion.force"), k.force);
         c.non_negative(&format!("{p}.cohesion.distance"), k.distance);
@@ -151,6 +78,89 @@ pub(super) fn check_material(c: &mut Checker, name: &str, m: &MaterialSpec) -> M
         liquid,
         cohesion,
         deformable: None,
+    }
+}
+
+/// Checks a deformable material: its constitutive law, and none of the point-contact fields.
+fn deformable_material(c: &mut Checker, name: &str, p: &str, m: &MaterialSpec, d: &DeformableSpec) -> Material {
+    let deformable = check_deformable(c, p, d);
+    for (given, key) in [
+        (m.contact.is_some(), "contact"),
+        (m.restitution.is_some(), "restitution"),
+        (m.rolling.is_some(), "rolling"),
+        (m.liquid.is_some(), "liquid"),
+        (m.cohesion.is_some(), "cohesion"),
+        (m.tangential_damping_ratio.is_some(), "tangential_damping_ratio"),
+        (m.limit_damping.is_some(), "limit_damping"),
+    ] {
+        if given {
+            c.fail(format!("{p}.{key}"), "not for a deformable material: its grains touch through their constitutive law (leave it out)");
+        }
+    }
+    c.non_negative(&format!("{p}.friction"), m.friction);
+    let (young, poisson) = deformable.young_poisson();
+    Material {
+        name: name.to_string(),
+        density: m.density,
+        law: ElasticLaw::HertzMindlin { young, poisson },
+        restitution: 0.0,
+        friction: m.friction,
+        tangential_damping_ratio: 0.0,
+        limit_damping: true,
+        rolling: None,
+        liquid: None,
+        cohesion: None,
+        deformable: Some(deformable),
+    }
+}
+
+/// Checks a point-contact material's elastic contact law (linear or Hertz–Mindlin).
+fn check_contact_law(c: &mut Checker, p: &str, contact: Option<&ContactLawSpec>) -> ElasticLaw {
+    match contact {
+        Some(&ContactLawSpec::Linear { k_n, k_t }) => {
+            c.positive(&format!("{p}.contact.k_n"), k_n);
+            let k_t = k_t.unwrap_or(2.0 / 7.0 * k_n);
+            c.non_negative(&format!("{p}.contact.k_t"), k_t);
+            ElasticLaw::Linear { k_n, k_t }
+        }
+        Some(&ContactLawSpec::HertzMindlin { young_modulus, poisson_ratio }) => {
+            c.positive(&format!("{p}.contact.young_modulus"), young_modulus);
+            if !(poisson_ratio.is_finite() && poisson_ratio > -1.0 && poisson_ratio < 0.5) {
+                c.fail(format!("{p}.contact.poisson_ratio"), format!("must be > -1 and < 0.5, got {poisson_ratio}"));
+            }
+            ElasticLaw::HertzMindlin { young: young_modulus, poisson: poisson_ratio }
+        }
+        None => {
+            c.fail(format!("{p}.contact"), "required (the elastic contact law), unless the material is deformable");
+            ElasticLaw::Linear { k_n: 1.0, k_t: 0.0 }
+        }
+    }
+}
+
+/// Checks a material's liquid: its bridges, and the roughness that bounds lubrication.
+fn check_liquid(c: &mut Checker, p: &str, l: &LiquidSpec) -> Liquid {
+    let q = format!("{p}.liquid");
+    c.positive(&format!("{q}.surface_tension"), l.surface_tension);
+    c.within(&format!("{q}.contact_angle"), l.contact_angle, 0.0, std::f64::consts::FRAC_PI_2 - 1e-9);
+    c.positive(&format!("{q}.bridge_volume"), l.bridge_volume);
+    c.non_negative(&format!("{q}.viscosity"), l.viscosity);
+    let roughness = match l.roughness {
+        Some(h) => {
+            c.positive(&format!("{q}.roughness"), h);
+            h
+        }
+        None if l.viscosity > 0.0 => {
+            c.fail(format!("{q}.roughness"), "required when viscosity > 0 (it bounds the lubrication force)");
+            0.0
+        }
+        None => 0.0,
+    };
+    Liquid {
+        surface_tension: l.surface_tension,
+        contact_angle: l.contact_angle,
+        bridge_volume: l.bridge_volume,
+        viscosity: l.viscosity,
+        roughness,
     }
 }
 

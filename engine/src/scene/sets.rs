@@ -96,24 +96,32 @@ pub(super) fn check_set(
             SizeDist::Monodisperse(1.0)
         }
     };
-    let placement = match &p.placement {
+    let placement = check_placement(c, path, &p.placement, dim, container);
+    let count = check_count(c, path, &placement, p.count, count_from_fill);
+    let velocity = check_velocity(c, path, p.velocity.as_ref(), dim);
+    let has_liquid = materials.get(material).is_some_and(|m| m.liquid.is_some());
+    let wet_fraction = match p.wet_fraction {
+        Some(f) => {
+            if c.within(&format!("{path}.wet_fraction"), f, 0.0, 1.0) && f > 0.0 && !has_liquid {
+                c.fail(format!("{path}.wet_fraction"), "must be 0 when the material has no liquid");
+            }
+            f
+        }
+        None if has_liquid => 1.0,
+        None => 0.0,
+    };
+    let aggregate = p.model.as_ref().map(|m| check_grain_model(c, &format!("{path}.model"), m, dim, &size, materials.get(material)));
+    ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate }
+}
+
+/// Checks a set's placement: at random in a region, on a lattice, or at listed positions.
+fn check_placement(c: &mut Checker, path: &str, placement: &PlacementSpec, dim: usize, container: &Container) -> Placement {
+    match placement {
         PlacementSpec::Random { region } => {
             Placement::Random(check_region(c, &format!("{path}.placement.region"), region.as_ref(), dim, container))
         }
         PlacementSpec::Lattice { lattice, region, spacing, select } => {
-            let kind = match (lattice.as_str(), dim) {
-                ("square", 2) => LatticeKind::Square,
-                ("hexagonal", 2) => LatticeKind::Hexagonal,
-                ("cubic", 3) => LatticeKind::Cubic,
-                ("fcc", 3) => LatticeKind::Fcc,
-                (other, d) => {
-                    c.fail(
-                        format!("{path}.placement.lattice"),
-                        format!("must be one of {} in {d}D, got '{other}'", if d == 2 { "square, hexagonal" } else { "cubic, fcc" }),
-                    );
-                    LatticeKind::Cubic
-                }
-            };
+            let kind = check_lattice_kind(c, path, lattice, dim);
             if let Some(s) = spacing {
                 c.positive(&format!("{path}.placement.spacing"), *s);
             }
@@ -133,42 +141,76 @@ pub(super) fn check_set(
             }
         }
         PlacementSpec::List { positions, diameters, velocities } => {
-            let mut pos = Vec::with_capacity(positions.len());
-            for (i, x) in positions.iter().enumerate() {
-                if c.vector(&format!("{path}.placement.positions[{i}]"), x, dim) {
-                    pos.push(vec_from_slice(x));
-                }
-            }
-            if let Some(d) = diameters {
-                if d.len() != positions.len() {
-                    c.fail(
-                        format!("{path}.placement.diameters"),
-                        format!("must have one diameter per position ({}), got {}", positions.len(), d.len()),
-                    );
-                }
-                for (i, di) in d.iter().enumerate() {
-                    c.positive(&format!("{path}.placement.diameters[{i}]"), *di);
-                }
-            }
-            let vel = velocities.as_ref().map(|vs| {
-                if vs.len() != positions.len() {
-                    c.fail(
-                        format!("{path}.placement.velocities"),
-                        format!("must have one velocity per position ({}), got {}", positions.len(), vs.len()),
-                    );
-                }
-                vs.iter()
-                    .enumerate()
-                    .map(|(i, v)| {
-                        c.vector(&format!("{path}.placement.velocities[{i}]"), v, dim);
-                        vec_from_slice(v)
-                    })
-                    .collect()
-            });
-            Placement::List { positions: pos, diameters: diameters.clone(), velocities: vel }
+            check_list(c, path, positions, diameters.as_ref(), velocities.as_ref(), dim)
         }
-    };
-    let count = match (&placement, p.count) {
+    }
+}
+
+/// The lattice a set is placed on, among those of the dimension.
+fn check_lattice_kind(c: &mut Checker, path: &str, lattice: &str, dim: usize) -> LatticeKind {
+    match (lattice, dim) {
+        ("square", 2) => LatticeKind::Square,
+        ("hexagonal", 2) => LatticeKind::Hexagonal,
+        ("cubic", 3) => LatticeKind::Cubic,
+        ("fcc", 3) => LatticeKind::Fcc,
+        (other, d) => {
+            c.fail(
+                format!("{path}.placement.lattice"),
+                format!("must be one of {} in {d}D, got '{other}'", if d == 2 { "square, hexagonal" } else { "cubic, fcc" }),
+            );
+            LatticeKind::Cubic
+        }
+    }
+}
+
+/// Checks a list placement: its positions, and the diameters and velocities, one per position.
+fn check_list(
+    c: &mut Checker,
+    path: &str,
+    positions: &[Vec<f64>],
+    diameters: Option<&Vec<f64>>,
+    velocities: Option<&Vec<Vec<f64>>>,
+    dim: usize,
+) -> Placement {
+    let mut pos = Vec::with_capacity(positions.len());
+    for (i, x) in positions.iter().enumerate() {
+        if c.vector(&format!("{path}.placement.positions[{i}]"), x, dim) {
+            pos.push(vec_from_slice(x));
+        }
+    }
+    if let Some(d) = diameters {
+        if d.len() != positions.len() {
+            c.fail(
+                format!("{path}.placement.diameters"),
+                format!("must have one diameter per position ({}), got {}", positions.len(), d.len()),
+            );
+        }
+        for (i, di) in d.iter().enumerate() {
+            c.positive(&format!("{path}.placement.diameters[{i}]"), *di);
+        }
+    }
+    let vel = velocities.map(|vs| {
+        if vs.len() != positions.len() {
+            c.fail(
+                format!("{path}.placement.velocities"),
+                format!("must have one velocity per position ({}), got {}", positions.len(), vs.len()),
+            );
+        }
+        vs.iter()
+            .enumerate()
+            .map(|(i, v)| {
+                c.vector(&format!("{path}.placement.velocities[{i}]"), v, dim);
+                vec_from_slice(v)
+            })
+            .collect()
+    });
+    Placement::List { positions: pos, diameters: diameters.cloned(), velocities: vel }
+}
+
+/// The set's grain count: the listed positions', the given one, or (a drum's random set with
+/// `count_from_fill`) 0 until the fill sets it.
+fn check_count(c: &mut Checker, path: &str, placement: &Placement, given: Option<usize>, count_from_fill: bool) -> usize {
+    let count = match (placement, given) {
         (Placement::List { positions, .. }, Some(n)) if n != positions.len() => {
             c.fail(format!("{path}.count"), format!("must equal the number of listed positions ({})", positions.len()));
             n
@@ -182,13 +224,18 @@ pub(super) fn check_set(
             0
         }
     };
-    if count == 0 && !matches!(placement, Placement::List { .. }) && p.count.is_some() {
+    if count == 0 && !matches!(placement, Placement::List { .. }) && given.is_some() {
         c.fail(format!("{path}.count"), "must be >= 1");
     }
     if count > MAX_PARTICLES {
         c.fail(format!("{path}.count"), format!("must be at most {MAX_PARTICLES}, got {count}"));
     }
-    let velocity = match &p.velocity {
+    count
+}
+
+/// The set's initial velocity: zero, uniform, or Gaussian.
+fn check_velocity(c: &mut Checker, path: &str, v: Option<&VelocitySpec>, dim: usize) -> InitialVelocity {
+    match v {
         None | Some(VelocitySpec::Zero) => InitialVelocity::Uniform(Vec3::zeros()),
         Some(VelocitySpec::Uniform { value }) => {
             c.vector(&format!("{path}.velocity.value"), value, dim);
@@ -198,20 +245,7 @@ pub(super) fn check_set(
             c.non_negative(&format!("{path}.velocity.std"), *std);
             InitialVelocity::Gaussian(*std)
         }
-    };
-    let has_liquid = materials.get(material).is_some_and(|m| m.liquid.is_some());
-    let wet_fraction = match p.wet_fraction {
-        Some(f) => {
-            if c.within(&format!("{path}.wet_fraction"), f, 0.0, 1.0) && f > 0.0 && !has_liquid {
-                c.fail(format!("{path}.wet_fraction"), "must be 0 when the material has no liquid");
-            }
-            f
-        }
-        None if has_liquid => 1.0,
-        None => 0.0,
-    };
-    let aggregate = p.model.as_ref().map(|m| check_grain_model(c, &format!("{path}.model"), m, dim, &size, materials.get(material)));
-    ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate }
+    }
 }
 
 /// A size distribution at `path` (`….size`).

@@ -153,6 +153,19 @@ fn vec3(v: &[f64]) -> Vec3 {
     out
 }
 
+/// A state's box as checked: its corners, its periodic axes, and whether the corners are valid
+/// vectors of the scene's dimension.
+struct StateBox {
+    /// Whether `min` and `max` are well-formed vectors (the checks against the box need them).
+    ok: bool,
+    /// Lower corner.
+    lo: Vec3,
+    /// Upper corner.
+    hi: Vec3,
+    /// Periodic axes.
+    periodic: [bool; 3],
+}
+
 /// Checks a state against the scene it starts: dimension, box, periodic axes, material names
 /// (`material_index` maps a name to the scene's material, reporting unknown ones) and every
 /// particle. `path` is the state's field path (`start_from.state`).
@@ -163,6 +176,58 @@ pub(crate) fn check_state(
     dim: usize,
     material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
 ) -> InitialState {
+    let bx = check_state_box(c, path, s, dim);
+    let materials: Vec<usize> =
+        s.materials.iter().enumerate().map(|(i, name)| material_index(c, &format!("{path}.materials[{i}]"), name)).collect();
+
+    let p = &s.particles;
+    let n = p.radius.len();
+    let pp = format!("{path}.particles");
+    let lengths_ok = check_particle_lengths(c, &pp, p);
+    let bondings = check_bondings(c, &format!("{path}.bondings"), &s.bondings);
+    let mut out = InitialState {
+        lees_edwards_offset: s.lees_edwards_offset,
+        pos: Vec::new(),
+        vel: Vec::new(),
+        omega: Vec::new(),
+        radius: Vec::new(),
+        material: Vec::new(),
+        wet: Vec::new(),
+        aggregate: Vec::new(),
+        bondings,
+        points: None,
+        meshes: None,
+    };
+    if !lengths_ok {
+        return out;
+    }
+    check_soft_grains(c, path, s, dim, &bx, &mut out);
+    check_particle_entries(c, path, p, dim, materials.len(), &bx);
+    out.pos = p.position.iter().map(|v| vec3(v)).collect();
+    out.vel = p.velocity.iter().map(|v| vec3(v)).collect();
+    out.omega = p
+        .angular_velocity
+        .iter()
+        .map(|w| if dim == 2 { Vec3::new(0.0, 0.0, w.first().copied().unwrap_or(0.0)) } else { vec3(w) })
+        .collect();
+    out.radius = p.radius.clone();
+    out.material = p.material.iter().map(|&m| materials.get(m as usize).copied().unwrap_or(0)).collect();
+    out.wet = if p.wet.is_empty() { vec![false; n] } else { p.wet.clone() };
+    {
+        let mut rule = EntryRule::new(c, format!("{pp}.aggregate"), "particles");
+        for (i, a) in p.aggregate.iter().enumerate() {
+            if a.is_some_and(|a| a as usize >= s.bondings.len()) {
+                rule.fail(i, format!("must index {path}.bondings (0..{}) or be null, got {a:?}", s.bondings.len()));
+            }
+        }
+    }
+    out.aggregate =
+        if p.aggregate.is_empty() { vec![NO_AGGREGATE; n] } else { p.aggregate.iter().map(|a| a.unwrap_or(NO_AGGREGATE)).collect() };
+    out
+}
+
+/// Checks a state's format, version and dimension, its box, periodic axes and Lees-Edwards offset.
+fn check_state_box(c: &mut Checker, path: &str, s: &StateFile, dim: usize) -> StateBox {
     if s.format != STATE_FORMAT {
         c.fail(format!("{path}.format"), format!("must be '{STATE_FORMAT}', got '{}'", s.format));
     }
@@ -197,12 +262,13 @@ pub(crate) fn check_state(
             c.fail(format!("{path}.lees_edwards_offset"), format!("must be in [0, L_x = {lx}), got {offset}"));
         }
     }
-    let materials: Vec<usize> =
-        s.materials.iter().enumerate().map(|(i, name)| material_index(c, &format!("{path}.materials[{i}]"), name)).collect();
+    StateBox { ok: ok_box, lo, hi, periodic }
+}
 
-    let p = &s.particles;
+/// Checks that the particles exist and that every per-particle array has one entry each (`wet`
+/// and `aggregate` may be empty); false when a length is wrong.
+fn check_particle_lengths(c: &mut Checker, pp: &str, p: &StateParticles) -> bool {
     let n = p.radius.len();
-    let pp = format!("{path}.particles");
     if n == 0 {
         c.fail(format!("{pp}.radius"), "the state has no particle");
     }
@@ -226,28 +292,18 @@ pub(crate) fn check_state(
         c.fail(format!("{pp}.aggregate"), format!("must be empty or have one entry per particle ({n}), got {}", p.aggregate.len()));
         lengths_ok = false;
     }
-    let bondings = check_bondings(c, &format!("{path}.bondings"), &s.bondings);
-    let mut out = InitialState {
-        lees_edwards_offset: offset,
-        pos: Vec::new(),
-        vel: Vec::new(),
-        omega: Vec::new(),
-        radius: Vec::new(),
-        material: Vec::new(),
-        wet: Vec::new(),
-        aggregate: Vec::new(),
-        bondings,
-        points: None,
-        meshes: None,
-    };
-    if !lengths_ok {
-        return out;
-    }
+    lengths_ok
+}
+
+/// Checks a state's material points and meshed grains (2D only) and keeps them in `out`.
+fn check_soft_grains(c: &mut Checker, path: &str, s: &StateFile, dim: usize, bx: &StateBox, out: &mut InitialState) {
+    let n = s.particles.radius.len();
+    let (lo, hi) = (bx.lo, bx.hi);
     if let Some(points) = &s.material_points {
         let field = format!("{path}.material_points");
         if dim != 2 {
             c.fail(field, "only in 2D (material points are a plane-strain method's)");
-        } else if ok_box && check_points(c, &field, points, n, [lo.x, lo.y], [hi.x, hi.y]) {
+        } else if bx.ok && check_points(c, &field, points, n, [lo.x, lo.y], [hi.x, hi.y]) {
             out.points = Some(points.clone());
         }
     }
@@ -255,10 +311,15 @@ pub(crate) fn check_state(
         let field = format!("{path}.meshes");
         if dim != 2 {
             c.fail(field, "only in 2D (meshed grains are a plane-strain method's)");
-        } else if ok_box && check_meshes(c, &field, meshes, n, [lo.x, lo.y], [hi.x, hi.y]) {
+        } else if bx.ok && check_meshes(c, &field, meshes, n, [lo.x, lo.y], [hi.x, hi.y]) {
             out.meshes = Some(meshes.clone());
         }
     }
+}
+
+/// Checks every particle's radius, material index, vectors, and position inside the box.
+fn check_particle_entries(c: &mut Checker, path: &str, p: &StateParticles, dim: usize, n_materials: usize, bx: &StateBox) {
+    let pp = format!("{path}.particles");
     {
         let mut rule = EntryRule::new(c, format!("{pp}.radius"), "particles");
         for (i, r) in p.radius.iter().enumerate() {
@@ -270,8 +331,8 @@ pub(crate) fn check_state(
     {
         let mut rule = EntryRule::new(c, format!("{pp}.material"), "particles");
         for (i, m) in p.material.iter().enumerate() {
-            if *m as usize >= materials.len() {
-                rule.fail(i, format!("must index {path}.materials (0..{}), got {m}", materials.len()));
+            if *m as usize >= n_materials {
+                rule.fail(i, format!("must index {path}.materials (0..{n_materials}), got {m}"));
             }
         }
     }
@@ -288,7 +349,8 @@ pub(crate) fn check_state(
             }
         }
     }
-    if ok_box {
+    if bx.ok {
+        let (lo, hi, periodic) = (bx.lo, bx.hi, bx.periodic);
         let mut rule = EntryRule::new(c, format!("{pp}.position"), "particles");
         for (i, v) in p.position.iter().enumerate() {
             if v.len() == dim && v.iter().all(|x| x.is_finite()) {
@@ -298,27 +360,6 @@ pub(crate) fn check_state(
             }
         }
     }
-    out.pos = p.position.iter().map(|v| vec3(v)).collect();
-    out.vel = p.velocity.iter().map(|v| vec3(v)).collect();
-    out.omega = p
-        .angular_velocity
-        .iter()
-        .map(|w| if dim == 2 { Vec3::new(0.0, 0.0, w.first().copied().unwrap_or(0.0)) } else { vec3(w) })
-        .collect();
-    out.radius = p.radius.clone();
-    out.material = p.material.iter().map(|&m| materials.get(m as usize).copied().unwrap_or(0)).collect();
-    out.wet = if p.wet.is_empty() { vec![false; n] } else { p.wet.clone() };
-    {
-        let mut rule = EntryRule::new(c, format!("{pp}.aggregate"), "particles");
-        for (i, a) in p.aggregate.iter().enumerate() {
-            if a.is_some_and(|a| a as usize >= s.bondings.len()) {
-                rule.fail(i, format!("must index {path}.bondings (0..{}) or be null, got {a:?}", s.bondings.len()));
-            }
-        }
-    }
-    out.aggregate =
-        if p.aggregate.is_empty() { vec![NO_AGGREGATE; n] } else { p.aggregate.iter().map(|a| a.unwrap_or(NO_AGGREGATE)).collect() };
-    out
 }
 
 /// The laws of a state's aggregates, by the rules of a scene's `bonded_primaries` model.

@@ -8,7 +8,7 @@ use super::sets::{check_aggregate_periods, check_set, check_total, fill_drum, gr
 use super::spec::*;
 use super::state::{check_state, StateFile};
 use super::violation::{Checker, Violation};
-use crate::math::{vec_from_slice, Vec3};
+use crate::math::{vec_from_slice, Real, Vec3};
 
 /// Parses scene JSON text and validates the scene (not its method: a scene knows no method;
 /// `methods::plan_scene` reads both).
@@ -70,29 +70,13 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
     let mut container = check_box(c, &spec.container, state, dim, &material_index);
     let initial = state.map(|st| std::sync::Arc::new(check_state(c, "start_from.state", st, dim, &material_index)));
 
-    let gravity = match &spec.gravity {
-        Some(g) if c.vector("gravity", g, dim) => vec_from_slice(g),
-        _ => Vec3::zeros(),
-    };
+    let gravity = check_gravity(c, spec.gravity.as_deref(), dim);
 
     // Particle sets.
     if spec.particles.is_empty() && initial.is_none() {
         c.fail("particles", "must contain at least one particle set (or give start_from)");
     }
-    let drum_fill = match &spec.experiment {
-        Some(ExperimentSpec::Drum(d)) => d.fill,
-        _ => None,
-    };
-    let mut sets: Vec<ParticleSet> = spec
-        .particles
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let path = format!("particles[{i}]");
-            let material = material_index(c, &format!("{path}.material"), &p.material);
-            check_set(c, &path, p, dim, material, &materials, &container, drum_fill.is_some())
-        })
-        .collect();
+    let mut sets = check_sets(c, spec, dim, &materials, &container, &material_index);
 
     check_aggregate_periods(c, &sets, &container, dim);
 
@@ -109,29 +93,13 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
         (Some(e), limits) => {
             let grains = grain_scales(dim, initial.as_deref(), &sets, &materials);
             let (experiment, stages) = check_experiment(c, e, dim, &container, &grains, &gravity);
-            match &experiment {
-                Experiment::Drum { drum, .. } => {
-                    container.drum = Some(*drum);
-                    if let Some(fill) = drum_fill {
-                        fill_drum(c, &mut sets, &spec.particles, fill, drum, &container, dim);
-                    }
-                }
-                Experiment::GranuleCompression { ball, .. } => container.granule = Some(*ball),
-                _ => {}
-            }
+            place_experiment(c, spec, &experiment, &mut container, &mut sets, dim);
             let stop = check_experiment_limits(c, limits.as_ref());
             (Some(experiment), stop, stages)
         }
     };
     let sampling = check_sampling(c, spec.sampling.as_ref(), &stop);
-    let snapshots = spec.snapshots.as_ref().map(|s| match s.every_steps {
-        Some(0) => {
-            c.fail("snapshots.every_steps", "must be >= 1 (leave it out to take a snapshot with every sample)");
-            0
-        }
-        Some(n) => n,
-        None => 0,
-    });
+    let snapshots = spec.snapshots.as_ref().map(|s| check_snapshot_interval(c, s.every_steps));
 
     check_total(c, initial.as_ref().map_or(0, |st| st.radius.len()), &sets);
     Scene {
@@ -148,6 +116,77 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
         sampling,
         snapshots,
         seed: spec.seed.unwrap_or(0),
+    }
+}
+
+/// The fill of a drum experiment, which sets the count of its one particle set.
+fn drum_fill(spec: &SceneSpec) -> Option<Real> {
+    match &spec.experiment {
+        Some(ExperimentSpec::Drum(d)) => d.fill,
+        _ => None,
+    }
+}
+
+/// The gravity vector (zero when none is given or it is refused).
+fn check_gravity(c: &mut Checker, g: Option<&[f64]>, dim: usize) -> Vec3 {
+    match g {
+        Some(g) if c.vector("gravity", g, dim) => vec_from_slice(g),
+        _ => Vec3::zeros(),
+    }
+}
+
+/// Checks every particle set, each with its material found by `material_index`.
+fn check_sets(
+    c: &mut Checker,
+    spec: &SceneSpec,
+    dim: usize,
+    materials: &[Material],
+    container: &Container,
+    material_index: &dyn Fn(&mut Checker, &str, &str) -> usize,
+) -> Vec<ParticleSet> {
+    let count_from_fill = drum_fill(spec).is_some();
+    spec.particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let path = format!("particles[{i}]");
+            let material = material_index(c, &format!("{path}.material"), &p.material);
+            check_set(c, &path, p, dim, material, materials, container, count_from_fill)
+        })
+        .collect()
+}
+
+/// Puts the experiment's drum or granule into the container, and sets a drum's grain count
+/// from its fill.
+fn place_experiment(
+    c: &mut Checker,
+    spec: &SceneSpec,
+    experiment: &Experiment,
+    container: &mut Container,
+    sets: &mut [ParticleSet],
+    dim: usize,
+) {
+    match experiment {
+        Experiment::Drum { drum, .. } => {
+            container.drum = Some(*drum);
+            if let Some(fill) = drum_fill(spec) {
+                fill_drum(c, sets, &spec.particles, fill, drum, container, dim);
+            }
+        }
+        Experiment::GranuleCompression { ball, .. } => container.granule = Some(*ball),
+        _ => {}
+    }
+}
+
+/// The snapshot interval in steps (0: with every sample; an explicit 0 is refused).
+fn check_snapshot_interval(c: &mut Checker, every_steps: Option<u64>) -> u64 {
+    match every_steps {
+        Some(0) => {
+            c.fail("snapshots.every_steps", "must be >= 1 (leave it out to take a snapshot with every sample)");
+            0
+        }
+        Some(n) => n,
+        None => 0,
     }
 }
 

@@ -204,176 +204,219 @@ pub fn check(spec: &StudySpec) -> Result<Study, Vec<Violation>> {
 /// Expands a study, validating each run's scene when `validate_scenes`.
 fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation>> {
     let mut v = Vec::new();
-    if let Some(n) = &spec.name {
-        if n.trim().is_empty() || n.chars().count() > 200 {
-            fail(&mut v, "name".into(), "must be 1 to 200 characters".into());
-        }
-    }
-    if !spec.scene.is_object() {
-        fail(&mut v, "scene".into(), "must be a scene (a JSON object)".into());
-    }
-    match (&spec.search, spec.series.is_empty()) {
-        (Some(_), false) => fail(&mut v, "search".into(), "a study has either series or a search, not both".into()),
-        (None, true) => fail(&mut v, "series".into(), "give at least one series (or a search)".into()),
-        _ => {}
-    }
+    check_shape(spec, &mut v);
     if let Some(s) = &spec.search {
-        for (f, rule) in s.check() {
-            fail(&mut v, format!("search.{f}"), rule);
-        }
-        if spec.measure.is_some() || spec.reference.is_some() {
-            fail(&mut v, "measure".into(), "a search measures where runs fail: it takes no measure or reference".into());
-        }
-        if v.is_empty() && validate_scenes {
-            for (end, value) in [("low", s.low), ("high", s.high)] {
-                match probe_scene(&spec.scene, s, value) {
-                    Ok(scene) => scene_ok(&mut v, &scene, &format!("with {} = {value} (search.{end})", s.parameter)),
-                    Err(e) => fail(&mut v, "search.parameter".into(), e),
-                }
-            }
-        }
-        return if v.is_empty() { Ok(Study::Search { search: s.clone(), scene: spec.scene.clone() }) } else { Err(v) };
+        return build_search(spec, s, validate_scenes, v);
     }
     let mut points = Vec::new();
     let mut labels = std::collections::BTreeSet::new();
     for (i, series) in spec.series.iter().enumerate() {
-        let at = format!("series[{i}]");
-        if series.label.trim().is_empty() || !labels.insert(series.label.clone()) {
-            fail(&mut v, format!("{at}.label"), "must be a non-empty label that no other series has".into());
-        }
-        let mut base = spec.scene.clone();
-        for (path, value) in &series.set {
-            if let Err(e) = paths::set(&mut base, path, value.clone()) {
-                fail(&mut v, format!("{at}.set.{path}"), e);
-            }
-        }
-        if let Some(m) = &series.measure {
-            for (f, rule) in m.check() {
-                fail(&mut v, if f.is_empty() { format!("{at}.measure") } else { format!("{at}.measure.{f}") }, rule);
-            }
-        }
-        let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
-        for (j, sw) in series.sweep.iter().enumerate() {
-            if sw.values.is_empty() {
-                fail(&mut v, format!("{at}.sweep[{j}].values"), "must list at least one value".into());
-            }
-            combos = combos
-                .into_iter()
-                .flat_map(|c| {
-                    sw.values.iter().map(move |x| {
-                        let mut c = c.clone();
-                        c.push((sw.parameter.clone(), x.clone()));
-                        c
-                    })
-                })
-                .collect();
-        }
-        for params in combos {
-            if points.len() >= MAX_POINTS {
-                fail(&mut v, format!("{at}.sweep"), format!("the study expands into more than {MAX_POINTS} runs"));
-                return Err(v);
-            }
-            let mut scene = base.clone();
-            let mut ok = true;
-            for (path, value) in &params {
-                if let Err(e) = paths::set(&mut scene, path, value.clone()) {
-                    fail(&mut v, format!("{at}.sweep"), e);
-                    ok = false;
-                }
-            }
-            if ok && validate_scenes {
-                let values = params.iter().map(|(p, x)| format!("{p} = {}", short(x))).collect::<Vec<_>>().join(", ");
-                let context = if values.is_empty() {
-                    format!("in series '{}'", series.label)
-                } else {
-                    format!("in series '{}' with {values}", series.label)
-                };
-                scene_ok(&mut v, &scene, &context);
-            }
-            let vars = series
-                .set
-                .iter()
-                .chain(params.iter().map(|(p, v)| (p, v)))
-                .filter_map(|(p, v)| v.as_f64().map(|x| (formula::variable_of(p), x)))
-                .collect();
-            points.push(Point { index: points.len(), series: series.label.clone(), params, vars, scene, measure: series.measure.clone() });
+        if !expand_series(spec, i, series, &mut labels, validate_scenes, &mut points, &mut v) {
+            return Err(v);
         }
     }
-    let measure = match &spec.measure {
+    let measure = check_measure(spec, &mut v);
+    let reference = check_reference(spec, &points, &mut v);
+    if v.is_empty() {
+        Ok(Study::Sweep { points, measure, reference })
+    } else {
+        Err(v)
+    }
+}
+
+/// Checks the study's name, that its scene is an object, and that it has series or a search.
+fn check_shape(spec: &StudySpec, v: &mut Vec<Violation>) {
+    if let Some(n) = &spec.name {
+        if n.trim().is_empty() || n.chars().count() > 200 {
+            fail(v, "name".into(), "must be 1 to 200 characters".into());
+        }
+    }
+    if !spec.scene.is_object() {
+        fail(v, "scene".into(), "must be a scene (a JSON object)".into());
+    }
+    match (&spec.search, spec.series.is_empty()) {
+        (Some(_), false) => fail(v, "search".into(), "a study has either series or a search, not both".into()),
+        (None, true) => fail(v, "series".into(), "give at least one series (or a search)".into()),
+        _ => {}
+    }
+}
+
+/// Checks a search and, when `validate_scenes`, the scenes at both ends of its range.
+fn build_search(spec: &StudySpec, s: &SearchSpec, validate_scenes: bool, mut v: Vec<Violation>) -> Result<Study, Vec<Violation>> {
+    for (f, rule) in s.check() {
+        fail(&mut v, format!("search.{f}"), rule);
+    }
+    if spec.measure.is_some() || spec.reference.is_some() {
+        fail(&mut v, "measure".into(), "a search measures where runs fail: it takes no measure or reference".into());
+    }
+    if v.is_empty() && validate_scenes {
+        for (end, value) in [("low", s.low), ("high", s.high)] {
+            match probe_scene(&spec.scene, s, value) {
+                Ok(scene) => scene_ok(&mut v, &scene, &format!("with {} = {value} (search.{end})", s.parameter)),
+                Err(e) => fail(&mut v, "search.parameter".into(), e),
+            }
+        }
+    }
+    if v.is_empty() {
+        Ok(Study::Search { search: s.clone(), scene: spec.scene.clone() })
+    } else {
+        Err(v)
+    }
+}
+
+/// Checks series `i` and appends its runs to `points`; false when the study expands into too
+/// many runs (the violation is recorded and the expansion must stop).
+fn expand_series(
+    spec: &StudySpec,
+    i: usize,
+    series: &SeriesSpec,
+    labels: &mut std::collections::BTreeSet<String>,
+    validate_scenes: bool,
+    points: &mut Vec<Point>,
+    v: &mut Vec<Violation>,
+) -> bool {
+    let at = format!("series[{i}]");
+    if series.label.trim().is_empty() || !labels.insert(series.label.clone()) {
+        fail(v, format!("{at}.label"), "must be a non-empty label that no other series has".into());
+    }
+    let mut base = spec.scene.clone();
+    for (path, value) in &series.set {
+        if let Err(e) = paths::set(&mut base, path, value.clone()) {
+            fail(v, format!("{at}.set.{path}"), e);
+        }
+    }
+    if let Some(m) = &series.measure {
+        for (f, rule) in m.check() {
+            fail(v, if f.is_empty() { format!("{at}.measure") } else { format!("{at}.measure.{f}") }, rule);
+        }
+    }
+    for params in sweep_combinations(series, &at, v) {
+        if points.len() >= MAX_POINTS {
+            fail(v, format!("{at}.sweep"), format!("the study expands into more than {MAX_POINTS} runs"));
+            return false;
+        }
+        let mut scene = base.clone();
+        let mut ok = true;
+        for (path, value) in &params {
+            if let Err(e) = paths::set(&mut scene, path, value.clone()) {
+                fail(v, format!("{at}.sweep"), e);
+                ok = false;
+            }
+        }
+        if ok && validate_scenes {
+            let values = params.iter().map(|(p, x)| format!("{p} = {}", short(x))).collect::<Vec<_>>().join(", ");
+            let context = if values.is_empty() {
+                format!("in series '{}'", series.label)
+            } else {
+                format!("in series '{}' with {values}", series.label)
+            };
+            scene_ok(v, &scene, &context);
+        }
+        let vars = series
+            .set
+            .iter()
+            .chain(params.iter().map(|(p, v)| (p, v)))
+            .filter_map(|(p, v)| v.as_f64().map(|x| (formula::variable_of(p), x)))
+            .collect();
+        points.push(Point { index: points.len(), series: series.label.clone(), params, vars, scene, measure: series.measure.clone() });
+    }
+    true
+}
+
+/// Every combination of the series' swept values, in order (one empty combination without sweeps).
+fn sweep_combinations(series: &SeriesSpec, at: &str, v: &mut Vec<Violation>) -> Vec<Vec<(String, Value)>> {
+    let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
+    for (j, sw) in series.sweep.iter().enumerate() {
+        if sw.values.is_empty() {
+            fail(v, format!("{at}.sweep[{j}].values"), "must list at least one value".into());
+        }
+        combos = combos
+            .into_iter()
+            .flat_map(|c| {
+                sw.values.iter().map(move |x| {
+                    let mut c = c.clone();
+                    c.push((sw.parameter.clone(), x.clone()));
+                    c
+                })
+            })
+            .collect();
+    }
+    combos
+}
+
+/// Checks the study's measure, required unless every series has its own.
+fn check_measure(spec: &StudySpec, v: &mut Vec<Violation>) -> MeasureSpec {
+    match &spec.measure {
         Some(m) => {
             for (f, rule) in m.check() {
-                fail(&mut v, if f.is_empty() { "measure".into() } else { format!("measure.{f}") }, rule);
+                fail(v, if f.is_empty() { "measure".into() } else { format!("measure.{f}") }, rule);
             }
             m.clone()
         }
         None => {
             if spec.series.iter().any(|s| s.measure.is_none()) {
-                fail(&mut v, "measure".into(), "required: what to measure on each run (unless every series has its own)".into());
+                fail(v, "measure".into(), "required: what to measure on each run (unless every series has its own)".into());
             }
             MeasureSpec::default()
         }
+    }
+}
+
+/// Checks the study's reference: exactly one kind, each well formed for the runs.
+fn check_reference(spec: &StudySpec, points: &[Point], v: &mut Vec<Violation>) -> ReferenceSpec {
+    let Some(r) = &spec.reference else {
+        fail(v, "reference".into(), "required: a value, a formula, analytic, a job, or the finest run of a series".into());
+        return ReferenceSpec::default();
     };
-    let reference = match &spec.reference {
-        Some(r) => {
-            let given = [r.value.is_some(), r.formula.is_some(), r.analytic.is_some(), r.job.is_some(), r.finest.is_some()]
-                .iter()
-                .filter(|x| **x)
-                .count();
-            if given != 1 {
-                fail(&mut v, "reference".into(), "give exactly one of value, formula, analytic, job, finest".into());
-            }
-            if let Some(text) = &r.formula {
-                match formula::Formula::parse(text) {
-                    Err(e) => fail(&mut v, "reference.formula".into(), e),
-                    Ok(f) => {
-                        // Every run must give every variable a value.
-                        for p in &points {
-                            if let Some(missing) = f.variables().into_iter().find(|x| !p.vars.contains_key(x)) {
-                                let known: Vec<&str> = p.vars.keys().map(String::as_str).collect();
-                                fail(
-                                    &mut v,
-                                    "reference.formula".into(),
-                                    format!(
-                                        "'{missing}' is not a numeric parameter of series '{}' (its variables: {})",
-                                        p.series,
-                                        if known.is_empty() { "none".to_string() } else { known.join(", ") }
-                                    ),
-                                );
-                                break;
-                            }
-                        }
-                    }
-                }
-            }
-            if let Some(a) = &r.analytic {
-                if a != "restitution" {
-                    fail(&mut v, "reference.analytic".into(), format!("unknown analytic reference '{a}'; known: restitution"));
-                }
-            }
-            if let Some(x) = r.value {
-                if !x.is_finite() {
-                    fail(&mut v, "reference.value".into(), "must be a finite number".into());
-                }
-            }
-            if r.job.is_some() && spec.measure.is_none() {
-                fail(&mut v, "measure".into(), "a job as reference is measured by the study's measure: give one".into());
-            }
-            if let Some(label) = &r.finest {
-                if !spec.series.iter().any(|s| &s.label == label) {
-                    fail(&mut v, "reference.finest".into(), format!("no series is labelled '{label}'"));
-                }
-            }
-            r.clone()
+    let given =
+        [r.value.is_some(), r.formula.is_some(), r.analytic.is_some(), r.job.is_some(), r.finest.is_some()].iter().filter(|x| **x).count();
+    if given != 1 {
+        fail(v, "reference".into(), "give exactly one of value, formula, analytic, job, finest".into());
+    }
+    if let Some(text) = &r.formula {
+        check_reference_formula(text, points, v);
+    }
+    if let Some(a) = &r.analytic {
+        if a != "restitution" {
+            fail(v, "reference.analytic".into(), format!("unknown analytic reference '{a}'; known: restitution"));
         }
-        None => {
-            fail(&mut v, "reference".into(), "required: a value, a formula, analytic, a job, or the finest run of a series".into());
-            ReferenceSpec::default()
+    }
+    if let Some(x) = r.value {
+        if !x.is_finite() {
+            fail(v, "reference.value".into(), "must be a finite number".into());
         }
+    }
+    if r.job.is_some() && spec.measure.is_none() {
+        fail(v, "measure".into(), "a job as reference is measured by the study's measure: give one".into());
+    }
+    if let Some(label) = &r.finest {
+        if !spec.series.iter().any(|s| &s.label == label) {
+            fail(v, "reference.finest".into(), format!("no series is labelled '{label}'"));
+        }
+    }
+    r.clone()
+}
+
+/// Checks that a reference formula parses and that every run gives every variable a value.
+fn check_reference_formula(text: &str, points: &[Point], v: &mut Vec<Violation>) {
+    let f = match formula::Formula::parse(text) {
+        Err(e) => return fail(v, "reference.formula".into(), e),
+        Ok(f) => f,
     };
-    if v.is_empty() {
-        Ok(Study::Sweep { points, measure, reference })
-    } else {
-        Err(v)
+    for p in points {
+        if let Some(missing) = f.variables().into_iter().find(|x| !p.vars.contains_key(x)) {
+            let known: Vec<&str> = p.vars.keys().map(String::as_str).collect();
+            fail(
+                v,
+                "reference.formula".into(),
+                format!(
+                    "'{missing}' is not a numeric parameter of series '{}' (its variables: {})",
+                    p.series,
+                    if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                ),
+            );
+            break;
+        }
     }
 }
 

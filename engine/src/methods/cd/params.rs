@@ -196,6 +196,18 @@ fn parse(object: Option<&serde_json::Value>, c: &mut Checker) -> Option<Box<dyn 
 /// Checks the parameters a scene gives, every bad one named under `method.`.
 pub fn check(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
     let mut p = CdParams::default();
+    check_step(c, s, &mut p);
+    check_solver(c, s, &mut p);
+    check_contacts(c, s, &mut p);
+    if let Some(t) = s.threads {
+        p.threads = check_threads(c, t);
+    }
+    p
+}
+
+/// Checks how the time step is set: fixed, or by a largest displacement per step and a
+/// reference velocity.
+fn check_step(c: &mut Checker, s: &CdParamsSpec, p: &mut CdParams) {
     if let Some(dt) = s.time_step {
         if c.positive("method.time_step", dt) {
             p.time_step = Some(dt);
@@ -213,6 +225,11 @@ pub fn check(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.reference_velocity = Some(v);
         }
     }
+}
+
+/// Checks the contact solver's parameters: θ, tolerances, iterations, sweep, relaxation and
+/// acceleration.
+fn check_solver(c: &mut Checker, s: &CdParamsSpec, p: &mut CdParams) {
     if let Some(t) = s.theta {
         if c.within("method.theta", t, 0.5, 1.0) {
             p.theta = t;
@@ -257,6 +274,11 @@ pub fn check(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.acceleration = a;
         }
     }
+}
+
+/// Checks the contact geometry's parameters: the interpenetration allowed, the slop and the
+/// neighbour skin.
+fn check_contacts(c: &mut Checker, s: &CdParamsSpec, p: &mut CdParams) {
     if let Some(o) = s.max_interpenetration {
         if c.within("method.max_interpenetration", o, 1e-6, 1.0) {
             p.max_interpenetration = o;
@@ -276,10 +298,6 @@ pub fn check(c: &mut Checker, s: &CdParamsSpec) -> CdParams {
             p.skin = skin;
         }
     }
-    if let Some(t) = s.threads {
-        p.threads = check_threads(c, t);
-    }
-    p
 }
 
 impl Method for CdParams {

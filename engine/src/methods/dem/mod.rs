@@ -149,39 +149,19 @@ impl Dem {
     /// Builds the simulation: places particles, chooses the time step, builds the neighbour list
     /// and evaluates the initial forces.
     pub fn new(scene: &Scene, params: &DemParams) -> Result<Self, EngineError> {
-        if let Some(m) = scene.materials.iter().find(|m| m.cohesion.is_some()) {
-            // Roux & Chevoir 2005, §2.2.3's constant attraction is a law for rigid grains; soft contacts would need
-            // RC's own adhesion law (a force growing with the overlap), which DEM lacks.
-            return Err(EngineError::Build {
-                field: format!("materials.{}.cohesion", m.name),
-                reason: "the constant cohesion F_0 within D_0 is a law of rigid grains: use method \"cd\"".into(),
-            });
-        }
+        refuse_cohesion(scene)?;
         let c = &scene.container;
         let (p, domain) = world::initial_particles(scene)?;
         let table = ContactTable::new(&scene.materials);
         let wall_material = c.wall_material.unwrap_or(0);
 
-        // Lightest particle and smallest radius of each material, for the collision time.
-        let mut lightest: Vec<Option<(Real, Real)>> = vec![None; scene.materials.len()];
-        for k in 0..p.len() {
-            let m = p.material[k] as usize;
-            let e = lightest[m].get_or_insert((Real::INFINITY, Real::INFINITY));
-            e.0 = e.0.min(p.mass[k]);
-            e.1 = e.1.min(p.radius[k]);
-        }
+        let lightest = lightest_per_material(&p, scene.materials.len());
         let v_ref = params.reference_velocity.unwrap_or_else(|| world::reference_velocity(scene, &p));
         let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
         let has_walls = !c.walls.is_empty() || c.drum.is_some();
         let bodies = Bodies { lightest: &lightest, names: &names, wall_material: has_walls.then_some(wall_material) };
         let collision = relax::with_bonds(collision_time(&table, &bodies, v_ref), &p);
-        let dt = params.time_step.unwrap_or(params.time_step_fraction * collision.t_c);
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(EngineError::Build {
-                field: "method.time_step".into(),
-                reason: format!("could not derive a time step from the collision time {:e} s; give method.time_step", collision.t_c),
-            });
-        }
+        let dt = choose_time_step(params, collision.t_c)?;
 
         let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
         let rmax = p.radius.iter().copied().fold(0.0, f64::max);
@@ -191,24 +171,7 @@ impl Dem {
         let skin = params.skin * 2.0 * rmin;
         world::check_periodic_room(&domain, rmax, range, skin)?;
         let k_eff = collision_stiffness(&collision, &p);
-        // Largest normal dashpot of a particle-wall contact (at an overlap of 1% of the radius,
-        // for laws whose damping depends on it).
-        let wall_dashpot = (0..p.len())
-            .map(|i| table.get(p.material[i] as usize, wall_material).normal.damping(0.01 * p.radius[i], p.radius[i], p.mass[i]))
-            .fold(0.0, Real::max);
-        let walls: Vec<Wall> = c
-            .walls
-            .iter()
-            .map(|w| {
-                let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
-                // Default servo gain: the wall moves by at most ~5% of the overlap change that the
-                // stress error would cause in one step (stiffness per area ~ k / d^(D-1)).
-                let gain = 0.05 * (2.0 * rmax).powi(scene.dim as i32 - 1) / (k_eff * dt);
-                // One wall contact per d_min^(D-1) of wall, at most.
-                let dashpot_per_area = wall_dashpot / (2.0 * rmin).powi(scene.dim as i32 - 1);
-                Wall::new(w.face, pos, w.motion, gain, dashpot_per_area)
-            })
-            .collect();
+        let walls = container_walls(scene, &p, &table, wall_material, k_eff, dt);
         let nw = walls.len() + usize::from(c.drum.is_some());
         let needs_extra = table.laws().iter().any(|l| l.rolling.is_some() || l.capillary.is_some());
         let n = p.len();
@@ -419,4 +382,67 @@ impl Dem {
 fn collision_stiffness(c: &CollisionTime, p: &Particles) -> Real {
     let m = p.mass.iter().copied().fold(Real::INFINITY, f64::min);
     0.5 * m * (std::f64::consts::PI / c.t_c).powi(2)
+}
+
+/// Refuses the constant cohesion of Roux & Chevoir 2005, a law of rigid grains.
+fn refuse_cohesion(scene: &Scene) -> Result<(), EngineError> {
+    if let Some(m) = scene.materials.iter().find(|m| m.cohesion.is_some()) {
+        // Roux & Chevoir 2005, §2.2.3's constant attraction is a law for rigid grains; soft contacts would need
+        // RC's own adhesion law (a force growing with the overlap), which DEM lacks.
+        return Err(EngineError::Build {
+            field: format!("materials.{}.cohesion", m.name),
+            reason: "the constant cohesion F_0 within D_0 is a law of rigid grains: use method \"cd\"".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Lightest particle and smallest radius of each of the `materials`, for the collision time
+/// (`None` for a material no particle is made of).
+fn lightest_per_material(p: &Particles, materials: usize) -> Vec<Option<(Real, Real)>> {
+    let mut lightest: Vec<Option<(Real, Real)>> = vec![None; materials];
+    for k in 0..p.len() {
+        let m = p.material[k] as usize;
+        let e = lightest[m].get_or_insert((Real::INFINITY, Real::INFINITY));
+        e.0 = e.0.min(p.mass[k]);
+        e.1 = e.1.min(p.radius[k]);
+    }
+    lightest
+}
+
+/// The time step: given, or the parameters' fraction of the collision time `t_c`.
+fn choose_time_step(params: &DemParams, t_c: Real) -> Result<Real, EngineError> {
+    let dt = params.time_step.unwrap_or(params.time_step_fraction * t_c);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(EngineError::Build {
+            field: "method.time_step".into(),
+            reason: format!("could not derive a time step from the collision time {t_c:e} s; give method.time_step"),
+        });
+    }
+    Ok(dt)
+}
+
+/// The container's walls, with their default servo gain (from the contact stiffness `k_eff`
+/// and the step `dt`) and their largest dashpot per area.
+fn container_walls(scene: &Scene, p: &Particles, table: &ContactTable, wall_material: usize, k_eff: Real, dt: Real) -> Vec<Wall> {
+    let c = &scene.container;
+    let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
+    let rmax = p.radius.iter().copied().fold(0.0, f64::max);
+    // Largest normal dashpot of a particle-wall contact (at an overlap of 1% of the radius,
+    // for laws whose damping depends on it).
+    let wall_dashpot = (0..p.len())
+        .map(|i| table.get(p.material[i] as usize, wall_material).normal.damping(0.01 * p.radius[i], p.radius[i], p.mass[i]))
+        .fold(0.0, Real::max);
+    c.walls
+        .iter()
+        .map(|w| {
+            let pos = if w.face.upper { c.hi[w.face.axis] } else { c.lo[w.face.axis] };
+            // Default servo gain: the wall moves by at most ~5% of the overlap change that the
+            // stress error would cause in one step (stiffness per area ~ k / d^(D-1)).
+            let gain = 0.05 * (2.0 * rmax).powi(scene.dim as i32 - 1) / (k_eff * dt);
+            // One wall contact per d_min^(D-1) of wall, at most.
+            let dashpot_per_area = wall_dashpot / (2.0 * rmin).powi(scene.dim as i32 - 1);
+            Wall::new(w.face, pos, w.motion, gain, dashpot_per_area)
+        })
+        .collect()
 }

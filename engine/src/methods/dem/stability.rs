@@ -9,7 +9,8 @@
 
 use rayon::prelude::*;
 
-use super::wall_contacts;
+use super::pair_state::PairBlock;
+use super::wall_contacts::{self, WallContact};
 use super::Dem;
 use crate::contact::NormalForce;
 use crate::error::{EngineError, InstabilityCause};
@@ -82,80 +83,13 @@ impl Dem {
     /// over the blocks of pair records, each block's terms summed in block order (the same
     /// value for any number of threads).
     fn scan(&self) -> Scan {
-        let p = &self.w.p;
-        let g = self.w.gravity;
-
         // Per block of particles: the first non-finite particle, the kinetic energy, the
         // potential of gravity and of the centripetal field.
-        let particles: Vec<ParticleTerms> = (0..p.len().div_ceil(BLOCK))
-            .into_par_iter()
-            .map(|b| {
-                let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
-                let bad = first_non_finite_in(p, r.clone());
-                let mut kinetic = 0.0;
-                let mut potential = 0.0;
-                for i in r.clone() {
-                    kinetic += p.kinetic_energy_at(i, &p.vel[i]);
-                }
-                // Grains whose motion is imposed belong to the wall that carries them.
-                if g != Vec3::zeros() {
-                    for i in r.clone().filter(|&i| p.is_free(i)) {
-                        potential -= p.mass[i] * g.dot(&p.pos[i]);
-                    }
-                }
-                // The centripetal field's potential, m a |x - c|.
-                if let Some((c, a)) = self.w.field {
-                    for i in r.clone() {
-                        potential += p.mass[i] * a * (p.pos[i] - c).norm();
-                    }
-                }
-                ParticleTerms { bad, kinetic, potential }
-            })
-            .collect();
+        let particles: Vec<ParticleTerms> = (0..self.w.p.len().div_ceil(BLOCK)).into_par_iter().map(|b| self.particle_terms(b)).collect();
         // Per block of pair and wall records: the largest overlap, the springs' and the bridges'
         // energy.
-        let pairs: Vec<(Real, Real, Real)> = self
-            .pairs
-            .par_iter()
-            .zip(self.wall_contacts.records.par_iter())
-            .map(|(list, walls)| {
-                let (mut overlap, mut elastic, mut capillary) = (0.0, 0.0, 0.0);
-                for c in walls {
-                    let i = c.i as usize;
-                    let rad = p.radius[i];
-                    let Some((_, delta, _)) = wall_contacts::touch(&self.w.walls, self.w.drum.as_ref(), &p.pos[i], rad, c.w as usize)
-                    else {
-                        continue;
-                    };
-                    overlap = Real::max(overlap, delta / rad);
-                    let law = self.wall_table.get(p.material[i] as usize, self.wall_material);
-                    elastic += law.normal.energy(delta, rad) + law.tangential.energy(c.xi.norm_squared(), delta, rad);
-                    if let Some(rr) = law.rolling {
-                        elastic += 0.5 * rr.stiffness * c.roll.norm_squared();
-                    }
-                }
-                for c in list.pairs() {
-                    let (i, j) = (c.i as usize, c.j as usize);
-                    let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.w.domain);
-                    let (ri, rj) = (p.radius[i], p.radius[j]);
-                    let dist = d.norm();
-                    let delta = ri + rj - dist;
-                    let law = self.table.get(p.material[i] as usize, p.material[j] as usize);
-                    if delta > 0.0 {
-                        overlap = Real::max(overlap, delta / ri.min(rj));
-                        let r_eff = ri * rj / (ri + rj);
-                        elastic += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
-                        if let (Some(rr), Some(e)) = (law.rolling, c.extra) {
-                            elastic += 0.5 * rr.stiffness * e.roll.norm_squared();
-                        }
-                    }
-                    if let (Some(true), Some(cap)) = (c.extra.map(|e| e.bridge), law.capillary) {
-                        capillary += cap.energy(dist - ri - rj, ri, rj);
-                    }
-                }
-                (overlap, elastic, capillary)
-            })
-            .collect();
+        let pairs: Vec<(Real, Real, Real)> =
+            self.pairs.par_iter().zip(self.wall_contacts.records.par_iter()).map(|(list, walls)| self.contact_terms(list, walls)).collect();
         let mut scan = Scan { bad: particles.iter().find_map(|b| b.bad), ..Default::default() };
         for b in &particles {
             scan.energies.kinetic += b.kinetic;
@@ -170,6 +104,73 @@ impl Dem {
             scan.energies.bond = self.bond_energy();
         }
         scan
+    }
+
+    /// Block `b` of particles' terms: its first non-finite particle, its kinetic energy, and
+    /// its potential of gravity and of the centripetal field.
+    fn particle_terms(&self, b: usize) -> ParticleTerms {
+        let p = &self.w.p;
+        let g = self.w.gravity;
+        let r = b * BLOCK..((b + 1) * BLOCK).min(p.len());
+        let bad = first_non_finite_in(p, r.clone());
+        let mut kinetic = 0.0;
+        let mut potential = 0.0;
+        for i in r.clone() {
+            kinetic += p.kinetic_energy_at(i, &p.vel[i]);
+        }
+        // Grains whose motion is imposed belong to the wall that carries them.
+        if g != Vec3::zeros() {
+            for i in r.clone().filter(|&i| p.is_free(i)) {
+                potential -= p.mass[i] * g.dot(&p.pos[i]);
+            }
+        }
+        // The centripetal field's potential, m a |x - c|.
+        if let Some((c, a)) = self.w.field {
+            for i in r.clone() {
+                potential += p.mass[i] * a * (p.pos[i] - c).norm();
+            }
+        }
+        ParticleTerms { bad, kinetic, potential }
+    }
+
+    /// A block of pair and wall records' terms: the largest overlap (over the smaller radius),
+    /// the springs' energy and the bridges' energy.
+    fn contact_terms(&self, list: &PairBlock, walls: &[WallContact]) -> (Real, Real, Real) {
+        let p = &self.w.p;
+        let (mut overlap, mut elastic, mut capillary) = (0.0, 0.0, 0.0);
+        for c in walls {
+            let i = c.i as usize;
+            let rad = p.radius[i];
+            let Some((_, delta, _)) = wall_contacts::touch(&self.w.walls, self.w.drum.as_ref(), &p.pos[i], rad, c.w as usize) else {
+                continue;
+            };
+            overlap = Real::max(overlap, delta / rad);
+            let law = self.wall_table.get(p.material[i] as usize, self.wall_material);
+            elastic += law.normal.energy(delta, rad) + law.tangential.energy(c.xi.norm_squared(), delta, rad);
+            if let Some(rr) = law.rolling {
+                elastic += 0.5 * rr.stiffness * c.roll.norm_squared();
+            }
+        }
+        for c in list.pairs() {
+            let (i, j) = (c.i as usize, c.j as usize);
+            let (d, _) = self.nl.separation(c.q as usize, &p.pos, &self.w.domain);
+            let (ri, rj) = (p.radius[i], p.radius[j]);
+            let dist = d.norm();
+            let delta = ri + rj - dist;
+            let law = self.table.get(p.material[i] as usize, p.material[j] as usize);
+            if delta > 0.0 {
+                overlap = Real::max(overlap, delta / ri.min(rj));
+                let r_eff = ri * rj / (ri + rj);
+                elastic += law.normal.energy(delta, r_eff) + law.tangential.energy(c.xi.norm_squared(), delta, r_eff);
+                if let (Some(rr), Some(e)) = (law.rolling, c.extra) {
+                    elastic += 0.5 * rr.stiffness * e.roll.norm_squared();
+                }
+            }
+            if let (Some(true), Some(cap)) = (c.extra.map(|e| e.bridge), law.capillary) {
+                capillary += cap.energy(dist - ri - rj, ri, rj);
+            }
+        }
+        (overlap, elastic, capillary)
     }
 
     /// Adds the work done by moving walls during the last step.

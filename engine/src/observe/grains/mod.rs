@@ -107,28 +107,9 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
     if n == 0 {
         return None;
     }
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for (i, &a) in p.aggregate.iter().enumerate() {
-        if a != NO_AGGREGATE {
-            if let Some(m) = members.get_mut(a as usize) {
-                m.push(i);
-            }
-        }
-    }
+    let members = grain_members(p, n);
     let d_min = 2.0 * members.iter().flatten().map(|&i| p.radius[i]).fold(Real::INFINITY, Real::min);
-    // Each primary where its grain is whole (a copy only in a periodic box).
-    let pos: std::borrow::Cow<[Vec3]> = if domain.periodic.iter().any(|&q| q) {
-        let mut pos = p.pos.clone();
-        for m in &members {
-            let Some(&first) = m.first() else { continue };
-            for &i in &m[1..] {
-                pos[i] = p.pos[first] - domain.separation(&p.pos[first], &p.pos[i]).0;
-            }
-        }
-        pos.into()
-    } else {
-        (&p.pos[..]).into()
-    };
+    let pos = whole_positions(p, &members, domain);
     let shapes: Vec<GrainShape> = members.iter().map(|m| grain_shape(p, &pos, dim, m, d_min)).collect();
     let grain_of = |i: u32| p.aggregate.get(i as usize).copied().filter(|&a| a != NO_AGGREGATE);
     let mut pairs: Vec<(u32, u32, [i64; 3])> = Vec::new();
@@ -189,6 +170,36 @@ pub fn measure_grains(p: &Particles, dim: usize, contacts: &[ContactRecord], vol
         max_aspect_ratio: aspects.fold(1.0, Real::max),
         mean_area: area / n as Real,
     })
+}
+
+/// The primaries of each of the `n` grains, in order.
+fn grain_members(p: &Particles, n: usize) -> Vec<Vec<usize>> {
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (i, &a) in p.aggregate.iter().enumerate() {
+        if a != NO_AGGREGATE {
+            if let Some(m) = members.get_mut(a as usize) {
+                m.push(i);
+            }
+        }
+    }
+    members
+}
+
+/// Each primary where its grain is whole: at the image nearest the grain's first primary (a
+/// copy only in a periodic box).
+fn whole_positions<'a>(p: &'a Particles, members: &[Vec<usize>], domain: &Domain) -> std::borrow::Cow<'a, [Vec3]> {
+    if domain.periodic.iter().any(|&q| q) {
+        let mut pos = p.pos.clone();
+        for m in members {
+            let Some(&first) = m.first() else { continue };
+            for &i in &m[1..] {
+                pos[i] = p.pos[first] - domain.separation(&p.pos[first], &p.pos[i]).0;
+            }
+        }
+        pos.into()
+    } else {
+        (&p.pos[..]).into()
+    }
 }
 
 /// The mean coordination of the backbone of `n` grains whose force-bearing contacts are

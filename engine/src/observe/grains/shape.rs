@@ -4,6 +4,7 @@
 
 use crate::math::{Real, Vec3};
 use crate::particles::Particles;
+use std::ops::Range;
 
 /// Grid cells across the smallest primary's diameter for a grain's area (2D) and volume (3D).
 const CELLS_PER_PRIMARY: [Real; 2] = [8.0, 4.0];
@@ -88,61 +89,106 @@ fn surface_points(x: Vec3, rho: Real, dim: usize, spacing: Real) -> impl Iterato
 fn closed_measure(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_min: Real) -> Real {
     let cell = d_min / CELLS_PER_PRIMARY[usize::from(dim == 3)];
     let reach = 0.5 * d_min;
-    let (mut lo, mut hi) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(Real::NEG_INFINITY));
+    let grid = Grid::around(p, pos, dim, members, cell, reach);
+    // Dilation: cells within r + h of a primary's centre.
+    let mut closed = vec![false; grid.cells()];
     for &i in members {
-        let r = p.radius[i] + reach;
-        for a in 0..dim {
-            lo[a] = lo[a].min(pos[i][a] - r);
-            hi[a] = hi[a].max(pos[i][a] + r);
-        }
+        grid.paint(&mut closed, &pos[i], p.radius[i] + reach, true);
     }
-    // A frame of empty cells around the dilated grain (one layer of cells in 2D, at z = 0).
-    let mut origin = lo - Vec3::new(2.0 * cell, 2.0 * cell, 2.0 * cell);
-    let count = |a: usize| ((hi[a] - lo[a]) / cell).ceil() as usize + 4;
-    let (nx, ny) = (count(0), count(1));
-    let nz = if dim == 3 {
-        count(2)
-    } else {
-        origin.z = -0.5 * cell;
-        1
-    };
-    let n = [nx, ny, nz];
-    let centre_of = |ix: usize, iy: usize, iz: usize| {
-        Vec3::new(origin.x + (ix as Real + 0.5) * cell, origin.y + (iy as Real + 0.5) * cell, origin.z + (iz as Real + 0.5) * cell)
-    };
-    // Cells within `radius` of the point x: their index ranges, per axis (end excluded).
-    let span = |x: &Vec3, radius: Real| {
-        let k = |v: Real, o: Real, n: usize| (((v - o) / cell - 0.5).floor().max(0.0) as usize).min(n - 1);
+    erode(&grid, p, pos, members, reach, &mut closed);
+    // Holes: outside cells the frame cannot reach (through faces) belong to the grain.
+    let outside = outside_cells(&grid, &closed);
+    outside.iter().filter(|&&o| !o).count() as Real * cell.powi(dim as i32)
+}
+
+/// A grid of cubic cells (one layer at z = 0 in 2D) over a dilated grain and a frame of empty
+/// cells around it.
+struct Grid {
+    /// Corner of the first cell.
+    origin: Vec3,
+    /// Side of a cell.
+    cell: Real,
+    /// Cells along each axis.
+    n: [usize; 3],
+    /// Dimension of the grains.
+    dim: usize,
+}
+
+impl Grid {
+    /// The grid of cells of side `cell` over the primaries `members` dilated by `reach`, with
+    /// a frame of two empty cells.
+    fn around(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], cell: Real, reach: Real) -> Self {
+        let (mut lo, mut hi) = (Vec3::repeat(Real::INFINITY), Vec3::repeat(Real::NEG_INFINITY));
+        for &i in members {
+            let r = p.radius[i] + reach;
+            for a in 0..dim {
+                lo[a] = lo[a].min(pos[i][a] - r);
+                hi[a] = hi[a].max(pos[i][a] + r);
+            }
+        }
+        // A frame of empty cells around the dilated grain (one layer of cells in 2D, at z = 0).
+        let mut origin = lo - Vec3::new(2.0 * cell, 2.0 * cell, 2.0 * cell);
+        let count = |a: usize| ((hi[a] - lo[a]) / cell).ceil() as usize + 4;
+        let (nx, ny) = (count(0), count(1));
+        let nz = if dim == 3 {
+            count(2)
+        } else {
+            origin.z = -0.5 * cell;
+            1
+        };
+        Self { origin, cell, n: [nx, ny, nz], dim }
+    }
+
+    /// Number of cells.
+    fn cells(&self) -> usize {
+        self.n[0] * self.n[1] * self.n[2]
+    }
+
+    /// Centre of cell `(ix, iy, iz)`.
+    fn centre_of(&self, ix: usize, iy: usize, iz: usize) -> Vec3 {
+        let (o, cell) = (self.origin, self.cell);
+        Vec3::new(o.x + (ix as Real + 0.5) * cell, o.y + (iy as Real + 0.5) * cell, o.z + (iz as Real + 0.5) * cell)
+    }
+
+    /// Index of cell `(ix, iy, iz)` in a flat array.
+    fn flat(&self, ix: usize, iy: usize, iz: usize) -> usize {
+        (iz * self.n[1] + iy) * self.n[0] + ix
+    }
+
+    /// Cells within `radius` of the point x: their index ranges, per axis (end excluded).
+    fn span(&self, x: &Vec3, radius: Real) -> (Range<usize>, Range<usize>, Range<usize>) {
+        let k = |v: Real, o: Real, n: usize| (((v - o) / self.cell - 0.5).floor().max(0.0) as usize).min(n - 1);
         let range = |a: usize| {
-            if a >= dim {
+            if a >= self.dim {
                 0..1
             } else {
-                k(x[a] - radius, origin[a], n[a])..(k(x[a] + radius, origin[a], n[a]) + 2).min(n[a])
+                k(x[a] - radius, self.origin[a], self.n[a])..(k(x[a] + radius, self.origin[a], self.n[a]) + 2).min(self.n[a])
             }
         };
         (range(0), range(1), range(2))
-    };
-    let flat = |ix: usize, iy: usize, iz: usize| (iz * ny + iy) * nx + ix;
-    // Dilation: cells within r + h of a primary's centre.
-    let mut dilated = vec![false; nx * ny * nz];
-    for &i in members {
-        let (x, r) = (pos[i], p.radius[i] + reach);
-        let (rx, ry, rz) = span(&x, r + cell);
+    }
+
+    /// Sets to `value` the cells whose centre lies within `r` of `x`.
+    fn paint(&self, cells: &mut [bool], x: &Vec3, r: Real, value: bool) {
+        let (rx, ry, rz) = self.span(x, r + self.cell);
         for iz in rz {
             for iy in ry.clone() {
                 for ix in rx.clone() {
-                    if (centre_of(ix, iy, iz) - x).norm_squared() <= r * r {
-                        dilated[flat(ix, iy, iz)] = true;
+                    if (self.centre_of(ix, iy, iz) - x).norm_squared() <= r * r {
+                        cells[self.flat(ix, iy, iz)] = value;
                     }
                 }
             }
         }
     }
-    // Erosion: a dilated cell stays unless a point of the dilated set's boundary lies within
-    // h of it. The boundary is sampled exactly, every `cell` along each dilated circle (over
-    // each dilated sphere) where no other covers it (cell centres outside the set would place
-    // it up to a cell too far out: 20% too much area for a lone disk at r/4 cells).
-    let mut closed = dilated;
+}
+
+/// Erosion: a dilated cell stays unless a point of the dilated set's boundary lies within
+/// `reach` of it. The boundary is sampled exactly, every cell along each dilated circle (over
+/// each dilated sphere) where no other covers it (cell centres outside the set would place it
+/// up to a cell too far out: 20% too much area for a lone disk at r/4 cells).
+fn erode(grid: &Grid, p: &Particles, pos: &[Vec3], members: &[usize], reach: Real, closed: &mut [bool]) {
+    let (dim, origin) = (grid.dim, grid.origin);
     let bin = 2.0 * members.iter().map(|&i| p.radius[i]).fold(0.0, Real::max) + 2.0 * reach;
     let key = |x: &Vec3| {
         let k = |a: usize| if a < dim { ((x[a] - origin[a]) / bin).floor() as i64 } else { 0 };
@@ -152,10 +198,9 @@ fn closed_measure(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_
     for &i in members {
         bins.entry(key(&pos[i])).or_default().push(i);
     }
-    let reach2 = reach * reach;
     let layers: i64 = if dim == 3 { 1 } else { 0 };
     for &i in members {
-        for q in surface_points(pos[i], p.radius[i] + reach, dim, cell) {
+        for q in surface_points(pos[i], p.radius[i] + reach, dim, grid.cell) {
             let (bx, by, bz) = key(&q);
             let covered = (-layers..=layers).any(|dz| {
                 (-1..=1).any(|dy| {
@@ -169,23 +214,18 @@ fn closed_measure(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_
                     })
                 })
             });
-            if covered {
-                continue;
-            }
-            let (rx, ry, rz) = span(&q, reach + cell);
-            for jz in rz {
-                for jy in ry.clone() {
-                    for jx in rx.clone() {
-                        if (centre_of(jx, jy, jz) - q).norm_squared() <= reach2 {
-                            closed[flat(jx, jy, jz)] = false;
-                        }
-                    }
-                }
+            if !covered {
+                grid.paint(closed, &q, reach, false);
             }
         }
     }
-    // Holes: outside cells the frame cannot reach (through faces) belong to the grain.
-    let mut outside = vec![false; nx * ny * nz];
+}
+
+/// The cells outside the closed set reachable through faces from the grid's first cell, a
+/// corner of the empty frame.
+fn outside_cells(grid: &Grid, closed: &[bool]) -> Vec<bool> {
+    let [nx, ny, nz] = grid.n;
+    let mut outside = vec![false; grid.cells()];
     let mut stack = vec![0usize];
     outside[0] = true;
     while let Some(k) = stack.pop() {
@@ -215,5 +255,5 @@ fn closed_measure(p: &Particles, pos: &[Vec3], dim: usize, members: &[usize], d_
             visit(k + nx * ny);
         }
     }
-    outside.iter().filter(|&&o| !o).count() as Real * cell.powi(dim as i32)
+    outside
 }

@@ -19,6 +19,9 @@ pub const GRANULE_FIELD: Real = 1.0;
 /// Default inertial number of the compression at the capillary stress
 /// `σ_c = f_c / <d>^(D-1)`: `ε̇ = I / <d> × sqrt(σ_c / ρ)`.
 pub const GRANULE_INERTIAL_NUMBER: Real = 1e-3;
+
+/// Checks a granule compression against the box, gravity and the grains, and fills in its
+/// defaults.
 pub(super) fn check_granule(
     c: &mut Checker,
     k: &GranuleCompressionSpec,
@@ -45,6 +48,44 @@ pub(super) fn check_granule(
             max_steps: 1,
         };
     };
+    let ball = granule_ball(c, k, dim, container, g, axis);
+    let mass = g.density * Particles::volume_of(dim, 0.5 * g.diameter);
+    let acceleration = k.acceleration.unwrap_or(GRANULE_FIELD * f_c / mass.max(Real::MIN_POSITIVE));
+    c.positive("experiment.acceleration", acceleration);
+    let sigma_c = f_c / g.diameter.powi(dim as i32 - 1);
+    let strain_rate = k.strain_rate.unwrap_or(GRANULE_INERTIAL_NUMBER / g.diameter * (sigma_c / g.density).sqrt());
+    c.positive("experiment.strain_rate", strain_rate);
+    let strain = k.strain.unwrap_or(0.3);
+    if !(strain > 0.0 && strain < 2.0) {
+        c.fail("experiment.strain", format!("must be in (0, 2), got {strain}"));
+    }
+    let plateau = k.plateau.map_or((0.05, 0.2), |[a, b]| (a, b));
+    if !(plateau.0 >= 0.0 && plateau.0 < plateau.1 && plateau.1 <= strain) {
+        c.fail(
+            "experiment.plateau",
+            format!("must be [from, to] with 0 <= from < to <= strain = {strain}, got [{}, {}]", plateau.0, plateau.1),
+        );
+    }
+    let local_damping = k.local_damping.unwrap_or(PREPARATION_DAMPING);
+    if !(0.0..1.0).contains(&local_damping) {
+        c.fail("experiment.local_damping", format!("must be in [0, 1), got {local_damping}"));
+    }
+    Experiment::GranuleCompression {
+        ball,
+        axis,
+        acceleration,
+        strain_rate,
+        strain,
+        plateau,
+        local_damping,
+        equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
+        max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS),
+    }
+}
+
+/// The granule's starting ball (by default the grains as a gas at [`GRANULE_GAS_FRACTION`])
+/// at the box's centre, which must leave room for the squashed granule to spread.
+fn granule_ball(c: &mut Checker, k: &GranuleCompressionSpec, dim: usize, container: &Container, g: &GrainScales, axis: usize) -> Ball {
     let unit = Particles::volume_of(dim, 1.0);
     let radius = match k.radius {
         Some(r) => {
@@ -71,36 +112,5 @@ pub(super) fn check_granule(
             );
         }
     }
-    let mass = g.density * Particles::volume_of(dim, 0.5 * g.diameter);
-    let acceleration = k.acceleration.unwrap_or(GRANULE_FIELD * f_c / mass.max(Real::MIN_POSITIVE));
-    c.positive("experiment.acceleration", acceleration);
-    let sigma_c = f_c / g.diameter.powi(dim as i32 - 1);
-    let strain_rate = k.strain_rate.unwrap_or(GRANULE_INERTIAL_NUMBER / g.diameter * (sigma_c / g.density).sqrt());
-    c.positive("experiment.strain_rate", strain_rate);
-    let strain = k.strain.unwrap_or(0.3);
-    if !(strain > 0.0 && strain < 2.0) {
-        c.fail("experiment.strain", format!("must be in (0, 2), got {strain}"));
-    }
-    let plateau = k.plateau.map_or((0.05, 0.2), |[a, b]| (a, b));
-    if !(plateau.0 >= 0.0 && plateau.0 < plateau.1 && plateau.1 <= strain) {
-        c.fail(
-            "experiment.plateau",
-            format!("must be [from, to] with 0 <= from < to <= strain = {strain}, got [{}, {}]", plateau.0, plateau.1),
-        );
-    }
-    let local_damping = k.local_damping.unwrap_or(PREPARATION_DAMPING);
-    if !(0.0..1.0).contains(&local_damping) {
-        c.fail("experiment.local_damping", format!("must be in [0, 1), got {local_damping}"));
-    }
-    Experiment::GranuleCompression {
-        ball: Ball { center, radius },
-        axis,
-        acceleration,
-        strain_rate,
-        strain,
-        plateau,
-        local_damping,
-        equilibrium: check_equilibrium(c, "experiment.equilibrium", k.equilibrium.as_ref()),
-        max_steps: check_max_steps(c, "experiment.max_steps", k.max_steps, DEFAULT_MAX_STEPS),
-    }
+    Ball { center, radius }
 }

@@ -54,13 +54,7 @@ impl System {
         let floor = contact::FORCING * tolerance;
         self.nlgs.settings.tolerance = self.settings.contact.tolerance;
         let mut last = Real::INFINITY;
-        // A part as long as the last keeps the matrices of the grains that did not need new
-        // ones in it (module documentation).
-        let same = self.kept == Some(dt);
-        self.kept = None;
-        for p in &mut self.pace {
-            *p = Pace { refresh: !same || p.refreshed, done: false, refreshed: false, correction: 0.0, last: Real::INFINITY };
-        }
+        self.reset_pace(dt);
         for it in 1..=self.settings.max_newton {
             report.newton = it;
             self.newton_free(&sc, it == 1)?;
@@ -79,16 +73,7 @@ impl System {
             let correction = self.newton_update();
             scale = scale.max(speed(&self.grains));
             let relative = correction / scale.max(Real::MIN_POSITIVE);
-            if self.tracer.on() {
-                let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
-                let damped = self.grains.iter().filter(|g| g.body.damped).count();
-                let part = (self.steps + 1, self.time, sc.dt);
-                self.tracer.emit(|| NewtonRecord {
-                    refreshed_grains: Some(refreshed),
-                    damped_grains: Some(damped),
-                    ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
-                });
-            }
+            self.trace_iteration(sc.dt, it, relative, solved.iterations, report.contacts);
             if relative <= tolerance && asked <= tolerance {
                 // Where Newton converged, the gaps between the moved outlines are measured
                 // again: contacts that moved on from where their drifts were measured make the
@@ -102,15 +87,7 @@ impl System {
                 self.kept = Some(dt);
                 return Ok(report);
             }
-            // A grain keeps its matrix while it contracts its correction fast enough, or once
-            // its correction is within Newton's tolerance; one without contacts is then done.
-            let converged = tolerance * scale;
-            for (p, side) in self.pace.iter_mut().zip(&self.sides) {
-                p.done = side.is_empty() && p.correction <= converged;
-                p.refresh = p.correction > converged && p.correction > REFRESH_RATIO * p.last;
-                p.refreshed |= p.refresh;
-                p.last = p.correction;
-            }
+            self.update_pace(tolerance * scale);
             // The next contact solve is made a hundred times more accurate than this
             // correction (inexact Newton's forcing term, as for the material point method).
             // A correction already within Newton's tolerance (one its loose first solve left
@@ -122,6 +99,42 @@ impl System {
         let grain = largest(self.pace.iter().map(|p| p.correction));
         let damped = grain.is_some_and(|g| self.grains[g].body.damped);
         Err(fail(InstabilityCause::NewtonBudget { iterations: self.settings.max_newton, correction: last, tolerance, grain, damped }))
+    }
+
+    /// Starts a part's pace: a part as long as the last keeps the matrices of the grains that
+    /// did not need new ones in it (module documentation).
+    fn reset_pace(&mut self, dt: Real) {
+        let same = self.kept == Some(dt);
+        self.kept = None;
+        for p in &mut self.pace {
+            *p = Pace { refresh: !same || p.refreshed, done: false, refreshed: false, correction: 0.0, last: Real::INFINITY };
+        }
+    }
+
+    /// After a Newton iteration: a grain keeps its matrix while it contracts its correction
+    /// fast enough, or once its correction is within `converged`; one without contacts is then
+    /// done.
+    fn update_pace(&mut self, converged: Real) {
+        for (p, side) in self.pace.iter_mut().zip(&self.sides) {
+            p.done = side.is_empty() && p.correction <= converged;
+            p.refresh = p.correction > converged && p.correction > REFRESH_RATIO * p.last;
+            p.refreshed |= p.refresh;
+            p.last = p.correction;
+        }
+    }
+
+    /// Traces Newton iteration `it` of a part of `dt`, with the grains whose matrix it refreshed.
+    fn trace_iteration(&mut self, dt: Real, it: u32, relative: Real, sweeps: u32, contacts: usize) {
+        if self.tracer.on() {
+            let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
+            let damped = self.grains.iter().filter(|g| g.body.damped).count();
+            let part = (self.steps + 1, self.time, dt);
+            self.tracer.emit(|| NewtonRecord {
+                refreshed_grains: Some(refreshed),
+                damped_grains: Some(damped),
+                ..NewtonRecord::iteration(part, it, relative, sweeps, contacts)
+            });
+        }
     }
 
     /// Every grain's residual at the iterate and — when its [`Pace::refresh`] says so — its
