@@ -10,7 +10,7 @@
 use crate::common;
 
 use sable_engine::methods::cd::Cd;
-use sable_engine::observe::metrics::rattlers;
+use sable_engine::observe::contacts::rattlers;
 use sable_engine::run::Simulation;
 use serde_json::json;
 

@@ -1,11 +1,50 @@
-//! The geometry of a drum's sample: the frames of the cross-section and of the free surface,
-//! the grains that bear a load, the bed's centroid, the fitted surface and the velocity profile
-//! across it ([`super::drum::measure_drum`] puts them together).
+//! The geometry of a drum's sample: the drum as the methods show it ([`DrumView`]), the frames
+//! of the cross-section and of the free surface, the grains that bear a load, the bed's
+//! centroid, the fitted surface and the velocity profile across it (`drum::measure_drum` puts
+//! them together).
 
-use super::drum::{DrumView, ProfileBin, PROFILE_STRIP, SURFACE_SPAN};
-use super::metrics::ContactRecord;
+use serde::{Deserialize, Serialize};
+
+use super::contacts::ContactRecord;
 use crate::math::{Real, Vec3};
 use crate::particles::Particles;
+
+/// Half-width of the part of the chord where the surface is fitted, as a fraction of the
+/// chord's half-length (the ends touch the wall and bend).
+pub const SURFACE_SPAN: Real = 0.7;
+/// Half-width of the strip about the mid-chord normal where the velocity profile is taken, in
+/// mean diameters.
+pub const PROFILE_STRIP: Real = 1.5;
+
+/// A drum as the methods show it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrumView {
+    /// Axis (0, 1, 2).
+    pub axis: usize,
+    /// A point of the axis, m.
+    pub center: Vec3,
+    /// Inner radius, m.
+    pub radius: Real,
+    /// Angular velocity, rad/s (right-handed about the axis).
+    pub angular_velocity: Real,
+    /// Unit vector of gravity (perpendicular to the axis).
+    pub down: Vec3,
+    /// Torque about the axis exerted by the grains on the drum, N·m (per metre of thickness
+    /// in 2D).
+    pub torque: Real,
+}
+
+/// One depth bin of the velocity profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ProfileBin {
+    /// Depth of the bin's middle below the free surface, m.
+    pub depth: f64,
+    /// Mean velocity down the slope, m/s (negative: up, with the drum).
+    pub velocity: f64,
+    /// Grains counted.
+    pub count: u64,
+}
 
 /// The drum's cross-section: `h` across the drum (towards the side where the bed rises), `u`
 /// up, from its axis.

@@ -5,6 +5,7 @@
 //! A method describes its state at sampling time as a [`SystemView`] (bodies and contacts) and
 //! [`measure`] turns it into a [`Sample`].
 
+pub mod contacts;
 pub mod drum;
 mod drum_surface;
 pub mod grains;
@@ -16,11 +17,13 @@ pub mod sample;
 pub mod snapshot;
 pub mod vtk;
 
-pub use drum::{DrumResult, DrumSample, DrumView, ProfileBin};
+pub use contacts::{rattler_threshold, ContactRecord};
+pub use drum::{DrumSample, DrumView, ProfileBin};
 pub use grains::{GrainSample, PrimarySample};
 pub use granule::GranuleResult;
-pub use metrics::{measure, rattler_threshold, ContactRecord, DeformableView, ShearGeometry, SystemView, WallView};
+pub use metrics::{measure, DeformableView, ShearGeometry, SystemView, WallView};
 pub use power::{power_fit, PowerFit};
+pub use results::drum::DrumResult;
 pub use results::{Analysis, ExperimentResult};
 pub use sample::{DeformableSample, Sample, SolverSample, StrainSample, Stress, WallSample};
 pub use snapshot::{MaterialPoints, Snapshot, WallFace};

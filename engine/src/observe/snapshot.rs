@@ -1,7 +1,7 @@
 //! The state of a run at one instant, for visualisation: particles, the contact network and the
 //! walls, independent of the method that produced them. [`super::vtk`] writes it for ParaView.
 
-use super::metrics::ContactRecord;
+use super::contacts::ContactRecord;
 use crate::math::{Real, Vec3};
 
 /// A plane wall as a finite face of the box, for drawing.

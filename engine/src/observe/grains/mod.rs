@@ -20,7 +20,7 @@
 //!   both sides, two neighbours of the packing.
 //! - **Rattlers** among grains: a grain with fewer than two force-bearing contacts with grains
 //!   still in the backbone (walls included) is removed, recursively, as a frictional particle
-//!   would be ([`super::metrics::rattlers`]): an aggregate's rough outline bears tangential
+//!   would be ([`super::contacts::rattlers`]): an aggregate's rough outline bears tangential
 //!   load though its primaries slide freely. A grain's contacts with the walls count once per
 //!   wall, the wall told by the axis and side its contacts face.
 //! - **Shape**: the aspect ratio `sqrt(λ_max / λ_min)` of the primaries' second moments about
@@ -41,7 +41,7 @@ pub use shape::{grain_shape, GrainShape};
 
 use serde::{Deserialize, Serialize};
 
-use super::metrics::ContactRecord;
+use super::contacts::ContactRecord;
 use crate::geometry::Domain;
 use crate::math::{Real, Vec3};
 use crate::particles::aggregate::NO_AGGREGATE;
@@ -208,7 +208,7 @@ fn whole_positions<'a>(p: &'a Particles, members: &[Vec<usize>], domain: &Domain
 fn grain_backbone(n: usize, dim: usize, contacts: impl Iterator<Item = (u32, Option<u32>)>) -> Real {
     let records: Vec<ContactRecord> =
         contacts.map(|(i, j)| ContactRecord { i, j, force: Vec3::x(), branch: Vec3::zeros(), touching: true, bonded: false }).collect();
-    super::metrics::coordination(n, super::metrics::rattler_threshold(dim, true), &records).1
+    super::contacts::coordination(n, super::contacts::rattler_threshold(dim, true), &records).1
 }
 
 /// The grains' measures when every particle of `p` is a grain (deformable grains, measured as

@@ -22,7 +22,7 @@
 //! - **Drum** (docs/references.md check 17): means over the rotation after the transient
 //!   revolutions of the surface and mass angles, fill, bed packing fraction, drive torque and
 //!   velocity profile ([`super::drum`]); the flowing layer's depth and inertial number; the flow
-//!   regime ([`super::drum::drum_regime`]).
+//!   regime ([`drum::drum_regime`]).
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (Roux & Chevoir 2005, §2.3.4; docs/physics.md §8: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D
@@ -32,6 +32,7 @@
 
 mod compaction;
 mod deposition;
+pub mod drum;
 mod shear;
 #[cfg(test)]
 mod tests;
@@ -44,12 +45,12 @@ pub use deposition::{deposit_of, DepositionResult};
 pub use shear::{ShearResult, I_M_ALPHA, I_M_BETA};
 pub use triaxial::{Dilatancy, Peak, Steady};
 
-use super::drum::{drum_result, DrumResult};
 use super::granule::{granule_result, GranuleResult};
 use super::sample::Sample;
 use crate::math::Real;
 use crate::particles::Particles;
 use crate::scene::{ElasticLaw, Experiment, Scene, StateFile};
+use drum::{drum_result, DrumResult};
 use shear::WetScales;
 use triaxial::triaxial_results;
 

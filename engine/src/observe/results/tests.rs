@@ -1,7 +1,8 @@
 //! The experiments' results on hand-made samples and scenes.
 
+use super::drum::drum_regime;
 use super::*;
-use crate::observe::drum::{drum_regime, ProfileBin};
+use crate::observe::drum::ProfileBin;
 use crate::observe::{GrainSample, StrainSample, WallSample};
 use crate::scene::parse_scene;
 
