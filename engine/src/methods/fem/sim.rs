@@ -15,22 +15,23 @@ use super::body::Body;
 use super::mesh::Mesh;
 use super::params::FemParams;
 use super::system::{Grain, Settings, System};
-use crate::constitutive::{build, ConstitutiveLaw, History, PlaneSym};
+use crate::constitutive::{ConstitutiveLaw, History, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
 use crate::methods::method::Method;
+use crate::methods::soft::build;
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
-use crate::methods::soft::parts::Cost;
 use crate::methods::soft::polygon::second_moments;
-use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
+use crate::methods::soft::progress::Progress;
+use crate::methods::soft::sim::{SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::observe::{ContactRecord, MaterialPoints};
+use crate::particles::Particles;
 use crate::run::Simulation;
 use crate::scene::state_meshes::{StateMeshes, GAUSS_POINTS};
-use crate::scene::state_points::StateImpulse;
 use crate::scene::{Checker, Scene, StateFile};
 
 type V2 = Vector2<Real>;
@@ -53,12 +54,8 @@ impl SoftSystem for System {
         self.step().map(|r| (r.newton, r.sweeps)).map_err(|f| f.cause)
     }
 
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    fn time(&self) -> Real {
-        self.time
+    fn progress(&self) -> &Progress {
+        &self.progress
     }
 
     fn gravity(&self) -> V2 {
@@ -67,14 +64,6 @@ impl SoftSystem for System {
 
     fn planes_mut(&mut self) -> &mut [PlaneWall] {
         &mut self.walls
-    }
-
-    fn wall_impulse(&self) -> &[V2] {
-        &self.wall_impulse
-    }
-
-    fn wall_force(&self) -> &[V2] {
-        &self.wall_force
     }
 
     /// Centroid and velocity from the nodes' masses; area and shape from the boundary polygon.
@@ -97,7 +86,7 @@ impl SoftSystem for System {
     }
 
     fn contact_records(&self, grains: &[GrainState]) -> Vec<ContactRecord> {
-        measure::contact_records(&self.contacts, self.walls.len(), grains, self.last_dt())
+        measure::contact_records(&self.contacts, self.walls.len(), grains, self.progress.last_dt())
     }
 
     fn kinetic_energy(&self) -> Real {
@@ -164,10 +153,6 @@ impl SoftSystem for System {
         System::memory_bytes(self)
     }
 
-    fn sweeps(&self) -> u64 {
-        u64::from(self.totals.sweeps)
-    }
-
     fn set_pair_friction(&mut self, friction: Option<Real>) {
         self.pair_friction = friction;
     }
@@ -211,36 +196,49 @@ impl SoftSystem for System {
 
 /// Builds the method on a validated 2D scene whose grains are all deformable.
 pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
-    if scene.dim != 2 {
-        return Err(EngineError::Build { field: "dimension".into(), reason: "method fem is 2D (plane strain)".into() });
-    }
-    let (particles, domain) = world::initial_particles(scene)?;
+    let (particles, domain) = build::placed(scene, "fem")?;
     let saved = scene.initial.as_ref().and_then(|st| st.meshes.as_ref());
     // The element size comes from the disks the grains were meshed from (a saved state's
     // grains are disks of their current area in `particles`).
-    let radii = saved.map_or(&particles.radius, |s| &s.radius0);
-    let dmin = radii.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
-    let size = dmin / params.elements_per_diameter;
-    let mut law_of: Vec<Option<usize>> = vec![None; scene.materials.len()];
-    let mut laws: Vec<Box<dyn ConstitutiveLaw>> = Vec::new();
-    for (m, mat) in scene.materials.iter().enumerate() {
-        if let Some(spec) = &mat.deformable {
-            law_of[m] = Some(laws.len());
-            laws.push(build(spec));
-        }
+    let size = build::smallest_diameter(saved.map_or(&particles.radius, |s| &s.radius0)) / params.elements_per_diameter;
+    let (law_of, laws) = build::laws(scene);
+    let grains = mesh_grains(scene, &particles, saved, &law_of, &laws, size)?;
+    let walls = world::container_walls(&scene.container);
+    let planes = build::planes(scene, &walls);
+    let dt = build::time_step(scene, &particles, &params.solver, size);
+    let settings = Settings {
+        dt,
+        theta: params.solver.theta,
+        gravity: V2::new(scene.gravity.x, scene.gravity.y),
+        newton_tolerance: params.solver.newton_tolerance,
+        max_newton: params.solver.max_newton,
+        contact: params.solver.contact(params.symmetric_contact),
+        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
+    };
+    let mut sys = System::new(grains, laws, planes, settings);
+    if let Some(saved) = saved {
+        sys.progress.splitting.resume(saved.split_depth, saved.split_calm);
+        sys.warm.restore_saved(&saved.impulses);
     }
+    SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.solver.threads)
+}
+
+/// The grains, each with its law (`law_of`, by material; `laws`): each placed disk meshed with
+/// boundary segments of about `size` (m), or, from a `saved` state, its mesh as saved.
+fn mesh_grains(
+    scene: &Scene,
+    particles: &Particles,
+    saved: Option<&StateMeshes>,
+    law_of: &[Option<usize>],
+    laws: &[Box<dyn ConstitutiveLaw>],
+    size: Real,
+) -> Result<Vec<Grain>, EngineError> {
     let mut grains = Vec::with_capacity(particles.len());
     let mut elements = 0;
     // Where the next grain's nodes, elements and boundary start in a saved state's arrays.
     let mut from = Restored::default();
     for k in 0..particles.len() {
-        let m = particles.material[k] as usize;
-        let (Some(law), Some(mat)) = (law_of.get(m).copied().flatten(), scene.materials.get(m)) else {
-            return Err(EngineError::Build {
-                field: "particles".into(),
-                reason: format!("grain {k}'s material is not deformable: method fem needs deformable grains"),
-            });
-        };
+        let (law, mat) = build::grain_law(scene, law_of, particles, k, "fem")?;
         let grain = match saved {
             Some(saved) => restore_grain(saved, k, &mut from, law, laws[law].as_ref(), mat.density, mat.friction)?,
             None => {
@@ -265,26 +263,7 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
             reason: format!("the grains hold {elements} elements (at most {MAX_ELEMENTS}); coarsen the mesh"),
         });
     }
-    let walls = world::container_walls(&scene.container);
-    let planes = planes(scene, &walls);
-    // The time step: the fastest imposed motion covers `max_displacement` of an element.
-    let speed = world::imposed_speed(scene, &particles, true).max(1e-3 * size);
-    let dt = params.solver.time_step.unwrap_or(params.solver.max_displacement * size / speed);
-    let settings = Settings {
-        dt,
-        theta: params.solver.theta,
-        gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.solver.newton_tolerance,
-        max_newton: params.solver.max_newton,
-        contact: params.solver.contact(params.symmetric_contact),
-        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
-    };
-    let mut sys = System::new(grains, laws, planes, settings);
-    if let Some(saved) = saved {
-        sys.splitting.resume(saved.split_depth, saved.split_calm);
-        sys.warm.restore_saved(&saved.impulses);
-    }
-    SoftSim::new("fem", scene, sys, &particles, walls, domain, dt, params.solver.threads)
+    Ok(grains)
 }
 
 /// Where grain `k`'s nodes, elements and boundary nodes start in a saved state's arrays
@@ -350,14 +329,9 @@ fn saved_meshes(sys: &System) -> StateMeshes {
         velocity: bodies().flat_map(|b| b.v.iter().map(pair)).collect(),
         elements: bodies().flat_map(|b| b.mesh.quads.iter().map(|q| q.to_vec())).collect(),
         boundary: bodies().flat_map(|b| b.mesh.boundary.iter().copied()).collect(),
-        split_depth: sys.splitting.level().0,
-        split_calm: sys.splitting.level().1,
-        impulses: sys
-            .warm
-            .entries()
-            .into_iter()
-            .map(|((vertex, grain, other), r)| StateImpulse { grain, vertex: vertex as u32, other, impulse: vec![r.x, r.y] })
-            .collect(),
+        split_depth: sys.progress.splitting.level().0,
+        split_calm: sys.progress.splitting.level().1,
+        impulses: sys.warm.saved(),
         ..StateMeshes::default()
     };
     let histories = || bodies().flat_map(|b| b.states.iter().flat_map(|st| st.history.iter()));
@@ -380,12 +354,6 @@ impl Fem {
     /// Nodes of all the grains.
     pub fn node_count(&self) -> usize {
         self.sys.grains.iter().map(|g| g.body.nodes()).sum()
-    }
-
-    /// What the steps cost since the start: Newton iterations, contact sweeps, step parts
-    /// done and failed (done again as two halves), and the failures' causes.
-    pub fn cost(&self) -> Cost {
-        Cost::new(&self.sys.totals, &self.sys.splitting)
     }
 }
 

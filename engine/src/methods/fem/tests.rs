@@ -304,18 +304,18 @@ fn disks_collide_and_part(sides: Sides) {
     for _ in 0..400 {
         let rep = sys.step().expect("stable");
         if rep.sweeps > 1000 {
-            eprintln!("step {}: {} Newton, {} sweeps, {} contacts", sys.steps, rep.newton, rep.sweeps, rep.contacts);
+            eprintln!("step {}: {} Newton, {} sweeps, {} contacts", sys.progress.steps, rep.newton, rep.sweeps, rep.contacts);
         }
         touched |= sys.contacts.iter().any(|c| c.active());
         most = most.max(sys.kinetic_energy() + sys.strain_energy());
         let p = sys.momentum();
-        assert!(p.norm() < 1e-12 * mass * 0.1, "momentum {p} at step {} ({} Newton iterations)", sys.steps, rep.newton);
+        assert!(p.norm() < 1e-12 * mass * 0.1, "momentum {p} at step {} ({} Newton iterations)", sys.progress.steps, rep.newton);
     }
     let after = approach(&sys);
     let energy = sys.kinetic_energy() + sys.strain_energy();
     eprintln!(
         "meshed disks ({sides:?}): approach {before:.4} before, {after:.4} after; energy {e0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps, {} split)",
-        sys.totals.newton, sys.totals.sweeps, sys.splitting.substeps
+        sys.progress.totals.newton, sys.progress.totals.sweeps, sys.progress.splitting.substeps
     );
     assert!(touched, "the disks never touched");
     assert!(most <= e0 * (1.0 + 1e-6), "energy grew to {most} from {e0}");
@@ -340,7 +340,7 @@ fn meshed_disk_on_plane(size: Real, a_want: Real) -> (Real, Real, Real, Real) {
         sys.settings.gravity = V2::new(0.0, -g * (k as Real / 10.0).min(1.0));
         sys.step().expect("stable");
     }
-    let mut at: Vec<(Real, Real)> = sys.contacts.iter().map(|c| (c.at.x, c.r.x / sys.last_dt())).collect();
+    let mut at: Vec<(Real, Real)> = sys.contacts.iter().map(|c| (c.at.x, c.r.x / sys.progress.last_dt())).collect();
     let (a, f, _) = crate::methods::soft::hertz::fit(&mut at);
     let load = mass * g;
     (a, (4.0 * load * r / (std::f64::consts::PI * e_star)).sqrt(), f, load)

@@ -94,7 +94,7 @@ impl System {
     /// ([`crate::methods::soft::measure::contact_records`]); `grains` from
     /// [`System::grain_states`].
     pub fn contact_records(&self, grains: &[GrainState]) -> Vec<ContactRecord> {
-        measure::contact_records(&self.contacts, self.walls.len(), grains, self.last_dt())
+        measure::contact_records(&self.contacts, self.walls.len(), grains, self.progress.last_dt())
     }
 
     /// The area the grains' outlines cover twice or outside the box `[lo, hi]`, m² per metre

@@ -16,19 +16,21 @@ use super::outline::{Outline, Vertex};
 use super::params::MpmParams;
 use super::points::Points;
 use super::system::{Settings, System};
-use crate::constitutive::{build, ConstitutiveLaw, History, Mat2, PlaneSym};
+use crate::constitutive::{History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::Real;
 use crate::methods::method::Method;
+use crate::methods::soft::build;
 use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
-use crate::methods::soft::parts::Cost;
-use crate::methods::soft::sim::{planes, SoftSim, SoftSystem};
+use crate::methods::soft::progress::Progress;
+use crate::methods::soft::sim::{SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::observe::{ContactRecord, MaterialPoints};
+use crate::particles::Particles;
 use crate::run::Simulation;
-use crate::scene::state_points::{StateImpulse, StatePoints};
+use crate::scene::state_points::StatePoints;
 use crate::scene::{Checker, Scene, StateFile};
 use std::ops::Range;
 
@@ -43,12 +45,8 @@ impl SoftSystem for System {
         self.step().map(|r| (r.newton, r.sweeps)).map_err(|f| f.cause)
     }
 
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    fn time(&self) -> Real {
-        self.time
+    fn progress(&self) -> &Progress {
+        &self.progress
     }
 
     fn gravity(&self) -> V2 {
@@ -57,14 +55,6 @@ impl SoftSystem for System {
 
     fn planes_mut(&mut self) -> &mut [PlaneWall] {
         &mut self.walls
-    }
-
-    fn wall_impulse(&self) -> &[V2] {
-        &self.wall_impulse
-    }
-
-    fn wall_force(&self) -> &[V2] {
-        &self.wall_force
     }
 
     fn grain_states(&self) -> Vec<GrainState> {
@@ -101,10 +91,6 @@ impl SoftSystem for System {
 
     fn memory_bytes(&self) -> usize {
         System::memory_bytes(self)
-    }
-
-    fn sweeps(&self) -> u64 {
-        u64::from(self.totals.sweeps)
     }
 
     fn set_pair_friction(&mut self, friction: Option<Real>) {
@@ -145,38 +131,55 @@ impl SoftSystem for System {
 
 /// Builds the method on a validated 2D scene whose grains are all deformable.
 pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
-    if scene.dim != 2 {
-        return Err(EngineError::Build { field: "dimension".into(), reason: "method mpm is 2D (plane strain)".into() });
-    }
-    let (particles, domain) = world::initial_particles(scene)?;
+    let (particles, domain) = build::placed(scene, "mpm")?;
     let saved = scene.initial.as_ref().and_then(|st| st.points.as_ref());
     // The grid's cell comes from the disks the grains were cut from (a saved state's grains
     // have deformed since).
-    let radii = saved.map_or(&particles.radius, |s| &s.radius0);
-    let dmin = radii.iter().copied().fold(Real::INFINITY, Real::min) * 2.0;
-    let h = dmin / params.cells_per_diameter;
-    let spacing = h / params.points_per_cell as Real;
-    // One law per deformable material.
-    let mut law_of: Vec<Option<usize>> = vec![None; scene.materials.len()];
-    let mut laws: Vec<Box<dyn ConstitutiveLaw>> = Vec::new();
-    for (m, mat) in scene.materials.iter().enumerate() {
-        if let Some(spec) = &mat.deformable {
-            law_of[m] = Some(laws.len());
-            laws.push(build(spec));
-        }
+    let h = build::smallest_diameter(saved.map_or(&particles.radius, |s| &s.radius0)) / params.cells_per_diameter;
+    let (law_of, laws) = build::laws(scene);
+    let (points, grains) = fill_grains(scene, &particles, saved, &law_of, h, params.points_per_cell)?;
+    let c = &scene.container;
+    let grid = Grid::covering(V2::new(c.lo.x, c.lo.y), V2::new(c.hi.x, c.hi.y), h, MARGIN);
+    let walls = world::container_walls(c);
+    let planes = build::planes(scene, &walls);
+    let dt = build::time_step(scene, &particles, &params.solver, h);
+    let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
+    let settings = Settings {
+        dt,
+        theta: params.solver.theta,
+        flip: params.flip,
+        gravity: V2::new(scene.gravity.x, scene.gravity.y),
+        newton_tolerance: params.solver.newton_tolerance,
+        max_newton: params.solver.max_newton,
+        contact: params.solver.contact(both),
+        sides: if both { Sides::Both } else { Sides::One },
+    };
+    let mut sys = System::new(grid, points, grains, laws, planes, settings);
+    if let Some(saved) = saved {
+        sys.progress.splitting.resume(saved.split_depth, saved.split_calm);
+        sys.warm.restore_saved(&saved.impulses);
     }
+    SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.solver.threads)
+}
+
+/// The grains' material points and the grains, each with its law (`law_of`, by material):
+/// each placed disk filled with points on a square lattice of spacing `h / points_per_cell`
+/// (`h` the grid's cell, m), or, from a `saved` state, its points as saved.
+fn fill_grains(
+    scene: &Scene,
+    particles: &Particles,
+    saved: Option<&StatePoints>,
+    law_of: &[Option<usize>],
+    h: Real,
+    points_per_cell: u32,
+) -> Result<(Points, Vec<Grain>), EngineError> {
+    let spacing = h / points_per_cell as Real;
     let mut points = Points::default();
     let mut grains = Vec::with_capacity(particles.len());
     // Where the next grain's points and outline vertices start in a saved state's arrays.
     let mut restored = (0usize, 0usize);
     for k in 0..particles.len() {
-        let m = particles.material[k] as usize;
-        let (Some(law), Some(mat)) = (law_of.get(m).copied().flatten(), scene.materials.get(m)) else {
-            return Err(EngineError::Build {
-                field: "particles".into(),
-                reason: format!("grain {k}'s material is not deformable: method mpm needs deformable grains"),
-            });
-        };
+        let (law, mat) = build::grain_law(scene, law_of, particles, k, "mpm")?;
         if let Some(saved) = saved {
             let (range, outline) = restore_grain(&mut points, saved, k, &mut restored);
             grains.push(Grain { points: range, law, friction: mat.friction, radius: saved.radius0[k], outline });
@@ -204,30 +207,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
             ),
         });
     }
-    let c = &scene.container;
-    let grid = Grid::covering(V2::new(c.lo.x, c.lo.y), V2::new(c.hi.x, c.hi.y), h, MARGIN);
-    let walls = world::container_walls(c);
-    let planes = planes(scene, &walls);
-    // The time step: the fastest imposed motion covers `max_displacement` of a cell.
-    let speed = world::imposed_speed(scene, &particles, true).max(1e-3 * h);
-    let dt = params.solver.time_step.unwrap_or(params.solver.max_displacement * h / speed);
-    let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
-    let settings = Settings {
-        dt,
-        theta: params.solver.theta,
-        flip: params.flip,
-        gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.solver.newton_tolerance,
-        max_newton: params.solver.max_newton,
-        contact: params.solver.contact(both),
-        sides: if both { Sides::Both } else { Sides::One },
-    };
-    let mut sys = System::new(grid, points, grains, laws, planes, settings);
-    if let Some(saved) = saved {
-        sys.splitting.resume(saved.split_depth, saved.split_calm);
-        sys.warm.restore_saved(&saved.impulses);
-    }
-    SoftSim::new("mpm", scene, sys, &particles, walls, domain, dt, params.solver.threads)
+    Ok((points, grains))
 }
 
 /// Grain `k`'s points and outline from a saved state (checked: its arrays agree), appended to
@@ -272,14 +252,9 @@ pub(crate) fn saved_points(sys: &System) -> StatePoints {
         plastic: p.history.iter().map(|h| vec![h.inv_plastic.xx, h.inv_plastic.xy, h.inv_plastic.yy, h.inv_plastic.zz]).collect(),
         plastic_strain: p.history.iter().map(|h| h.alpha).collect(),
         outline_count: sys.grains.iter().map(|g| g.outline.len() as u32).collect(),
-        split_depth: sys.splitting.level().0,
-        split_calm: sys.splitting.level().1,
-        impulses: sys
-            .warm
-            .entries()
-            .into_iter()
-            .map(|((vertex, grain, other), r)| StateImpulse { grain, vertex: vertex as u32, other, impulse: vec![r.x, r.y] })
-            .collect(),
+        split_depth: sys.progress.splitting.level().0,
+        split_calm: sys.progress.splitting.level().1,
+        impulses: sys.warm.saved(),
         ..StatePoints::default()
     };
     for g in &sys.grains {
@@ -295,12 +270,6 @@ impl Mpm {
     /// Material points.
     pub fn point_count(&self) -> usize {
         self.sys.points.len()
-    }
-
-    /// What the steps cost since the start: Newton iterations, contact sweeps, step parts
-    /// done and failed (done again as two halves), and the failures' causes.
-    pub fn cost(&self) -> Cost {
-        Cost::new(&self.sys.totals, &self.sys.splitting)
     }
 }
 

@@ -67,7 +67,7 @@ fn the_vibrating_bar_keeps_its_amplitude_and_period() {
     let mut series = vec![(0.0, v_cm(&sys))];
     for _ in 0..steps {
         sys.step().expect("stable");
-        series.push((sys.time, v_cm(&sys)));
+        series.push((sys.progress.time, v_cm(&sys)));
     }
     // Period from the zero crossings (linear interpolation), amplitude from the last period.
     let crossings: Vec<Real> = series
@@ -136,13 +136,13 @@ fn disks_collide_and_part(sides: Sides) {
         touched |= sys.contacts.iter().any(|c| c.active());
         most = most.max(sys.kinetic_energy() + sys.strain_energy());
         let p: V2 = (0..sys.points.len()).map(|i| sys.points.v[i] * sys.points.mass[i]).sum();
-        assert!(p.norm() < 1e-12 * mass * 0.1, "momentum {p} at step {} ({} Newton iterations)", sys.steps, rep.newton);
+        assert!(p.norm() < 1e-12 * mass * 0.1, "momentum {p} at step {} ({} Newton iterations)", sys.progress.steps, rep.newton);
     }
     let after = approach(&sys);
     let energy = sys.kinetic_energy() + sys.strain_energy();
     eprintln!(
         "two disks ({sides:?}): approach speed {before:.4} before, {after:.4} after; energy {energy0:.4e} before, {energy:.4e} after, at most {most:.4e} ({} Newton, {} sweeps)",
-        sys.totals.newton, sys.totals.sweeps
+        sys.progress.totals.newton, sys.progress.totals.sweeps
     );
     // The trapezoidal rule adds no energy; the contact (inelastic at the nodes) takes some.
     assert!(most <= energy0 * (1.0 + 1e-6), "energy grew to {most} from {energy0}");
@@ -156,7 +156,7 @@ fn wall_contact(sys: &System) -> (Real, Real, Real) {
     let mut at: Vec<(Real, Real)> = Vec::new();
     for c in &sys.contacts {
         if let super::contact::Other::Wall(_) = c.b {
-            at.push((c.at.x, c.r.x / sys.last_dt()));
+            at.push((c.at.x, c.r.x / sys.progress.last_dt()));
         }
     }
     crate::methods::soft::hertz::fit(&mut at)
@@ -317,11 +317,11 @@ fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, 
     let mut jmin: Real = 1.0;
     while phi(&sys) < target {
         if let Err(e) = sys.step() {
-            panic!("step {}: {:?} at Φ {:.3}", sys.steps, e, phi(&sys));
+            panic!("step {}: {:?} at Φ {:.3}", sys.progress.steps, e, phi(&sys));
         }
         jmin = jmin.min((0..sys.points.len()).map(|p| sys.points.f[p].determinant()).fold(1.0, Real::min));
     }
-    (phi(&sys), sys.steps, t0.elapsed().as_secs_f64(), jmin)
+    (phi(&sys), sys.progress.steps, t0.elapsed().as_secs_f64(), jmin)
 }
 
 /// The compaction reaches Φ >= 0.9 without any inverted point (J > 0 everywhere), at an
@@ -368,12 +368,12 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
     let (mut work, mut trapezoid, mut before) = (0.0, 0.0, 0.0);
     for _ in 0..3 {
         sys.step().expect("stable");
-        work -= sys.wall_impulse[3].dot(&sys.walls[3].velocity);
-        let now = sys.wall_force[3].y;
+        work -= sys.progress.wall_impulse[3].dot(&sys.walls[3].velocity);
+        let now = sys.progress.wall_force[3].y;
         trapezoid += 0.5 * (before + now) * speed * sys.settings.dt;
         before = now;
         let stretch = sys.walls[3].point.y / size;
-        let (force, want) = (sys.wall_force[3].y, -closed(stretch) * size);
+        let (force, want) = (sys.progress.wall_force[3].y, -closed(stretch) * size);
         worst = worst.max((force - want).abs() / want.abs());
         eprintln!("{}: stretch {stretch:.3} wall force {force:.6e} N/m, closed form {want:.6e}", sys.laws[0].name());
     }
@@ -382,9 +382,9 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
     eprintln!(
         "{}: {} Newton iterations, {} sweeps, {} split steps",
         sys.laws[0].name(),
-        sys.totals.newton,
-        sys.totals.sweeps,
-        sys.splitting.substeps
+        sys.progress.totals.newton,
+        sys.progress.totals.sweeps,
+        sys.progress.splitting.substeps
     );
     (worst, (stored - trapezoid).abs() / trapezoid)
 }

@@ -2,6 +2,8 @@
 //! element method ([`super::fem`]), both with contact dynamics — share:
 //!
 //! - [`Scheme`]: the θ-method's settings for a step;
+//! - [`build`]: what building a method on a scene shares (the placed disks, the laws, the
+//!   walls as planes, the time step);
 //! - [`polygon`]: the geometry of a grain's outline (area, inside, nearest segment);
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
@@ -10,9 +12,11 @@
 //! - [`node_block`]: a grain's `A⁻¹` between its contacts' nodes, kept with its factor (fem);
 //! - [`schedule`]: the order of the contact solve's sweeps, tasks that share no grain at once;
 //! - [`parts`]: a step done in parts, split where it fails;
+//! - [`progress`]: a system's steps, time and costs so far, and a step's bookkeeping;
 //! - [`trace`]: a record of every Newton iteration, for a run that asks.
 
 pub mod block;
+pub mod build;
 pub mod contact;
 #[cfg(test)]
 pub mod hertz;
@@ -21,6 +25,7 @@ pub mod node_block;
 pub mod params;
 pub mod parts;
 pub mod polygon;
+pub mod progress;
 pub mod schedule;
 pub mod sim;
 pub mod trace;

@@ -16,6 +16,8 @@ use nalgebra::Vector2;
 
 use super::contact::Wall as PlaneWall;
 use super::measure::GrainState;
+use super::parts::Cost;
+use super::progress::Progress;
 use super::trace::{NewtonSink, Tracer};
 use crate::error::{EngineError, InstabilityCause};
 use crate::geometry::Domain;
@@ -35,18 +37,28 @@ type V2 = Vector2<Real>;
 pub trait SoftSystem: Send {
     /// Advances one step; returns its Newton iterations and contact sweeps.
     fn advance(&mut self) -> Result<(u32, u32), InstabilityCause>;
+    /// Steps, time and costs so far, the walls' loads of the last step.
+    fn progress(&self) -> &Progress;
     /// Steps done.
-    fn steps(&self) -> u64;
+    fn steps(&self) -> u64 {
+        self.progress().steps
+    }
     /// Time, s.
-    fn time(&self) -> Real;
+    fn time(&self) -> Real {
+        self.progress().time
+    }
     /// Gravity, m/s².
     fn gravity(&self) -> V2;
     /// The planes the grains touch (the container's walls, in its order).
     fn planes_mut(&mut self) -> &mut [PlaneWall];
     /// The impulse the grains gave each wall over the last step, N·s/m.
-    fn wall_impulse(&self) -> &[V2];
+    fn wall_impulse(&self) -> &[V2] {
+        &self.progress().wall_impulse
+    }
     /// The force the grains exert on each wall at the step's end, N/m.
-    fn wall_force(&self) -> &[V2];
+    fn wall_force(&self) -> &[V2] {
+        &self.progress().wall_force
+    }
     /// Every grain now.
     fn grain_states(&self) -> Vec<GrainState>;
     /// The contacts of the last step as the metrics count them (`grains` from
@@ -67,7 +79,9 @@ pub trait SoftSystem: Send {
     /// Heap bytes held.
     fn memory_bytes(&self) -> usize;
     /// Contact-solver sweeps since the start.
-    fn sweeps(&self) -> u64;
+    fn sweeps(&self) -> u64 {
+        u64::from(self.progress().totals.sweeps)
+    }
     /// Sets the friction of every grain–grain contact (`None`: each pair's own).
     fn set_pair_friction(&mut self, friction: Option<Real>);
     /// Each grain's momentum, kg·m/s per m.
@@ -91,20 +105,6 @@ fn v2(v: &Vec3) -> V2 {
 
 fn v3(v: &V2) -> Vec3 {
     Vec3::new(v.x, v.y, 0.0)
-}
-
-/// The container's walls as the system's planes (a grain–wall pair's friction is the geometric
-/// mean of the grain's and the wall material's, which validation requires when there are walls).
-pub fn planes(scene: &Scene, walls: &[Wall]) -> Vec<PlaneWall> {
-    let friction = scene.container.wall_material.and_then(|w| scene.materials.get(w)).map_or(0.0, |m| m.friction);
-    walls
-        .iter()
-        .map(|w| {
-            let mut point = V2::zeros();
-            point[w.face.axis] = w.position;
-            PlaneWall { point, normal: v2(&w.normal()), velocity: v2(&w.velocity), friction }
-        })
-        .collect()
 }
 
 /// A soft-grain method on a scene (module documentation).
@@ -177,6 +177,12 @@ impl<S: SoftSystem> SoftSim<S> {
             net_force: 0.0,
             modulus,
         })
+    }
+
+    /// What the steps cost since the start: Newton iterations, contact sweeps, step parts
+    /// done and failed (done again as two halves), and the failures' causes.
+    pub fn cost(&self) -> Cost {
+        self.sys.progress().cost()
     }
 
     /// The grains as disks of their current area, at their centroids, moving at their mean

@@ -90,6 +90,8 @@ pub type NewtonSink = Box<dyn FnMut(&NewtonRecord) + Send>;
 #[derive(Default)]
 pub struct Tracer {
     sink: Option<NewtonSink>,
+    /// The current part's Newton iterations, sweeps and contacts so far ([`Tracer::count`]).
+    counts: (u32, u32, usize),
 }
 
 impl std::fmt::Debug for Tracer {
@@ -115,6 +117,26 @@ impl Tracer {
     pub fn emit(&mut self, make: impl FnOnce() -> NewtonRecord) {
         if let Some(sink) = self.sink.as_mut() {
             sink(&make());
+        }
+    }
+
+    /// Starts counting a part's Newton iterations, sweeps and contacts from zero.
+    pub fn begin_part(&mut self) {
+        self.counts = (0, 0, 0);
+    }
+
+    /// The current part has done `iterations` Newton iterations and `sweeps` sweeps so far,
+    /// with `contacts` contacts.
+    pub fn count(&mut self, iterations: u32, sweeps: u32, contacts: usize) {
+        self.counts = (iterations, sweeps, contacts);
+    }
+
+    /// Sends the record that ends the current part ([`Tracer::end`]) with its counts so far:
+    /// `part` its step, start time (s) and duration (s), `cause` why it failed.
+    pub fn end_part(&mut self, part: (u64, Real, Real), cause: Option<&InstabilityCause>) {
+        if self.on() {
+            let counts = self.counts;
+            self.end(part, counts, cause);
         }
     }
 

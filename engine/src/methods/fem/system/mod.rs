@@ -71,8 +71,9 @@ use super::body::Body;
 use crate::constitutive::ConstitutiveLaw;
 use crate::math::Real;
 use crate::methods::soft::contact::{GrainContacts, Metric, Sides, Support, VertexContact, Wall, Warm};
-use crate::methods::soft::parts::{Splitting, StepParts};
+use crate::methods::soft::parts::StepParts;
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
+use crate::methods::soft::progress::{self, Progress};
 use crate::methods::soft::trace::Tracer;
 use crate::nscd::{Convergence, Nlgs};
 
@@ -127,33 +128,18 @@ pub struct System {
     pub settings: Settings,
     /// The contacts of the last step, with their impulses.
     pub contacts: Vec<VertexContact>,
-    /// Steps done.
-    pub steps: u64,
-    /// Time, s.
-    pub time: Real,
-    /// Newton iterations and contact sweeps since the start.
-    pub totals: StepReport,
-    /// The level the steps are split at, and the parts done and failed since the start.
-    pub splitting: Splitting,
-    /// The impulse the grains gave each wall over the last step (all its parts when it was
-    /// split), N·s/m.
-    pub wall_impulse: Vec<V2>,
-    /// The force the grains exert on each wall at the step's end, N/m: the impulse of the last
-    /// part over its duration.
-    pub wall_force: Vec<V2>,
+    /// Steps, time and costs so far, the walls' loads of the last step.
+    pub progress: Progress,
     /// The friction of every grain–grain contact when set; otherwise the geometric mean of the
     /// two grains'.
     pub pair_friction: Option<Real>,
     /// How near a boundary node must come to another boundary or a wall to be a contact, m.
     pub reach: Real,
-    last_dt: Real,
     sides: Vec<GrainContacts>,
     /// The contact solves' measure of their change (kept between solves).
     metric: Metric,
     /// The Newton iterations' trace (off unless a sink is set).
     pub tracer: Tracer,
-    /// The current part's Newton iterations, sweeps and contacts so far (for the trace).
-    traced: (u32, u32, usize),
     corrections: Vec<Vec<Real>>,
     /// The contacts' impulses of the last step, by key, from which the next step's contact
     /// solve starts.
@@ -187,13 +173,10 @@ struct Pace {
 
 impl StepParts for System {
     fn try_part(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
-        let (step, time) = (self.steps + 1, self.time);
-        self.traced = (0, 0, 0);
+        let part = self.progress.part(dt);
+        self.tracer.begin_part();
         let done = self.try_step(dt, last_chance);
-        if self.tracer.on() {
-            let traced = self.traced;
-            self.tracer.end((step, time, dt), traced, done.as_ref().err().map(|f| &f.cause));
-        }
+        self.tracer.end_part(part, done.as_ref().err().map(|f| &f.cause));
         done
     }
 
@@ -225,19 +208,12 @@ impl System {
             walls,
             settings,
             contacts: Vec::new(),
-            steps: 0,
-            time: 0.0,
-            totals: StepReport::default(),
-            splitting: Splitting::default(),
-            wall_impulse: vec![V2::zeros(); walls_len],
-            wall_force: vec![V2::zeros(); walls_len],
+            progress: Progress::new(walls_len, settings.dt),
             pair_friction: None,
             reach,
-            last_dt: settings.dt,
             sides: vec![GrainContacts::default(); n],
             metric: Metric::default(),
             tracer: Tracer::default(),
-            traced: (0, 0, 0),
             corrections: vec![Vec::new(); n],
             warm: Warm::default(),
             nlgs: Nlgs::new(settings.contact),
@@ -246,11 +222,6 @@ impl System {
             kept: None,
             pace: vec![Pace::default(); n],
         }
-    }
-
-    /// Duration of the last part of the last step, s: the contacts' impulses are over it.
-    pub fn last_dt(&self) -> Real {
-        self.last_dt
     }
 
     /// Heap bytes held.
@@ -291,17 +262,10 @@ impl System {
         2.0 * self.grains.iter().map(|g| g.radius).sum::<Real>() / self.grains.len().max(1) as Real
     }
 
-    /// Advances one step of `settings.dt`, in parts where it fails ([`Splitting`]).
+    /// Advances one step of `settings.dt`, in parts where it fails
+    /// ([`Splitting`](crate::methods::soft::parts::Splitting)).
     pub fn step(&mut self) -> Result<StepReport, StepFailure> {
-        self.wall_impulse.iter_mut().for_each(|p| *p = V2::zeros());
-        let mut splitting = std::mem::take(&mut self.splitting);
-        let done = splitting.step(self, self.settings.dt);
-        self.splitting = splitting;
-        let report = done?;
-        self.steps += 1;
-        self.totals.newton += report.newton;
-        self.totals.sweeps += report.sweeps;
-        self.totals.contacts = report.contacts;
-        Ok(report)
+        let dt = self.settings.dt;
+        progress::step(self, |s| &mut s.progress, dt)
     }
 }

@@ -66,7 +66,7 @@ impl System {
             (self.metric.mass, self.metric.speed) = (mass, scale);
             let solved = contact::solve(&mut self.contacts, &mut self.sides, &self.walls, &mut self.nlgs, &sc, d, &mut self.metric);
             report.sweeps += solved.iterations;
-            self.traced = (it, report.sweeps, report.contacts);
+            self.tracer.count(it, report.sweeps, report.contacts);
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
@@ -128,7 +128,7 @@ impl System {
         if self.tracer.on() {
             let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
             let damped = self.grains.iter().filter(|g| g.body.damped).count();
-            let part = (self.steps + 1, self.time, dt);
+            let part = self.progress.part(dt);
             self.tracer.emit(|| NewtonRecord {
                 refreshed_grains: Some(refreshed),
                 damped_grains: Some(damped),
@@ -234,14 +234,8 @@ impl System {
         for w in &mut self.walls {
             w.point += w.velocity * sc.dt;
         }
-        self.last_dt = sc.dt;
-        contact::wall_impulses(&self.contacts, &mut self.wall_force);
-        for (impulse, p) in self.wall_impulse.iter_mut().zip(self.wall_force.iter_mut()) {
-            *impulse += *p;
-            *p /= sc.dt;
-        }
+        self.progress.end_part(&self.contacts, sc.dt);
         self.warm.remember(&self.contacts);
-        self.time += sc.dt;
         Ok(())
     }
 }

@@ -47,8 +47,9 @@ use super::grid::{Grid, V2};
 use super::points::Points;
 use crate::constitutive::ConstitutiveLaw;
 use crate::math::Real;
-use crate::methods::soft::parts::{Splitting, StepParts};
+use crate::methods::soft::parts::StepParts;
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
+use crate::methods::soft::progress::{self, Progress};
 use crate::methods::soft::trace::Tracer;
 use crate::nscd::{Convergence, Nlgs};
 
@@ -90,27 +91,11 @@ pub struct System {
     pub settings: Settings,
     /// The contacts of the last step, with their impulses.
     pub contacts: Vec<VertexContact>,
-    /// Steps done.
-    pub steps: u64,
-    /// Time, s.
-    pub time: Real,
-    /// Newton iterations and contact sweeps since the start.
-    pub totals: StepReport,
-    /// The level the steps are split at, and the parts done and failed since the start.
-    pub splitting: Splitting,
-    /// The impulse the grains gave each wall over the last step (all its parts when it was
-    /// split), N·s/m: the wall's mean force over the step times the step.
-    pub wall_impulse: Vec<V2>,
-    /// The force the grains exert on each wall at the step's end, N/m: the impulse of its last
-    /// part over that part's duration (backward Euler's end-of-step force; with θ < 1 the
-    /// mean over the part).
-    pub wall_force: Vec<V2>,
+    /// Steps, time and costs so far, the walls' loads of the last step.
+    pub progress: Progress,
     /// The friction of every grain–grain contact when set (a stage's `friction`); otherwise
     /// the geometric mean of the two grains'. Wall contacts keep their own.
     pub pair_friction: Option<Real>,
-    /// Duration of the last part of the last step, s (the step, or its last half when split):
-    /// the contacts' impulses are over it.
-    last_dt: Real,
     fields: Vec<Field>,
     sides: Vec<GrainContacts>,
     /// The contact solves' measure of their change (kept between solves).
@@ -124,19 +109,14 @@ pub struct System {
     moved: Vec<Vec<V2>>,
     /// The Newton iterations' trace (off unless a sink is set).
     pub tracer: Tracer,
-    /// The current part's Newton iterations, sweeps and contacts so far (for the trace).
-    traced: (u32, u32, usize),
 }
 
 impl StepParts for System {
     fn try_part(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
-        let (step, time) = (self.steps + 1, self.time);
-        self.traced = (0, 0, 0);
+        let part = self.progress.part(dt);
+        self.tracer.begin_part();
         let done = self.try_step(dt, !last_chance);
-        if self.tracer.on() {
-            let traced = self.traced;
-            self.tracer.end((step, time, dt), traced, done.as_ref().err().map(|f| &f.cause));
-        }
+        self.tracer.end_part(part, done.as_ref().err().map(|f| &f.cause));
         done
     }
 }
@@ -161,13 +141,7 @@ impl System {
             walls,
             settings,
             contacts: Vec::new(),
-            steps: 0,
-            time: 0.0,
-            totals: StepReport::default(),
-            splitting: Splitting::default(),
-            wall_impulse: vec![V2::zeros(); walls_len],
-            wall_force: vec![V2::zeros(); walls_len],
-            last_dt: settings.dt,
+            progress: Progress::new(walls_len, settings.dt),
             pair_friction: None,
             fields: (0..n).map(|_| Field::default()).collect(),
             sides: vec![GrainContacts::default(); n],
@@ -177,13 +151,7 @@ impl System {
             outlines: vec![Vec::new(); n],
             moved: vec![Vec::new(); n],
             tracer: Tracer::default(),
-            traced: (0, 0, 0),
         }
-    }
-
-    /// Duration of the last part of the last step, s: the contacts' impulses are over it.
-    pub fn last_dt(&self) -> Real {
-        self.last_dt
     }
 
     /// Heap bytes held.
@@ -229,18 +197,10 @@ impl System {
     }
 
     /// Advances one step of `settings.dt` (module documentation), in parts where it fails
-    /// ([`Splitting`]): nothing has moved when a part fails (the points move only once the
-    /// iterations converged).
+    /// ([`Splitting`](crate::methods::soft::parts::Splitting)): nothing has moved when a part
+    /// fails (the points move only once the iterations converged).
     pub fn step(&mut self) -> Result<StepReport, StepFailure> {
-        self.wall_impulse.iter_mut().for_each(|p| *p = V2::zeros());
-        let mut splitting = std::mem::take(&mut self.splitting);
-        let done = splitting.step(self, self.settings.dt);
-        self.splitting = splitting;
-        let report = done?;
-        self.steps += 1;
-        self.totals.newton += report.newton;
-        self.totals.sweeps += report.sweeps;
-        self.totals.contacts = report.contacts;
-        Ok(report)
+        let dt = self.settings.dt;
+        progress::step(self, |s| &mut s.progress, dt)
     }
 }

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::System;
 use crate::error::InstabilityCause;
 use crate::math::Real;
-use crate::methods::mpm::contact::{self, FORCING};
+use crate::methods::mpm::contact::FORCING;
 use crate::methods::mpm::field::{Field, PointFailure, Scheme};
 use crate::methods::mpm::grid::V2;
 use crate::methods::soft::parts::{fail, StepFailure, StepReport};
@@ -121,7 +121,7 @@ impl System {
             }
             let solved = self.solve_contacts(&sc, (mass, scale));
             report.sweeps += solved.iterations;
-            self.traced = (it, report.sweeps, report.contacts);
+            self.tracer.count(it, report.sweeps, report.contacts);
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
@@ -137,7 +137,7 @@ impl System {
             if self.tracer.on() {
                 let switching = self.fields.iter().map(|f| f.switches).sum();
                 let damped = self.fields.iter().filter(|f| f.damped).count();
-                let part = (self.steps + 1, self.time, sc.dt);
+                let part = self.progress.part(sc.dt);
                 self.tracer.emit(|| NewtonRecord {
                     switching: Some(switching),
                     fraction: Some(fraction),
@@ -184,16 +184,8 @@ impl System {
         for w in &mut self.walls {
             w.point += w.velocity * sc.dt;
         }
-        self.last_dt = sc.dt;
-        let mut part = std::mem::take(&mut self.wall_force);
-        contact::wall_impulses(&self.contacts, &mut part);
-        for (impulse, p) in self.wall_impulse.iter_mut().zip(part.iter_mut()) {
-            *impulse += *p;
-            *p /= sc.dt;
-        }
-        self.wall_force = part;
+        self.progress.end_part(&self.contacts, sc.dt);
         self.warm.remember(&self.contacts);
-        self.time += sc.dt;
         Ok(report)
     }
 

@@ -11,6 +11,7 @@ use crate::math::{Real, Vec3};
 use crate::methods::soft::polygon::Nearest;
 use crate::nscd::local::{Delassus, LocalLaw};
 use crate::nscd::ContactFrame;
+use crate::scene::state_points::StateImpulse;
 
 type V2 = Vector2<Real>;
 
@@ -42,8 +43,16 @@ impl Warm {
         all
     }
 
+    /// The impulses as a saved state holds them ([`Warm::restore_saved`] reads them back).
+    pub fn saved(&self) -> Vec<StateImpulse> {
+        self.entries()
+            .into_iter()
+            .map(|((vertex, grain, other), r)| StateImpulse { grain, vertex: vertex as u32, other, impulse: vec![r.x, r.y] })
+            .collect()
+    }
+
     /// Keeps the impulses a saved state holds for the next step.
-    pub fn restore_saved(&mut self, impulses: &[crate::scene::state_points::StateImpulse]) {
+    pub fn restore_saved(&mut self, impulses: &[StateImpulse]) {
         self.restore(impulses.iter().map(|e| ((e.vertex as usize, e.grain, e.other), Vec3::new(e.impulse[0], e.impulse[1], 0.0))));
     }
 
