@@ -126,6 +126,53 @@ const WORST_VIOLATION: Real = 0.1;
 /// [`WORST_VIOLATION`] for how the two bound the creep).
 pub const RESTORE: Real = 0.02;
 
+/// The time step, s: `method.time_step`, or the one in which the fastest expected motion of
+/// the particles `p` covers `max_displacement` of the smallest diameter (`rmin` the smallest
+/// radius, m); an error when it is not a usable step.
+fn nominal_time_step(scene: &Scene, params: &CdParams, p: &Particles, rmin: Real) -> Result<Real, EngineError> {
+    let dt = match params.time_step {
+        Some(dt) => dt,
+        None => {
+            // The fastest imposed motion, stages included (0.1 m/s if nothing moves).
+            // The primaries of aggregates rearrange at up to sqrt(p_I / ρ).
+            let v = params.reference_velocity.unwrap_or_else(|| {
+                let imposed = match world::imposed_speed(scene, p, true) {
+                    v if v > 0.0 => v,
+                    _ => world::reference_velocity(scene, p),
+                };
+                imposed.max(relax::bond_speed(p, scene.dim))
+            });
+            params.max_displacement * 2.0 * rmin / v
+        }
+    };
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(EngineError::Build {
+            field: "method.time_step".into(),
+            reason: format!("the time step {dt:e} s is not usable; give method.time_step"),
+        });
+    }
+    Ok(dt)
+}
+
+/// The mass of a stress-controlled wall of world `w`, kg: one layer of grains across the box's
+/// largest length.
+fn wall_mass(w: &RigidWorld) -> Real {
+    let span = (0..w.dim).map(|a| w.domain.length(a)).fold(0.0, Real::max);
+    w.p.mass.iter().sum::<Real>() * (w.mean_diameter / span).min(1.0)
+}
+
+/// The contact solver's settings from the method's parameters, in `dim` dimensions.
+fn convergence(params: &CdParams, dim: usize) -> Convergence {
+    Convergence {
+        tolerance: params.tolerance,
+        violation_tolerance: params.violation_bound(dim),
+        worst_tolerance: WORST_VIOLATION * params.slop,
+        max_iterations: params.max_iterations,
+        relaxation: params.relaxation,
+        acceleration: params.acceleration,
+    }
+}
+
 /// A contact-dynamics simulation.
 pub struct Cd {
     /// The particles, box, walls, drum and clock ([`RigidWorld`]).
@@ -195,27 +242,7 @@ impl Cd {
         let (p, domain) = world::initial_particles(scene)?;
         let rmin = p.radius.iter().copied().fold(Real::INFINITY, f64::min);
         let rmax = p.radius.iter().copied().fold(0.0, f64::max);
-        let dt = match params.time_step {
-            Some(dt) => dt,
-            None => {
-                // The fastest imposed motion, stages included (0.1 m/s if nothing moves).
-                // The primaries of aggregates rearrange at up to sqrt(p_I / ρ).
-                let v = params.reference_velocity.unwrap_or_else(|| {
-                    let imposed = match world::imposed_speed(scene, &p, true) {
-                        v if v > 0.0 => v,
-                        _ => world::reference_velocity(scene, &p),
-                    };
-                    imposed.max(relax::bond_speed(&p, scene.dim))
-                });
-                params.max_displacement * 2.0 * rmin / v
-            }
-        };
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(EngineError::Build {
-                field: "method.time_step".into(),
-                reason: format!("the time step {dt:e} s is not usable; give method.time_step"),
-            });
-        }
+        let dt = nominal_time_step(scene, params, &p, rmin)?;
         let skin = params.skin * 2.0 * rmin;
         let laws = PairLaws::new(&scene.materials, c.wall_material.unwrap_or(0), None);
         // An aggregate's primaries attract to the bond's cut-off.
@@ -226,9 +253,7 @@ impl Cd {
         // The walls, the drum, the periodic cell.
         let cell_slot = w.walls.len() + usize::from(w.drum.is_some());
         let slots = cell_slot + 1;
-        // One layer of grains across the box's largest length.
-        let span = (0..scene.dim).map(|a| w.domain.length(a)).fold(0.0, Real::max);
-        let wall_mass = w.p.mass.iter().sum::<Real>() * (w.mean_diameter / span).min(1.0);
+        let wall_mass = wall_mass(&w);
         let mut sim = Self {
             dt,
             h: dt,
@@ -254,14 +279,7 @@ impl Cd {
             previous: Vec::new(),
             vel_start: vec![Vec3::zeros(); n],
             omega_start: vec![Vec3::zeros(); n],
-            solver: Nlgs::new(Convergence {
-                tolerance: params.tolerance,
-                violation_tolerance: params.violation_bound(scene.dim),
-                worst_tolerance: WORST_VIOLATION * params.slop,
-                max_iterations: params.max_iterations,
-                relaxation: params.relaxation,
-                acceleration: params.acceleration,
-            }),
+            solver: Nlgs::new(convergence(params, scene.dim)),
             report: NlgsReport::default(),
             sweeps: 0,
             interpenetration: (0.0, 0.0),
@@ -409,25 +427,7 @@ impl RigidMethod for Cd {
     const NAME: &'static str = "cd";
     const GRAIN_MODEL: GrainModel = GrainModel::Rigid;
 
-    fn world(&self) -> &RigidWorld {
-        &self.w
-    }
-
-    fn world_mut(&mut self) -> &mut RigidWorld {
-        &mut self.w
-    }
-
-    fn nominal_step(&self) -> Real {
-        self.dt
-    }
-
-    fn advance(&mut self) -> Result<(), EngineError> {
-        self.step_stages()
-    }
-
-    fn contact_records(&self) -> Vec<ContactRecord> {
-        self.contacts()
-    }
+    crate::methods::rigid::rigid_method_common!();
 
     fn drum_loads(&self) -> Vec<(Vec3, Vec3)> {
         let drum = Side::Boundary(self.w.walls.len() as u32);

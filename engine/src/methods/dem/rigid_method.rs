@@ -8,8 +8,8 @@ use crate::contact::ContactTable;
 use crate::error::EngineError;
 use crate::loading::CellDeformation;
 use crate::math::{Real, Vec3};
-use crate::methods::rigid::{RigidMethod, RigidWorld};
-use crate::observe::{ContactRecord, Sample};
+use crate::methods::rigid::RigidMethod;
+use crate::observe::Sample;
 use crate::run::{Balance, GrainModel};
 use crate::scene::{Controls, Deformation, Material};
 
@@ -17,25 +17,7 @@ impl RigidMethod for Dem {
     const NAME: &'static str = "dem";
     const GRAIN_MODEL: GrainModel = GrainModel::SoftContacts;
 
-    fn world(&self) -> &RigidWorld {
-        &self.w
-    }
-
-    fn world_mut(&mut self) -> &mut RigidWorld {
-        &mut self.w
-    }
-
-    fn nominal_step(&self) -> Real {
-        self.dt
-    }
-
-    fn advance(&mut self) -> Result<(), EngineError> {
-        self.step_stages()
-    }
-
-    fn contact_records(&self) -> Vec<ContactRecord> {
-        self.contacts()
-    }
+    crate::methods::rigid::rigid_method_common!();
 
     fn drum_loads(&self) -> Vec<(Vec3, Vec3)> {
         let slot = self.w.walls.len() as u16;

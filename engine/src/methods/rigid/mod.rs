@@ -59,6 +59,34 @@ pub trait RigidMethod: Send {
     }
 }
 
+/// The items of [`RigidMethod`] every rigid-grain method writes alike, for a method that keeps
+/// its world in its field `w` and its nominal time step (s) in `dt`, steps with its
+/// `step_stages` and gives its contacts with its `contacts`.
+macro_rules! rigid_method_common {
+    () => {
+        fn world(&self) -> &$crate::methods::rigid::RigidWorld {
+            &self.w
+        }
+
+        fn world_mut(&mut self) -> &mut $crate::methods::rigid::RigidWorld {
+            &mut self.w
+        }
+
+        fn nominal_step(&self) -> $crate::math::Real {
+            self.dt
+        }
+
+        fn advance(&mut self) -> Result<(), $crate::error::EngineError> {
+            self.step_stages()
+        }
+
+        fn contact_records(&self) -> Vec<$crate::observe::ContactRecord> {
+            self.contacts()
+        }
+    };
+}
+pub(crate) use rigid_method_common;
+
 impl<M: RigidMethod> Simulation for M {
     fn method(&self) -> &'static str {
         M::NAME
