@@ -56,6 +56,67 @@ const REVERSAL: Real = -0.5;
 /// See [`CYCLE_RATE`].
 const MIN_FRACTION: Real = 1.0 / 16.0;
 
+/// Where a step's Newton iterations stand (what one iteration leaves the next).
+#[derive(Debug, Clone, Copy)]
+struct NewtonPace {
+    /// The last relative correction (infinite before the first).
+    last: Real,
+    /// The next iteration assembles and factorises the matrix anew.
+    refresh: bool,
+    /// Iterations in a row with a matrix assembled at their own iterate.
+    fresh_in_a_row: u32,
+    /// The fraction of each correction taken ([`CYCLE_RATE`]).
+    fraction: Real,
+    /// The mass-weighted square of the previous iteration's correction.
+    last_squared: Real,
+}
+
+impl Default for NewtonPace {
+    /// Before the first iteration: a new matrix, the whole correction taken.
+    fn default() -> Self {
+        Self { last: Real::INFINITY, refresh: true, fresh_in_a_row: 0, fraction: 1.0, last_squared: 0.0 }
+    }
+}
+
+impl NewtonPace {
+    /// Whether iteration `it`, at the relative correction `relative` that shrank by `rate`,
+    /// stalls ([`STALL_AFTER`]): at that rate Newton's tolerance would not be reached within
+    /// the budget (`tolerance`, `budget`).
+    fn stalled(&self, it: u32, relative: Real, rate: Real, (tolerance, budget): (Real, u32)) -> bool {
+        if !(self.fresh_in_a_row >= 2 && it >= STALL_AFTER && rate > STALL_RATIO) {
+            return false;
+        }
+        let needed = if rate < 1.0 { (tolerance / relative).ln() / rate.ln() } else { Real::INFINITY };
+        Real::from(it) + needed > Real::from(budget)
+    }
+
+    /// After an iteration at the relative correction `relative` that shrank by `rate`:
+    /// `cycling` (points switching, or the correction turning back) while it does not shrink
+    /// halves the fraction taken, a fast contraction doubles it back ([`CYCLE_RATE`]); the
+    /// matrix is kept while it contracts the correction fast enough.
+    fn next(&mut self, relative: Real, rate: Real, cycling: bool) {
+        if rate >= CYCLE_RATE && cycling {
+            self.fraction = (0.5 * self.fraction).max(MIN_FRACTION);
+        } else if rate < 0.6 {
+            self.fraction = (2.0 * self.fraction).min(1.0);
+        }
+        self.refresh = relative > REFRESH_RATIO * self.last;
+        self.last = relative;
+    }
+}
+
+/// The mass-weighted root mean square over the `fields`' nodes of the velocity `of` picks.
+fn rms(fields: &[Field], of: fn(&Field, usize) -> V2) -> Real {
+    let (mut s, mut m) = (0.0, 0.0);
+    for f in fields {
+        for i in 0..f.nodes() {
+            s += f.mass[i] * of(f, i).norm_squared();
+            m += f.mass[i];
+        }
+    }
+    (s / m.max(Real::MIN_POSITIVE)).sqrt()
+}
+
 impl System {
     fn point_failure(&self, f: PointFailure) -> StepFailure {
         let grain_of = |p: usize| self.grains.iter().position(|g| g.points.contains(&p)).unwrap_or(0);
@@ -70,123 +131,126 @@ impl System {
     pub(super) fn try_step(&mut self, dt: Real, stall_check: bool) -> Result<StepReport, StepFailure> {
         let sc = Scheme { dt, theta: self.settings.theta, gravity: self.settings.gravity };
         // 1. The fields.
-        {
-            let (grid, points, laws) = (&self.grid, &self.points, &self.laws);
-            let begun: Result<(), PointFailure> = self
-                .fields
-                .par_iter_mut()
-                .zip(&self.grains)
-                .try_for_each(|(f, g)| f.begin(grid, points, g.points.clone(), laws[g.law].as_ref()));
-            if let Err(e) = begun {
-                return Err(self.point_failure(e));
-            }
-        }
+        self.begin_fields()?;
         // 2. The candidate contacts.
         self.detect();
         let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };
         // 3. Newton.
-        // The velocity scale: the walls', gravity's over the step, and at least a thousandth of
-        // a cell per step (a packing at rest under fixed walls would otherwise measure its
-        // corrections against round-off: 24 iterations a step at equilibrium).
-        let floor = 1e-3 * self.grid.h / sc.dt;
-        let v_ref = self.walls.iter().map(|w| w.velocity.norm()).fold((self.settings.gravity.norm() * sc.dt).max(floor), Real::max);
-        let rms = |fields: &[Field], of: fn(&Field, usize) -> V2| {
-            let (mut s, mut m) = (0.0, 0.0);
-            for f in fields {
-                for i in 0..f.nodes() {
-                    s += f.mass[i] * of(f, i).norm_squared();
-                    m += f.mass[i];
-                }
-            }
-            (s / m.max(Real::MIN_POSITIVE)).sqrt()
-        };
-        let mut scale = v_ref.max(rms(&self.fields, |f, i| f.v0[i]));
+        self.newton(&sc, stall_check, &mut report)?;
+        // 4. The points.
+        self.finish(&sc)?;
+        Ok(report)
+    }
+
+    /// Every grain projects its points on its nodes (mass, velocity, internal force at the
+    /// start).
+    fn begin_fields(&mut self) -> Result<(), StepFailure> {
+        let (grid, points, laws) = (&self.grid, &self.points, &self.laws);
+        let begun: Result<(), PointFailure> = self
+            .fields
+            .par_iter_mut()
+            .zip(&self.grains)
+            .try_for_each(|(f, g)| f.begin(grid, points, g.points.clone(), laws[g.law].as_ref()));
+        begun.map_err(|e| self.point_failure(e))
+    }
+
+    /// Newton's iterations on the nodal velocities with the contact solve between them, until
+    /// the correction is within Newton's tolerance; their iterations and sweeps into `report`.
+    fn newton(&mut self, sc: &Scheme, stall_check: bool, report: &mut StepReport) -> Result<(), StepFailure> {
+        let mut scale = self.velocity_scale(sc);
         let mass = self.fields.iter().map(|f| f.mass.iter().sum::<Real>()).sum::<Real>();
-        let mut converged = false;
-        let mut last = Real::INFINITY;
-        let mut refresh = true;
+        let mut pace = NewtonPace::default();
         self.nlgs.settings.tolerance = self.settings.contact.tolerance;
-        // Iterations in a row with a matrix assembled at their own iterate.
-        let mut fresh_in_a_row = 0;
-        // The fraction of each correction taken ([`CYCLE_RATE`]).
-        let mut fraction: Real = 1.0;
-        // The mass-weighted square of the previous iteration's correction.
-        let mut last_squared: Real = 0.0;
         for it in 1..=self.settings.max_newton {
             report.newton = it;
-            fresh_in_a_row = if refresh { fresh_in_a_row + 1 } else { 0 };
-            self.newton_free(&sc, refresh)?;
+            pace.fresh_in_a_row = if pace.refresh { pace.fresh_in_a_row + 1 } else { 0 };
+            self.newton_free(sc, pace.refresh)?;
             if it <= DRIFT_ITERATIONS {
-                self.measure_drifts(&sc);
+                self.measure_drifts(sc);
             }
-            let solved = self.solve_contacts(&sc, (mass, scale));
+            let solved = self.solve_contacts(sc, (mass, scale));
             report.sweeps += solved.iterations;
             self.tracer.count(it, report.sweeps, report.contacts);
             if !solved.converged {
                 return Err(fail(solved.budget_failure(&self.settings.contact)));
             }
-            let (dv2, m, against_last) = self.newton_update(fraction);
-            let reversed = it > 1 && against_last < REVERSAL * (dv2 * last_squared).sqrt();
-            last_squared = dv2;
+            let (dv2, m, against_last) = self.newton_update(pace.fraction);
+            let reversed = it > 1 && against_last < REVERSAL * (dv2 * pace.last_squared).sqrt();
+            pace.last_squared = dv2;
             let correction = (dv2 / m.max(Real::MIN_POSITIVE)).sqrt();
             if it == 1 {
                 scale = scale.max(correction);
             }
             scale = scale.max(rms(&self.fields, |f, i| f.v[i]));
             let relative = correction / scale.max(Real::MIN_POSITIVE);
-            if self.tracer.on() {
-                let switching = self.fields.iter().map(|f| f.switches).sum();
-                let damped = self.fields.iter().filter(|f| f.damped).count();
-                let part = self.progress.part(sc.dt);
-                self.tracer.emit(|| NewtonRecord {
-                    switching: Some(switching),
-                    fraction: Some(fraction),
-                    refreshed: Some(refresh),
-                    damped_grains: Some(damped),
-                    reversed: Some(reversed),
-                    ..NewtonRecord::iteration(part, it, relative, solved.iterations, report.contacts)
-                });
-            }
+            self.trace_iteration(sc, (it, relative, solved.iterations, report.contacts), &pace, reversed);
             if relative <= self.settings.newton_tolerance {
-                converged = true;
-                break;
+                return Ok(());
             }
             // An attempt that converges too slowly to make it within the budget stops now.
-            let rate = relative / last;
-            if stall_check && fresh_in_a_row >= 2 && it >= STALL_AFTER && rate > STALL_RATIO {
-                let needed = if rate < 1.0 { (self.settings.newton_tolerance / relative).ln() / rate.ln() } else { Real::INFINITY };
-                if Real::from(it) + needed > Real::from(self.settings.max_newton) {
-                    return Err(fail(self.newton_budget(it, relative)));
-                }
+            let rate = relative / pace.last;
+            if stall_check && pace.stalled(it, relative, rate, (self.settings.newton_tolerance, self.settings.max_newton)) {
+                return Err(fail(self.newton_budget(it, relative)));
             }
             // Points switching between elastic and plastic, or (at the last chance) the
             // correction turning back, while it does not shrink: a cycle (between the return
             // mapping's two branches, or a two-cycle of the iterates), which a shorter step
             // does not break ([`CYCLE_RATE`], [`REVERSAL`]).
             let switching = it > 1 && self.fields.iter().any(|f| f.switches > 0);
-            if rate >= CYCLE_RATE && (switching || (reversed && !stall_check)) {
-                fraction = (0.5 * fraction).max(MIN_FRACTION);
-            } else if rate < 0.6 {
-                fraction = (2.0 * fraction).min(1.0);
-            }
-            // The matrix is kept while it contracts the correction fast enough.
-            refresh = relative > REFRESH_RATIO * last;
+            pace.next(relative, rate, switching || (reversed && !stall_check));
             // The next contact solve is made a hundred times more accurate than this
             // correction (inexact Newton's forcing term).
             self.nlgs.settings.tolerance = (FORCING * relative).clamp(1e-12, self.settings.contact.tolerance);
-            last = relative;
         }
-        if !converged {
-            return Err(fail(self.newton_budget(self.settings.max_newton, last)));
+        Err(fail(self.newton_budget(self.settings.max_newton, pace.last)))
+    }
+
+    /// The velocity scale Newton's corrections are measured against: the walls', gravity's over
+    /// the step, the nodes' at the start, and at least a thousandth of a cell per step (a
+    /// packing at rest under fixed walls would otherwise measure its corrections against
+    /// round-off: 24 iterations a step at equilibrium).
+    fn velocity_scale(&self, sc: &Scheme) -> Real {
+        let floor = 1e-3 * self.grid.h / sc.dt;
+        let v_ref = self.walls.iter().map(|w| w.velocity.norm()).fold((self.settings.gravity.norm() * sc.dt).max(floor), Real::max);
+        v_ref.max(rms(&self.fields, |f, i| f.v0[i]))
+    }
+
+    /// Traces Newton iteration `it` (its relative correction, its contact solve's sweeps and the
+    /// contacts), with its points switching, the fraction taken, whether its matrix was new and
+    /// the grains whose matrix was damped.
+    fn trace_iteration(
+        &mut self,
+        sc: &Scheme,
+        (it, relative, sweeps, contacts): (u32, Real, u32, usize),
+        pace: &NewtonPace,
+        reversed: bool,
+    ) {
+        if self.tracer.on() {
+            let switching = self.fields.iter().map(|f| f.switches).sum();
+            let damped = self.fields.iter().filter(|f| f.damped).count();
+            let part = self.progress.part(sc.dt);
+            let (fraction, refresh) = (pace.fraction, pace.refresh);
+            self.tracer.emit(|| NewtonRecord {
+                switching: Some(switching),
+                fraction: Some(fraction),
+                refreshed: Some(refresh),
+                damped_grains: Some(damped),
+                reversed: Some(reversed),
+                ..NewtonRecord::iteration(part, it, relative, sweeps, contacts)
+            });
         }
-        // 4. The points.
-        self.move_points(&sc)?;
+    }
+
+    /// Ends a converged step: the points move with their grains' fields, the walls move, the
+    /// wall forces and warm starts are kept.
+    fn finish(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
+        self.move_points(sc)?;
         for w in &mut self.walls {
             w.point += w.velocity * sc.dt;
         }
         self.progress.end_part(&self.contacts, sc.dt);
         self.warm.remember(&self.contacts);
-        Ok(report)
+        Ok(())
     }
 
     /// Newton's budget spent after `iterations` with the last relative `correction`, naming
