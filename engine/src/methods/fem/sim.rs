@@ -14,18 +14,17 @@ use nalgebra::Vector2;
 use super::body::Body;
 use super::mesh::Mesh;
 use super::params::FemParams;
-use super::system::{Grain, Settings, System};
+use super::system::{Grain, System};
 use crate::constitutive::{ConstitutiveLaw, History, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::{Real, Vec3};
 use crate::methods::method::Method;
 use crate::methods::soft::build;
-use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::measure::{self, aspect_ratio, GrainState};
 use crate::methods::soft::polygon::second_moments;
 use crate::methods::soft::progress::Progress;
-use crate::methods::soft::sim::{SoftSim, SoftSystem};
+use crate::methods::soft::sim::{self, SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::observe::{ContactRecord, MaterialPoints};
@@ -174,14 +173,10 @@ impl SoftSystem for System {
 
     fn suggestion(&self, cause: &InstabilityCause) -> &'static str {
         match cause {
-            InstabilityCause::NewtonBudget { .. } => {
-                "take a smaller method.time_step (or a smaller method.max_displacement), or raise method.max_newton"
-            }
-            InstabilityCause::SolverBudget { .. } => "raise method.max_iterations, or take a smaller method.time_step",
             InstabilityCause::InvertedElement { .. } => {
                 "the grain is squeezed beyond what its elements can follow: refine the mesh (method.elements_per_diameter) or take a smaller method.time_step"
             }
-            _ => "take a smaller method.time_step",
+            _ => sim::suggestion(cause),
         }
     }
 
@@ -206,15 +201,7 @@ pub fn fem(scene: &Scene, params: &FemParams) -> Result<Fem, EngineError> {
     let walls = world::container_walls(&scene.container);
     let planes = build::planes(scene, &walls);
     let dt = build::time_step(scene, &particles, &params.solver, size);
-    let settings = Settings {
-        dt,
-        theta: params.solver.theta,
-        gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.solver.newton_tolerance,
-        max_newton: params.solver.max_newton,
-        contact: params.solver.contact(params.symmetric_contact),
-        sides: if params.symmetric_contact { Sides::Both } else { Sides::One },
-    };
+    let settings = build::settings(scene, &params.solver, dt, params.symmetric_contact);
     let mut sys = System::new(grains, laws, planes, settings);
     if let Some(saved) = saved {
         sys.progress.splitting.resume(saved.split_depth, saved.split_calm);

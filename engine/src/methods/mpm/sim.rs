@@ -15,16 +15,15 @@ use super::measure::GrainState;
 use super::outline::{Outline, Vertex};
 use super::params::MpmParams;
 use super::points::Points;
-use super::system::{Settings, System};
+use super::system::System;
 use crate::constitutive::{History, Mat2, PlaneSym};
 use crate::error::{EngineError, InstabilityCause};
 use crate::math::Real;
 use crate::methods::method::Method;
 use crate::methods::soft::build;
-use crate::methods::soft::contact::Sides;
 use crate::methods::soft::contact::Wall as PlaneWall;
 use crate::methods::soft::progress::Progress;
-use crate::methods::soft::sim::{SoftSim, SoftSystem};
+use crate::methods::soft::sim::{self, SoftSim, SoftSystem};
 use crate::methods::soft::trace::Tracer;
 use crate::methods::world;
 use crate::observe::{ContactRecord, MaterialPoints};
@@ -108,15 +107,11 @@ impl SoftSystem for System {
 
     fn suggestion(&self, cause: &InstabilityCause) -> &'static str {
         match cause {
-            InstabilityCause::NewtonBudget { .. } => {
-                "take a smaller method.time_step (or a smaller method.max_displacement), or raise method.max_newton"
-            }
-            InstabilityCause::SolverBudget { .. } => "raise method.max_iterations, or take a smaller method.time_step",
             InstabilityCause::Inverted { .. } => {
                 "the grain is squeezed beyond what its points can follow: refine the grid (method.cells_per_diameter) or take a smaller method.time_step"
             }
             InstabilityCause::LeftGrid { .. } => "a grain left the container: keep walls around the grains (no open face)",
-            _ => "take a smaller method.time_step",
+            _ => sim::suggestion(cause),
         }
     }
 
@@ -144,17 +139,8 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     let planes = build::planes(scene, &walls);
     let dt = build::time_step(scene, &particles, &params.solver, h);
     let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
-    let settings = Settings {
-        dt,
-        theta: params.solver.theta,
-        flip: params.flip,
-        gravity: V2::new(scene.gravity.x, scene.gravity.y),
-        newton_tolerance: params.solver.newton_tolerance,
-        max_newton: params.solver.max_newton,
-        contact: params.solver.contact(both),
-        sides: if both { Sides::Both } else { Sides::One },
-    };
-    let mut sys = System::new(grid, points, grains, laws, planes, settings);
+    let settings = build::settings(scene, &params.solver, dt, both);
+    let mut sys = System::new(grid, points, grains, laws, planes, settings, params.flip);
     if let Some(saved) = saved {
         sys.progress.splitting.resume(saved.split_depth, saved.split_calm);
         sys.warm.restore_saved(&saved.impulses);

@@ -10,11 +10,16 @@ use super::system::{Settings, System};
 use crate::constitutive::{build, LawSpec};
 use crate::math::Real;
 
+/// The tests' FLIP fraction of the points' velocity update, unless they ask for [`PIC`].
+const FLIP: Real = 1.0;
+
+/// The FLIP fraction of a pure PIC update.
+const PIC: Real = 0.0;
+
 fn settings(dt: Real) -> Settings {
     Settings {
         dt,
         theta: 0.5,
-        flip: 1.0,
         gravity: V2::zeros(),
         newton_tolerance: 1e-6,
         max_newton: 20,
@@ -53,7 +58,8 @@ fn the_vibrating_bar_keeps_its_amplitude_and_period() {
     let grid = Grid::covering(V2::new(-l, 0.0), V2::new(l, dx), dx, 4);
     let grains = vec![Grain { points: range, law: 0, friction: 0.0, radius: l, outline: Outline::default() }];
     let dt = 0.2 * dx / c;
-    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: e, poisson: 0.0 })], vec![], settings(dt));
+    let mut sys =
+        System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: e, poisson: 0.0 })], vec![], settings(dt), FLIP);
     let v_cm = |sys: &System| {
         let (mut mv, mut m) = (0.0, 0.0);
         for &p in &half {
@@ -121,7 +127,7 @@ fn disks_collide_and_part(sides: Sides) {
         Grain { points: b.clone(), law: 0, friction: 0.0, radius: r, outline: ob },
     ];
     let law = build(&LawSpec::LinearElastic { young: 1000.0, poisson: 0.3 });
-    let mut sys = System::new(grid, points, grains, vec![law], Vec::<Wall>::new(), Settings { sides, ..settings(0.01) });
+    let mut sys = System::new(grid, points, grains, vec![law], Vec::<Wall>::new(), Settings { sides, ..settings(0.01) }, FLIP);
     let mass: Real = sys.points.mass.iter().sum();
     let approach = |s: &System| {
         let d = mean_velocity(&s.points, a.clone()) - mean_velocity(&s.points, b.clone());
@@ -181,8 +187,7 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
     let grains = vec![Grain { points: range, law: 0, friction: 0.0, radius: r, outline }];
     let mut s = settings(0.1);
     s.theta = 1.0;
-    s.flip = 0.0;
-    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![floor], s);
+    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![floor], s, PIC);
     for k in 1..=30 {
         sys.settings.gravity = V2::new(0.0, -g * (k as Real / 10.0).min(1.0));
         sys.step().expect("stable");
@@ -239,7 +244,8 @@ fn block_on_incline(tan: Real, t: Real) -> (Real, Real, Real) {
     let mut s = settings(0.01);
     s.theta = 1.0;
     s.gravity = V2::new(g * angle.sin(), -g * angle.cos());
-    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: 1e6, poisson: 0.3 })], vec![floor], s);
+    let mut sys =
+        System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: 1e6, poisson: 0.3 })], vec![floor], s, FLIP);
     let steps = (t / 0.01).round() as usize;
     let mut half = 0.0;
     for k in 1..=steps {
@@ -297,7 +303,6 @@ fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, 
     ];
     let mut s = settings(dt);
     s.theta = 1.0;
-    s.flip = 0.0;
     s.newton_tolerance = 1e-5;
     s.contact = crate::nscd::Convergence {
         tolerance: 1e-6,
@@ -308,7 +313,7 @@ fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, 
         acceleration: 0.9,
     };
     let law = build(&LawSpec::LinearElastic { young: 10e6, poisson: 0.45 });
-    let mut sys = System::new(grid, points, grains, vec![law], walls, s);
+    let mut sys = System::new(grid, points, grains, vec![law], walls, s, PIC);
     let t0 = std::time::Instant::now();
     let phi = |s: &System| {
         let area: Real = (0..s.points.len()).map(|p| s.points.area(p)).sum();
@@ -357,10 +362,9 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
     let grains = vec![Grain { points: range, law: 0, friction: 0.0, radius: 0.5, outline }];
     let mut s = settings(0.5);
     s.theta = 1.0;
-    s.flip = 0.0;
     s.contact.tolerance = 1e-7;
     s.contact.acceleration = 0.9;
-    let mut sys = System::new(grid, points, grains, vec![build(&spec)], walls, s);
+    let mut sys = System::new(grid, points, grains, vec![build(&spec)], walls, s, PIC);
     let mut worst: Real = 0.0;
     // The wall's work as the method counts it (impulse times velocity: the end-of-step force
     // over each step, which backward Euler dissipates a part of) and by the trapezoidal rule
@@ -447,7 +451,7 @@ fn snapshot_points_tile_the_grain_with_its_stress() {
     }
     let grid = Grid::covering(V2::new(0.0, 0.0), V2::new(1.0, 0.5), 0.2, 4);
     let grains = vec![Grain { points: range.clone(), law: 0, friction: 0.0, radius: 0.5, outline: Outline::default() }];
-    let sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![], settings(1.0));
+    let sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![], settings(1.0), FLIP);
     let drawn = sys.material_points();
     assert_eq!(drawn.corners.len(), range.len());
     let area: Real =
@@ -483,7 +487,8 @@ fn interpenetration_counts_shared_and_outside_area() {
         Grain { points: b.clone(), law: 0, friction: 0.0, radius: 0.5, outline: Outline::rectangle(&points, b, b0, b1, 0.2) },
     ];
     let grid = Grid::covering(V2::new(0.0, 0.0), V2::new(1.5, 1.0), 0.2, 4);
-    let sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: 1e6, poisson: 0.3 })], vec![], settings(1.0));
+    let sys =
+        System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: 1e6, poisson: 0.3 })], vec![], settings(1.0), FLIP);
     // The box ends at x = 1.25: 0.5 shared, 0.25 of the second square outside.
     let area = sys.interpenetration(V2::new(0.0, 0.0), V2::new(1.25, 1.0));
     assert!((area - 0.75).abs() < 1e-9, "interpenetration {area}");
@@ -611,7 +616,7 @@ fn a_newton_failure_names_the_grain_with_the_largest_correction() {
     let mut s = settings(0.2 * dx / (e / rho as Real).sqrt());
     s.max_newton = 1;
     s.newton_tolerance = 1e-12;
-    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: e, poisson: 0.0 })], vec![], s);
+    let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young: e, poisson: 0.0 })], vec![], s, FLIP);
     let failure = sys.step().expect_err("one iteration cannot reach 1e-12");
     match failure.cause {
         crate::error::InstabilityCause::NewtonBudget { grain, damped, .. } => {

@@ -1,12 +1,14 @@
 //! What building a soft-grain method on a scene shares, whatever its grains are made of
 //! (material points or meshes): the placed disks the grains are made from, the smallest of them
 //! (the size of a cell or an element follows from it), one constitutive law per deformable
-//! material, the container's walls as the system's planes, and the time step.
+//! material, the container's walls as the system's planes, the time step and the steps'
+//! settings.
 
 use nalgebra::Vector2;
 
-use super::contact::Wall as PlaneWall;
+use super::contact::{Sides, Wall as PlaneWall};
 use super::params::SoftSolver;
+use super::Settings;
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::EngineError;
 use crate::geometry::Domain;
@@ -79,6 +81,20 @@ pub fn planes(scene: &Scene, walls: &[Wall]) -> Vec<PlaneWall> {
             PlaneWall { point, normal: V2::new(normal.x, normal.y), velocity: V2::new(w.velocity.x, w.velocity.y), friction }
         })
         .collect()
+}
+
+/// The settings of steps of `dt` (s) on `scene` from the method's `solver` settings, contacts
+/// held on both sides of each pair (`both`) or on one.
+pub fn settings(scene: &Scene, solver: &SoftSolver, dt: Real, both: bool) -> Settings {
+    Settings {
+        dt,
+        theta: solver.theta,
+        gravity: V2::new(scene.gravity.x, scene.gravity.y),
+        newton_tolerance: solver.newton_tolerance,
+        max_newton: solver.max_newton,
+        contact: solver.contact(both),
+        sides: if both { Sides::Both } else { Sides::One },
+    }
 }
 
 /// The time step, s: the scene's, or the one in which the fastest imposed motion on the

@@ -1,7 +1,7 @@
 //! What the soft-grain methods — the material point method ([`super::mpm`]) and the finite
 //! element method ([`super::fem`]), both with contact dynamics — share:
 //!
-//! - [`Scheme`]: the θ-method's settings for a step;
+//! - [`Settings`]: a method's settings for its steps, and [`Scheme`]: the θ-method's for one;
 //! - [`build`]: what building a method on a scene shares (the placed disks, the laws, the
 //!   walls as planes, the time step);
 //! - [`polygon`]: the geometry of a grain's outline (area, inside, nearest segment);
@@ -50,6 +50,33 @@ pub struct Scheme {
     pub theta: Real,
     /// Gravity, m/s².
     pub gravity: Vector2<Real>,
+}
+
+/// A soft-grain method's settings for its steps (each method's own, such as the material point
+/// method's FLIP fraction, are its system's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Time step, s.
+    pub dt: Real,
+    /// θ of the θ-method, in [½, 1].
+    pub theta: Real,
+    /// Gravity, m/s².
+    pub gravity: Vector2<Real>,
+    /// Newton's tolerance on the velocity correction, relative to the velocity scale.
+    pub newton_tolerance: Real,
+    /// Newton's budget of iterations a step.
+    pub max_newton: u32,
+    /// The contact solver's settings.
+    pub contact: crate::nscd::Convergence,
+    /// Which grains' vertices the contacts between grains hold outside the other's outline.
+    pub sides: contact::Sides,
+}
+
+impl Settings {
+    /// The θ-method's settings for a part of `dt` (s).
+    pub fn scheme(&self, dt: Real) -> Scheme {
+        Scheme { dt, theta: self.theta, gravity: self.gravity }
+    }
 }
 
 /// The contact solver's settings of the soft-grain methods' tests: tight tolerances, plain

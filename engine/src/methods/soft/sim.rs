@@ -88,8 +88,10 @@ pub trait SoftSystem: Send {
     fn grain_momenta(&self) -> Vec<V2>;
     /// Mass (kg/m) and centre of mass (m).
     fn center_of_mass(&self) -> (Real, V2);
-    /// What to change when a step fails for `cause`.
-    fn suggestion(&self, cause: &InstabilityCause) -> &'static str;
+    /// What to change when a step fails for `cause` (by default [`suggestion`]'s advice).
+    fn suggestion(&self, cause: &InstabilityCause) -> &'static str {
+        suggestion(cause)
+    }
     /// The Newton iterations' trace ([`super::trace`]).
     fn tracer(&mut self) -> &mut Tracer;
     /// Adds to a saved state (which holds the grains as disks of their current area) what the
@@ -97,6 +99,18 @@ pub trait SoftSystem: Send {
     /// ([`StateFile::material_points`]), `fem` its meshes ([`StateFile::meshes`]), in the order
     /// of [`SoftSystem::grain_states`]. By default nothing: the state holds disks only.
     fn save_grains(&self, _state: &mut StateFile) {}
+}
+
+/// What to change when a soft-grain method's step fails for `cause`, for the causes every
+/// such method shares (a method adds its own in [`SoftSystem::suggestion`]).
+pub fn suggestion(cause: &InstabilityCause) -> &'static str {
+    match cause {
+        InstabilityCause::NewtonBudget { .. } => {
+            "take a smaller method.time_step (or a smaller method.max_displacement), or raise method.max_newton"
+        }
+        InstabilityCause::SolverBudget { .. } => "raise method.max_iterations, or take a smaller method.time_step",
+        _ => "take a smaller method.time_step",
+    }
 }
 
 fn v2(v: &Vec3) -> V2 {

@@ -70,12 +70,13 @@ use nalgebra::Vector2;
 use super::body::Body;
 use crate::constitutive::ConstitutiveLaw;
 use crate::math::Real;
-use crate::methods::soft::contact::{GrainContacts, Metric, Sides, Support, VertexContact, Wall, Warm};
+use crate::methods::soft::contact::{GrainContacts, Metric, Support, VertexContact, Wall, Warm};
 use crate::methods::soft::parts::StepParts;
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
 use crate::methods::soft::progress::{self, Progress};
 use crate::methods::soft::trace::Tracer;
-use crate::nscd::{Convergence, Nlgs};
+pub use crate::methods::soft::Settings;
+use crate::nscd::Nlgs;
 
 type V2 = Vector2<Real>;
 
@@ -83,25 +84,6 @@ type V2 = Vector2<Real>;
 /// units of the longest boundary segment, before the part fails and is split (module
 /// documentation).
 pub const DRIFT_TOLERANCE: Real = 2e-2;
-
-/// Settings of the method.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    /// Time step, s.
-    pub dt: Real,
-    /// θ of the θ-method, in [½, 1].
-    pub theta: Real,
-    /// Gravity, m/s².
-    pub gravity: V2,
-    /// Newton's tolerance on the velocity correction, relative to the velocity scale.
-    pub newton_tolerance: Real,
-    /// Newton's budget of iterations a step.
-    pub max_newton: u32,
-    /// The contact solver's settings.
-    pub contact: Convergence,
-    /// Which grains' vertices the contacts between grains hold outside the other's outline.
-    pub sides: Sides,
-}
 
 /// A meshed grain.
 #[derive(Debug)]

@@ -33,7 +33,7 @@ fn body_failure(grain: usize, f: BodyFailure, tolerance: Real) -> StepFailure {
 impl System {
     /// One part of `dt` without splitting; `last_chance`: it cannot be split further.
     pub(super) fn try_step(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
-        let sc = Scheme { dt, theta: self.settings.theta, gravity: self.settings.gravity };
+        let sc = self.settings.scheme(dt);
         self.grains.par_iter_mut().for_each(|g| g.body.begin());
         self.detect();
         let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };

@@ -40,7 +40,7 @@
 mod detect;
 mod step;
 
-use super::contact::{self, GrainContacts, Metric, Sides, Support, VertexContact, Wall, Warm};
+use super::contact::{self, GrainContacts, Metric, Support, VertexContact, Wall, Warm};
 use super::field::Field;
 use super::grain::Grain;
 use super::grid::{Grid, V2};
@@ -51,29 +51,8 @@ use crate::methods::soft::parts::StepParts;
 pub use crate::methods::soft::parts::{StepFailure, StepReport};
 use crate::methods::soft::progress::{self, Progress};
 use crate::methods::soft::trace::Tracer;
-use crate::nscd::{Convergence, Nlgs};
-
-/// Settings of the method.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    /// Time step, s.
-    pub dt: Real,
-    /// θ of the θ-method, in [½, 1] ([`super::field`]).
-    pub theta: Real,
-    /// FLIP fraction of the points' velocity update (1: pure FLIP, no damping of the modes the
-    /// grid carries; 0: PIC).
-    pub flip: Real,
-    /// Gravity, m/s².
-    pub gravity: V2,
-    /// Newton's tolerance on the velocity correction, relative to the velocity scale.
-    pub newton_tolerance: Real,
-    /// Newton's budget of iterations a step.
-    pub max_newton: u32,
-    /// The contact solver's settings.
-    pub contact: Convergence,
-    /// Which grains' vertices the contacts between grains hold outside the other's outline.
-    pub sides: Sides,
-}
+pub use crate::methods::soft::Settings;
+use crate::nscd::Nlgs;
 
 /// The whole state of the method (module documentation).
 pub struct System {
@@ -89,6 +68,9 @@ pub struct System {
     pub walls: Vec<Wall>,
     /// Settings.
     pub settings: Settings,
+    /// FLIP fraction of the points' velocity update (1: pure FLIP, no damping of the modes the
+    /// grid carries; 0: PIC).
+    pub flip: Real,
     /// The contacts of the last step, with their impulses.
     pub contacts: Vec<VertexContact>,
     /// Steps, time and costs so far, the walls' loads of the last step.
@@ -122,7 +104,7 @@ impl StepParts for System {
 }
 
 impl System {
-    /// A system at rest in time.
+    /// A system at rest in time, its points' velocities updated with the FLIP fraction `flip`.
     pub fn new(
         grid: Grid,
         points: Points,
@@ -130,6 +112,7 @@ impl System {
         laws: Vec<Box<dyn ConstitutiveLaw>>,
         walls: Vec<Wall>,
         settings: Settings,
+        flip: Real,
     ) -> Self {
         let n = grains.len();
         let walls_len = walls.len();
@@ -140,6 +123,7 @@ impl System {
             laws,
             walls,
             settings,
+            flip,
             contacts: Vec::new(),
             progress: Progress::new(walls_len, settings.dt),
             pair_friction: None,

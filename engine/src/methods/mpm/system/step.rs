@@ -129,7 +129,7 @@ impl System {
     /// One step of `dt` without splitting; `stall_check`: the Newton iterations may end early
     /// ([`STALL_AFTER`]).
     pub(super) fn try_step(&mut self, dt: Real, stall_check: bool) -> Result<StepReport, StepFailure> {
-        let sc = Scheme { dt, theta: self.settings.theta, gravity: self.settings.gravity };
+        let sc = self.settings.scheme(dt);
         // 1. The fields.
         self.begin_fields()?;
         // 2. The candidate contacts.
@@ -349,7 +349,7 @@ impl System {
 
     /// Moves the points with their grains' converged nodal fields.
     fn move_points(&mut self, sc: &Scheme) -> Result<(), StepFailure> {
-        let flip = self.settings.flip;
+        let flip = self.flip;
         // The point's displacement, velocity change, interpolated velocity and new `F`.
         let kinematics = |f: &Field, q: usize, fp: &crate::constitutive::Mat2| {
             let st = f.stencils[q];
