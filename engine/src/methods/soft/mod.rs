@@ -6,12 +6,14 @@
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
 //!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
+//! - [`augment`]: a grain's Newton matrix made definite along its closed contacts;
 //! - [`block`]: the normal impulses of a pair of grains' contacts solved together, exactly;
 //! - [`node_block`]: a grain's `A⁻¹` between its contacts' nodes, kept with its factor (fem);
 //! - [`schedule`]: the order of the contact solve's sweeps, tasks that share no grain at once;
 //! - [`parts`]: a step done in parts, split where it fails;
 //! - [`trace`]: a record of every Newton iteration, for a run that asks.
 
+pub mod augment;
 pub mod block;
 pub mod contact;
 #[cfg(test)]
