@@ -21,6 +21,7 @@ use super::mesh::Mesh;
 use super::sparse::{SparseError, SparseSpd};
 use crate::constitutive::{ConstitutiveLaw, History, Mat2};
 use crate::math::{positive_part, Real};
+use crate::methods::soft::augment::{self, Closed};
 use crate::methods::soft::Scheme;
 
 type V2 = Vector2<Real>;
@@ -113,6 +114,11 @@ pub struct Body {
     /// their positive parts to make it definite ([`Body::iterate`]); Newton then converges
     /// linearly at best.
     pub damped: bool,
+    /// The penalty along the closed contacts that made the factorised matrix definite
+    /// ([`augment`]), N·s/m per m/s; zero when the matrix was definite as it is.
+    pub penalty: Real,
+    /// The matrix's entries before a penalty was added ([`Body::iterate`]).
+    saved: Vec<Real>,
     /// Where each element's 8×8 block goes in the matrix (`usize::MAX`: the upper triangle,
     /// added through its mirror).
     slots: Vec<[usize; 64]>,
@@ -169,6 +175,8 @@ impl Body {
             residual: vec![0.0; 2 * n],
             matrix,
             damped: false,
+            penalty: 0.0,
+            saved: Vec::new(),
             slots,
             total: Vec::with_capacity(n),
             force: Vec::with_capacity(n),
@@ -197,6 +205,7 @@ impl Body {
             + (self.states.capacity() + self.trial.capacity()) * std::mem::size_of::<State>()
             + self.slots.capacity() * 64 * 8
             + (self.total.capacity() + self.force.capacity()) * v2
+            + self.saved.capacity() * 8
             + self.matrix.heap_bytes()
     }
 
@@ -269,28 +278,63 @@ impl Body {
     /// factorises the matrix (module documentation).
     ///
     /// Under compression the elements' geometric stiffness is negative, and over a long step it
-    /// can outweigh the mass along a few modes of a squeezed grain (its rotation stretches it at
-    /// second order, which its stress favours): the matrix is then not positive definite. It is
-    /// then assembled again with each element's stiffness replaced by its positive part
-    /// ([`crate::math::positive_part`]), which makes it definite; Newton's fixed point does not
-    /// depend on the matrix, only its rate. It spares the step a split, as for the material
-    /// point method's grains; on `scenes/fem_compaction_2d.json` the parts the contacts need
-    /// ([`super::system`]) are short enough that it does not come into play.
-    pub fn iterate(&mut self, law: &dyn ConstitutiveLaw, sc: &Scheme, refresh: bool) -> Result<(), BodyFailure> {
+    /// can outweigh the mass along a few modes of a squeezed grain: the matrix is then not
+    /// positive definite. It is then made definite along the grain's `closed` contacts
+    /// ([`augment`]: Newton's own on the modes those contacts hold, [`Body::penalty`]); where
+    /// no penalty does, it is assembled again with each element's stiffness replaced by its
+    /// positive part ([`crate::math::positive_part`], [`Body::damped`]), which makes it
+    /// definite but converges only linearly. Newton's fixed point does not depend on the
+    /// matrix, only its rate.
+    pub fn iterate(
+        &mut self,
+        law: &dyn ConstitutiveLaw,
+        sc: &Scheme,
+        refresh: bool,
+        (closed, closed_count): (&[Closed], usize),
+    ) -> Result<(), BodyFailure> {
         self.fill_total(sc);
         if !refresh {
             return self.assemble(law, sc, None);
         }
-        for positive in [false, true] {
-            self.assemble(law, sc, Some(positive))?;
-            self.damped = positive;
-            match self.matrix.factorise() {
-                Ok(()) => return Ok(()),
-                Err(SparseError::NotPositiveDefinite) if !positive => {}
-                Err(SparseError::NotPositiveDefinite | SparseError::Pattern(_)) => return Err(BodyFailure::NotPositiveDefinite),
-            }
+        self.assemble(law, sc, Some(false))?;
+        self.damped = false;
+        self.penalty = 0.0;
+        match self.matrix.factorise() {
+            Ok(()) => return Ok(()),
+            Err(SparseError::NotPositiveDefinite) => {}
+            Err(SparseError::Pattern(_)) => return Err(BodyFailure::NotPositiveDefinite),
         }
-        Err(BodyFailure::NotPositiveDefinite)
+        if self.factorise_penalised(&closed[..closed_count]) || (closed_count < closed.len() && self.factorise_penalised(closed)) {
+            return Ok(());
+        }
+        self.assemble(law, sc, Some(true))?;
+        self.damped = true;
+        self.matrix.factorise().map_err(|_| BodyFailure::NotPositiveDefinite)
+    }
+
+    /// Factorises the assembled matrix with the penalty of the `closed` contacts ([`augment`]);
+    /// whether one made it definite (its `ρ` then in [`Body::penalty`]).
+    fn factorise_penalised(&mut self, closed: &[Closed]) -> bool {
+        let fixed = &self.fixed;
+        let held = |d: usize| fixed.iter().any(|&(f, _)| f == d);
+        let matrix = &mut self.matrix;
+        let first = augment::unknowns(closed).filter(|&d| !held(d)).map(|d| matrix.get(d, d)).fold(0.0, Real::max);
+        if first <= 0.0 {
+            return false;
+        }
+        let saved = &mut self.saved;
+        matrix.save(saved);
+        let found = augment::search(first, |rho| {
+            matrix.restore(saved);
+            augment::penalty(closed, rho, held, |r, c, v| {
+                if let Some(slot) = matrix.slot(r, c) {
+                    matrix.add_at(slot, v);
+                }
+            });
+            matrix.factorise().is_ok()
+        });
+        self.penalty = found.unwrap_or(0.0);
+        found.is_some()
     }
 
     /// The residual at the displacements in `total` and — when `matrix` says whether with the
@@ -382,7 +426,7 @@ impl Body {
         self.begin();
         let mut last = Real::INFINITY;
         for it in 1..=max_newton {
-            self.iterate(law, sc, true)?;
+            self.iterate(law, sc, true, (&[], 0))?;
             let mut dv: Vec<Real> = self.residual.iter().map(|r| -r).collect();
             self.matrix.solve(&mut dv);
             let scale = self.v.iter().map(|v| v.norm()).fold(floor, Real::max);

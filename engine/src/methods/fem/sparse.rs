@@ -113,6 +113,23 @@ impl SparseSpd {
         self.values[slot] += v;
     }
 
+    /// Copies the entries into `to` (to put them back with [`SparseSpd::restore`]).
+    pub fn save(&self, to: &mut Vec<Real>) {
+        to.clear();
+        to.extend_from_slice(&self.values);
+    }
+
+    /// Puts back entries [`SparseSpd::save`] copied (of this pattern).
+    pub fn restore(&mut self, from: &[Real]) {
+        self.values.copy_from_slice(from);
+        self.factorised = false;
+    }
+
+    /// Entry `(row, col)` (either order; zero outside the pattern).
+    pub fn get(&self, r: usize, c: usize) -> Real {
+        self.slot(r, c).map_or(0.0, |s| self.values[s])
+    }
+
     /// Sets row and column `i` to the unit vector times `diagonal` (a prescribed unknown).
     pub fn isolate(&mut self, i: usize, diagonal: Real) {
         for c in 0..=i {

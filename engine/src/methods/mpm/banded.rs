@@ -82,6 +82,11 @@ impl Banded {
         self.data[k] += v;
     }
 
+    /// Whether entry `(i, j)` (either triangle) lies within the band.
+    pub fn within(&self, i: usize, j: usize) -> bool {
+        i.abs_diff(j) <= self.bandwidth && i.max(j) < self.n
+    }
+
     /// Entry `(i, j)` (either triangle; zero outside the band).
     pub fn get(&self, i: usize, j: usize) -> Real {
         let (i, j) = if j > i { (j, i) } else { (i, j) };

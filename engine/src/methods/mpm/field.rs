@@ -24,6 +24,7 @@ use super::grid::{Grid, Stencil, V2};
 use super::points::Points;
 use crate::constitutive::{ConstitutiveLaw, History, Mat2};
 use crate::math::{positive_part, Real};
+use crate::methods::soft::augment::{self, Closed};
 
 /// Why a field could not be formed or assembled: the point (index in [`Points`]) and what
 /// happened to it.
@@ -81,6 +82,9 @@ pub struct Field {
     /// tangents replaced by their positive parts, to make it definite ([`Field::assemble`]).
     /// While any grain's is, the iterations converge linearly at best.
     pub damped: bool,
+    /// The penalty along the closed contacts that made the current matrix definite
+    /// ([`augment`]), N·s/m per m/s; zero when it was definite as it is.
+    pub penalty: Real,
     /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
     pub last_correction: Real,
     /// The grain's whole Newton correction of the previous iteration of the step (two entries
@@ -219,7 +223,9 @@ impl Field {
     /// Under compression the geometric stiffness is negative, and at long steps it can outweigh
     /// the mass term along a few modes (the linearised rotation of a grain squeezed between
     /// walls stretches it at second order, which its stress then favours): the matrix is then
-    /// not positive definite. It is factorised again with its diagonal scaled by `1 + ε`,
+    /// not positive definite. It is then made definite along the grain's `closed` contacts
+    /// ([`augment`]: Newton's own on the modes those contacts hold, [`Field::penalty`]). Where
+    /// no penalty does, it is factorised again with its diagonal scaled by `1 + ε`,
     /// ε = 1e-3, 1e-2, 0.1 and 1 (Levenberg–Marquardt's scaled damping): Newton's fixed point
     /// does not depend on the matrix, only its rate of convergence does. A scaled diagonal
     /// keeps that rate near Newton's at the nodes the grain barely reaches (a shift by a
@@ -242,10 +248,15 @@ impl Field {
         range: std::ops::Range<usize>,
         law: &dyn ConstitutiveLaw,
         sc: &Scheme,
+        (closed, closed_count): (&[Closed], usize),
     ) -> Result<(), Option<PointFailure>> {
         self.assemble_matrix(pts, range.clone(), law, sc, false)?;
-        if self.matrix.factorise().is_ok() {
-            self.damped = false;
+        self.damped = false;
+        self.penalty = 0.0;
+        if self.matrix.factorise().is_ok()
+            || self.factorise_penalised(&closed[..closed_count])
+            || (closed_count < closed.len() && self.factorise_penalised(closed))
+        {
             return Ok(());
         }
         self.damped = true;
@@ -257,6 +268,33 @@ impl Field {
             return Ok(());
         }
         Err(None)
+    }
+
+    /// Factorises the assembled matrix with the penalty of the `closed` contacts
+    /// ([`augment`]); whether one made it definite (its `ρ` then in [`Field::penalty`]).
+    fn factorise_penalised(&mut self, closed: &[Closed]) -> bool {
+        let matrix = &mut self.matrix;
+        let first = augment::unknowns(closed).filter(|&d| d < matrix.len()).map(|d| matrix.get(d, d)).fold(0.0, Real::max);
+        if first <= 0.0 {
+            return false;
+        }
+        let assembled = &self.assembled;
+        let found = augment::search(first, |rho| {
+            matrix.restore(assembled);
+            augment::penalty(
+                closed,
+                rho,
+                |_| false,
+                |r, c, v| {
+                    if matrix.within(r, c) {
+                        matrix.add_lower(r, c, v);
+                    }
+                },
+            );
+            matrix.factorise().is_ok()
+        });
+        self.penalty = found.unwrap_or(0.0);
+        found.is_some()
     }
 
     /// Factorises the assembled matrix with its diagonal scaled by `1 + ε` for growing ε

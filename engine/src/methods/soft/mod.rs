@@ -8,6 +8,7 @@
 //! - [`measure`]: the grains and their contacts as the shared metrics see them;
 //! - [`contact`]: contacts between grains' outlines and with walls, each grain acting through
 //!   its own nodes, as a problem of the shared contact solver ([`crate::nscd`]);
+//! - [`augment`]: a grain's Newton matrix made definite along its closed contacts;
 //! - [`block`]: the normal impulses of a pair of grains' contacts solved together, exactly;
 //! - [`node_block`]: a grain's `A⁻¹` between its contacts' nodes, kept with its factor (fem);
 //! - [`schedule`]: the order of the contact solve's sweeps, tasks that share no grain at once;
@@ -15,6 +16,7 @@
 //! - [`progress`]: a system's steps, time and costs so far, and a step's bookkeeping;
 //! - [`trace`]: a record of every Newton iteration, for a run that asks.
 
+pub mod augment;
 pub mod block;
 pub mod build;
 pub mod contact;

@@ -50,6 +50,10 @@ pub struct NewtonRecord {
     /// linearly at best.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damped_grains: Option<usize>,
+    /// Grains whose current matrix was made definite along their closed contacts
+    /// ([`super::augment`]): Newton's own on the modes those contacts hold.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub penalised_grains: Option<usize>,
     /// `mpm`: the iteration's correction turned back on the previous one (their mass-weighted
     /// cosine below −½), the mark of a two-cycle that only a partial correction breaks.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -77,6 +81,7 @@ impl NewtonRecord {
             refreshed: None,
             refreshed_grains: None,
             damped_grains: None,
+            penalised_grains: None,
             reversed: None,
             end: None,
         }

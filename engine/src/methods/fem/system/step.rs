@@ -8,6 +8,7 @@ use super::{Grain, Pace, System, DRIFT_TOLERANCE};
 use crate::error::InstabilityCause;
 use crate::math::Real;
 use crate::methods::fem::body::{add_correction, BodyFailure};
+use crate::methods::soft::augment;
 use crate::methods::soft::contact;
 use crate::methods::soft::node_block::Half;
 use crate::methods::soft::parts::{fail, StepFailure, StepReport};
@@ -128,10 +129,12 @@ impl System {
         if self.tracer.on() {
             let refreshed = self.pace.iter().filter(|p| p.refresh && !p.done).count();
             let damped = self.grains.iter().filter(|g| g.body.damped).count();
+            let penalised = self.grains.iter().filter(|g| g.body.penalty > 0.0).count();
             let part = self.progress.part(dt);
             self.tracer.emit(|| NewtonRecord {
                 refreshed_grains: Some(refreshed),
                 damped_grains: Some(damped),
+                penalised_grains: Some(penalised),
                 ..NewtonRecord::iteration(part, it, relative, sweeps, contacts)
             });
         }
@@ -145,6 +148,7 @@ impl System {
         let laws = &self.laws;
         let tolerance = self.settings.newton_tolerance;
         let pace = &self.pace;
+        let contacts = &self.contacts;
         self.grains.par_iter_mut().zip(self.sides.par_iter_mut()).zip(self.corrections.par_iter_mut()).enumerate().try_for_each(
             |(g, ((grain, side), dv))| {
                 let Pace { refresh, done, .. } = pace[g];
@@ -152,7 +156,9 @@ impl System {
                     return Ok(());
                 }
                 let body = &mut grain.body;
-                body.iterate(laws[grain.law].as_ref(), sc, refresh).map_err(|f| body_failure(g, f, tolerance))?;
+                let mut closed = Vec::new();
+                let count = if refresh { augment::contacts_of(side, contacts, &mut closed) } else { 0 };
+                body.iterate(laws[grain.law].as_ref(), sc, refresh, (&closed, count)).map_err(|f| body_failure(g, f, tolerance))?;
                 dv.clear();
                 dv.extend(body.residual.iter().map(|r| -r));
                 body.matrix.solve(dv);

@@ -10,6 +10,7 @@ use crate::math::Real;
 use crate::methods::mpm::contact::FORCING;
 use crate::methods::mpm::field::{Field, PointFailure, Scheme};
 use crate::methods::mpm::grid::V2;
+use crate::methods::soft::augment;
 use crate::methods::soft::parts::{fail, StepFailure, StepReport};
 use crate::methods::soft::trace::NewtonRecord;
 use crate::methods::soft::{largest, REFRESH_RATIO};
@@ -228,6 +229,7 @@ impl System {
         if self.tracer.on() {
             let switching = self.fields.iter().map(|f| f.switches).sum();
             let damped = self.fields.iter().filter(|f| f.damped).count();
+            let penalised = self.fields.iter().filter(|f| f.penalty > 0.0).count();
             let part = self.progress.part(sc.dt);
             let (fraction, refresh) = (pace.fraction, pace.refresh);
             self.tracer.emit(|| NewtonRecord {
@@ -235,6 +237,7 @@ impl System {
                 fraction: Some(fraction),
                 refreshed: Some(refresh),
                 damped_grains: Some(damped),
+                penalised_grains: Some(penalised),
                 reversed: Some(reversed),
                 ..NewtonRecord::iteration(part, it, relative, sweeps, contacts)
             });
@@ -265,13 +268,15 @@ impl System {
     /// its matrix, factorised — solves for its free correction (into `Field::correction`), and
     /// prepares its side of the contact problem (the block of `A⁻¹` only with a new matrix).
     fn newton_free(&mut self, sc: &Scheme, refresh: bool) -> Result<(), StepFailure> {
-        let (points, laws) = (&self.points, &self.laws);
+        let (points, laws, contacts) = (&self.points, &self.laws, &self.contacts);
         let out: Result<(), (usize, Option<PointFailure>)> =
             self.fields.par_iter_mut().zip(self.sides.par_iter_mut()).enumerate().try_for_each(|(g, (f, side))| {
                 let grain = &self.grains[g];
                 let law = laws[grain.law].as_ref();
                 if refresh {
-                    f.assemble(points, grain.points.clone(), law, sc).map_err(|e| (g, e))?;
+                    let mut closed = Vec::new();
+                    let count = augment::contacts_of(side, contacts, &mut closed);
+                    f.assemble(points, grain.points.clone(), law, sc, (&closed, count)).map_err(|e| (g, e))?;
                 } else {
                     f.assemble_residual(points, grain.points.clone(), law, sc).map_err(|e| (g, Some(e)))?;
                 }
