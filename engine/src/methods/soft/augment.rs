@@ -17,8 +17,8 @@
 //! `ρ`, and Newton keeps its quadratic rate once the set of closed contacts has settled. Only
 //! a contact that opens or closes during the iteration sees the penalty (as a spring of
 //! stiffness `ρ/(θh)²` for that iteration); the fixed point is the residual's, unchanged.
-//! (Replacing `K` by its positive part instead, as before, changes every compressed mode and
-//! made the corrections shrink by a constant 0.5–0.9 an iteration on a squeezed disk.)
+//! (Replacing `K` by its positive part instead changes every compressed mode, and Newton is
+//! then linear.)
 //!
 //! Between two grains a closed contact holds only their relative normal velocity, and each
 //! grain's factor sees its own side alone: there the linearised step is Newton's own only
@@ -26,7 +26,9 @@
 //!
 //! `ρ` starts at the largest diagonal entry of `A` on the contacts' unknowns and grows by
 //! [`PENALTY_GROWTH`] until the Cholesky factorisation succeeds, at most [`PENALTY_TRIES`]
-//! times; a grain whose indefinite modes its contacts do not hold falls back on the method's
+//! times. Where the closed contacts do not hold every indefinite mode (on a squeezed disk, one
+//! sat at the node just outside the contact), the open contacts ([`contacts_of`]) are added
+//! and the search made again; a grain that neither makes definite falls back on the method's
 //! damping.
 
 use nalgebra::Vector2;
@@ -42,7 +44,7 @@ pub const PENALTY_GROWTH: Real = 8.0;
 /// Most penalties tried before the method's damping.
 pub const PENALTY_TRIES: u32 = 8;
 
-/// A closed contact on a grain: where it acts and its normal.
+/// A contact on a grain, closed or open: where it acts and its normal.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Closed {
     /// The grain's nodes that carry the contact, with their weights.
