@@ -427,22 +427,19 @@ fn a_meshed_disk_on_a_plane_matches_hertz() {
 /// between two frictionless plates to 8% of its diameter, with the top plate at 0.05 m/s, by
 /// backward Euler at step `dt` (s); returns each part's Newton records.
 fn squeezed_disk_trace(dt: Real) -> Vec<Vec<crate::methods::soft::trace::NewtonRecord>> {
-    use std::sync::{Arc, Mutex};
+    use crate::methods::soft::trace::recorded;
     let (r, speed) = (5e-3, 0.05);
     let grain = disk_grain(V2::new(0.0, r), r, 2.0 * r / 16.0, 990.0, V2::zeros());
     let floor = Wall { point: V2::zeros(), normal: V2::new(0.0, 1.0), velocity: V2::zeros(), friction: 0.0 };
     let top = Wall { point: V2::new(0.0, 2.0 * r), normal: V2::new(0.0, -1.0), velocity: V2::new(0.0, -speed), friction: 0.0 };
     let law = build(&LawSpec::LinearElastic { young: 1e7, poisson: 0.3 });
     let mut sys = System::new(vec![grain], vec![law], vec![floor, top], Settings { max_newton: 60, ..settings(dt, 1.0) });
-    let records = Arc::new(Mutex::new(Vec::new()));
-    let sink = records.clone();
-    sys.tracer.set(Box::new(move |r| sink.lock().expect("trace").push(r.clone())));
+    let records = recorded::record(&mut sys.tracer);
     let steps = (0.08 * 2.0 * r / (speed * dt)).round() as usize;
     for _ in 0..steps {
         sys.step().expect("stable");
     }
-    let all = records.lock().expect("trace").clone();
-    all.split(|r| r.end.is_some()).map(|p| p.to_vec()).filter(|p| !p.is_empty()).collect()
+    recorded::parts(&records)
 }
 
 /// Newton converges like Newton on a squeezed disk (issue 70). Over long steps (1 ms: 16
@@ -460,7 +457,7 @@ fn squeezed_disk_trace(dt: Real) -> Vec<Vec<crate::methods::soft::trace::NewtonR
 /// same holds within 10 iterations (measured 9; before, 60).
 #[test]
 fn a_squeezed_disk_converges_quadratically_at_long_steps() {
-    use crate::methods::soft::trace::NewtonRecord;
+    use crate::methods::soft::trace::recorded;
     for (dt, budget) in [(1e-3, 8), (2.5e-4, 10)] {
         let parts = squeezed_disk_trace(dt);
         let steps = (0.08 * 2.0 * 5e-3 / (0.05 * dt)).round() as usize;
@@ -468,13 +465,7 @@ fn a_squeezed_disk_converges_quadratically_at_long_steps() {
         assert!(parts.iter().flatten().all(|r| r.damped_grains == Some(0)), "{dt} s: a matrix was damped");
         let most = parts.iter().map(Vec::len).max().unwrap_or(0);
         assert!(most <= budget, "{dt} s: a part took {most} iterations");
-        let fresh = |r: &NewtonRecord| r.refreshed_grains == Some(1);
-        let ratios: Vec<Real> = parts
-            .iter()
-            .flat_map(|p| p.windows(2).filter(|w| fresh(&w[0])).filter_map(|w| Some((w[0].correction?, w[1].correction?))))
-            .filter(|&(c0, _)| c0 < 1e-2)
-            .map(|(c0, c1)| c1 / (c0 * c0))
-            .collect();
+        let ratios = recorded::quadratic_ratios(&parts, |r| r.refreshed_grains == Some(1));
         let worst = ratios.iter().copied().fold(0.0, Real::max);
         let penalised = parts.iter().flatten().filter(|r| r.penalised_grains == Some(1)).count();
         eprintln!(

@@ -27,7 +27,7 @@
 //! `ρ` starts at the largest diagonal entry of `A` on the contacts' unknowns and grows by
 //! [`PENALTY_GROWTH`] until the Cholesky factorisation succeeds, at most [`PENALTY_TRIES`]
 //! times. Where the closed contacts do not hold every indefinite mode (on a squeezed disk, one
-//! sat at the node just outside the contact), the open contacts ([`contacts_of`]) are added
+//! sat at the node just outside the contact), the open contacts ([`with_contacts_of`]) are added
 //! and the search made again; a grain that neither makes definite falls back on the method's
 //! damping.
 
@@ -53,24 +53,31 @@ pub struct Closed {
     pub normal: V2,
 }
 
-/// The contacts of grain side `side` into `out`: the closed ones first (normal impulse above
-/// zero in `contacts`), then the open ones; returns how many are closed.
-pub fn contacts_of(side: &GrainContacts, contacts: &[VertexContact], out: &mut Vec<Closed>) -> usize {
-    out.clear();
-    let mut open = Vec::new();
-    for (support, &(c, _)) in side.samples.iter().zip(&side.entries) {
-        if let Some(k) = contacts.get(c as usize) {
-            let entry = Closed { support: *support, normal: V2::new(k.frame.n.x, k.frame.n.y) };
-            if k.r.x > 0.0 {
-                out.push(entry);
-            } else {
-                open.push(entry);
+thread_local! {
+    /// Each thread's list of a grain's contacts, kept between grains and steps.
+    static CONTACTS: std::cell::RefCell<Vec<Closed>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Calls `f` with the contacts of grain side `side` — the closed ones first (normal impulse
+/// above zero in `contacts`), then the open ones — and how many are closed; the list is a
+/// thread's scratch, not allocated again for each grain.
+pub fn with_contacts_of<R>(side: &GrainContacts, contacts: &[VertexContact], f: impl FnOnce(&[Closed], usize) -> R) -> R {
+    CONTACTS.with(|cell| {
+        let mut list = cell.borrow_mut();
+        list.clear();
+        let mut closed_count = 0;
+        for closed in [true, false] {
+            for (support, &(c, _)) in side.samples.iter().zip(&side.entries) {
+                if let Some(k) = contacts.get(c as usize).filter(|k| (k.r.x > 0.0) == closed) {
+                    list.push(Closed { support: *support, normal: V2::new(k.frame.n.x, k.frame.n.y) });
+                }
+            }
+            if closed {
+                closed_count = list.len();
             }
         }
-    }
-    let closed = out.len();
-    out.extend(open);
-    closed
+        f(&list, closed_count)
+    })
 }
 
 /// Calls `add(row, col, value)` with `row >= col` for the lower triangle of `ρ Σ h hᵀ` over

@@ -191,3 +191,38 @@ mod tests {
         assert_eq!(got[1]["end"], "converged");
     }
 }
+
+/// Test helpers: a tracer's records kept, cut into parts, and Newton's rate read off them.
+#[cfg(test)]
+pub mod recorded {
+    use std::sync::{Arc, Mutex};
+
+    use super::{NewtonRecord, Tracer};
+    use crate::math::Real;
+
+    /// Keeps every record `tracer` emits from now on.
+    pub fn record(tracer: &mut Tracer) -> Arc<Mutex<Vec<NewtonRecord>>> {
+        let records = Arc::new(Mutex::new(Vec::new()));
+        let sink = records.clone();
+        tracer.set(Box::new(move |r| sink.lock().expect("trace").push(r.clone())));
+        records
+    }
+
+    /// The iteration records of each part, in order (the records that end parts left out).
+    pub fn parts(records: &Mutex<Vec<NewtonRecord>>) -> Vec<Vec<NewtonRecord>> {
+        let all = records.lock().expect("trace").clone();
+        all.split(|r| r.end.is_some()).map(|p| p.to_vec()).filter(|p| !p.is_empty()).collect()
+    }
+
+    /// `c_(k+1) / c_k²` for every iteration `k` on a `fresh` matrix whose relative correction
+    /// `c_k` is below 1e-2 (Newton's asymptotic range): bounded for a quadratic rate, `r / c_k`
+    /// for a linear rate `r`.
+    pub fn quadratic_ratios(parts: &[Vec<NewtonRecord>], fresh: impl Fn(&NewtonRecord) -> bool) -> Vec<Real> {
+        parts
+            .iter()
+            .flat_map(|p| p.windows(2).filter(|w| fresh(&w[0])).filter_map(|w| Some((w[0].correction?, w[1].correction?))))
+            .filter(|&(c0, _)| c0 < 1e-2)
+            .map(|(c0, c1)| c1 / (c0 * c0))
+            .collect()
+    }
+}

@@ -156,9 +156,13 @@ impl System {
                     return Ok(());
                 }
                 let body = &mut grain.body;
-                let mut closed = Vec::new();
-                let count = if refresh { augment::contacts_of(side, contacts, &mut closed) } else { 0 };
-                body.iterate(laws[grain.law].as_ref(), sc, refresh, (&closed, count)).map_err(|f| body_failure(g, f, tolerance))?;
+                let law = laws[grain.law].as_ref();
+                let iterated = if refresh {
+                    augment::with_contacts_of(side, contacts, |closed, count| body.iterate(law, sc, true, (closed, count)))
+                } else {
+                    body.iterate(law, sc, false, (&[], 0))
+                };
+                iterated.map_err(|f| body_failure(g, f, tolerance))?;
                 dv.clear();
                 dv.extend(body.residual.iter().map(|r| -r));
                 body.matrix.solve(dv);

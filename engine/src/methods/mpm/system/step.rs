@@ -274,9 +274,10 @@ impl System {
                 let grain = &self.grains[g];
                 let law = laws[grain.law].as_ref();
                 if refresh {
-                    let mut closed = Vec::new();
-                    let count = augment::contacts_of(side, contacts, &mut closed);
-                    f.assemble(points, grain.points.clone(), law, sc, (&closed, count)).map_err(|e| (g, e))?;
+                    augment::with_contacts_of(side, contacts, |closed, count| {
+                        f.assemble(points, grain.points.clone(), law, sc, (closed, count))
+                    })
+                    .map_err(|e| (g, e))?;
                 } else {
                     f.assemble_residual(points, grain.points.clone(), law, sc).map_err(|e| (g, Some(e)))?;
                 }
