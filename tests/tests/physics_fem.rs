@@ -28,27 +28,22 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// covered 0.08%); the dissipated energy (the walls' work less the energy stored and moving)
 /// never falls below −0.1% of the strain energy at the end (backward Euler and inelastic
 /// contacts only take energy out; on the study's 30 grains one-sided contacts pushed it to
-/// −0.11 J/m at Φ 0.81). Measured (test build, 57 s for this test with the MPM run below;
-/// 2026-12-01, each pair's contacts solved together, engine `methods::soft::block`): Φ 0.9002 at
-/// 825 kPa, Love–Weber 825 kPa, Z 3.50, aspect 1.093, smallest J 0.926, no measurable part of
-/// the box covered twice, the dissipated energy never below 0 (+0.121 J/m at the end), the
-/// kinetic energy at most 9.8e-3 J/m (2026-11-29, contact by contact: Φ 0.9004 at 1.00 MPa, Z
-/// 3.17, aspect 1.142, +0.144 J/m, 3.4e-3 J/m). One-sided it ended at 1.35 MPa (Z 3.67,
-/// aspect 1.206, 0.08% covered twice). The twelve grains stand in columns that carry the wall
-/// and buckle at a moment round-off decides (one-sided, variants of the matrices' reuse ended
-/// between 729 kPa and 1.35 MPa), and the 30 random grains of
+/// −0.11 J/m at Φ 0.81). Measured 2026-12-06 (test build): Φ 0.9008 at 1.277 MPa, Love–Weber
+/// 1.277 MPa, Z 3.17, aspect 1.156, smallest J 0.902, 1e-4 of the box covered twice, +0.123 J/m
+/// dissipated at the end (2026-12-01, before the Newton matrix was made definite along the
+/// contacts: 825 kPa, Z 3.50, aspect 1.093). The twelve grains stand in columns that carry the
+/// wall and buckle at a moment round-off decides (one-sided, variants of the matrices' reuse
+/// ended between 729 kPa and 1.35 MPa), and the 30 random grains of
 /// `scenes/studies/soft_compaction_mpm_fem.json` tell such variants apart better.
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six: over the dense part (Φ 0.78 to 0.91) the mean top-wall stress is
-/// 412 kPa by FEM and 412 kPa by MPM (ratio 1.000, measured 2026-12-01 with each pair's contacts
-/// solved together; before it 526 against 369 kPa, FEM 1.43 times stiffer, 2026-11-29 with the
-/// node blocks; 1.42 with the sweeps' coloured order alone, engine `methods::soft::schedule`;
-/// 1.40 before it, 1.26
-/// before the soft contacts' groups and sliding gaps, engine `methods::soft::contact`; 1.81 with
+/// 667 kPa by FEM and 600 kPa by MPM (ratio 1.11, measured 2026-12-06 with MPM's ghost penalty;
+/// 2026-12-01, before both issue 70 changes: 412 and 412 kPa; 2026-11-29, before each pair's
+/// contacts were solved together: FEM 1.43 times stiffer; 1.81 with
 /// one-sided FEM contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
 /// its top wall at Φ 0.90 was 487 kPa with 6 cells, 663 kPa with 10 and 819 kPa with 14 (dense
-/// mean 314, 418 and 418 kPa).
+/// mean 314, 418 and 418 kPa; 2026-11-28, before the ghost penalty).
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let fem = common::run_file_with("scenes/fem_compaction_2d.json", |_| {});

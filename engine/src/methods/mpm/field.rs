@@ -20,6 +20,7 @@
 //! `f_i = −Σ_p V0_p P_p g_i`, `K_(ia)(jc) = Σ_p V0_p A_aBcE g_iB g_jE`.
 
 use super::banded::Banded;
+use super::ghost;
 use super::grid::{Grid, Stencil, V2};
 use super::points::Points;
 use crate::constitutive::{ConstitutiveLaw, History, Mat2};
@@ -85,6 +86,10 @@ pub struct Field {
     /// The penalty along the closed contacts that made the current matrix definite
     /// ([`augment`]), N·s/m per m/s; zero when it was definite as it is.
     pub penalty: Real,
+    /// The node triples of the ghost penalty ([`ghost`]), found at the step's start.
+    pub ghost: Vec<[usize; 3]>,
+    /// The ghost penalty's stiffness, Pa ([`ghost::GAMMA`] times the law's P-wave modulus).
+    pub ghost_stiffness: Real,
     /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
     pub last_correction: Real,
     /// The grain's whole Newton correction of the previous iteration of the step (two entries
@@ -142,6 +147,7 @@ impl Field {
             + self.assembled.capacity() * std::mem::size_of::<Real>()
             + (self.correction.capacity() + self.previous.capacity()) * std::mem::size_of::<Real>()
             + self.plastic.capacity()
+            + self.ghost.capacity() * std::mem::size_of::<[usize; 3]>()
     }
 
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
@@ -207,6 +213,10 @@ impl Field {
             }
         }
         self.v.copy_from_slice(&self.v0);
+        let mut triples = std::mem::take(&mut self.ghost);
+        ghost::find(self, &mut triples);
+        self.ghost = triples;
+        self.ghost_stiffness = ghost::GAMMA * law.moduli().p_wave();
         Ok(())
     }
 
@@ -382,6 +392,8 @@ impl Field {
                 }
             }
         }
+        let matrix = &mut self.matrix;
+        ghost::add_matrix(&self.ghost, self.ghost_stiffness, sc, |r, c, v| matrix.add_lower(r, c, v));
         self.matrix.save(&mut self.assembled);
         Ok(())
     }
@@ -410,6 +422,9 @@ impl Field {
             let m = self.mass[i];
             self.residual[i] = (self.v[i] - self.v0[i] - sc.gravity * sc.dt) * m - self.force0[i] * (sc.dt * (1.0 - sc.theta));
         }
+        let (v, v0) = (&self.v, &self.v0);
+        let displacement = |k: usize| (v[k] * sc.theta + v0[k] * (1.0 - sc.theta)) * sc.dt;
+        ghost::add_residual(&self.ghost, self.ghost_stiffness, sc, displacement, &mut self.residual);
     }
 
     /// Point `p` (the `k`-th of the grain) at the current iterate: keeps its `F` and history

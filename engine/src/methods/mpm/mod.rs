@@ -7,6 +7,7 @@
 //! - [`grain`]: a grain: its points, law, friction, size and outline;
 //! - [`outline`]: each grain's outline, a polygon riding on its outer points;
 //! - [`field`]: one grain's nodal field, its θ-method residual and Newton matrix;
+//! - [`ghost`]: the ghost penalty on the nodes a grain's points barely reach;
 //! - [`banded`]: the banded Cholesky factorisation of that matrix;
 //! - [`contact`]: the contacts between grains' outlines and with walls, as a problem of the
 //!   shared contact solver ([`crate::nscd`]);
@@ -20,6 +21,7 @@
 pub mod banded;
 pub mod contact;
 pub mod field;
+pub mod ghost;
 pub mod grain;
 pub mod grid;
 pub mod measure;

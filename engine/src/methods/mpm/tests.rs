@@ -202,9 +202,9 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
 /// loaded quasi-statically, against Hertz's line contact (docs/references.md check 19, Johnson 1985 §4):
 /// `a = sqrt(4 P' R / π E*)`, `p0 = 2 P' / π a`, for `a / R = 0.16`. The half-width of the
 /// Hertz profile that fits the vertex forces is within 5% of Hertz's at 20 cells across the
-/// radius (the issue's tolerance; measured 2.6% narrow) and within 7% at 40 (6.2%); it settles
-/// about 4.5% narrow as the grid is refined (measured, not run here: 7.2% at 30 cells, 5.0% at
-/// 40 after sixty steps, 4.2% at 60, 4.5% at 80) — as the finite element method does on the
+/// radius (the issue's tolerance; measured 3.1% narrow) and within 7% at 40 (4.8%); before the
+/// ghost penalty ([`super::ghost`]) it settled about 4.5% narrow as the grid was refined
+/// (7.2% at 30 cells, 5.0% at 40 after sixty steps, 4.2% at 60, 4.5% at 80) — as the finite element method does on the
 /// same disk (4.4% at R/25, 4.6% at R/50, [`crate::methods::fem`]): the departure is Hertz's
 /// small-strain limit (contact strains about a / 2R), halved at a / R = 0.08. The contacts act at the disk's outline
 /// through its outer points' fields, linearly extrapolated from their centres (module
@@ -212,7 +212,8 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
 /// continuum by about as much as the squeezed block's is softer
 /// ([`a_squeezed_block_follows_each_law`]). The wall forces balance the load within 0.5% after
 /// thirty steps (measured 4e-6), and the largest vertex force over the vertex spacing stays
-/// within a factor 2 of `p0` (measured 0.97 and 1.68).
+/// within a quarter of `p0` (measured 0.99 and 1.05; 0.97 and 1.69 before the ghost penalty,
+/// whose thin nodes under the contact let the vertex forces bunch).
 #[test]
 fn an_elastic_disk_on_a_plane_approaches_hertz() {
     let mut errors = Vec::new();
@@ -221,7 +222,7 @@ fn an_elastic_disk_on_a_plane_approaches_hertz() {
         eprintln!("R/h {cells}: a {a:.4} (Hertz {a_h:.4}), force {f:.4e} (load {load:.4e}), peak {p0:.4e} (Hertz {p0_h:.4e})");
         assert!((f - load).abs() < 5e-3 * load, "wall force {f} against the load {load}");
         errors.push(((a - a_h) / a_h).abs());
-        assert!(p0 < 2.0 * p0_h, "peak pressure {p0} against Hertz's {p0_h}");
+        assert!((p0 / p0_h - 1.0).abs() < 0.25, "peak pressure {p0} against Hertz's {p0_h}");
     }
     assert!(errors[0] < 0.05, "half-width error {:.3} at 20 cells a radius", errors[0]);
     assert!(errors[1] < 0.07, "half-width error {:.3} at 40 cells a radius", errors[1]);
@@ -394,19 +395,16 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
 }
 
 /// Each law through the method (the laws alone match their closed forms to 1e-9 and better in
-/// `constitutive::tests`), at 10 cells across the block: the wall force within 6% of the
-/// closed form over the three steps for the elastic laws (measured 4.7%, 4.8%) and 10% for the
-/// elastoplastic one (8.0%); the error is the outer layer's and shrinks as the grid is refined
-/// (linear elastic at 20 cells: 3.2%, asserted below three quarters of the 10-cell error).
-/// The walls hold the block's outline, half a point spacing beyond its outer points' centres,
-/// and the traction reaches the grid through those points' fields extrapolated linearly to it
-/// (module documentation of [`super::contact`]): with quadratic splines that extrapolation
-/// loads the outer nodes a sixteenth more than the splines' own values at the outline would,
-/// and the outer layer of points takes more of the strain than the bulk: the wall force is
-/// low. (With the contacts at the outer points' centres and the surface's offset as a target,
-/// the force was within 0.81%, 0.79% and 4.1%, but grains pressed together overlapped: their
-/// surfaces' motion was not in the contact's operator.) The elastic laws store the work of the
-/// force ramp within 2% (measured 0.3%).
+/// `constitutive::tests`), at 10 cells across the block: the wall force within 1% of the
+/// closed form over the three steps for every law (measured 0.40%, 0.40%, 0.42%); the error is
+/// the outer layer's and shrinks as the grid is refined (linear elastic at 20 cells: 0.18%,
+/// asserted below three quarters of the 10-cell error). The walls hold the block's outline,
+/// half a point spacing beyond its outer points' centres, and the traction reaches the grid
+/// through those points' fields extrapolated linearly to it (module documentation of
+/// [`super::contact`]). Before the ghost penalty on the thinly supported nodes
+/// ([`super::ghost`]) the outer layer took more of the strain than the bulk, and the errors were
+/// 4.7%, 4.8% and 8.0% at 10 cells, 3.2% at 20. The elastic laws store the work of the force
+/// ramp within 2% (measured 0.5%).
 #[test]
 fn a_squeezed_block_follows_each_law() {
     let (young, nu, yield_stress, hardening) = (1e6, 0.3, 5e3, 1e5);
@@ -428,7 +426,7 @@ fn a_squeezed_block_follows_each_law() {
     ];
     let errors = runs.map(|r| r.0);
     eprintln!("worst relative errors (linear elastic, neo-Hookean, elastoplastic): {errors:?}");
-    assert!(errors[0] < 6e-2 && errors[1] < 6e-2 && errors[2] < 0.1, "wall force off the closed form: {errors:?}");
+    assert!(errors.iter().all(|&e| e < 1e-2), "wall force off the closed form: {errors:?}");
     let (finer, _) = squeezed_block(LawSpec::LinearElastic { young, poisson: nu }, 1.0, 0.05, elastic);
     eprintln!("linear elastic at 20 cells: {finer:.4}");
     assert!(finer < 0.75 * errors[0], "the outer layer's error does not shrink: {finer} at 20 cells, {} at 10", errors[0]);
@@ -627,13 +625,14 @@ fn a_newton_failure_names_the_grain_with_the_largest_correction() {
     assert!(failure.cause.to_string().contains("the largest is grain 1's)"), "{}", failure.cause);
 }
 
-/// One elastic disk (R = 5 mm, E = 10 MPa, ν = 0.3, ρ = 990 kg/m³, 16 cells across) squeezed
-/// between two frictionless plates to 8% of its diameter, the top plate at 0.05 m/s, by
-/// backward Euler at step `dt` (s); returns each part's Newton records.
-fn squeezed_disk_trace(dt: Real) -> Vec<Vec<crate::methods::soft::trace::NewtonRecord>> {
+/// One elastic disk (R = 5 mm, E = 10 MPa, ν = 0.3, ρ = 990 kg/m³, `cells` across, two points
+/// a cell each way) between two frictionless plates, the top one moving down at `speed` (m/s),
+/// by backward Euler at step `dt` (s) with Newton to 1e-6 in at most 60 iterations; its
+/// Newton records kept.
+fn squeezed_disk(cells: usize, speed: Real, dt: Real) -> (System, crate::methods::soft::trace::recorded::Records) {
     use crate::methods::soft::trace::recorded;
-    let (r, speed) = (5e-3, 0.05);
-    let h = 2.0 * r / 16.0;
+    let r = 5e-3;
+    let h = 2.0 * r / cells as Real;
     let mut points = Points::default();
     let range = points.fill_disk(V2::new(0.0, r), r, h / 2.0, V2::zeros(), 990.0);
     let grid = Grid::covering(V2::new(-1.5 * r, -0.5 * r), V2::new(1.5 * r, 2.5 * r), h, 4);
@@ -647,21 +646,66 @@ fn squeezed_disk_trace(dt: Real) -> Vec<Vec<crate::methods::soft::trace::NewtonR
     let law = build(&LawSpec::LinearElastic { young: 1e7, poisson: 0.3 });
     let mut sys = System::new(grid, points, grains, vec![law], vec![floor, top], s, FLIP);
     let records = recorded::record(&mut sys.tracer);
-    let steps = (0.08 * 2.0 * r / (speed * dt)).round() as usize;
+    (sys, records)
+}
+
+/// [`squeezed_disk`] at 16 cells across to 8% of its diameter at 0.05 m/s; each part's Newton
+/// records.
+fn squeezed_disk_trace(dt: Real) -> Vec<Vec<crate::methods::soft::trace::NewtonRecord>> {
+    use crate::methods::soft::trace::recorded;
+    let (speed, diameter) = (0.05, 1e-2);
+    let (mut sys, records) = squeezed_disk(16, speed, dt);
+    let steps = (0.08 * diameter / (speed * dt)).round() as usize;
     for _ in 0..steps {
         sys.step().expect("stable");
     }
     recorded::parts(&records)
 }
 
+/// Refining the grid no longer breaks the squeezed disk (issue 70): at 32 cells across, the
+/// top plate at 10 mm/s and the step a scene of that size gets by default (1.5625 ms, 0.16% of
+/// the diameter), the disk goes to 10% compression with every step converged whole, no point's
+/// centre beyond a plate, and the smallest `det F` above 0.8 (Hertz's line contact at this
+/// load puts the peak pressure near 0.12 E*, a compression of about that much under the plate:
+/// measured 0.85). Before the ghost penalty ([`super::ghost`]) the point carrying the top
+/// vertex of the outline spun in place (its `F` a rotation by 115°, its centre 0.4 mm above the
+/// plate while the vertex stayed below), the step was split down to a sixteenth, and a point
+/// inverted at 7.1% (det F = −0.22). Newton: measured at most 7 iterations a step; the bound
+/// 12 is half the scenes' budget.
+#[test]
+fn a_disk_at_32_cells_is_squeezed_to_a_tenth_without_a_point_lost() {
+    let (speed, dt, diameter) = (0.01, 1.5625e-3, 1e-2);
+    let (mut sys, records) = squeezed_disk(32, speed, dt);
+    let steps = (0.1 * diameter / (speed * dt)).round() as usize;
+    for k in 0..steps {
+        if let Err(e) = sys.step() {
+            panic!("step {k} of {steps}: {}", e.cause);
+        }
+    }
+    let parts = crate::methods::soft::trace::recorded::parts(&records);
+    let most = parts.iter().map(Vec::len).max().unwrap_or(0);
+    let top = diameter - speed * dt * steps as Real;
+    let outside = (0..sys.points.len()).filter(|&p| sys.points.x[p].y > top || sys.points.x[p].y < 0.0).count();
+    let smallest = (0..sys.points.len()).map(|p| sys.points.f[p].determinant()).fold(Real::INFINITY, Real::min);
+    eprintln!(
+        "32 cells: {} parts for {steps} steps, at most {most} iterations, {outside} points outside, smallest J {smallest:.3}",
+        parts.len()
+    );
+    assert_eq!(parts.len(), steps, "a step was split");
+    assert!(most <= 12, "a step took {most} Newton iterations");
+    assert_eq!(outside, 0, "{outside} points' centres beyond a plate");
+    assert!(smallest > 0.8, "a point compressed to det F = {smallest}");
+}
+
 /// The material point method's Newton on the squeezed disk at 250 µs a step (issue 70): the
 /// matrix, indefinite in most iterations, is made definite along the closed contacts
 /// ([`crate::methods::soft::augment`]) and is never damped (the assertion that fails on the
-/// old matrices); every part converges within 10 iterations (measured 10 at most, 292 in all:
-/// the bound is the measurement, a guard against the budget of 60, not a discriminating
-/// figure); an iteration on a fresh matrix is
+/// old matrices); every part converges within 10 iterations (measured 3 at most with the ghost penalty of
+/// [`super::ghost`], 10 before it: the bound is a guard against the budget of 60, not a
+/// discriminating figure); an iteration on a fresh matrix is
 /// followed by a correction below the square of its own where it is below 1e-2 (quadratic
-/// convergence; measured at most 0.73 times the square): a linear rate `r` would leave the
+/// convergence; measured at most 0.34 times the square over 38 such iterations, 0.73 over 5
+/// before the ghost penalty): a linear rate `r` would leave the
 /// ratio at `r / c_k`, above 1 for any rate above 0.01. Before, the diagonal scaling and the points' positive parts stood in for the
 /// tangent in 144 of 307 iterations (parts of up to 11).
 #[test]

@@ -200,8 +200,11 @@ pub mod recorded {
     use super::{NewtonRecord, Tracer};
     use crate::math::Real;
 
+    /// The records a tracer emitted, shared with its sink.
+    pub type Records = Arc<Mutex<Vec<NewtonRecord>>>;
+
     /// Keeps every record `tracer` emits from now on.
-    pub fn record(tracer: &mut Tracer) -> Arc<Mutex<Vec<NewtonRecord>>> {
+    pub fn record(tracer: &mut Tracer) -> Records {
         let records = Arc::new(Mutex::new(Vec::new()));
         let sink = records.clone();
         tracer.set(Box::new(move |r| sink.lock().expect("trace").push(r.clone())));
