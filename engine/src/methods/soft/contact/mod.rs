@@ -46,10 +46,10 @@
 //! sweeps converge to the solution of the full coupled problem (each visit reads the
 //! velocities the other contacts left).
 //!
-//! **Pairs.** The contacts of one pair of grains (or of one grain with the walls) take their
-//! turn together: their normal impulses are solved exactly as one small complementarity
-//! problem with every other impulse frozen ([`super::block`]), then each tangential impulse on
-//! its own with its new bound. Gauss-Seidel one contact at a time crawls along the pair's own
+//! **Pairs.** The contacts of one pair of grains (or of one grain with the walls), however
+//! many, take their turn together: their normal impulses are solved exactly as one small
+//! complementarity problem with every other impulse frozen ([`super::block`]), then each
+//! tangential impulse on its own with its new bound. Gauss-Seidel one contact at a time crawls along the pair's own
 //! slow directions: where two boundaries lie flat on each other, moving impulse from one
 //! grain's nodes to the other's nearby ones, or between the nearly parallel normals of a vertex
 //! in a dent's reflex corner, changes the velocities by almost nothing, and past jamming most
@@ -74,5 +74,5 @@ pub use candidates::{candidates, Candidate, Sides, REFLEX_TURN};
 pub use drift::measure_drifts;
 pub use grain_contacts::GrainContacts;
 pub use records::{wall_impulses, Other, Support, VertexContact, Wall, SUPPORT_NODES};
-pub use solve::{solve, Metric, Problem, BLOCK, FORCING};
+pub use solve::{solve, Metric, Problem, FORCING};
 pub use warm::{enter, Against, Entry, Warm};

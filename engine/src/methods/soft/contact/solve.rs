@@ -1,8 +1,8 @@
 //! The contact problem of a Newton iteration and its solve (module documentation of
 //! [`super`]: "Criterion", "Delassus operator", "Pairs"): each contact's Signorini target,
 //! Delassus diagonal and impulse scale ([`solve`]), the pairs' blocks of normal couplings
-//! ([`BLOCK`]), and the sweeps of the shared solver ([`Problem`]), colour by colour on the
-//! solve's threads in the order of a [`Schedule`].
+//! (`pair_blocks`, whatever their size), and the sweeps of the shared solver ([`Problem`]),
+//! colour by colour on the solve's threads in the order of a [`Schedule`].
 
 use nalgebra::Vector2;
 use rayon::prelude::*;
@@ -201,7 +201,7 @@ struct Pair {
 }
 
 /// One task's contacts taking their turns ([`Problem::sweep`]): `contacts` and `block` (their
-/// normal couplings, empty for a task too large to take at once) the task's own, its grains'
+/// normal couplings, empty for a task of one contact) the task's own, its grains'
 /// velocities in `pair`, their blocks of `A⁻¹` read from `sides`.
 struct Turns<'s, 'p> {
     sides: &'s [GrainContacts],
@@ -409,20 +409,25 @@ pub fn solve(
     nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
 }
 
-/// Most contacts a task takes together ([`block`]); a task with more takes its turns contact
-/// by contact.
-pub const BLOCK: usize = 64;
-
 /// Each task's block of normal couplings `n_iᵀ W n_j` between its contacts (the sum over its
 /// grains of `±n_iᵀ B_g(i, j) n_j`, `B_g` the grain's block of `A⁻¹` between the two contacts'
 /// samples, the sign the product of the contacts' sides), row-major, in the schedule's order of
-/// tasks; an empty block for a task of one contact or of more than [`BLOCK`].
+/// tasks; an empty block for a task of one contact.
+///
+/// Every task has its block, whatever its size: a grain held all round by the walls is one
+/// task of all its boundary's contacts, whose Delassus block is dominated by the grain's rigid
+/// motions (over a long step the inertia `M` is what holds them, the stiffness `(θh)² K` the
+/// rest), and contact by contact Gauss-Seidel crawls on it (issue 70, docs/methods/fem.md,
+/// "Design measurements"). A task's block holds a quarter of the entries of its grains' blocks
+/// of `A⁻¹` at most (two unknowns a sample, one normal a contact), and its exact solve
+/// factorises it in about `m³/6` operations, against at least `4m²` for the sweep to update its
+/// samples' velocities along those blocks.
 fn pair_blocks(contacts: &[VertexContact], sides: &[GrainContacts], schedule: &Schedule, blocks: &mut Vec<Real>, at: &mut Vec<usize>) {
     at.clear();
     at.push(0);
     for t in &schedule.tasks {
         let m = t.contacts.len();
-        let size = if m > 1 && m <= BLOCK { m * m } else { 0 };
+        let size = if m > 1 { m * m } else { 0 };
         at.push(at.last().copied().unwrap_or(0) + size);
     }
     blocks.clear();
