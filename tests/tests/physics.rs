@@ -44,6 +44,8 @@ mod physics_settling;
 mod physics_shear;
 #[path = "physics_stability.rs"]
 mod physics_stability;
+#[path = "physics_two_plates.rs"]
+mod physics_two_plates;
 #[path = "physics_walls.rs"]
 mod physics_walls;
 #[path = "physics_wet.rs"]

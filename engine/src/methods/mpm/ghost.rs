@@ -24,6 +24,15 @@
 //! are kept (its forces sum to zero and have no moment about any point); it resists only the
 //! curvature of the field where the points do not hold it, at the scale of a cell. The
 //! penalty is linear in the displacements, so Newton's matrix takes it exactly.
+//!
+//! Its price is a stiffer outer layer wherever the field is curved: the second difference is
+//! not zero on a quadratic field, which the splines represent. On one disk pressed between
+//! plates at 1.6–4.7% compression the plate force is 3.3–3.8% above the closed form at 32 cells
+//! across and 1.6–2.0% at 64, against 0.5–2.0% and 0.6–1.4% without the penalty (which at 32
+//! cells inverted a point at 7.1%) and 1.1–2.0% by FEM at 64 elements (`physics_two_plates` in
+//! the validation tests). `GAMMA` 0.01 and 0.03 lowered that by about a point at 32 cells but let
+//! two points out through the plate and left the squeezed block 1.8% and 1.0% low; a third
+//! difference would leave quadratic fields free, at the price of a wider band.
 
 use super::field::Field;
 use super::grid::V2;
