@@ -5,16 +5,13 @@
 //! and almost no stiffness (a quadratic spline's value falls as the square of its distance to
 //! the edge of its support, its gradient as the distance): the velocity field there is barely
 //! determined, and a contact acting through those nodes can drive it where the material
-//! cannot follow. Measured on one disk pressed between plates at 32 cells across: the point
-//! under the top plate that carries an outline vertex spun half a turn in its own place (its
-//! `F` a rotation by 115°, the vertex below the plate, the point 0.4 mm above it), the matrix
-//! became indefinite along three nodes of the top row whose masses were 1e-11 to 1e-6 of a
-//! full node's, and a point inverted at 7% compression. The unfitted finite-element methods
-//! know this as the small-cut problem, and the ghost penalty as its remedy (Burman, "Ghost
-//! penalty", C. R. Math. Acad. Sci. Paris 348, 1217, 2010); Coombs brought it to the material
-//! point method ("Ghost stabilisation of the material point method for stable quasi-static
-//! and dynamic analysis of large deformation problems", Int. J. Numer. Methods Eng. 124,
-//! 2023; docs/physics.md §5.1).
+//! cannot follow: a point carrying an outline vertex can spin in place under a plate until a
+//! point inverts (docs/methods/mpm.md, Limits, "Thinly supported nodes"). The unfitted
+//! finite-element methods know this as the small-cut problem, and the ghost penalty as its
+//! remedy (Burman, "Ghost penalty", C. R. Math. Acad. Sci. Paris 348, 1217, 2010); Coombs
+//! brought it to the material point method ("Ghost stabilisation of the material point
+//! method for stable quasi-static and dynamic analysis of large deformation problems", Int. J.
+//! Numer. Methods Eng. 124, 2023; docs/physics.md §5.1).
 //!
 //! Here: along each grid line, every three consecutive nodes of a grain's field that all
 //! carry mass, one of which is thin (mass below [`THIN`] of the grain's fullest node), add the
@@ -26,13 +23,9 @@
 //! penalty is linear in the displacements, so Newton's matrix takes it exactly.
 //!
 //! Its price is a stiffer outer layer wherever the field is curved: the second difference is
-//! not zero on a quadratic field, which the splines represent. On one disk pressed between
-//! plates at 1.6–4.7% compression the plate force is 3.3–3.8% above the closed form at 32 cells
-//! across and 1.6–2.0% at 64, against 0.5–2.0% and 0.6–1.4% without the penalty (which at 32
-//! cells inverted a point at 7.1%) and 1.1–2.0% by FEM at 64 elements (`physics_two_plates` in
-//! the validation tests). `GAMMA` 0.01 and 0.03 lowered that by about a point at 32 cells but let
-//! two points out through the plate and left the squeezed block 1.8% and 1.0% low; a third
-//! difference would leave quadratic fields free, at the price of a wider band.
+//! not zero on a quadratic field, which the splines represent (measured on the two-plate disk:
+//! docs/methods/mpm.md, Limits). A third difference would leave quadratic fields free, at the
+//! price of a wider band.
 
 use super::field::Field;
 use super::grid::V2;
