@@ -38,12 +38,13 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six: over the dense part (Φ 0.78 to 0.91) the mean top-wall stress is
-/// 667 kPa by FEM and 600 kPa by MPM (ratio 1.11, measured 2026-12-06 with MPM's ghost penalty;
-/// 2026-12-01, before both issue 70 changes: 412 and 412 kPa; 2026-11-29, before each pair's
+/// 667 kPa by FEM and 406 kPa by MPM (ratio 1.64, measured 2026-12-06; 600 kPa by MPM with
+/// `ghost_penalty` 0.1; 2026-12-01, before FEM's Newton matrix was made definite along the
+/// contacts: 412 and 412 kPa; 2026-11-29, before each pair's
 /// contacts were solved together: FEM 1.43 times stiffer; 1.81 with
 /// one-sided FEM contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
 /// its top wall at Φ 0.90 was 487 kPa with 6 cells, 663 kPa with 10 and 819 kPa with 14 (dense
-/// mean 314, 418 and 418 kPa; 2026-11-28, before the ghost penalty).
+/// mean 314, 418 and 418 kPa; 2026-11-28).
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let fem = common::run_file_with("scenes/fem_compaction_2d.json", |_| {});

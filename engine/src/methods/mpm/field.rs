@@ -88,7 +88,8 @@ pub struct Field {
     pub penalty: Real,
     /// The node triples of the ghost penalty ([`ghost`]), found at the step's start.
     pub ghost: Vec<[usize; 3]>,
-    /// The ghost penalty's stiffness, Pa ([`ghost::GAMMA`] times the law's P-wave modulus).
+    /// The ghost penalty's stiffness, Pa (the system's fraction times the law's P-wave
+    /// modulus).
     pub ghost_stiffness: Real,
     /// The mass-weighted root mean square of the grain's last Newton correction, m/s.
     pub last_correction: Real,
@@ -151,13 +152,16 @@ impl Field {
     }
 
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
-    /// velocities (momentum over mass) and the internal forces at the start.
+    /// velocities (momentum over mass), the internal forces at the start, and the triples of
+    /// the ghost penalty of stiffness `ghost` times the law's P-wave modulus ([`ghost`]; none
+    /// at 0).
     pub fn begin(
         &mut self,
         grid: &Grid,
         pts: &Points,
         range: std::ops::Range<usize>,
         law: &dyn ConstitutiveLaw,
+        ghost: Real,
     ) -> Result<(), PointFailure> {
         self.stencils.clear();
         let (mut lo, mut hi) = ([usize::MAX; 2], [0usize; 2]);
@@ -214,9 +218,12 @@ impl Field {
         }
         self.v.copy_from_slice(&self.v0);
         let mut triples = std::mem::take(&mut self.ghost);
-        ghost::find(self, &mut triples);
+        triples.clear();
+        if ghost > 0.0 {
+            ghost::find(self, &mut triples);
+        }
         self.ghost = triples;
-        self.ghost_stiffness = ghost::GAMMA * law.moduli().p_wave();
+        self.ghost_stiffness = ghost * law.moduli().p_wave();
         Ok(())
     }
 

@@ -13,14 +13,17 @@
 //! method for stable quasi-static and dynamic analysis of large deformation problems", Int. J.
 //! Numer. Methods Eng. 124, 2023; docs/physics.md §5.1).
 //!
-//! Here: along each grid line, every three consecutive nodes of a grain's field that all
-//! carry mass, one of which is thin (mass below [`THIN`] of the grain's fullest node), add the
-//! energy `½ κ |u_a − 2 u_b + u_c|²` of the step's displacements, `κ = GAMMA · M` with `M` the
-//! law's P-wave modulus. The second difference vanishes on every linear displacement field —
-//! translations, rotations to first order, uniform strains — so the patch test and momentum
-//! are kept (its forces sum to zero and have no moment about any point); it resists only the
-//! curvature of the field where the points do not hold it, at the scale of a cell. The
-//! penalty is linear in the displacements, so Newton's matrix takes it exactly.
+//! Off unless a scene sets `method.ghost_penalty`
+//! ([`crate::methods::mpm::MpmParams::ghost_penalty`]: it raised the outlines' overlap in
+//! random compactions, docs/methods/mpm.md, Limits). Here: along each grid line, every three
+//! consecutive nodes of a grain's field that all carry mass, one of which is thin (mass below
+//! [`THIN`] of the grain's fullest node), add the energy `½ κ |u_a − 2 u_b + u_c|²` of the
+//! step's displacements, `κ = g M` with `M` the law's P-wave modulus and `g` the scene's
+//! fraction ([`GAMMA`] recommended). The second difference vanishes on every linear
+//! displacement field — translations, rotations to first order, uniform strains — so the patch
+//! test and momentum are kept (its forces sum to zero and have no moment about any point); it
+//! resists only the curvature of the field where the points do not hold it, at the scale of a
+//! cell. The penalty is linear in the displacements, so Newton's matrix takes it exactly.
 //!
 //! Its price is a stiffer outer layer wherever the field is curved: the second difference is
 //! not zero on a quadratic field, which the splines represent (measured on the two-plate disk:
@@ -35,7 +38,8 @@ use crate::methods::soft::Scheme;
 /// A node is thin below this fraction of the grain's fullest node's mass.
 pub const THIN: Real = 0.25;
 
-/// The ghost stiffness as a fraction of the law's P-wave modulus.
+/// The recommended ghost stiffness as a fraction of the law's P-wave modulus (chosen on the
+/// squeezed disk: docs/methods/mpm.md, Limits).
 pub const GAMMA: Real = 0.1;
 
 /// The triples of `field`'s nodes the penalty acts on: every three consecutive nodes (local

@@ -141,6 +141,7 @@ pub fn mpm(scene: &Scene, params: &MpmParams) -> Result<Mpm, EngineError> {
     let both = params.symmetric_contact.unwrap_or_else(|| grains.iter().any(|g| laws[g.law].plastic()));
     let settings = build::settings(scene, &params.solver, dt, both);
     let mut sys = System::new(grid, points, grains, laws, planes, settings, params.flip);
+    sys.ghost = params.ghost_penalty;
     if let Some(saved) = saved {
         sys.progress.splitting.resume(saved.split_depth, saved.split_calm);
         sys.warm.restore_saved(&saved.impulses);

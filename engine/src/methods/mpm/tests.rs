@@ -188,6 +188,7 @@ fn disk_on_plane(cells: usize) -> (Real, Real, Real, Real, Real, Real) {
     let mut s = settings(0.1);
     s.theta = 1.0;
     let mut sys = System::new(grid, points, grains, vec![build(&LawSpec::LinearElastic { young, poisson: nu })], vec![floor], s, PIC);
+    sys.ghost = super::ghost::GAMMA;
     for k in 1..=30 {
         sys.settings.gravity = V2::new(0.0, -g * (k as Real / 10.0).min(1.0));
         sys.step().expect("stable");
@@ -366,6 +367,7 @@ fn squeezed_block(spec: LawSpec, size: Real, h: Real, closed: impl Fn(Real) -> R
     s.contact.tolerance = 1e-7;
     s.contact.acceleration = 0.9;
     let mut sys = System::new(grid, points, grains, vec![build(&spec)], walls, s, PIC);
+    sys.ghost = super::ghost::GAMMA;
     let mut worst: Real = 0.0;
     // The wall's work as the method counts it (impulse times velocity: the end-of-step force
     // over each step, which backward Euler dissipates a part of) and by the trapezoidal rule
@@ -522,7 +524,7 @@ fn the_newton_matrix_is_the_derivative_of_the_residual() {
         }
         let grid = Grid::covering(V2::new(-1.0, -1.0), V2::new(1.0, 1.0), h, 4);
         let mut field = Field::default();
-        field.begin(&grid, &points, range.clone(), law.as_ref()).expect("on the grid");
+        field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA).expect("on the grid");
         let n = field.nodes();
         for i in 0..n {
             let x = i as Real;
@@ -576,7 +578,7 @@ fn switches_count_points_changing_flow_between_iterates() {
     }
     let grid = Grid::covering(V2::new(-1.0, -1.0), V2::new(1.0, 1.0), h, 4);
     let mut field = Field::default();
-    field.begin(&grid, &points, range.clone(), law.as_ref()).expect("on the grid");
+    field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA).expect("on the grid");
     let at = |field: &mut Field, rate: Real| {
         for i in 0..field.nodes() {
             let (gi, _) = field.grid_node(i);
@@ -645,6 +647,7 @@ fn squeezed_disk(cells: usize, speed: Real, dt: Real) -> (System, crate::methods
     s.max_newton = 60;
     let law = build(&LawSpec::LinearElastic { young: 1e7, poisson: 0.3 });
     let mut sys = System::new(grid, points, grains, vec![law], vec![floor, top], s, FLIP);
+    sys.ghost = super::ghost::GAMMA;
     let records = recorded::record(&mut sys.tracer);
     (sys, records)
 }

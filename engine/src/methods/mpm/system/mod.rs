@@ -71,6 +71,9 @@ pub struct System {
     /// FLIP fraction of the points' velocity update (1: pure FLIP, no damping of the modes the
     /// grid carries; 0: PIC).
     pub flip: Real,
+    /// The ghost penalty's stiffness as a fraction of each grain's P-wave modulus
+    /// ([`super::ghost`]); 0 (the default): off.
+    pub ghost: Real,
     /// The contacts of the last step, with their impulses.
     pub contacts: Vec<VertexContact>,
     /// Steps, time and costs so far, the walls' loads of the last step.
@@ -124,6 +127,7 @@ impl System {
             walls,
             settings,
             flip,
+            ghost: 0.0,
             contacts: Vec::new(),
             progress: Progress::new(walls_len, settings.dt),
             pair_friction: None,
