@@ -484,11 +484,7 @@ fn a_squeezed_disk_converges_quadratically_at_long_steps() {
 /// A 1 m square block of `n × n` elements (ρ = 1000 kg/m³, law `spec`) between four
 /// frictionless walls that touch it, the top one moving down by `strain` of the height a step
 /// of 0.5 s (backward Euler): uniaxial strain. Returns the system and the tracer's records.
-fn squeezed_block(
-    n: usize,
-    spec: &LawSpec,
-    strain: Real,
-) -> (System, std::sync::Arc<std::sync::Mutex<Vec<crate::methods::soft::trace::NewtonRecord>>>) {
+fn squeezed_block(n: usize, spec: &LawSpec, strain: Real) -> (System, crate::methods::soft::trace::recorded::Records) {
     let (size, dt) = (1.0, 0.5);
     let body = Body::new(Mesh::rectangle(V2::zeros(), V2::new(size, size), n, n), 1000.0, true).expect("mesh");
     let grain = Grain { body, law: 0, friction: 0.0, radius: 0.5 * size };
