@@ -28,23 +28,20 @@ fn dense_stress(samples: &[Sample]) -> f64 {
 /// covered 0.08%); the dissipated energy (the walls' work less the energy stored and moving)
 /// never falls below −0.1% of the strain energy at the end (backward Euler and inelastic
 /// contacts only take energy out; on the study's 30 grains one-sided contacts pushed it to
-/// −0.11 J/m at Φ 0.81). Measured 2026-12-06 (test build): Φ 0.9008 at 1.277 MPa, Love–Weber
-/// 1.277 MPa, Z 3.17, aspect 1.156, smallest J 0.902, 1e-4 of the box covered twice, +0.123 J/m
-/// dissipated at the end (2026-12-01, before the Newton matrix was made definite along the
-/// contacts: 825 kPa, Z 3.50, aspect 1.093). The twelve grains stand in columns that carry the
-/// wall and buckle at a moment round-off decides (one-sided, variants of the matrices' reuse
-/// ended between 729 kPa and 1.35 MPa), and the 30 random grains of
-/// `scenes/studies/soft_compaction_mpm_fem.json` tell such variants apart better.
+/// −0.11 J/m at Φ 0.81). The steps are quasi-static (`dynamics` `auto`: the wall at 1.7e-3 of
+/// the shear wave). Measured 2026-12-06 (test build): Φ 0.9000 at 859 kPa, Love–Weber 837 kPa,
+/// Z 3.50, aspect 1.092, smallest J 0.924, no overlap measurable, +1.39 J/m dissipated at the
+/// end (with inertial steps: 1.277 MPa, Z 3.17, aspect 1.156). The twelve grains stand in
+/// columns that carry the wall and buckle at a moment round-off decides, and the 30 random
+/// grains of `scenes/studies/soft_compaction_mpm_fem.json` tell such variants apart better.
 ///
 /// The same scene by the material point method, with ten cells across the smallest grain
 /// instead of the scene's six: over the dense part (Φ 0.78 to 0.91) the mean top-wall stress is
-/// 667 kPa by FEM and 406 kPa by MPM (ratio 1.64, measured 2026-12-06; 600 kPa by MPM with
-/// `ghost_penalty` 0.1; 2026-12-01, before FEM's Newton matrix was made definite along the
-/// contacts: 412 and 412 kPa; 2026-11-29, before each pair's
-/// contacts were solved together: FEM 1.43 times stiffer; 1.81 with
-/// one-sided FEM contacts), checked within a factor 2 either way. MPM's grid accounts for much of the gap:
-/// its top wall at Φ 0.90 was 487 kPa with 6 cells, 663 kPa with 10 and 819 kPa with 14 (dense
-/// mean 314, 418 and 418 kPa; 2026-11-28).
+/// 486 kPa by FEM and 455 kPa by MPM (ratio 1.07, measured 2026-12-06), checked within 20%
+/// either way: the stress rises steeply with Φ there (by a factor 1.6 to 2 from Φ 0.86 to
+/// 0.90), so 20% is about a hundredth of Φ, twice the 0.5% on Φ at 300 kPa the study's finest
+/// runs of the two methods agree to. With inertial steps the ratio was 1.64 (667 against 406 kPa): grains that lost a
+/// contact flew off with its energy, and the packing each method's wall met was not the same.
 #[test]
 fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let fem = common::run_file_with("scenes/fem_compaction_2d.json", |_| {});
@@ -76,7 +73,7 @@ fn meshed_soft_grains_compact_past_phi_0_9_as_the_material_points_do() {
     let mpm = common::run_file_with("scenes/mpm_compaction_2d.json", |v| v["method"]["cells_per_diameter"] = 10.into());
     let (f, m) = (dense_stress(&fem), dense_stress(&mpm));
     eprintln!("mean top-wall stress for Φ 0.78 to 0.91: fem {f:.4e} Pa, mpm {m:.4e} Pa (fem/mpm {:.3})", f / m);
-    assert!((f / m).ln().abs() < 2f64.ln(), "fem {f} against mpm {m}");
+    assert!((f / m).ln().abs() < 1.2f64.ln(), "fem {f} against mpm {m}");
 }
 
 /// The CI compaction on one and on two threads to step 900, past the first loaded contacts

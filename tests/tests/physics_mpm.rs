@@ -42,8 +42,9 @@ fn run_scene(path: &str, edit: impl FnOnce(&mut serde_json::Value)) -> (Vec<Samp
 /// point; every sample keeps the grains' mass-weighted stress from the contacts (Love–Weber) and
 /// the walls' loads in agreement (the walls carry what crosses the packing), the grains carry force
 /// (Z > 2) and flatten (aspect ratio > 1), no energy is created, and the grains' outlines cover
-/// less than 0.8% of the box twice. Measured: Φ 0.9001 (7 s), the top wall at 457 kPa, aspect ratio
-/// 1.072, smallest J 0.909, Love–Weber σ_yy within 0.1% of it, interpenetration 0.0038 (the
+/// less than 0.8% of the box twice. Measured 2026-12-06 (quasi-static steps, `dynamics` `auto`):
+/// Φ 0.9004, the top wall at 660 kPa, aspect ratio 1.098, smallest J 0.880, Love–Weber σ_yy
+/// within 0.9% of it, interpenetration 0.0015 (inertial steps: 476 kPa, 0.0029; the
 /// contacts measure their gaps between the outlines and take the outlines' turning and sliding
 /// within the step into account, the drift of `methods::mpm::contact`'s documentation). Before,
 /// with one contact per node column and its gap from the points in it, the same Φ came at 421 kPa
@@ -104,7 +105,9 @@ fn soft_grain_results_do_not_depend_on_the_thread_count() {
 /// on average, 16.6% at the worst sample, one where the packing rearranged; at a strain rate of 2/s
 /// the worst was 18%); the axial stress above the lateral one (ζ = q/p > 0.1 at the end: frictional
 /// grains resist the deviator); Love–Weber p within 10% of the walls' mean stress; no inverted
-/// point. Measured: prepared Φ 0.791 at 20.0 kPa, ζ 0.48 at 3% axial strain; about half a minute.
+/// point. Measured 2026-12-06 (quasi-static steps): prepared Φ 0.787 at 20.0 kPa, ζ 0.58 at 3%
+/// axial strain, side walls 4.4% off on average and 7.7% at worst (inertial steps, 2026-11-26:
+/// Φ 0.791, ζ 0.48, 6.5% and 16.6%); about half a minute.
 #[test]
 fn soft_grains_go_through_a_biaxial_test() {
     let (samples, result) = run_scene(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/mpm_biaxial_2d.json"), |_| {});
@@ -175,8 +178,9 @@ fn plastic_compaction_by_default() -> &'static Traced {
 /// other grain's outline into them (`methods::mpm::contact`): `mpm` holds both outlines by
 /// default when a grain's law is plastic. The CI compaction of plastic grains: with the
 /// default the outlines cover less than a tenth of what they cover one-sided. Measured
-/// (2026-11-29): Φ 0.9005 at σ_yy 345 kPa with no measurable overlap; one-sided Φ 0.9003 with
-/// 4.4% of the box covered twice (the elastic grains of the same scene: 0.4%).
+/// (2026-12-06, quasi-static steps): Φ 0.9002 at σ_yy 325 kPa with no measurable overlap;
+/// one-sided Φ 0.9007 with 0.20% of the box covered twice (inertial steps, 2026-11-29: 345 kPa,
+/// one-sided 4.4%).
 #[test]
 fn plastic_grains_hold_both_outlines_by_default() {
     let (both, _, _) = plastic_compaction_by_default();

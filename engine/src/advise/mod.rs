@@ -46,6 +46,14 @@ pub const RIGID_STIFFNESS: Real = 1e4;
 /// Above this contact deflection over the diameter (1/κ) grains deform beyond what point
 /// contacts describe: a soft-particle method (MPM-CD, FEM-CD; Nezamabadi 2020, §2.1) is needed.
 pub const DEFORMABLE_DEFLECTION: Real = 0.05;
+/// Below this ratio of the fastest imposed speed to the slowest elastic wave of deformable
+/// grains (the loading's Mach number), their inertia is left out: bringing a grain to the speed
+/// `v` stresses it by `ρ c v` (the impact stress of an elastic rod, `c` its wave speed), so the
+/// ratio is the inertial stress over the modulus `ρ c²`; below 1e-2 it is less than the stress
+/// of a 1% strain, the smallest deformation the soft-grain methods are used to resolve. The
+/// shipped compactions (0.1 m/s against a shear wave of 59 m/s: 1.7e-3) fall below it; free
+/// fall across a 2 cm box (0.63 m/s: 1.1e-2) does not.
+pub const SOFT_QUASI_STATIC_MACH: Real = 1e-2;
 /// Below this fraction of random close packing a scene starts as a dilute gas.
 pub const DILUTE_FRACTION: Real = 0.5;
 /// The error (relative to a study's reference) within which a stored study's run is good
@@ -91,6 +99,42 @@ pub fn advise(scene: &Scene) -> Advice {
         needs,
         suggestions: suggestions(scene),
         expected_cost: Vec::new(),
+    }
+}
+
+/// Whether a scene's deformable grains can be stepped quasi-statically, their inertia left out
+/// (`method.dynamics` `"auto"` of `mpm` and `fem`): `Ok` with the reason when the loading is
+/// neither collisional nor a dense inertial flow and the fastest imposed motion (walls, cell,
+/// free fall across the box, the grains' initial speeds) is slower than
+/// [`SOFT_QUASI_STATIC_MACH`] of the slowest shear wave `√(μ/ρ)` of their materials; `Err` with
+/// the reason otherwise.
+pub fn soft_inertia(scene: &Scene) -> Result<String, String> {
+    let grains = grains(scene);
+    let mut l = loading(scene, &grains);
+    let numbers = numbers(scene, &l, &grains);
+    let (regime, _) = l.regime.take().unwrap_or_else(|| regime_of(&numbers));
+    if matches!(regime, Regime::Collisional | Regime::DenseFlow) {
+        return Err(format!("the loading is {}: the grains' inertia matters", regime.name()));
+    }
+    let wave = scene
+        .materials
+        .iter()
+        .filter_map(|m| m.deformable.as_ref().map(|d| (crate::constitutive::build(d).moduli().mu / m.density).sqrt()))
+        .fold(Real::INFINITY, Real::min);
+    if !wave.is_finite() {
+        return Err("no deformable material".into());
+    }
+    let particles = crate::methods::world::initial_particles(scene).map_err(|e| e.to_string())?.0;
+    let speed = crate::methods::world::imposed_speed(scene, &particles, true);
+    let mach = speed / wave;
+    if mach < SOFT_QUASI_STATIC_MACH {
+        Ok(format!(
+            "the grains' inertia (quasi-static load steps, each solved to equilibrium): the fastest imposed motion, {speed:.2e} m/s, is {mach:.1e} of the slowest shear wave ({wave:.3e} m/s), below {SOFT_QUASI_STATIC_MACH:.0e}"
+        ))
+    } else {
+        Err(format!(
+            "the fastest imposed motion, {speed:.2e} m/s, is {mach:.1e} of the slowest shear wave ({wave:.3e} m/s), not below {SOFT_QUASI_STATIC_MACH:.0e}: the grains' inertia is kept"
+        ))
     }
 }
 
@@ -245,13 +289,18 @@ fn deformable_advice(scene: &Scene, name: &str, regime: Regime, numbers: Numbers
         reasons.push(format!("contact deflection ~ 1/κ = {x:.2e} of the diameter at the loading's stress"));
     }
     reasons.push(why);
+    let mut dropped = dropped(scene);
+    match soft_inertia(scene) {
+        Ok(left_out) => dropped.push(left_out),
+        Err(kept) => reasons.push(kept),
+    }
     Advice {
         method: "mpm".to_string(),
         requested: String::new(),
         regime,
         numbers,
         reasons,
-        dropped: dropped(scene),
+        dropped,
         needs: None,
         suggestions: suggestions(scene),
         expected_cost: Vec::new(),

@@ -194,3 +194,30 @@ fn the_cheapest_run_within_a_percent_sets_the_method() {
     b.expected_cost = vec![run(1, "mpm", 11.0, Some(0.03))];
     assert_eq!((b.learn(), b.method), (None, before));
 }
+
+/// Soft grains drop their inertia under a slow squeeze (the shipped disk between plates, Mach
+/// 1.6e-4) and keep it when they fall across the box, when the plate moves at a tenth of the
+/// shear wave, or when the scene is a drum's flow.
+#[test]
+fn soft_grains_are_stepped_quasi_statically_only_under_a_slow_loading() {
+    let disk = |extra: serde_json::Value| {
+        let mut s: serde_json::Value =
+            serde_json::from_str(include_str!("../../../scenes/disk_between_plates_fem_2d.json")).expect("shipped scene");
+        merge(&mut s, extra);
+        crate::scene::parse_scene(&s.to_string()).expect("valid scene")
+    };
+    let slow = disk(serde_json::json!({}));
+    let why = soft_inertia(&slow).expect("quasi-static");
+    assert!(why.contains("1.6e-4 of the slowest shear wave"), "{why}");
+    let a = advise(&slow);
+    assert!(has(&a.dropped, "the grains' inertia"), "{:?}", a.dropped);
+    // Free fall across the 1 cm box: sqrt(2 g 0.02) = 0.63 m/s, 1.0e-2 of the wave.
+    let falling = disk(serde_json::json!({"gravity": [0.0, -9.81]}));
+    assert!(soft_inertia(&falling).is_err());
+    let fast = disk(serde_json::json!({"container": {"walls": {"y_max": {"kind": "velocity", "velocity": [0.0, -6.3]}}}}));
+    let why = soft_inertia(&fast).expect_err("inertial");
+    assert!(why.contains("1.0e-1 of the slowest shear wave"), "{why}");
+    assert!(has(&advise(&fast).reasons, "the grains' inertia is kept"));
+    let rigid = scene(serde_json::json!({}));
+    assert_eq!(soft_inertia(&rigid), Err("no deformable material".to_string()));
+}

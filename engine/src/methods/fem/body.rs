@@ -260,9 +260,14 @@ impl Body {
         Ok(())
     }
 
-    /// Starts a step: the velocities and internal forces at its start.
-    pub fn begin(&mut self) {
-        self.v0.clone_from(&self.v);
+    /// Starts a step: the velocities and internal forces at its start; from rest (`rest`: a
+    /// quasi-static load step, the last step's velocities kept only as Newton's first guess).
+    pub fn begin(&mut self, rest: bool) {
+        if rest {
+            self.v0.iter_mut().for_each(|v| *v = V2::zeros());
+        } else {
+            self.v0.clone_from(&self.v);
+        }
         sum_forces(&self.mesh.quads, &self.states, self.nodes(), &mut self.force0);
         for &(d, value) in &self.fixed {
             self.v[d / 2][d % 2] = value;
@@ -423,7 +428,7 @@ impl Body {
         max_newton: u32,
         floor: Real,
     ) -> Result<u32, BodyFailure> {
-        self.begin();
+        self.begin(false);
         let mut last = Real::INFINITY;
         for it in 1..=max_newton {
             self.iterate(law, sc, true, (&[], 0))?;

@@ -95,7 +95,7 @@ fn the_body_newton_matrix_is_the_derivative_of_its_residual() {
                 body.mesh.nodes.iter().map(|x| V2::new(-0.05 * x.x + 0.03 * x.y * x.y, -0.04 * x.y + 0.02 * x.x * x.y)).collect();
             let v: Vec<V2> = (0..n).map(|k| V2::new(0.1 * (0.7 * k as Real).sin(), 0.1 * (1.3 * k as Real).cos())).collect();
             body.restore(law.as_ref(), &u, &v, None).expect("not inverted");
-            body.begin();
+            body.begin(false);
             for (k, w) in body.v.iter_mut().enumerate() {
                 *w += V2::new(0.05 * (2.1 * k as Real).cos(), -0.04 * (0.9 * k as Real).sin());
             }
@@ -313,6 +313,7 @@ fn settings(dt: Real, theta: Real) -> Settings {
         dt,
         theta,
         gravity: V2::zeros(),
+        quasi_static: false,
         newton_tolerance: 1e-6,
         max_newton: 20,
         contact: crate::methods::soft::tests_convergence(),

@@ -154,7 +154,8 @@ impl Field {
     /// Forms the field of the points `range` for a new step: stencils, box, nodal masses,
     /// velocities (momentum over mass), the internal forces at the start, and the triples of
     /// the ghost penalty of stiffness `ghost` times the law's P-wave modulus ([`ghost`]; none
-    /// at 0).
+    /// at 0). From rest (`rest`: a quasi-static load step): `v0` is zero, the points'
+    /// velocities only Newton's first guess.
     pub fn begin(
         &mut self,
         grid: &Grid,
@@ -162,6 +163,7 @@ impl Field {
         range: std::ops::Range<usize>,
         law: &dyn ConstitutiveLaw,
         ghost: Real,
+        rest: bool,
     ) -> Result<(), PointFailure> {
         self.stencils.clear();
         let (mut lo, mut hi) = ([usize::MAX; 2], [0usize; 2]);
@@ -217,6 +219,9 @@ impl Field {
             }
         }
         self.v.copy_from_slice(&self.v0);
+        if rest {
+            self.v0.iter_mut().for_each(|v| *v = V2::zeros());
+        }
         let mut triples = std::mem::take(&mut self.ghost);
         triples.clear();
         if ghost > 0.0 {

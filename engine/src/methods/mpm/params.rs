@@ -3,7 +3,7 @@
 
 use crate::math::Real;
 use crate::methods::method::{read_spec, Method, MethodEntry};
-use crate::methods::soft::params::{soft_params_spec, SoftSolver};
+use crate::methods::soft::params::{soft_params_spec, Dynamics, SoftSolver};
 use crate::scene::Checker;
 
 soft_params_spec! {
@@ -112,6 +112,15 @@ pub fn check(c: &mut Checker, s: &MpmParamsSpec) -> MpmParams {
     if let Some(f) = s.flip {
         if c.within("method.flip", f, 0.0, 1.0) {
             p.flip = f;
+        }
+        // FLIP carries the points' velocities from step to step, which quasi-static steps do
+        // not have.
+        match p.solver.dynamics {
+            Dynamics::QuasiStatic if f > 0.0 => {
+                c.fail("method.flip", "must be 0 with quasi_static dynamics: the steps start from rest and carry no velocity")
+            }
+            Dynamics::Auto if f > 0.0 => p.solver.dynamics = Dynamics::Inertial,
+            _ => {}
         }
     }
     if let Some(g) = s.ghost_penalty {

@@ -21,6 +21,7 @@ fn settings(dt: Real) -> Settings {
         dt,
         theta: 0.5,
         gravity: V2::zeros(),
+        quasi_static: false,
         newton_tolerance: 1e-6,
         max_newton: 20,
         contact: crate::methods::soft::tests_convergence(),
@@ -524,7 +525,7 @@ fn the_newton_matrix_is_the_derivative_of_the_residual() {
         }
         let grid = Grid::covering(V2::new(-1.0, -1.0), V2::new(1.0, 1.0), h, 4);
         let mut field = Field::default();
-        field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA).expect("on the grid");
+        field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA, false).expect("on the grid");
         let n = field.nodes();
         for i in 0..n {
             let x = i as Real;
@@ -578,7 +579,7 @@ fn switches_count_points_changing_flow_between_iterates() {
     }
     let grid = Grid::covering(V2::new(-1.0, -1.0), V2::new(1.0, 1.0), h, 4);
     let mut field = Field::default();
-    field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA).expect("on the grid");
+    field.begin(&grid, &points, range.clone(), law.as_ref(), super::ghost::GAMMA, false).expect("on the grid");
     let at = |field: &mut Field, rate: Real| {
         for i in 0..field.nodes() {
             let (gi, _) = field.grid_node(i);

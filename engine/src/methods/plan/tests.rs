@@ -317,6 +317,30 @@ fn bad_deformable_input_names_every_field() {
     assert!(few.iter().any(|g| g.starts_with("method.points_per_cell: gives 1 point(s) across the smallest grain")), "{few:?}");
 }
 
+/// `method.dynamics`: an unknown value named with the allowed ones; quasi-static steps refuse a
+/// θ below 1 and a FLIP fraction (both carry velocities from step to step), where `auto` takes
+/// the inertial steps a scene asking for them means.
+#[test]
+fn soft_dynamics_are_checked_and_auto_gives_way_to_a_theta_method() {
+    let law = serde_json::json!({"law": "linear_elastic", "young_modulus": 1e7, "poisson_ratio": 0.3});
+    let check = |method: serde_json::Value| rules(&soft_scene(method, law.clone(), serde_json::json!({})));
+    let bad = check(serde_json::json!({"kind": "mpm", "dynamics": "static"}));
+    assert!(bad.iter().any(|g| g.starts_with(r#"method.dynamics: must be "auto", "inertial" or "quasi_static", got "static""#)), "{bad:?}");
+    let theta = check(serde_json::json!({"kind": "fem", "dynamics": "quasi_static", "theta": 0.5}));
+    assert!(theta.iter().any(|g| g.starts_with("method.theta: quasi_static dynamics solves each step at its end")), "{theta:?}");
+    let flip = check(serde_json::json!({"kind": "mpm", "dynamics": "quasi_static", "flip": 0.5}));
+    assert!(flip.iter().any(|g| g.starts_with("method.flip: must be 0 with quasi_static dynamics")), "{flip:?}");
+    let dynamics = |method: serde_json::Value| {
+        let scene = plan_scene(&soft_scene(method, law.clone(), serde_json::json!({}))).expect("valid");
+        scene.params::<MpmParams>().expect("mpm").solver.dynamics
+    };
+    use crate::methods::soft::params::Dynamics;
+    assert_eq!(dynamics(serde_json::json!({"kind": "mpm"})), Dynamics::Auto);
+    assert_eq!(dynamics(serde_json::json!({"kind": "mpm", "theta": 0.5})), Dynamics::Inertial);
+    assert_eq!(dynamics(serde_json::json!({"kind": "mpm", "flip": 1.0})), Dynamics::Inertial);
+    assert_eq!(dynamics(serde_json::json!({"kind": "mpm", "dynamics": "quasi_static"})), Dynamics::QuasiStatic);
+}
+
 /// Method `fem`: its own knob named with its rule, the knobs it shares with `mpm` under the
 /// same names and rules, and the same fit rules named for `fem`; a sound scene passes.
 #[test]

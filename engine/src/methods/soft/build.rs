@@ -7,7 +7,7 @@
 use nalgebra::Vector2;
 
 use super::contact::{Sides, Wall as PlaneWall};
-use super::params::SoftSolver;
+use super::params::{Dynamics, SoftSolver};
 use super::Settings;
 use crate::constitutive::ConstitutiveLaw;
 use crate::error::EngineError;
@@ -84,12 +84,18 @@ pub fn planes(scene: &Scene, walls: &[Wall]) -> Vec<PlaneWall> {
 }
 
 /// The settings of steps of `dt` (s) on `scene` from the method's `solver` settings, contacts
-/// held on both sides of each pair (`both`) or on one.
+/// held on both sides of each pair (`both`) or on one; `auto` dynamics resolved on the scene.
 pub fn settings(scene: &Scene, solver: &SoftSolver, dt: Real, both: bool) -> Settings {
+    let quasi_static = match solver.dynamics {
+        Dynamics::QuasiStatic => true,
+        Dynamics::Inertial => false,
+        Dynamics::Auto => crate::advise::soft_inertia(scene).is_ok(),
+    };
     Settings {
         dt,
-        theta: solver.theta,
+        theta: if quasi_static { 1.0 } else { solver.theta },
         gravity: V2::new(scene.gravity.x, scene.gravity.y),
+        quasi_static,
         newton_tolerance: solver.newton_tolerance,
         max_newton: solver.max_newton,
         contact: solver.contact(both),

@@ -64,6 +64,9 @@ pub struct Settings {
     pub theta: Real,
     /// Gravity, m/s².
     pub gravity: Vector2<Real>,
+    /// Each step starts from rest: a load step solved to equilibrium, no momentum carried
+    /// ([`params::Dynamics::QuasiStatic`]; `theta` is then 1).
+    pub quasi_static: bool,
     /// Newton's tolerance on the velocity correction, relative to the velocity scale.
     pub newton_tolerance: Real,
     /// Newton's budget of iterations a step.

@@ -15,6 +15,8 @@ pub struct SoftSolver {
     pub max_displacement: Real,
     /// θ of the time integration, in [½, 1].
     pub theta: Real,
+    /// Whether the steps keep the grains' inertia, or leave it out, or let the scene decide.
+    pub dynamics: Dynamics,
     /// Newton's tolerance on the velocity correction, relative.
     pub newton_tolerance: Real,
     /// Newton iterations allowed per step.
@@ -59,6 +61,7 @@ impl Default for SoftSolver {
             time_step: None,
             max_displacement: 0.05,
             theta: 1.0,
+            dynamics: Dynamics::Auto,
             newton_tolerance: 1e-5,
             max_newton: 25,
             tolerance: 1e-6,
@@ -68,6 +71,21 @@ impl Default for SoftSolver {
             threads: 0,
         }
     }
+}
+
+/// Whether a soft-grain method's steps keep the grains' inertia (`method.dynamics`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dynamics {
+    /// Quasi-static when the scene's loading is slow against the grains' elastic waves
+    /// ([`crate::advise::soft_inertia`]), inertial otherwise.
+    Auto,
+    /// The θ-method: each step starts from the grains' velocities at the end of the last.
+    Inertial,
+    /// Load steps solved to equilibrium: each step starts from rest, so no momentum is carried
+    /// from one to the next, and is solved at its end (θ = 1). The mass stays in the step's
+    /// equations as a drag `M v / dt` (it holds a grain that nothing touches), small against
+    /// the forces of loaded grains (docs/physics.md §5.1, "Quasi-static load steps").
+    QuasiStatic,
 }
 
 /// The shared settings as a scene writes them (each method's own spec holds them among its
@@ -80,6 +98,8 @@ pub struct SoftSolverSpec {
     pub max_displacement: Option<f64>,
     /// `method.theta`.
     pub theta: Option<f64>,
+    /// `method.dynamics`.
+    pub dynamics: Option<String>,
     /// `method.newton_tolerance`.
     pub newton_tolerance: Option<f64>,
     /// `method.max_newton`.
@@ -119,6 +139,12 @@ macro_rules! soft_params_spec {
             /// θ of the time integration, in [0.5, 1]. Default 1 (backward Euler).
             #[serde(default)]
             pub theta: Option<f64>,
+            /// `"inertial"` (the θ-method: the grains keep their momentum from step to step),
+            /// `"quasi_static"` (each step a load step solved to equilibrium: no momentum kept,
+            /// θ = 1) or `"auto"`: quasi-static when the loading is slow against the grains'
+            /// waves ([`crate::advise::soft_inertia`]). Default `"auto"`.
+            #[serde(default)]
+            pub dynamics: Option<String>,
             /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
             #[serde(default)]
             pub newton_tolerance: Option<f64>,
@@ -153,6 +179,7 @@ macro_rules! soft_params_spec {
                     time_step: self.time_step,
                     max_displacement: self.max_displacement,
                     theta: self.theta,
+                    dynamics: self.dynamics.clone(),
                     newton_tolerance: self.newton_tolerance,
                     max_newton: self.max_newton,
                     tolerance: self.tolerance,
@@ -185,6 +212,21 @@ pub fn check(c: &mut Checker, s: &SoftSolverSpec) -> SoftSolver {
     if let Some(t) = s.theta {
         if c.within("method.theta", t, 0.5, 1.0) {
             p.theta = t;
+            if t != 1.0 {
+                // A θ-method asked for by name: the scene wants the inertial steps.
+                p.dynamics = Dynamics::Inertial;
+            }
+        }
+    }
+    if let Some(d) = &s.dynamics {
+        match d.as_str() {
+            "auto" => {}
+            "inertial" => p.dynamics = Dynamics::Inertial,
+            "quasi_static" if s.theta.is_some_and(|t| t != 1.0) => {
+                c.fail("method.theta", "quasi_static dynamics solves each step at its end: theta must be 1 (or left out)")
+            }
+            "quasi_static" => p.dynamics = Dynamics::QuasiStatic,
+            other => c.fail("method.dynamics", format!("must be \"auto\", \"inertial\" or \"quasi_static\", got {other:?}")),
         }
     }
     if let Some(t) = s.newton_tolerance {

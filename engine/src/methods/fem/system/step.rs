@@ -35,7 +35,8 @@ impl System {
     /// One part of `dt` without splitting; `last_chance`: it cannot be split further.
     pub(super) fn try_step(&mut self, dt: Real, last_chance: bool) -> Result<StepReport, StepFailure> {
         let sc = self.settings.scheme(dt);
-        self.grains.par_iter_mut().for_each(|g| g.body.begin());
+        let rest = self.settings.quasi_static;
+        self.grains.par_iter_mut().for_each(|g| g.body.begin(rest));
         self.detect();
         let mut report = StepReport { contacts: self.contacts.len(), ..StepReport::default() };
         let v_ref =

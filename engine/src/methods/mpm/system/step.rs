@@ -146,12 +146,12 @@ impl System {
     /// Every grain projects its points on its nodes (mass, velocity, internal force at the
     /// start).
     fn begin_fields(&mut self) -> Result<(), StepFailure> {
-        let (grid, points, laws, ghost) = (&self.grid, &self.points, &self.laws, self.ghost);
+        let (grid, points, laws, ghost, rest) = (&self.grid, &self.points, &self.laws, self.ghost, self.settings.quasi_static);
         let begun: Result<(), PointFailure> = self
             .fields
             .par_iter_mut()
             .zip(&self.grains)
-            .try_for_each(|(f, g)| f.begin(grid, points, g.points.clone(), laws[g.law].as_ref(), ghost));
+            .try_for_each(|(f, g)| f.begin(grid, points, g.points.clone(), laws[g.law].as_ref(), ghost, rest));
         begun.map_err(|e| self.point_failure(e))
     }
 
