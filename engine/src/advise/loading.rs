@@ -62,6 +62,25 @@ pub(super) fn axis_of_gravity(scene: &Scene) -> usize {
     (0..3).max_by(|a, b| g[*a].abs().total_cmp(&g[*b].abs())).filter(|a| g[*a] != 0.0).unwrap_or(1)
 }
 
+/// The grains' fastest initial speed as the scene gives it, m/s: a set's uniform velocity or
+/// its listed ones, a Gaussian's typical speed (its deviation times √D), a state's velocities.
+pub(super) fn initial_speed(scene: &Scene) -> Real {
+    let mut speed: Real = 0.0;
+    for s in &scene.sets {
+        speed = speed.max(match s.velocity {
+            crate::scene::InitialVelocity::Uniform(v) => v.norm(),
+            crate::scene::InitialVelocity::Gaussian(sd) => sd * (scene.dim as Real).sqrt(),
+        });
+        if let Placement::List { velocities: Some(vs), .. } = &s.placement {
+            speed = speed.max(vs.iter().map(|v| v.norm()).fold(0.0, Real::max));
+        }
+    }
+    if let Some(st) = &scene.initial {
+        speed = speed.max(st.vel.iter().map(|v| v.norm()).fold(0.0, Real::max));
+    }
+    speed
+}
+
 /// The stress and rate of a scene without an experiment: its walls, cell, shear, gravity and
 /// initial velocities.
 pub(super) fn loading_of_container(scene: &Scene, l: &mut Loading, rho: Real, phi0: Real, g: Real) {
@@ -100,19 +119,7 @@ pub(super) fn loading_of_container(scene: &Scene, l: &mut Loading, rho: Real, ph
         }
         None => {}
     }
-    let mut speed: Real = 0.0;
-    for s in &scene.sets {
-        speed = speed.max(match s.velocity {
-            crate::scene::InitialVelocity::Uniform(v) => v.norm(),
-            crate::scene::InitialVelocity::Gaussian(sd) => sd * (scene.dim as Real).sqrt(),
-        });
-        if let Placement::List { velocities: Some(vs), .. } = &s.placement {
-            speed = speed.max(vs.iter().map(|v| v.norm()).fold(0.0, Real::max));
-        }
-    }
-    if let Some(st) = &scene.initial {
-        speed = speed.max(st.vel.iter().map(|v| v.norm()).fold(0.0, Real::max));
-    }
+    let speed = initial_speed(scene);
     let dilute = phi0 < DILUTE_FRACTION * close_packing(scene.dim);
     if g > 0.0 {
         let h = length(axis_of_gravity(scene));

@@ -124,8 +124,7 @@ pub fn soft_inertia(scene: &Scene) -> Result<String, String> {
     if !wave.is_finite() {
         return Err("no deformable material".into());
     }
-    let particles = crate::methods::world::initial_particles(scene).map_err(|e| e.to_string())?.0;
-    let speed = crate::methods::world::imposed_speed(scene, &particles, true);
+    let speed = scene.imposed_speed(loading::initial_speed(scene), true);
     let mach = speed / wave;
     if mach < SOFT_QUASI_STATIC_MACH {
         Ok(format!(

@@ -10,7 +10,7 @@ use crate::observe::{ShearGeometry, WallFace, WallView};
 use crate::particles::aggregate::NO_AGGREGATE;
 use crate::particles::{generate::place_particles, Particles};
 use crate::scene::state::{StateBonding, StateParticles, STATE_FORMAT, STATE_VERSION};
-use crate::scene::{Deformation, Material, Scene, StateFile, WallMotion};
+use crate::scene::{Material, Scene, StateFile};
 
 /// Checks that each periodic length of `domain` holds twice the interaction reach of a pair
 /// of the largest particles (radius `rmax`, m) whose laws act across `reach` and whose
@@ -87,53 +87,10 @@ pub(crate) fn reference_velocity(scene: &Scene, p: &Particles) -> Real {
     REFERENCE_FLOOR.max(imposed_speed(scene, p, false))
 }
 
-/// Fastest motion the scene sets, m/s (0 if none): the initial speeds, free fall across the
-/// box, the walls' speeds (imposed velocity, strain rate times length) in the container, the
-/// shear velocity across the box, the drum's rim; with `stages`, also the walls of every stage
-/// of the loading program and the finite `max_speed` of stress-controlled walls (left out
-/// without, which keeps DEM's impact-velocity estimate as it was).
+/// Fastest motion the scene sets, m/s (0 if none): [`Scene::imposed_speed`] with the placed
+/// particles' fastest initial speed.
 pub(crate) fn imposed_speed(scene: &Scene, p: &Particles, stages: bool) -> Real {
-    let c = &scene.container;
-    let span = (0..scene.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
-    let mut v: Real = p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max);
-    v = v.max((2.0 * scene.gravity.norm() * span).sqrt());
-    let mut walls: Vec<(usize, WallMotion)> = c.walls.iter().map(|w| (w.face.axis, w.motion)).collect();
-    if stages {
-        walls.extend(scene.stages.iter().flat_map(|s| s.controls.walls.iter().map(|w| (w.face.axis, w.motion))));
-    }
-    for (axis, motion) in walls {
-        match motion {
-            WallMotion::Velocity(u) => v = v.max(u.norm()),
-            WallMotion::StrainRate(r) => v = v.max((r * (c.hi[axis] - c.lo[axis])).abs()),
-            WallMotion::Stress { max_speed, .. } if stages && max_speed.is_finite() => v = v.max(max_speed),
-            WallMotion::Shearing { shear_rate, .. } if stages => v = v.max((shear_rate * (c.hi[axis] - c.lo[axis])).abs()),
-            _ => {}
-        }
-    }
-    if let Some((rate, _)) = c.lees_edwards {
-        v = v.max(rate.abs() * (c.hi.y - c.lo.y));
-    }
-    if stages {
-        // The stages' Lees-Edwards shear, and the cell's deformation (a length's rate).
-        let length = |a: usize| c.hi[a] - c.lo[a];
-        for s in &scene.stages {
-            if let Some(rate) = s.controls.shear_rate {
-                v = v.max(rate.abs() * length(1));
-            }
-        }
-        let staged = scene.stages.iter().filter_map(|s| s.controls.deformation.flatten());
-        for d in c.deformation.into_iter().chain(staged) {
-            let rate = match d {
-                Deformation::StrainRate(r) => r.abs().max(),
-                Deformation::Pressure { max_strain_rate, .. } | Deformation::NormalStress { max_strain_rate, .. } => max_strain_rate,
-            };
-            v = v.max(rate * span);
-        }
-    }
-    if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &scene.experiment {
-        v = v.max(angular_velocity.abs() * drum.radius);
-    }
-    v
+    scene.imposed_speed(p.vel.iter().map(|x| x.norm()).fold(0.0, f64::max), stages)
 }
 
 /// Sets the Lees-Edwards shear rate to `rate` (1/s), adding the change of the velocity profile

@@ -64,6 +64,56 @@ impl Scene {
         let from_state = self.initial.as_ref().map_or(0, |st| st.radius.len());
         self.sets.iter().map(ParticleSet::particle_count).fold(from_state, usize::saturating_add)
     }
+
+    /// Fastest motion the scene sets, m/s (0 if none): the grains' fastest initial speed
+    /// (`initial`, m/s), free fall across the box, the walls' speeds (imposed velocity, strain
+    /// rate times length) in the container, the shear velocity across the box, the drum's rim;
+    /// with `stages`, also the walls of every stage of the loading program and the finite
+    /// `max_speed` of stress-controlled walls (left out without, which keeps DEM's
+    /// impact-velocity estimate as it was).
+    pub fn imposed_speed(&self, initial: Real, stages: bool) -> Real {
+        let c = &self.container;
+        let span = (0..self.dim).map(|a| c.hi[a] - c.lo[a]).fold(0.0, f64::max);
+        let mut v: Real = initial;
+        v = v.max((2.0 * self.gravity.norm() * span).sqrt());
+        let mut walls: Vec<(usize, WallMotion)> = c.walls.iter().map(|w| (w.face.axis, w.motion)).collect();
+        if stages {
+            walls.extend(self.stages.iter().flat_map(|s| s.controls.walls.iter().map(|w| (w.face.axis, w.motion))));
+        }
+        for (axis, motion) in walls {
+            match motion {
+                WallMotion::Velocity(u) => v = v.max(u.norm()),
+                WallMotion::StrainRate(r) => v = v.max((r * (c.hi[axis] - c.lo[axis])).abs()),
+                WallMotion::Stress { max_speed, .. } if stages && max_speed.is_finite() => v = v.max(max_speed),
+                WallMotion::Shearing { shear_rate, .. } if stages => v = v.max((shear_rate * (c.hi[axis] - c.lo[axis])).abs()),
+                _ => {}
+            }
+        }
+        if let Some((rate, _)) = c.lees_edwards {
+            v = v.max(rate.abs() * (c.hi.y - c.lo.y));
+        }
+        if stages {
+            // The stages' Lees-Edwards shear, and the cell's deformation (a length's rate).
+            let length = |a: usize| c.hi[a] - c.lo[a];
+            for s in &self.stages {
+                if let Some(rate) = s.controls.shear_rate {
+                    v = v.max(rate.abs() * length(1));
+                }
+            }
+            let staged = self.stages.iter().filter_map(|s| s.controls.deformation.flatten());
+            for d in c.deformation.into_iter().chain(staged) {
+                let rate = match d {
+                    Deformation::StrainRate(r) => r.abs().max(),
+                    Deformation::Pressure { max_strain_rate, .. } | Deformation::NormalStress { max_strain_rate, .. } => max_strain_rate,
+                };
+                v = v.max(rate * span);
+            }
+        }
+        if let Some(crate::scene::Experiment::Drum { drum, angular_velocity, .. }) = &self.experiment {
+            v = v.max(angular_velocity.abs() * drum.radius);
+        }
+        v
+    }
 }
 
 /// Stop criteria.
