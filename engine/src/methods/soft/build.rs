@@ -84,7 +84,8 @@ pub fn planes(scene: &Scene, walls: &[Wall]) -> Vec<PlaneWall> {
 }
 
 /// The settings of steps of `dt` (s) on `scene` from the method's `solver` settings, contacts
-/// held on both sides of each pair (`both`) or on one; `auto` dynamics resolved on the scene.
+/// held on both sides of each pair (`both`) or on one; `auto` dynamics resolved on the scene
+/// (the checks leave `auto` only with θ = 1, and refuse quasi-static steps with another).
 pub fn settings(scene: &Scene, solver: &SoftSolver, dt: Real, both: bool) -> Settings {
     let quasi_static = match solver.dynamics {
         Dynamics::QuasiStatic => true,
@@ -93,7 +94,7 @@ pub fn settings(scene: &Scene, solver: &SoftSolver, dt: Real, both: bool) -> Set
     };
     Settings {
         dt,
-        theta: if quasi_static { 1.0 } else { solver.theta },
+        theta: solver.theta,
         gravity: V2::new(scene.gravity.x, scene.gravity.y),
         quasi_static,
         newton_tolerance: solver.newton_tolerance,

@@ -73,11 +73,14 @@ impl Default for SoftSolver {
     }
 }
 
-/// Whether a soft-grain method's steps keep the grains' inertia (`method.dynamics`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Whether a soft-grain method's steps keep the grains' inertia (`method.dynamics`, written
+/// `"auto"`, `"inertial"` or `"quasi_static"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Dynamics {
     /// Quasi-static when the scene's loading is slow against the grains' elastic waves
     /// ([`crate::advise::soft_inertia`]), inertial otherwise.
+    #[default]
     Auto,
     /// The θ-method: each step starts from the grains' velocities at the end of the last.
     Inertial,
@@ -99,7 +102,7 @@ pub struct SoftSolverSpec {
     /// `method.theta`.
     pub theta: Option<f64>,
     /// `method.dynamics`.
-    pub dynamics: Option<String>,
+    pub dynamics: Option<Dynamics>,
     /// `method.newton_tolerance`.
     pub newton_tolerance: Option<f64>,
     /// `method.max_newton`.
@@ -144,7 +147,7 @@ macro_rules! soft_params_spec {
             /// θ = 1) or `"auto"`: quasi-static when the loading is slow against the grains'
             /// waves ([`crate::advise::soft_inertia`]). Default `"auto"`.
             #[serde(default)]
-            pub dynamics: Option<String>,
+            pub dynamics: Option<$crate::methods::soft::params::Dynamics>,
             /// Newton's tolerance on the velocity correction (relative). Default 1e-5.
             #[serde(default)]
             pub newton_tolerance: Option<f64>,
@@ -179,7 +182,7 @@ macro_rules! soft_params_spec {
                     time_step: self.time_step,
                     max_displacement: self.max_displacement,
                     theta: self.theta,
-                    dynamics: self.dynamics.clone(),
+                    dynamics: self.dynamics,
                     newton_tolerance: self.newton_tolerance,
                     max_newton: self.max_newton,
                     tolerance: self.tolerance,
@@ -218,16 +221,12 @@ pub fn check(c: &mut Checker, s: &SoftSolverSpec) -> SoftSolver {
             }
         }
     }
-    if let Some(d) = &s.dynamics {
-        match d.as_str() {
-            "auto" => {}
-            "inertial" => p.dynamics = Dynamics::Inertial,
-            "quasi_static" if s.theta.is_some_and(|t| t != 1.0) => {
-                c.fail("method.theta", "quasi_static dynamics solves each step at its end: theta must be 1 (or left out)")
-            }
-            "quasi_static" => p.dynamics = Dynamics::QuasiStatic,
-            other => c.fail("method.dynamics", format!("must be \"auto\", \"inertial\" or \"quasi_static\", got {other:?}")),
+    match s.dynamics {
+        Some(Dynamics::QuasiStatic) if s.theta.is_some_and(|t| t != 1.0) => {
+            c.fail("method.theta", "quasi_static dynamics solves each step at its end: theta must be 1 (or left out)")
         }
+        Some(d @ (Dynamics::Inertial | Dynamics::QuasiStatic)) => p.dynamics = d,
+        Some(Dynamics::Auto) | None => {}
     }
     if let Some(t) = s.newton_tolerance {
         if c.positive("method.newton_tolerance", t) {
