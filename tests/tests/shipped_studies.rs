@@ -28,6 +28,7 @@ fn every_shipped_study_expands_into_valid_runs() {
             ("bpm_z_phi_periodic.json".to_string(), 9),
             ("dem_time_step_limit.json".to_string(), 2),
             ("disk_between_plates_soft.json".to_string(), 16),
+            ("fem_compaction_friction.json".to_string(), 4),
             ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),
             ("restitution_dem.json".to_string(), 9),

@@ -5,6 +5,7 @@
 //! A method describes its state at sampling time as a [`SystemView`] (bodies and contacts) and
 //! [`measure`] turns it into a [`Sample`].
 
+pub mod compaction_laws;
 pub mod contacts;
 pub mod drum;
 mod drum_surface;

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Analysis, ExperimentResult, Flow, ONSET_FRACTION};
+use crate::observe::compaction_laws::{self, CompactedState, ExponentialLawFit, LinearLawFit, NeoHookeanLawFit};
 use crate::observe::power::{power_fit, PowerFit};
 use crate::observe::sample::Sample;
 use crate::scene::CompactionDrive;
@@ -30,6 +31,18 @@ pub struct CompactionResult {
     /// The moving wall's stress beyond the onset, `σ = a (Φ − Φ_J)^b` (Pa).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stress_fit: Option<PowerFit>,
+    /// The sources' linear law `Φ − Φ₀ = α (σ − σ₀)/K` fitted to the moving wall's stress
+    /// beyond the onset (deformable grains; [`compaction_laws`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_law: Option<LinearLawFit>,
+    /// The sources' law of neo-Hookean grains `σ = M_eff (ln Φ + c₂)/(1 + M_eff/(c₁ K Z Φ))`
+    /// fitted beyond the onset (deformable grains; [`compaction_laws`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neo_hookean_law: Option<NeoHookeanLawFit>,
+    /// The sources' law of plastic grains `1 − Φ = (1 − Φ₀) e^(−r (σ − σ₀))` fitted beyond the
+    /// onset ([`compaction_laws`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exponential_law: Option<ExponentialLawFit>,
     /// The grains' mean aspect ratio at the end (deformable grains; 1 for disks): how much
     /// their shape changed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -61,6 +74,9 @@ impl Analysis {
             }
             None => (None, None),
         };
+        let loaded: Vec<CompactedState> =
+            onset.map_or(&[][..], |k| &run[k..]).iter().map(|s| CompactedState { phi: phi(s), z: z(s), stress: stress_of(s) }).collect();
+        let moduli = self.grain_moduli.filter(|_| self.deformable);
         let shape = last.grains.as_ref().map(|g| (g.mean_aspect_ratio, g.max_aspect_ratio));
         r.compaction = Some(CompactionResult {
             phi_onset,
@@ -70,6 +86,9 @@ impl Analysis {
             phi_max: run.iter().map(|s| phi(s)).fold(phi(last), f64::max),
             coordination_fit,
             stress_fit,
+            linear_law: moduli.and_then(|m| compaction_laws::linear_law(&loaded, m)),
+            neo_hookean_law: moduli.and_then(|m| compaction_laws::neo_hookean_law(&loaded, m)),
+            exponential_law: compaction_laws::exponential_law(&loaded),
             mean_aspect_ratio: shape.map(|s| s.0),
             max_aspect_ratio: shape.map(|s| s.1),
         });

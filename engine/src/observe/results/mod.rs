@@ -195,6 +195,9 @@ pub struct Analysis {
     /// The aggregates' number-mean nominal diameter, m, when a particle set makes them: the
     /// inertial number of a flow of aggregates is the grains', not the primaries'.
     aggregate_diameter: Option<Real>,
+    /// The deformable grains' moduli (the first set's material), for the sources' compaction
+    /// laws.
+    grain_moduli: Option<crate::observe::compaction_laws::GrainModuli>,
 }
 
 impl Analysis {
@@ -222,6 +225,12 @@ impl Analysis {
             aggregates: scene.sets.iter().any(|s| s.aggregate.is_some())
                 || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty()),
             aggregate_diameter: scene.sets.iter().find(|s| s.aggregate.is_some()).map(|s| s.size.mean_diameter()),
+            grain_moduli: material.and_then(|m| m.deformable).map(|law| {
+                let (young, poisson) = law.young_poisson();
+                let lame = crate::constitutive::Lame::from_young(young, poisson);
+                let bulk = if scene.dim == 2 { lame.lambda + lame.mu } else { lame.bulk() };
+                crate::observe::compaction_laws::GrainModuli { bulk, p_wave: lame.p_wave() }
+            }),
         }
     }
 

@@ -315,3 +315,40 @@ fn a_compaction_of_soft_grains_fits_its_coordination_and_keeps_their_shapes() {
     assert!((fit.exponent - 0.5).abs() < 1e-9 && (fit.prefactor - 5.0).abs() < 1e-8, "{fit:?}");
     assert!(c.mean_aspect_ratio.is_some_and(|m| (m - 1.14).abs() < 1e-12) && c.max_aspect_ratio == Some(1.3), "{c:?}");
 }
+
+/// A compaction of neo-Hookean grains (μ 1.5 MPa, λ 3 MPa) whose wall stress follows the
+/// sources' law with `c₁ = 0.23`, `c₂ = 0.27` beyond the onset: the results give the two
+/// constants back, and `α = K dΦ/dσ` of the linear law with the grains' plane-strain `K = λ + μ`.
+#[test]
+fn a_compaction_of_deformable_grains_fits_the_sources_laws() {
+    let s = serde_json::json!({
+        "dimension": 2, "method": {"kind": "mpm"},
+        "materials": {"m": {"density": 990.0, "friction": 0.0, "deformable": {"law": "neo_hookean", "shear_modulus": 1.5e6, "lambda": 3e6}}},
+        "particles": [{"material": "m", "count": 10, "size": {"kind": "monodisperse", "diameter": 2e-3}, "placement": {"kind": "random"}}],
+        "container": walled_box(),
+        "experiment": {"kind": "compaction", "velocity": 0.01, "strain": 0.5}
+    });
+    let mut a = Analysis::new(&parse_scene(&s.to_string()).expect("valid"));
+    a.for_grains(crate::run::GrainModel::Deformable);
+    let (bulk, p_wave, c1, c2) = (4.5e6, 6e6, 0.23, 0.27);
+    let law = |phi: f64, z: f64| {
+        let m_eff = phi * p_wave;
+        (m_eff * (phi.ln() + c2) / (1.0 + m_eff / (c1 * bulk * z * phi))).max(0.0)
+    };
+    for k in 0..=40u64 {
+        let phi = 0.70 + 0.006 * k as f64;
+        let mut x = sample(k, "compaction", 0.0, 0.0, 0.0);
+        (x.phi, x.z) = (phi, 3.0 + 6.0 * (phi - 0.70).sqrt());
+        x.walls = vec![WallSample { name: "y_max".into(), position: 0.01, force: vec![0.0, 0.0], normal_stress: law(x.phi, x.z) }];
+        a.push(&x);
+    }
+    let r = a.finish(2e-3, 990.0).expect("result");
+    let c = r.compaction.expect("a compaction result");
+    let fit = c.neo_hookean_law.clone().expect("the neo-Hookean law fitted");
+    assert!((fit.c1 / c1 - 1.0).abs() < 1e-6 && (fit.c2 - c2).abs() < 1e-6, "{fit:?}");
+    let linear = c.linear_law.clone().expect("the linear law fitted");
+    let (first, last) = (0.70 + 0.006 * 13.0, 0.94);
+    let slope = (last - first) / (law(last, 3.0 + 6.0 * (last - 0.70f64).sqrt()) - law(first, 3.0 + 6.0 * (first - 0.70f64).sqrt()));
+    assert!(linear.alpha > 0.0 && (linear.alpha / (bulk * slope)).ln().abs() < 0.5, "{linear:?} against chord {}", bulk * slope);
+    assert!(c.exponential_law.is_some(), "{c:?}");
+}
