@@ -15,6 +15,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
+use crate::observe::power::line_fit;
 
 /// One compacted state: packing fraction, coordination, stress (Pa, compression positive).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,28 +89,6 @@ pub struct ExponentialLawFit {
     pub points: usize,
 }
 
-/// Ordinary least squares of `y = a + b x`: `(b, standard error of b, r²)`; `None` with fewer
-/// than three points or no spread in `x`.
-fn line(points: &[(Real, Real)]) -> Option<(Real, Real, Real)> {
-    let n = points.len();
-    if n < 3 {
-        return None;
-    }
-    let nf = n as Real;
-    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), &(x, y)| (a + x / nf, b + y / nf));
-    let (sxx, sxy, syy) = points.iter().fold((0.0, 0.0, 0.0), |(a, b, c), &(x, y)| {
-        let (dx, dy) = (x - mx, y - my);
-        (a + dx * dx, b + dx * dy, c + dy * dy)
-    });
-    if sxx <= 0.0 {
-        return None;
-    }
-    let b = sxy / sxx;
-    let residual = (syy - b * sxy).max(0.0);
-    let r2 = if syy > 0.0 { 1.0 - residual / syy } else { 1.0 };
-    Some((b, (residual / (nf - 2.0) / sxx).sqrt(), r2))
-}
-
 fn usable(states: &[CompactedState]) -> impl Iterator<Item = &CompactedState> {
     states.iter().filter(|s| s.phi > 0.0 && s.phi < 1.0 && s.stress > 0.0 && s.phi.is_finite() && s.stress.is_finite())
 }
@@ -117,15 +96,21 @@ fn usable(states: &[CompactedState]) -> impl Iterator<Item = &CompactedState> {
 /// Fits [`LinearLawFit`] to `states`.
 pub fn linear_law(states: &[CompactedState], moduli: GrainModuli) -> Option<LinearLawFit> {
     let pts: Vec<(Real, Real)> = usable(states).map(|s| (s.stress, s.phi)).collect();
-    let (slope, error, r2) = line(&pts)?;
-    Some(LinearLawFit { alpha: moduli.bulk * slope, alpha_error: moduli.bulk * error, slope, r2, points: pts.len() })
+    let l = line_fit(&pts)?;
+    Some(LinearLawFit {
+        alpha: moduli.bulk * l.slope,
+        alpha_error: moduli.bulk * l.slope_error,
+        slope: l.slope,
+        r2: l.r2,
+        points: pts.len(),
+    })
 }
 
 /// Fits [`ExponentialLawFit`] to `states`.
 pub fn exponential_law(states: &[CompactedState]) -> Option<ExponentialLawFit> {
     let pts: Vec<(Real, Real)> = usable(states).map(|s| (s.stress, (1.0 - s.phi).ln())).collect();
-    let (slope, error, r2) = line(&pts)?;
-    Some(ExponentialLawFit { rate: -slope, rate_error: error, r2, points: pts.len() })
+    let l = line_fit(&pts)?;
+    Some(ExponentialLawFit { rate: -l.slope, rate_error: l.slope_error, r2: l.r2, points: pts.len() })
 }
 
 /// Fits [`NeoHookeanLawFit`] to `states`. Multiplied out, the law is linear in `a = 1/c₁` and

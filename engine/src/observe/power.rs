@@ -26,23 +26,44 @@ pub struct PowerFit {
 pub fn power_fit(pairs: impl IntoIterator<Item = (Real, Real)>) -> Option<PowerFit> {
     let logs: Vec<(Real, Real)> =
         pairs.into_iter().filter(|&(x, y)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite()).map(|(x, y)| (x.ln(), y.ln())).collect();
-    let n = logs.len();
+    let line = line_fit(&logs)?;
+    Some(PowerFit { prefactor: line.intercept.exp(), exponent: line.slope, r2: line.r2, points: logs.len() })
+}
+
+/// An ordinary least-squares line `y = intercept + slope x`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LineFit {
+    pub intercept: Real,
+    pub slope: Real,
+    /// Standard error of the slope.
+    pub slope_error: Real,
+    /// Coefficient of determination.
+    pub r2: Real,
+}
+
+/// Fits a [`LineFit`] to `points`; `None` with fewer than three points or no spread in `x`.
+pub(crate) fn line_fit(points: &[(Real, Real)]) -> Option<LineFit> {
+    let n = points.len();
     if n < 3 {
         return None;
     }
     let nf = n as Real;
-    let (mx, my) = logs.iter().fold((0.0, 0.0), |(a, b), &(x, y)| (a + x / nf, b + y / nf));
-    let (sxx, sxy, syy) = logs.iter().fold((0.0, 0.0, 0.0), |(a, b, c), &(x, y)| {
+    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), &(x, y)| (a + x / nf, b + y / nf));
+    let (sxx, sxy, syy) = points.iter().fold((0.0, 0.0, 0.0), |(a, b, c), &(x, y)| {
         let (dx, dy) = (x - mx, y - my);
         (a + dx * dx, b + dx * dy, c + dy * dy)
     });
     if sxx <= 0.0 {
         return None;
     }
-    let b = sxy / sxx;
-    let residual = syy - b * sxy;
-    let r2 = if syy > 0.0 { 1.0 - residual / syy } else { 1.0 };
-    Some(PowerFit { prefactor: (my - b * mx).exp(), exponent: b, r2, points: n })
+    let slope = sxy / sxx;
+    let residual = (syy - slope * sxy).max(0.0);
+    Some(LineFit {
+        intercept: my - slope * mx,
+        slope,
+        slope_error: (residual / (nf - 2.0) / sxx).sqrt(),
+        r2: if syy > 0.0 { 1.0 - residual / syy } else { 1.0 },
+    })
 }
 
 #[cfg(test)]
