@@ -347,8 +347,18 @@ fn a_compaction_of_deformable_grains_fits_the_sources_laws() {
     let fit = c.neo_hookean_law.clone().expect("the neo-Hookean law fitted");
     assert!((fit.c1 / c1 - 1.0).abs() < 1e-6 && (fit.c2 - c2).abs() < 1e-6, "{fit:?}");
     let linear = c.linear_law.clone().expect("the linear law fitted");
-    let (first, last) = (0.70 + 0.006 * 13.0, 0.94);
-    let slope = (last - first) / (law(last, 3.0 + 6.0 * (last - 0.70f64).sqrt()) - law(first, 3.0 + 6.0 * (first - 0.70f64).sqrt()));
-    assert!(linear.alpha > 0.0 && (linear.alpha / (bulk * slope)).ln().abs() < 0.5, "{linear:?} against chord {}", bulk * slope);
+    // The same least squares written out over the states from the onset on (Φ_J from the result).
+    let phi_j = c.phi_onset.expect("an onset");
+    let pts: Vec<(f64, f64)> = (0..=40u64)
+        .map(|k| 0.70 + 0.006 * k as f64)
+        .filter(|&phi| phi >= phi_j - 1e-12)
+        .map(|phi| (law(phi, 3.0 + 6.0 * (phi - 0.70).sqrt()), phi))
+        .filter(|&(s, _)| s > 0.0)
+        .collect();
+    let n = pts.len() as f64;
+    let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    let slope = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / pts.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    assert_eq!(linear.points, pts.len(), "{linear:?}");
+    assert!((linear.alpha / (bulk * slope) - 1.0).abs() < 1e-9, "{linear:?} against {}", bulk * slope);
     assert!(c.exponential_law.is_some(), "{c:?}");
 }
