@@ -23,6 +23,21 @@
 //! is `r_n >= -c - k U_n` at the contact's current normal velocity (the admissible set moves with
 //! the velocity); the rolling blocks keep their plain update.
 //!
+//! **Cycles.** Gauss-Seidel on frictional contacts is not bound to converge (Coulomb's law is
+//! not associated: the local problems are not the minimisations of one function). On dense
+//! frictional packings of deformable grains its change was seen to swing for good between 2e-6
+//! and 2e-5 where 1e-6 was asked, or to fall for some sweeps and jump back up by a hundred
+//! times at a fixed period (docs/methods/fem.md, "Design measurements"). Under-relaxation
+//! damps such cycles (M. Jean, "The non-smooth contact dynamics method", 1999; LMGC90's
+//! `relax`) but slows every solve that converges without it, so the solver lowers it only
+//! where a cycle shows ([`Cycles`]): when 500 sweeps have not brought the change a fifth below
+//! the level it had reached and it rose at least once among them, the relaxation is halved
+//! (down to an eighth of the settings') and the momentum restarts. The fixed point is the same
+//! at any relaxation; a damped sweep's change is divided by its damping, so that the criterion
+//! measures the distance to the local solutions whatever the damping. The soft-grain methods
+//! ask for it ([`Convergence::damp_cycles`]); contact dynamics of rigid grains, whose
+//! accelerated sweeps swing by design, leave it to `method.relaxation`.
+//!
 //! **Convergence criterion** (checked after every sweep), all below their tolerances:
 //! - the relative change of the impulses over the sweep, `sqrt(sum |dr|² / sum max(|r|, s)²)`
 //!   (LMGC90's "quadratic" norm), where each contact's impulse scale `s` (set by the method:
@@ -64,6 +79,8 @@ pub struct Convergence {
     /// Largest momentum factor `beta` of the accelerated sweep, in [0, 1) (0: plain
     /// Gauss-Seidel; see the module documentation).
     pub acceleration: Real,
+    /// Lower the relaxation where the sweeps cycle (module documentation, "Cycles").
+    pub damp_cycles: bool,
 }
 
 /// The state of the iteration after one sweep.
@@ -231,22 +248,28 @@ impl Nlgs {
             return report;
         }
         let (tol, vtol) = (self.settings.tolerance, self.settings.violation_tolerance);
-        let omega = self.settings.relaxation;
         let mut previous = std::mem::take(&mut self.last);
         let accelerate = self.settings.acceleration > 0.0;
         // The sweep the momentum restarted at, and the violations of the last sweep.
         let (mut restart, mut violations) = (0, Real::INFINITY);
+        let mut cycles = Cycles::default();
         for it in 1..=self.settings.max_iterations {
+            let omega = self.settings.relaxation * cycles.damping;
             // Always forward: sweeping backward every other time (symmetric Gauss-Seidel)
             // took 40% more sweeps on the quickstart deposition.
             let sums = sweep(&mut previous, Pass::Solve { omega });
+            // A damped sweep moves each impulse `damping` of the way the settings' relaxation
+            // would: its change is measured undamped, as the distance to the local solutions.
             let change = if sums.size2 > 0.0 {
-                (sums.change2 / sums.size2).sqrt()
+                (sums.change2 / sums.size2).sqrt() / cycles.damping
             } else if sums.change2 > 0.0 {
                 Real::INFINITY
             } else {
                 0.0
             };
+            if self.settings.damp_cycles && cycles.observe(change) {
+                restart = it;
+            }
             let last =
                 Iterate { change, violation: h * sums.violation / (sums.count.max(1) as Real * mean_diameter), worst: h * sums.worst };
             self.history.push(last);
@@ -268,6 +291,65 @@ impl Nlgs {
         }
         self.last = previous;
         report
+    }
+}
+
+/// Sweeps without progress after which [`Cycles`] judges a solve that has swung up at least
+/// once to be caught in a cycle.
+const STALL: u32 = 500;
+
+/// A sweep makes progress when its change falls below this fraction of the level the last
+/// progress set ([`Cycles`]).
+const PROGRESS: Real = 0.8;
+
+/// Smallest damping [`Cycles`] lowers the relaxation to.
+const MIN_DAMPING: Real = 0.125;
+
+/// The detection of a solve caught in a cycle, and the damping that breaks it (module
+/// documentation, "Cycles").
+#[derive(Debug, Clone, Copy)]
+struct Cycles {
+    /// Factor on the settings' relaxation, in (0, 1].
+    damping: Real,
+    /// The change the last progress reached.
+    level: Real,
+    /// The last sweep's change.
+    last: Real,
+    /// Sweeps since the last progress, and whether the change rose among them.
+    stalled: u32,
+    rose: bool,
+}
+
+impl Default for Cycles {
+    fn default() -> Self {
+        Self { damping: 1.0, level: Real::INFINITY, last: Real::INFINITY, stalled: 0, rose: false }
+    }
+}
+
+impl Cycles {
+    /// Takes a sweep's change; true when it halved the damping (the momentum then restarts).
+    /// A solve is caught in a cycle when [`STALL`] sweeps have not brought its change a fifth
+    /// below the level it had reached and the change rose at least once among them:
+    /// Gauss-Seidel that converges, however slowly, lowers its change sweep after sweep; the
+    /// cycles seen swing about a level (frictional contacts trading stick and slip) or fall
+    /// for a while and jump back up, by a hundred times, at a fixed period (10 sweeps, or
+    /// 8,000).
+    fn observe(&mut self, change: Real) -> bool {
+        let rose = change > self.last;
+        self.last = change;
+        if change < PROGRESS * self.level {
+            (self.level, self.stalled, self.rose) = (change, 0, false);
+            return false;
+        }
+        self.stalled += 1;
+        self.rose |= rose;
+        if self.stalled < STALL || !self.rose || self.damping <= MIN_DAMPING {
+            return false;
+        }
+        // Halved; the level is judged again in the damped sweeps' measure.
+        self.damping *= 0.5;
+        (self.level, self.stalled, self.rose) = (Real::INFINITY, 0, false);
+        true
     }
 }
 
@@ -326,6 +408,7 @@ mod tests {
             max_iterations: 10_000,
             relaxation: relax,
             acceleration: 0.0,
+            damp_cycles: false,
         });
         let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut [], &[]);
         let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
@@ -391,6 +474,7 @@ mod tests {
             max_iterations: 100_000,
             relaxation: 1.0,
             acceleration,
+            damp_cycles: false,
         });
         let mut floor = [Vec3::zeros()];
         let mut bodies = bodies((&mut vel, &mut omega), (&im, &ii), &mut floor, &[Mobility::FIXED]);
@@ -495,6 +579,7 @@ mod tests {
             max_iterations,
             relaxation: 1.0,
             acceleration: 0.0,
+            damp_cycles: false,
         }
     }
 
@@ -525,6 +610,7 @@ mod tests {
                 max_iterations: 10,
                 relaxation: 1.0,
                 acceleration: 0.0,
+                damp_cycles: false,
             };
             let mut solver = Nlgs::new(settings);
             let report = solver.solve(&mut contacts, &mut bodies, 1.0, 1.0, None);
@@ -566,5 +652,41 @@ mod tests {
         let (v, w) = solve(&mut held);
         assert!(v.norm() < 1e-12 && w.norm() < 1e-12, "{v:?} {w:?}");
         assert!((held[0].r.x - 6.0).abs() < 1e-9 && (held[1].r.x - 6.0).abs() < 1e-9, "{:?} {:?}", held[0].r, held[1].r);
+    }
+    /// The cycle detector on the changes it is meant to tell apart, the three cycles of stalled
+    /// frictional solves seen on the FEM compaction (issue 70): a change swinging by ten times
+    /// about a level; one falling for 9 sweeps and jumping back up by 35 times, period 10; one
+    /// falling by 1% a thousand sweeps and jumping up by 100 times every 8,000. Each halves the
+    /// relaxation once it has shown no progress for [`STALL`] sweeps with a rise among them,
+    /// then again, down to an eighth. A change that falls, however slowly and however noisily,
+    /// keeps it whole.
+    #[test]
+    fn only_a_change_that_cycles_damps_the_sweeps() {
+        let damping = |changes: &mut dyn Iterator<Item = Real>| {
+            let mut c = Cycles::default();
+            let mut halved = Vec::new();
+            for (k, change) in changes.enumerate() {
+                if c.observe(change) {
+                    halved.push(k);
+                }
+            }
+            (c.damping, halved)
+        };
+        let swing = |k: u32| if k.is_multiple_of(3) { 2e-5 } else { 2e-6 + 1e-7 * Real::from(k % 7) };
+        assert_eq!(damping(&mut (0..3 * STALL).map(swing)), (0.25, vec![501, 1002]));
+        assert_eq!(damping(&mut (0..20 * STALL).map(swing)).0, MIN_DAMPING);
+        let period10 = |k: u32| 7.3e-3 * (0.66 as Real).powi((k % 10) as i32);
+        assert_eq!(damping(&mut (0..2 * STALL).map(period10)), (0.5, vec![509]));
+        let period8000 =
+            |k: u32| 1e-4 * (0.01 as Real).powf(Real::from((k % 8000).min(2000)) / 2000.0) * (0.99999 as Real).powi((k % 8000) as i32);
+        let (d, halved) = damping(&mut (0..12_000).map(period8000));
+        assert_eq!(d, 0.5);
+        assert!(halved.len() == 1 && (8000..8000 + STALL as usize + 10).contains(&halved[0]), "{halved:?}");
+        // Plain Gauss-Seidel's slow decay (a few percent per thousand sweeps).
+        let slow = |k: u32| 1e-3 * (0.99997 as Real).powi(k as i32);
+        assert_eq!(damping(&mut (0..20 * STALL).map(slow)), (1.0, vec![]));
+        // A noisy decay: its change halves every hundred sweeps.
+        let noisy = |k: u32| 1e-3 * (0.993 as Real).powi(k as i32) * if k.is_multiple_of(2) { 3.0 } else { 1.0 };
+        assert_eq!(damping(&mut (0..20 * STALL).map(noisy)), (1.0, vec![]));
     }
 }

@@ -170,6 +170,7 @@ fn convergence(params: &CdParams, dim: usize) -> Convergence {
         max_iterations: params.max_iterations,
         relaxation: params.relaxation,
         acceleration: params.acceleration,
+        damp_cycles: false,
     }
 }
 

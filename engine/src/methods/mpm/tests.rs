@@ -314,6 +314,7 @@ fn compaction(columns: usize, rows: usize, speed: Real, dt: Real, target: Real, 
         max_iterations: 20_000,
         relaxation: 1.0,
         acceleration: 0.9,
+        damp_cycles: true,
     };
     let law = build(&LawSpec::LinearElastic { young: 10e6, poisson: 0.45 });
     let mut sys = System::new(grid, points, grains, vec![law], walls, s, PIC);

@@ -95,6 +95,7 @@ pub fn tests_convergence() -> crate::nscd::Convergence {
         max_iterations: 20_000,
         relaxation: 1.0,
         acceleration: 0.0,
+        damp_cycles: true,
     }
 }
 

@@ -49,6 +49,7 @@ impl SoftSolver {
             max_iterations: self.max_iterations,
             relaxation: 1.0,
             acceleration: soft_momentum(self.acceleration, both),
+            damp_cycles: true,
         }
     }
 }
