@@ -1,6 +1,7 @@
 //! The normal impulses of a pair of grains' contacts solved together, exactly: the small
 //! linear complementarity problem a contact solve's sweep meets at each pair's turn
-//! ([`super::contact`]'s module documentation, "Pairs").
+//! ([`super::contact`]'s module documentation, "Pairs"); then, with friction, their tangential
+//! impulses within their Coulomb bounds ([`boxed`]).
 //!
 //! With the pair's other impulses frozen, its contacts' normal velocities are `q + W x` for
 //! their normal impulses `x` (`W` the pair's block of the Delassus operator, symmetric and
@@ -40,6 +41,19 @@ pub struct Scratch {
     trial: Vec<Real>,
     y: Vec<Real>,
     bad: Vec<usize>,
+    side: Vec<Side>,
+}
+
+/// Where a tangential impulse of [`boxed`] lies in its interval.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Side {
+    /// Inside: its contact sticks.
+    Inside,
+    /// At the upper bound, or the lower: its contact slips.
+    Upper,
+    Lower,
+    /// A contact without friction: held at zero.
+    Pinned,
 }
 
 /// Solves the complementarity problem of `len` contacts (module documentation): `w` the block,
@@ -112,6 +126,123 @@ pub fn complementary(len: usize, w: &[Real], q: &[Real], x: &mut [Real], s: &mut
             s.bad.iter().for_each(|&i| s.pushing[i] = !s.pushing[i]);
         } else if let Some(&i) = s.bad.last() {
             s.pushing[i] = !s.pushing[i];
+        }
+    }
+    false
+}
+
+/// Solves the tangential impulses of a pair's contacts together, their normal impulses given
+/// (module documentation of [`super::contact`], "Pairs"): `w` the pair's block of tangential
+/// couplings (`t_iᵀ W t_j`, row-major `len × len`, symmetric and positive semi-definite), `q`
+/// the tangential velocities with none of these impulses, `bound` each contact's Coulomb bound
+/// `μ r_n` (N·s/m, zero for a contact without friction), `x` the impulses the turn starts from,
+/// then the solution. With the normal impulses given, Coulomb's law in two dimensions is the
+/// box-constrained problem `|x_i| ≤ bound_i`, `y = W x + q` with `y_i = 0` where `|x_i| <
+/// bound_i` (sticking), `y_i ≤ 0` at `+bound_i` and `y_i ≥ 0` at `−bound_i` (slipping against
+/// the impulse): the optimality conditions of the convex minimisation of `½ xᵀ W x + qᵀ x` over
+/// the box, solved by the same block principal pivoting as [`complementary`] with two bounds
+/// (Júdice and Pires 1994 treat this bounded case too), with the same proximal term where two
+/// grains' contacts hold the same place twice. Returns false, leaving `x` as it was, when no
+/// solution is found within [`MAX_EXCHANGES`].
+pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real], s: &mut Scratch) -> bool {
+    let n = len;
+    let largest = (0..n).map(|i| w[i * n + i]).fold(0.0, Real::max);
+    if largest.is_nan() || largest <= 0.0 {
+        return false;
+    }
+    let eps = PROXIMAL * largest;
+    s.start.clear();
+    s.start.extend_from_slice(&x[..n]);
+    s.side.clear();
+    s.side.extend((0..n).map(|i| {
+        let b = bound[i];
+        if b <= 0.0 {
+            Side::Pinned
+        } else if x[i] >= b {
+            Side::Upper
+        } else if x[i] <= -b {
+            Side::Lower
+        } else {
+            Side::Inside
+        }
+    }));
+    s.y.clear();
+    s.y.resize(n, 0.0);
+    let held = |side: Side, b: Real| match side {
+        Side::Upper => b,
+        Side::Lower => -b,
+        _ => 0.0,
+    };
+    let largest_bound = bound[..n].iter().fold(0.0, |m: Real, b| m.max(*b));
+    let scale = q[..n].iter().map(|v| v.abs()).fold(0.0, Real::max) + largest * largest_bound;
+    let tolerance = 1e-12 * scale;
+    let (mut fewest, mut tries) = (n + 1, TRIES);
+    for _ in 0..MAX_EXCHANGES {
+        // The trial impulses: the held ones at their bounds, the sticking ones from their
+        // equations (velocity zero), by Cholesky.
+        s.trial.clear();
+        s.trial.extend((0..n).map(|i| held(s.side[i], bound[i])));
+        s.set.clear();
+        s.set.extend((0..n).filter(|&i| s.side[i] == Side::Inside));
+        let m = s.set.len();
+        s.factor.clear();
+        s.factor.resize(m * m, 0.0);
+        s.rhs.clear();
+        for (r, &i) in s.set.iter().enumerate() {
+            for (c, &j) in s.set.iter().enumerate().take(r + 1) {
+                s.factor[r * m + c] = w[i * n + j] + if i == j { eps } else { 0.0 };
+            }
+            let pushed: Real = (0..n).filter(|&j| s.side[j] != Side::Inside).map(|j| w[i * n + j] * s.trial[j]).sum();
+            s.rhs.push(eps * s.start[i] - q[i] - pushed);
+        }
+        if !cholesky_solve(m, &mut s.factor, &mut s.rhs) {
+            return false;
+        }
+        for (r, &i) in s.set.iter().enumerate() {
+            s.trial[i] = s.rhs[r];
+        }
+        for i in 0..n {
+            let mut y = q[i] + eps * (s.trial[i] - s.start[i]);
+            for j in 0..n {
+                y += w[i * n + j] * s.trial[j];
+            }
+            s.y[i] = y;
+        }
+        // A sticking impulse beyond its bound, or a slipping contact whose velocity does not
+        // oppose its impulse; rounding's hairs are not exchanged (they would be exchanged back).
+        let impulses = s.trial.iter().chain(&s.start).map(|v| v.abs()).fold(0.0, Real::max);
+        let hair = 1e-12 * impulses;
+        s.bad.clear();
+        s.bad.extend((0..n).filter(|&i| match s.side[i] {
+            Side::Inside => s.trial[i].abs() > bound[i] + hair,
+            Side::Upper => s.y[i] > tolerance,
+            Side::Lower => s.y[i] < -tolerance,
+            Side::Pinned => false,
+        }));
+        if s.bad.is_empty() {
+            for i in 0..n {
+                x[i] = s.trial[i].clamp(-bound[i].max(0.0), bound[i].max(0.0));
+            }
+            return true;
+        }
+        let exchange = |side: Side, t: Real| match side {
+            Side::Inside if t > 0.0 => Side::Upper,
+            Side::Inside => Side::Lower,
+            _ => Side::Inside,
+        };
+        if s.bad.len() < fewest || tries > 0 {
+            if s.bad.len() < fewest {
+                fewest = s.bad.len();
+                tries = TRIES;
+            } else {
+                tries -= 1;
+            }
+            for k in 0..s.bad.len() {
+                let i = s.bad[k];
+                s.side[i] = exchange(s.side[i], s.trial[i]);
+            }
+        } else if let Some(&i) = s.bad.last() {
+            s.side[i] = exchange(s.side[i], s.trial[i]);
         }
     }
     false
@@ -212,5 +343,55 @@ mod tests {
             sizes[(4 * pushing / (n + 1)).min(3)] += 1;
         }
         assert!(sizes.iter().all(|&k| k > 0), "pushing sets of every size met: {sizes:?}");
+    }
+    /// Random pair blocks of tangential couplings (as in the test above, a third singular), with
+    /// random velocities, bounds (one in five zero: a contact without friction) and starting
+    /// impulses: the solution meets Coulomb's law with its normal impulses given to rounding —
+    /// within its bound, sticking where inside (velocity zero), slipping against its impulse
+    /// at a bound — and contacts stick, slip both ways and are pinned across the cases.
+    #[test]
+    fn a_pair_s_tangential_impulses_meet_coulomb_s_law_together() {
+        let mut state = 29u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as Real / (1u64 << 53) as Real
+        };
+        let mut scratch = Scratch::default();
+        let (mut sticking, mut slipping) = (0, 0);
+        for case in 0..2000 {
+            let n = 1 + case % 24;
+            let rank = 2 * n;
+            let mut g: Vec<Vec<Real>> = (0..n).map(|_| (0..rank).map(|_| next() - 0.5).collect()).collect();
+            if case % 3 == 0 && n >= 2 {
+                g[1] = g[0].clone();
+            }
+            let mut w = vec![0.0; n * n];
+            for i in 0..n {
+                for j in 0..n {
+                    w[i * n + j] = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum::<Real>();
+                }
+            }
+            let q: Vec<Real> = (0..n).map(|_| 2.0 * next() - 1.0).collect();
+            let bound: Vec<Real> = (0..n).map(|_| if next() < 0.2 { 0.0 } else { 0.5 * next() }).collect();
+            let mut x: Vec<Real> = (0..n).map(|i| (2.0 * next() - 1.0) * bound[i]).collect();
+            assert!(boxed(n, &w, &q, &bound, &mut x, &mut scratch), "case {case}: no solution");
+            let scale = 1.0 + q.iter().map(|v| v.abs()).fold(0.0, Real::max);
+            for i in 0..n {
+                let y = q[i] + (0..n).map(|j| w[i * n + j] * x[j]).sum::<Real>();
+                let b = bound[i];
+                assert!(x[i].abs() <= b, "case {case}: contact {i} beyond its bound: {} > {b}", x[i]);
+                if b == 0.0 {
+                    continue;
+                }
+                if x[i].abs() < b * (1.0 - 1e-9) {
+                    sticking += 1;
+                    assert!(y.abs() <= 1e-7 * scale, "case {case}: contact {i} sticks but moves at {y:e}");
+                } else {
+                    slipping += 1;
+                    assert!(y * x[i] <= 1e-7 * scale * b, "case {case}: contact {i} slips with its impulse ({y:e}, {})", x[i]);
+                }
+            }
+        }
+        assert!(sticking > 1000 && slipping > 1000, "sticking {sticking}, slipping {slipping}");
     }
 }

@@ -48,13 +48,15 @@
 //!
 //! **Pairs.** The contacts of one pair of grains (or of one grain with the walls), however
 //! many, take their turn together: their normal impulses are solved exactly as one small
-//! complementarity problem with every other impulse frozen ([`super::block`]), then each
-//! tangential impulse on its own with its new bound. Gauss-Seidel one contact at a time crawls along the pair's own
-//! slow directions: where two boundaries lie flat on each other, moving impulse from one
-//! grain's nodes to the other's nearby ones, or between the nearly parallel normals of a vertex
-//! in a dent's reflex corner, changes the velocities by almost nothing, and past jamming most
-//! of the error such a solve leaves lies along those directions; solved pair by pair, they
-//! converge in a few sweeps (docs/methods/fem.md).
+//! complementarity problem with every other impulse frozen ([`super::block`]), then, with
+//! friction, their tangential impulses exactly as one box-constrained problem within their new
+//! Coulomb bounds ([`super::block::boxed`]). Gauss-Seidel one contact at a time crawls along
+//! the pair's own slow directions: where two boundaries lie flat on each other, moving impulse
+//! from one grain's nodes to the other's nearby ones, or between the nearly parallel normals of
+//! a vertex in a dent's reflex corner, changes the velocities by almost nothing, and past
+//! jamming most of the error such a solve leaves lies along those directions; solved pair by
+//! pair, they converge in a few sweeps (docs/methods/fem.md). The tangential impulses of the
+//! same contacts have the same slow directions.
 //!
 //! **Modules.** [`records`]: walls, contacts, the nodes that carry them and the walls'
 //! impulses; [`grain_contacts`]: a grain's side of the problem (its samples, their block of

@@ -56,6 +56,9 @@ pub struct Metric {
     /// Each task's block of normal couplings (`n_iᵀ W n_j` between its contacts, row-major),
     /// one after the other in the schedule's order of tasks ([`block`]).
     blocks: Vec<Real>,
+    /// Each task's block of tangential couplings (`t_iᵀ W t_j`), laid out as `blocks`; empty
+    /// when no contact has friction.
+    tangential: Vec<Real>,
     /// Where each task's block starts in `blocks` (one more entry than tasks).
     block_at: Vec<usize>,
     /// The contacts' order in a sweep.
@@ -67,6 +70,7 @@ impl Metric {
     pub fn heap_bytes(&self) -> usize {
         self.last.capacity() * std::mem::size_of::<(V2, V2)>()
             + self.blocks.capacity() * 8
+            + self.tangential.capacity() * 8
             + self.block_at.capacity() * 8
             + self.schedule.heap_bytes()
     }
@@ -145,14 +149,17 @@ impl ContactProblem for Problem<'_> {
                 let (slots, rest) = std::mem::take(&mut lasts).split_at_mut(len);
                 lasts = rest;
                 let task = colour.start + k;
-                let block = &self.metric.blocks[self.metric.block_at[task]..self.metric.block_at[task + 1]];
+                let at = self.metric.block_at[task]..self.metric.block_at[task + 1];
+                let block = &self.metric.blocks[at.clone()];
+                let tangential = self.metric.tangential.get(at).unwrap_or_default();
                 let ua = std::mem::take(&mut self.grains[t.a as usize].u);
                 let ub = t.b.map(|b| std::mem::take(&mut self.grains[b as usize].u)).unwrap_or_default();
-                jobs.push((Pair { a: t.a, b: t.b, ua, ub }, mine, slots, block));
+                jobs.push((Pair { a: t.a, b: t.b, ua, ub }, mine, slots, (block, tangential)));
             }
             let (sides, walls) = (&*self.grains, self.walls);
-            let run = |(pair, contacts, slots, block): &mut (Pair, &mut [VertexContact], &mut [Vec3], &[Real])| {
-                Turns { sides, walls, pair, contacts, block }.pass(slots, pass)
+            let run = |(pair, contacts, slots, blocks): &mut Job| {
+                let (block, tangential) = *blocks;
+                Turns { sides, walls, pair, contacts, block, tangential }.pass(slots, pass)
             };
             // A colour of few contacts is done on the calling thread: handing it out costs more
             // than it saves (the loose part of a compaction sweeps a few times a Newton iteration).
@@ -191,6 +198,10 @@ impl ContactProblem for Problem<'_> {
     }
 }
 
+/// A task's turn in a colour of a sweep: its grains, its contacts, their impulses after the
+/// previous sweep, and its blocks of normal and tangential couplings.
+type Job<'c, 'b> = (Pair, &'c mut [VertexContact], &'c mut [Vec3], (&'b [Real], &'b [Real]));
+
 /// A task's grains during a colour of a sweep: grain `a`'s sample velocities and, for a task
 /// between two grains, the other's (empty against the walls), taken out of their sides.
 struct Pair {
@@ -201,14 +212,16 @@ struct Pair {
 }
 
 /// One task's contacts taking their turns ([`Problem::sweep`]): `contacts` and `block` (their
-/// normal couplings, empty for a task of one contact) the task's own, its grains'
-/// velocities in `pair`, their blocks of `A⁻¹` read from `sides`.
+/// normal couplings, empty for a task of one contact) and `tangential` (their tangential
+/// couplings, empty without friction) the task's own, its grains' velocities in `pair`, their
+/// blocks of `A⁻¹` read from `sides`.
 struct Turns<'s, 'p> {
     sides: &'s [GrainContacts],
     walls: &'s [Wall],
     pair: &'p mut Pair,
     contacts: &'p mut [VertexContact],
     block: &'p [Real],
+    tangential: &'p [Real],
 }
 
 /// A thread's scratch for the pairs' block solves (allocated once a thread).
@@ -218,6 +231,7 @@ struct BlockScratch {
     old: Vec<Vec3>,
     q: Vec<Real>,
     x: Vec<Real>,
+    bound: Vec<Real>,
     solve: block::Scratch,
 }
 
@@ -304,9 +318,10 @@ impl Turns<'_, '_> {
     }
 
     /// The turn of the task's contacts together ([`super`]'s documentation, "Pairs"): their normal
-    /// impulses solved exactly with the rest frozen ([`block::complementary`]), then each one's
-    /// tangential impulse on its own with its new normal impulse's bound. Where the exact solve
-    /// finds no solution (rounding on a singular block) each takes its own turn.
+    /// impulses solved exactly with the rest frozen ([`block::complementary`]), then their
+    /// tangential impulses, with friction, exactly within their new normal impulses' bounds
+    /// ([`Turns::visit_tangential_block`]). Where an exact solve finds no solution (rounding on
+    /// a singular block) each contact takes its own turn.
     fn visit_block(&mut self, omega: Real, sums: &mut Sums) {
         SCRATCH.with(|cell| {
             let mut guard = cell.borrow_mut();
@@ -345,6 +360,14 @@ impl Turns<'_, '_> {
                 }
                 self.contacts[i].r.x = r_n;
             }
+            let frictional = self.contacts.iter().any(|k| k.law.friction > 0.0 || k.r.y != 0.0);
+            if frictional && !self.tangential.is_empty() && self.visit_tangential_block(omega, scratch) {
+                for i in 0..m {
+                    let k = self.contacts[i];
+                    tally_change(scratch.old[i], k.r, &turn(&k), sums);
+                }
+                return;
+            }
             for i in 0..m {
                 let k = self.contacts[i];
                 if k.law.friction > 0.0 || k.r.y != 0.0 {
@@ -360,6 +383,43 @@ impl Turns<'_, '_> {
                 tally_change(scratch.old[i], self.contacts[i].r, &turn(&k), sums);
             }
         });
+    }
+
+    /// The task's tangential impulses solved together with their new normal impulses' bounds
+    /// ([`block::boxed`]; module documentation of [`super`], "Pairs"): two grains' contacts that
+    /// hold the same place twice give the tangential problem the slow directions they gave the
+    /// normal one. False, changing nothing, where the exact solve finds no solution.
+    fn visit_tangential_block(&mut self, omega: Real, scratch: &mut BlockScratch) -> bool {
+        let m = self.contacts.len();
+        scratch.q.clear();
+        scratch.x.clear();
+        scratch.bound.clear();
+        for i in 0..m {
+            let k = self.contacts[i];
+            scratch.x.push(k.r.y);
+            scratch.bound.push(k.law.friction * k.law.contact_part(k.r.x, k.law.target).max(0.0));
+        }
+        for i in 0..m {
+            let row = &self.tangential[i * m..(i + 1) * m];
+            let pushed: Real = row.iter().zip(&scratch.x).map(|(w, r)| w * r).sum();
+            let u_t = self.contacts[i].frame.to_local(&self.velocity(i)).y;
+            scratch.q.push(u_t - pushed);
+        }
+        for (x, b) in scratch.x.iter_mut().zip(&scratch.bound) {
+            *x = x.clamp(-b, *b);
+        }
+        if !block::boxed(m, self.tangential, &scratch.q, &scratch.bound, &mut scratch.x, &mut scratch.solve) {
+            return false;
+        }
+        for i in 0..m {
+            let k = self.contacts[i];
+            let r_t = k.r.y + (scratch.x[i] - k.r.y) * omega;
+            if r_t != k.r.y {
+                self.apply(i, &k.frame.to_global(&Vec3::new(0.0, r_t - k.r.y, 0.0)));
+            }
+            self.contacts[i].r.y = r_t;
+        }
+        true
     }
 }
 
@@ -404,7 +464,12 @@ pub fn solve(
         let u_n = (ua - ub).dot(&n);
         c.scale = (u_n.abs() + g + 1e-6 * speed) / c.w.n;
     }
-    pair_blocks(contacts, sides, &metric.schedule, &mut metric.blocks, &mut metric.block_at);
+    let frictional = contacts.iter().any(|c| c.law.friction > 0.0 || c.r.y != 0.0);
+    let (normal, tangential) = (&mut metric.blocks, &mut metric.tangential);
+    pair_blocks(contacts, sides, &metric.schedule, (normal, frictional.then_some(tangential)), &mut metric.block_at);
+    if !frictional {
+        metric.tangential.clear();
+    }
     let mut problem = Problem { contacts, grains: sides, walls, metric };
     nlgs.solve_problem(&mut problem, sc.dt, mean_diameter)
 }
@@ -422,7 +487,13 @@ pub fn solve(
 /// of `A⁻¹` at most (two unknowns a sample, one normal a contact), and its exact solve
 /// factorises it in about `m³/6` operations, against at least `4m²` for the sweep to update its
 /// samples' velocities along those blocks.
-fn pair_blocks(contacts: &[VertexContact], sides: &[GrainContacts], schedule: &Schedule, blocks: &mut Vec<Real>, at: &mut Vec<usize>) {
+fn pair_blocks(
+    contacts: &[VertexContact],
+    sides: &[GrainContacts],
+    schedule: &Schedule,
+    (blocks, tangential): (&mut Vec<Real>, Option<&mut Vec<Real>>),
+    at: &mut Vec<usize>,
+) {
     at.clear();
     at.push(0);
     for t in &schedule.tasks {
@@ -430,11 +501,30 @@ fn pair_blocks(contacts: &[VertexContact], sides: &[GrainContacts], schedule: &S
         let size = if m > 1 { m * m } else { 0 };
         at.push(at.last().copied().unwrap_or(0) + size);
     }
+    let size = at.last().copied().unwrap_or(0);
     blocks.clear();
-    blocks.resize(at.last().copied().unwrap_or(0), 0.0);
+    blocks.resize(size, 0.0);
+    fill_blocks(contacts, sides, schedule, at, blocks, |f| V2::new(f.n.x, f.n.y));
+    if let Some(tangential) = tangential {
+        tangential.clear();
+        tangential.resize(size, 0.0);
+        fill_blocks(contacts, sides, schedule, at, tangential, |f| V2::new(f.t1.x, f.t1.y));
+    }
+}
+
+/// Each task's block of couplings `d_iᵀ W d_j` along the contacts' directions `d` (`direction`
+/// of a contact's frame: its normal, or its tangent) into its slice of `blocks` ([`pair_blocks`]).
+fn fill_blocks(
+    contacts: &[VertexContact],
+    sides: &[GrainContacts],
+    schedule: &Schedule,
+    at: &[usize],
+    blocks: &mut [Real],
+    direction: impl Fn(&crate::nscd::ContactFrame) -> V2 + Sync,
+) {
     // Each task's block in its own slice, all tasks at once.
     let mut slices = Vec::with_capacity(schedule.tasks.len());
-    let mut rest = blocks.as_mut_slice();
+    let mut rest = blocks;
     for w in at.windows(2) {
         let (mine, tail) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
         slices.push(mine);
@@ -461,11 +551,11 @@ fn pair_blocks(contacts: &[VertexContact], sides: &[GrainContacts], schedule: &S
             let side = &sides[g as usize];
             for (i, ki) in cs.iter().enumerate() {
                 let Some((si, ai)) = sample(ki, g) else { continue };
-                let ni = V2::new(ki.frame.n.x, ki.frame.n.y);
+                let di = direction(&ki.frame);
                 for (j, kj) in cs.iter().enumerate().take(i + 1) {
                     let Some((sj, aj)) = sample(kj, g) else { continue };
-                    let nj = V2::new(kj.frame.n.x, kj.frame.n.y);
-                    let v = ai * aj * ni.dot(&(side.block(si, sj) * nj));
+                    let dj = direction(&kj.frame);
+                    let v = ai * aj * di.dot(&(side.block(si, sj) * dj));
                     out[i * m + j] += v;
                     if i != j {
                         out[j * m + i] += v;
