@@ -141,8 +141,8 @@ pub fn complementary(len: usize, w: &[Real], q: &[Real], x: &mut [Real], s: &mut
 /// bound_i` (sticking), `y_i ≤ 0` at `+bound_i` and `y_i ≥ 0` at `−bound_i` (slipping against
 /// the impulse): the optimality conditions of the convex minimisation of `½ xᵀ W x + qᵀ x` over
 /// the box, solved by the same block principal pivoting as [`complementary`] with two bounds
-/// (Júdice and Pires 1994 treat this bounded case too), with the same proximal term where two
-/// grains' contacts hold the same place twice. Returns false, leaving `x` as it was, when no
+/// instead of one, with the same proximal term where two grains' contacts hold the same place
+/// twice. Returns false, leaving `x` as it was, when no
 /// solution is found within [`MAX_EXCHANGES`].
 pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real], s: &mut Scratch) -> bool {
     let n = len;
