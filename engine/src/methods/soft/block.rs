@@ -35,24 +35,27 @@ const TRIES: u32 = 3;
 pub struct Scratch {
     factor: Vec<Real>,
     rhs: Vec<Real>,
-    pushing: Vec<bool>,
     set: Vec<usize>,
     start: Vec<Real>,
     trial: Vec<Real>,
     y: Vec<Real>,
     bad: Vec<usize>,
     side: Vec<Side>,
+    lower: Vec<Real>,
+    upper: Vec<Real>,
 }
 
-/// Where a tangential impulse of [`boxed`] lies in its interval.
+/// Where an impulse of [`bounded`] lies in its interval.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Side {
-    /// Inside: its contact sticks.
+    /// Inside: its equation `y = 0` holds (a normal impulse that pushes, a tangential one that
+    /// sticks).
     Inside,
-    /// At the upper bound, or the lower: its contact slips.
-    Upper,
+    /// At its lower bound, or its upper: a resting contact's zero normal impulse, a slipping
+    /// contact's tangential one.
     Lower,
-    /// A contact without friction: held at zero.
+    Upper,
+    /// An interval of one point (a contact without friction): held there.
     Pinned,
 }
 
@@ -61,74 +64,14 @@ enum Side {
 /// normal impulses the turn starts from, then the solution. Returns false, leaving `x` as it
 /// was, when no solution is found within [`MAX_EXCHANGES`].
 pub fn complementary(len: usize, w: &[Real], q: &[Real], x: &mut [Real], s: &mut Scratch) -> bool {
-    let n = len;
-    let largest = (0..n).map(|i| w[i * n + i]).fold(0.0, Real::max);
-    if largest.is_nan() || largest <= 0.0 {
-        return false;
-    }
-    let eps = PROXIMAL * largest;
-    s.start.clear();
-    s.start.extend_from_slice(&x[..n]);
-    s.pushing.clear();
-    s.pushing.extend(x[..n].iter().map(|&v| v > 0.0));
-    s.y.clear();
-    s.y.resize(n, 0.0);
-    let scale = q[..n].iter().map(|v| v.abs()).fold(0.0, Real::max) + largest * s.start.iter().map(|v| v.abs()).fold(0.0, Real::max);
-    let tolerance = 1e-12 * scale;
-    let (mut fewest, mut tries) = (n + 1, TRIES);
-    for _ in 0..MAX_EXCHANGES {
-        // The pushing set's equations, by Cholesky.
-        s.set.clear();
-        s.set.extend((0..n).filter(|&i| s.pushing[i]));
-        let m = s.set.len();
-        s.factor.clear();
-        s.factor.resize(m * m, 0.0);
-        s.rhs.clear();
-        for (r, &i) in s.set.iter().enumerate() {
-            for (c, &j) in s.set.iter().enumerate().take(r + 1) {
-                s.factor[r * m + c] = w[i * n + j] + if i == j { eps } else { 0.0 };
-            }
-            s.rhs.push(eps * s.start[i] - q[i]);
-        }
-        if !cholesky_solve(m, &mut s.factor, &mut s.rhs) {
-            return false;
-        }
-        // The trial impulses, and the velocities of every contact at them.
-        s.trial.clear();
-        s.trial.resize(n, 0.0);
-        for (r, &i) in s.set.iter().enumerate() {
-            s.trial[i] = s.rhs[r];
-        }
-        for i in 0..n {
-            let mut y = q[i] + eps * (s.trial[i] - s.start[i]);
-            for &j in &s.set {
-                y += w[i * n + j] * s.trial[j];
-            }
-            s.y[i] = y;
-        }
-        // Rounding may leave a pushing contact a hair below zero, or a resting one a hair
-        // violated: neither is exchanged (it would be exchanged back).
-        let impulses = s.trial.iter().chain(&s.start).map(|v| v.abs()).fold(0.0, Real::max);
-        s.bad.clear();
-        s.bad.extend((0..n).filter(|&i| if s.pushing[i] { s.trial[i] < -1e-12 * impulses } else { s.y[i] < -tolerance }));
-        if s.bad.is_empty() {
-            for (xi, t) in x.iter_mut().zip(&s.trial) {
-                *xi = t.max(0.0);
-            }
-            return true;
-        }
-        if s.bad.len() < fewest {
-            fewest = s.bad.len();
-            tries = TRIES;
-            s.bad.iter().for_each(|&i| s.pushing[i] = !s.pushing[i]);
-        } else if tries > 0 {
-            tries -= 1;
-            s.bad.iter().for_each(|&i| s.pushing[i] = !s.pushing[i]);
-        } else if let Some(&i) = s.bad.last() {
-            s.pushing[i] = !s.pushing[i];
-        }
-    }
-    false
+    let (mut lower, mut upper) = (std::mem::take(&mut s.lower), std::mem::take(&mut s.upper));
+    lower.clear();
+    lower.resize(len, 0.0);
+    upper.clear();
+    upper.resize(len, Real::INFINITY);
+    let solved = bounded(len, w, q, (&lower, &upper), x, s);
+    (s.lower, s.upper) = (lower, upper);
+    solved
 }
 
 /// Solves the tangential impulses of a pair's contacts together, their normal impulses given
@@ -142,9 +85,23 @@ pub fn complementary(len: usize, w: &[Real], q: &[Real], x: &mut [Real], s: &mut
 /// the impulse): the optimality conditions of the convex minimisation of `½ xᵀ W x + qᵀ x` over
 /// the box, solved by the same block principal pivoting as [`complementary`] with two bounds
 /// instead of one, with the same proximal term where two grains' contacts hold the same place
-/// twice. Returns false, leaving `x` as it was, when no
-/// solution is found within [`MAX_EXCHANGES`].
+/// twice. Returns false, leaving `x` as it was, when no solution is found within
+/// [`MAX_EXCHANGES`].
 pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real], s: &mut Scratch) -> bool {
+    let (mut lower, mut upper) = (std::mem::take(&mut s.lower), std::mem::take(&mut s.upper));
+    lower.clear();
+    lower.extend(bound[..len].iter().map(|b| -b.max(0.0)));
+    upper.clear();
+    upper.extend(bound[..len].iter().map(|b| b.max(0.0)));
+    let solved = bounded(len, w, q, (&lower, &upper), x, s);
+    (s.lower, s.upper) = (lower, upper);
+    solved
+}
+
+/// The block principal pivoting of [`complementary`] and [`boxed`] for `lower ≤ x ≤ upper`
+/// (`upper` may be infinite): `y = W x + q` is zero where `x` lies inside, non-negative at the
+/// lower bound and non-positive at the upper one.
+fn bounded(len: usize, w: &[Real], q: &[Real], (lower, upper): (&[Real], &[Real]), x: &mut [Real], s: &mut Scratch) -> bool {
     let n = len;
     let largest = (0..n).map(|i| w[i * n + i]).fold(0.0, Real::max);
     if largest.is_nan() || largest <= 0.0 {
@@ -155,33 +112,31 @@ pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real],
     s.start.extend_from_slice(&x[..n]);
     s.side.clear();
     s.side.extend((0..n).map(|i| {
-        let b = bound[i];
-        if b <= 0.0 {
+        if lower[i] >= upper[i] {
             Side::Pinned
-        } else if x[i] >= b {
-            Side::Upper
-        } else if x[i] <= -b {
+        } else if x[i] <= lower[i] {
             Side::Lower
+        } else if x[i] >= upper[i] {
+            Side::Upper
         } else {
             Side::Inside
         }
     }));
     s.y.clear();
     s.y.resize(n, 0.0);
-    let held = |side: Side, b: Real| match side {
-        Side::Upper => b,
-        Side::Lower => -b,
-        _ => 0.0,
+    let held = |side: Side, i: usize| match side {
+        Side::Lower | Side::Pinned => lower[i],
+        Side::Upper => upper[i],
+        Side::Inside => 0.0,
     };
-    let largest_bound = bound[..n].iter().fold(0.0, |m: Real, b| m.max(*b));
-    let scale = q[..n].iter().map(|v| v.abs()).fold(0.0, Real::max) + largest * largest_bound;
+    let scale = q[..n].iter().map(|v| v.abs()).fold(0.0, Real::max) + largest * s.start.iter().map(|v| v.abs()).fold(0.0, Real::max);
     let tolerance = 1e-12 * scale;
     let (mut fewest, mut tries) = (n + 1, TRIES);
     for _ in 0..MAX_EXCHANGES {
-        // The trial impulses: the held ones at their bounds, the sticking ones from their
-        // equations (velocity zero), by Cholesky.
+        // The trial impulses: the held ones at their bounds, the inside ones from their
+        // equations, by Cholesky.
         s.trial.clear();
-        s.trial.extend((0..n).map(|i| held(s.side[i], bound[i])));
+        s.trial.extend((0..n).map(|i| held(s.side[i], i)));
         s.set.clear();
         s.set.extend((0..n).filter(|&i| s.side[i] == Side::Inside));
         let m = s.set.len();
@@ -192,8 +147,8 @@ pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real],
             for (c, &j) in s.set.iter().enumerate().take(r + 1) {
                 s.factor[r * m + c] = w[i * n + j] + if i == j { eps } else { 0.0 };
             }
-            let pushed: Real = (0..n).filter(|&j| s.side[j] != Side::Inside).map(|j| w[i * n + j] * s.trial[j]).sum();
-            s.rhs.push(eps * s.start[i] - q[i] - pushed);
+            let held: Real = (0..n).filter(|&j| s.side[j] != Side::Inside && s.trial[j] != 0.0).map(|j| w[i * n + j] * s.trial[j]).sum();
+            s.rhs.push(eps * s.start[i] - q[i] - held);
         }
         if !cholesky_solve(m, &mut s.factor, &mut s.rhs) {
             return false;
@@ -201,32 +156,36 @@ pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real],
         for (r, &i) in s.set.iter().enumerate() {
             s.trial[i] = s.rhs[r];
         }
+        // The velocities of every contact at the trial impulses.
         for i in 0..n {
             let mut y = q[i] + eps * (s.trial[i] - s.start[i]);
             for j in 0..n {
-                y += w[i * n + j] * s.trial[j];
+                if s.trial[j] != 0.0 {
+                    y += w[i * n + j] * s.trial[j];
+                }
             }
             s.y[i] = y;
         }
-        // A sticking impulse beyond its bound, or a slipping contact whose velocity does not
-        // oppose its impulse; rounding's hairs are not exchanged (they would be exchanged back).
+        // An inside impulse beyond a bound, or a held one whose velocity does not hold it
+        // there; rounding may leave either a hair beyond, and neither is exchanged then (it
+        // would be exchanged back).
         let impulses = s.trial.iter().chain(&s.start).map(|v| v.abs()).fold(0.0, Real::max);
         let hair = 1e-12 * impulses;
         s.bad.clear();
         s.bad.extend((0..n).filter(|&i| match s.side[i] {
-            Side::Inside => s.trial[i].abs() > bound[i] + hair,
-            Side::Upper => s.y[i] > tolerance,
+            Side::Inside => s.trial[i] < lower[i] - hair || s.trial[i] > upper[i] + hair,
             Side::Lower => s.y[i] < -tolerance,
+            Side::Upper => s.y[i] > tolerance,
             Side::Pinned => false,
         }));
         if s.bad.is_empty() {
             for i in 0..n {
-                x[i] = s.trial[i].clamp(-bound[i].max(0.0), bound[i].max(0.0));
+                x[i] = s.trial[i].max(lower[i]).min(upper[i]);
             }
             return true;
         }
-        let exchange = |side: Side, t: Real| match side {
-            Side::Inside if t > 0.0 => Side::Upper,
+        let exchange = |side: Side, i: usize, t: Real| match side {
+            Side::Inside if t > upper[i] => Side::Upper,
             Side::Inside => Side::Lower,
             _ => Side::Inside,
         };
@@ -239,10 +198,10 @@ pub fn boxed(len: usize, w: &[Real], q: &[Real], bound: &[Real], x: &mut [Real],
             }
             for k in 0..s.bad.len() {
                 let i = s.bad[k];
-                s.side[i] = exchange(s.side[i], s.trial[i]);
+                s.side[i] = exchange(s.side[i], i, s.trial[i]);
             }
         } else if let Some(&i) = s.bad.last() {
-            s.side[i] = exchange(s.side[i], s.trial[i]);
+            s.side[i] = exchange(s.side[i], i, s.trial[i]);
         }
     }
     false
