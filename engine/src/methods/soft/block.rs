@@ -250,6 +250,34 @@ fn cholesky_solve(m: usize, a: &mut [Real], z: &mut [Real]) -> bool {
 mod tests {
     use super::*;
 
+    /// A random number generator in [0, 1) (a linear congruential one: the tests need no
+    /// quality, only the same numbers every run).
+    fn uniform(seed: u64) -> impl FnMut() -> Real {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as Real / (1u64 << 53) as Real
+        }
+    }
+
+    /// A random block of `n` contacts as a pair's contacts make them — `W = Σ_g Hᵀ A_g⁻¹ H`
+    /// through two grains, here `Gᵀ G` of a random `G` — with its first two contacts the same
+    /// (the same place held twice: a singular block) if `twins`.
+    fn random_block(n: usize, twins: bool, next: &mut impl FnMut() -> Real) -> Vec<Real> {
+        let rank = 2 * n;
+        let mut g: Vec<Vec<Real>> = (0..n).map(|_| (0..rank).map(|_| next() - 0.5).collect()).collect();
+        if twins {
+            g[1] = g[0].clone();
+        }
+        let mut w = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                w[i * n + j] = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum::<Real>();
+            }
+        }
+        w
+    }
+
     /// Random blocks as a pair's contacts make them — `W = Σ_g Hᵀ A_g⁻¹ H` through two grains,
     /// here `Gᵀ G` of a random `G` plus a diagonal — of 1 to 24 contacts, a third of them with
     /// contacts duplicated (the same place held twice, as both grains' nodes along a flat
@@ -258,27 +286,13 @@ mod tests {
     /// duplicated pair's null direction the impulses keep their start.
     #[test]
     fn a_pair_block_is_solved_exactly_even_when_singular() {
-        let mut state = 17u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as Real / (1u64 << 53) as Real
-        };
+        let mut next = uniform(17);
         let mut scratch = Scratch::default();
         let mut sizes = [0usize; 4];
         for case in 0..2000 {
             let n = 1 + case % 24;
             let duplicated = case % 3 == 0 && n >= 2;
-            let rank = 2 * n;
-            let mut g: Vec<Vec<Real>> = (0..n).map(|_| (0..rank).map(|_| next() - 0.5).collect()).collect();
-            if duplicated {
-                g[1] = g[0].clone();
-            }
-            let mut w = vec![0.0; n * n];
-            for i in 0..n {
-                for j in 0..n {
-                    w[i * n + j] = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum::<Real>();
-                }
-            }
+            let w = random_block(n, duplicated, &mut next);
             let q: Vec<Real> = (0..n).map(|_| 2.0 * next() - 1.2).collect();
             let start: Vec<Real> = (0..n).map(|_| if next() < 0.5 { 0.0 } else { next() }).collect();
             let mut x = start.clone();
@@ -310,26 +324,12 @@ mod tests {
     /// at a bound — and contacts stick, slip both ways and are pinned across the cases.
     #[test]
     fn a_pair_s_tangential_impulses_meet_coulomb_s_law_together() {
-        let mut state = 29u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as Real / (1u64 << 53) as Real
-        };
+        let mut next = uniform(29);
         let mut scratch = Scratch::default();
         let (mut sticking, mut slipping) = (0, 0);
         for case in 0..2000 {
             let n = 1 + case % 24;
-            let rank = 2 * n;
-            let mut g: Vec<Vec<Real>> = (0..n).map(|_| (0..rank).map(|_| next() - 0.5).collect()).collect();
-            if case % 3 == 0 && n >= 2 {
-                g[1] = g[0].clone();
-            }
-            let mut w = vec![0.0; n * n];
-            for i in 0..n {
-                for j in 0..n {
-                    w[i * n + j] = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum::<Real>();
-                }
-            }
+            let w = random_block(n, case % 3 == 0 && n >= 2, &mut next);
             let q: Vec<Real> = (0..n).map(|_| 2.0 * next() - 1.0).collect();
             let bound: Vec<Real> = (0..n).map(|_| if next() < 0.2 { 0.0 } else { 0.5 * next() }).collect();
             let mut x: Vec<Real> = (0..n).map(|i| (2.0 * next() - 1.0) * bound[i]).collect();
