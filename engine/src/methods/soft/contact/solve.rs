@@ -405,8 +405,9 @@ impl Turns<'_, '_> {
             let u_t = self.contacts[i].frame.to_local(&self.velocity(i)).y;
             scratch.q.push(u_t - pushed);
         }
+        // Within the bounds (`max`/`min`, not `clamp`: a NaN bound must not panic).
         for (x, b) in scratch.x.iter_mut().zip(&scratch.bound) {
-            *x = x.clamp(-b, *b);
+            *x = x.max(-b).min(*b);
         }
         if !block::boxed(m, self.tangential, &scratch.q, &scratch.bound, &mut scratch.x, &mut scratch.solve) {
             return false;
