@@ -113,48 +113,36 @@ pub fn exponential_law(states: &[CompactedState]) -> Option<ExponentialLawFit> {
     Some(ExponentialLawFit { rate: -l.slope, rate_error: l.slope_error, r2: l.r2, points: pts.len() })
 }
 
-/// Fits [`NeoHookeanLawFit`] to `states`. Multiplied out, the law is linear in `a = 1/c₁` and
-/// `c₂`: `a σ/(K Z Φ) − c₂ = ln Φ − σ/M_eff`, solved by least squares; `None` with fewer than
-/// three states of positive `Z`, a singular system or `a ≤ 0` (no positive `c₁` fits).
+/// Fits [`NeoHookeanLawFit`] to `states`. Multiplied out, the law is a line in `x = σ/(K Z Φ)`:
+/// `ln Φ − σ/M_eff = a x − c₂` with `a = 1/c₁`, fitted by least squares ([`line_fit`]); `None`
+/// with fewer than three states of positive `Z`, no spread in `x` or `a ≤ 0` (no positive `c₁`
+/// fits).
 pub fn neo_hookean_law(states: &[CompactedState], moduli: GrainModuli) -> Option<NeoHookeanLawFit> {
     if moduli.bulk <= 0.0 || moduli.p_wave <= 0.0 {
         return None;
     }
     let used: Vec<CompactedState> = usable(states).filter(|s| s.z > 0.0).copied().collect();
-    let n = used.len();
-    if n < 3 {
-        return None;
-    }
-    // Rows (x, −1) and right-hand side y; normal equations [[Σx², −Σx], [−Σx, n]] (a, c₂) = (Σxy, −Σy).
     let rows: Vec<(Real, Real)> =
         used.iter().map(|s| (s.stress / (moduli.bulk * s.z * s.phi), s.phi.ln() - s.stress / (s.phi * moduli.p_wave))).collect();
-    let (sxx, sx, sxy, sy) = rows.iter().fold((0.0, 0.0, 0.0, 0.0), |(a, b, c, d), &(x, y)| (a + x * x, b + x, c + x * y, d + y));
-    let nf = n as Real;
-    let det = sxx * nf - sx * sx;
-    if det <= 1e-12 * sxx * nf {
-        return None;
-    }
-    let a = (nf * sxy - sx * sy) / det;
-    let c2 = (sx * sxy - sxx * sy) / det;
+    let line = line_fit(&rows)?;
+    let (a, c2) = (line.slope, -line.intercept);
     if a <= 0.0 || !a.is_finite() || !c2.is_finite() {
         return None;
     }
-    let rss: Real = rows.iter().map(|&(x, y)| (a * x - c2 - y).powi(2)).sum();
-    let variance = rss / (nf - 2.0);
-    let (var_a, var_c2) = (variance * nf / det, variance * sxx / det);
     let predicted = |s: &CompactedState| {
         let m_eff = s.phi * moduli.p_wave;
         m_eff * (s.phi.ln() + c2) / (1.0 + m_eff * a / (moduli.bulk * s.z * s.phi))
     };
-    let mean = used.iter().map(|s| s.stress).sum::<Real>() / nf;
+    let n = used.len() as Real;
+    let mean = used.iter().map(|s| s.stress).sum::<Real>() / n;
     let (res, tot) = used.iter().fold((0.0, 0.0), |(r, t), s| (r + (s.stress - predicted(s)).powi(2), t + (s.stress - mean).powi(2)));
     Some(NeoHookeanLawFit {
         c1: 1.0 / a,
-        c1_error: var_a.sqrt() / (a * a),
+        c1_error: line.slope_error / (a * a),
         c2,
-        c2_error: var_c2.sqrt(),
+        c2_error: line.intercept_error,
         r2: if tot > 0.0 { 1.0 - res / tot } else { 1.0 },
-        points: n,
+        points: used.len(),
     })
 }
 

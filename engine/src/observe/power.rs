@@ -37,6 +37,8 @@ pub(crate) struct LineFit {
     pub slope: Real,
     /// Standard error of the slope.
     pub slope_error: Real,
+    /// Standard error of the intercept.
+    pub intercept_error: Real,
     /// Coefficient of determination.
     pub r2: Real,
 }
@@ -57,11 +59,15 @@ pub(crate) fn line_fit(points: &[(Real, Real)]) -> Option<LineFit> {
         return None;
     }
     let slope = sxy / sxx;
-    let residual = (syy - slope * sxy).max(0.0);
+    // Summed from the residuals themselves: `syy − slope sxy` loses them to cancellation when
+    // the points lie on the line.
+    let residual: Real = points.iter().map(|&(x, y)| (y - my - slope * (x - mx)).powi(2)).sum();
+    let variance = residual / (nf - 2.0);
     Some(LineFit {
         intercept: my - slope * mx,
         slope,
-        slope_error: (residual / (nf - 2.0) / sxx).sqrt(),
+        slope_error: (variance / sxx).sqrt(),
+        intercept_error: (variance * (1.0 / nf + mx * mx / sxx)).sqrt(),
         r2: if syy > 0.0 { 1.0 - residual / syy } else { 1.0 },
     })
 }
