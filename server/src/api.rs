@@ -9,7 +9,7 @@ use sha2::{Digest, Sha256};
 
 use crate::start_from;
 pub use crate::store::downsample;
-use crate::store::{JobRow, JobState, JobStore, ListFilter, NewJob, StoreError};
+use crate::store::{JobLimits, JobRow, JobState, JobStore, ListFilter, NewJob, Outage, StoreError};
 
 /// Every error the APIs return. Messages name the field and the rule, never internals.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +32,14 @@ pub enum ApiError {
     /// Conflicts with the job's state or with an earlier request.
     #[error("{0}")]
     Conflict(String),
+    /// The job store cannot be reached for now (a database outage); the request may be sent
+    /// again. HTTP 503, gRPC UNAVAILABLE.
+    #[error("the job store is unavailable: {0}; nothing was changed, try again later")]
+    Unavailable(String),
+    /// The job store's disk is full; the request may be sent again once space is freed. HTTP
+    /// 507, gRPC RESOURCE_EXHAUSTED.
+    #[error("the job store's disk is full: nothing was written; free space on the database's disk, then try again ({0})")]
+    StorageFull(String),
     /// The server failed; the message is logged, the client gets a generic one.
     #[error("internal error")]
     Internal(String),
@@ -65,6 +73,8 @@ impl ApiError {
             Self::Exhausted(_) => "resource_exhausted",
             Self::NotFound(_) => "not_found",
             Self::Conflict(_) => "conflict",
+            Self::Unavailable(_) => "unavailable",
+            Self::StorageFull(_) => "insufficient_storage",
             Self::Internal(_) => "internal",
         }
     }
@@ -78,6 +88,11 @@ impl From<StoreError> for ApiError {
             StoreError::Conflict(m) => Self::Conflict(m),
             e => {
                 eprintln!("store error: {e}");
+                match e.outage() {
+                    Some(Outage::DiskFull) => return Self::StorageFull(e.to_string()),
+                    Some(Outage::Unreachable) => return Self::Unavailable(e.to_string()),
+                    None => {}
+                }
                 Self::Internal(e.to_string())
             }
         }
@@ -88,7 +103,7 @@ impl From<StoreError> for ApiError {
 #[derive(Debug, Clone, Serialize, PartialEq, utoipa::ToSchema)]
 pub struct ErrorBody {
     /// `malformed`, `invalid_argument`, `too_large`, `resource_exhausted`, `not_found`,
-    /// `conflict` or `internal`.
+    /// `conflict`, `unavailable`, `insufficient_storage` or `internal`.
     pub code: String,
     /// What is wrong, in one line.
     pub message: String,
@@ -126,11 +141,30 @@ pub struct Limits {
     pub max_body_bytes: usize,
     /// Event streams open at once (WatchJob and SSE together).
     pub max_watchers: usize,
+    /// Samples one job may store.
+    pub max_samples: u64,
+    /// Bytes one job may store (samples, their events, snapshots).
+    pub max_job_bytes: u64,
+}
+
+impl Limits {
+    /// What the store holds each job to as its reports arrive.
+    pub fn job(&self) -> JobLimits {
+        JobLimits { max_samples: self.max_samples, max_bytes: self.max_job_bytes, max_steps: self.max_steps }
+    }
 }
 
 impl Default for Limits {
     fn default() -> Self {
-        Self { max_particles: 2_000_000, max_steps: 10_000_000_000, max_body_bytes: MAX_SCENE_BYTES, max_watchers: 1024 }
+        let job = JobLimits::default();
+        Self {
+            max_particles: 2_000_000,
+            max_steps: job.max_steps,
+            max_body_bytes: MAX_SCENE_BYTES,
+            max_watchers: 1024,
+            max_samples: job.max_samples,
+            max_job_bytes: job.max_bytes,
+        }
     }
 }
 
@@ -331,12 +365,23 @@ async fn learned(
     Ok((chosen, text))
 }
 
+/// A job's name from its scene's: the first [`MAX_NAME`] characters (the scene's own rule
+/// allows longer descriptions), cut with an ellipsis.
+fn job_name_of(scene_name: &str) -> String {
+    if scene_name.chars().count() <= MAX_NAME {
+        return scene_name.to_string();
+    }
+    let mut name: String = scene_name.chars().take(MAX_NAME - 1).collect();
+    name.push('…');
+    name
+}
+
 /// The job of a checked scene (`text` its JSON), named `name` or after the scene, with the
 /// default priority and attempts.
 fn job_for(scene: &Plan, text: String, name: Option<String>) -> NewJob {
     let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
     NewJob {
-        name: name.unwrap_or_else(|| scene.name.clone()),
+        name: name.unwrap_or_else(|| job_name_of(&scene.name)),
         scene: text,
         scene_hash: hash,
         method: scene.method_name().to_string(),
@@ -416,6 +461,13 @@ async fn check_scene(
                     rule: format!("must be at most {} on this server, got {steps}", limits.max_steps),
                 });
             }
+            // The samples a run to `stop.steps` stores (an experiment ends on its own
+            // criteria, held to the limit as it runs).
+            if scene.experiment.is_none() {
+                if let Some(v) = sample_bound(&scene, limits.max_samples) {
+                    violations.push(Violation { field: format!("{}{}", scene_path, v.field), rule: v.rule });
+                }
+            }
             Some(scene)
         }
         Some(Err(v)) => {
@@ -437,6 +489,30 @@ async fn check_scene(
         (Some(scene), true) => Ok(scene),
         _ => Err(ApiError::InvalidArgument(violations)),
     }
+}
+
+/// The violation of a scene whose stop and sampling figures store more than `max` samples
+/// (`stop.steps / sampling.every_steps`, `stop.time / sampling.every_time`), if they do.
+fn sample_bound(scene: &sable_engine::scene::Scene, max: u64) -> Option<Violation> {
+    use sable_engine::scene::Sampling;
+    let (field, samples, every) = match scene.sampling {
+        Sampling::Steps(n) => {
+            let steps = scene.stop.steps?;
+            ("sampling.every_steps", steps / n.max(1) + 1, format!("{} steps", steps.div_ceil(max.max(1))))
+        }
+        Sampling::Time(t) => {
+            let time = scene.stop.time?;
+            let samples = time / t + 1.0;
+            let samples = if samples.is_finite() && samples < u64::MAX as f64 { samples as u64 } else { u64::MAX };
+            ("sampling.every_time", samples, format!("{:e} s", time / max.max(1) as f64))
+        }
+    };
+    (samples > max).then(|| Violation {
+        field: field.into(),
+        rule: format!(
+            "the run stores {samples} samples before its stop, at most {max} per job on this server: sample every {every} or more"
+        ),
+    })
 }
 
 /// The method advisor's answer for a scene, checked as a submission is (nothing is written).

@@ -22,6 +22,8 @@ impl From<ApiError> for Status {
             ApiError::Exhausted(m) => Status::resource_exhausted(m),
             ApiError::NotFound(m) => Status::not_found(m),
             ApiError::Conflict(m) => Status::failed_precondition(m),
+            ApiError::Unavailable(_) => Status::unavailable(e.to_string()),
+            ApiError::StorageFull(_) => Status::resource_exhausted(e.to_string()),
             ApiError::Internal(_) => Status::internal("internal error"),
         }
     }

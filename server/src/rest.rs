@@ -32,7 +32,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use crate::api::{self, ApiError, ListQuery, Submission};
-use crate::store::{JobStore, SnapshotPart};
+use crate::store::{JobStore, Outage, SnapshotPart};
 use crate::watch::{take_slot, watch_stream, WatchItem};
 
 /// What the handlers share.
@@ -59,6 +59,8 @@ impl IntoResponse for ApiError {
             ApiError::Exhausted(_) => StatusCode::TOO_MANY_REQUESTS,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
             ApiError::Conflict(_) => StatusCode::CONFLICT,
+            ApiError::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::StorageFull(_) => StatusCode::INSUFFICIENT_STORAGE,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
         (status, Json(api::ErrorBody::from(&self))).into_response()
@@ -536,13 +538,32 @@ pub(crate) async fn events(
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()).into_response())
 }
 
-/// `GET /healthz`: the database answers.
-#[utoipa::path(get, path = "/healthz", tag = "service", summary = "Liveness: the database answers",
-    responses((status = 200, description = "Healthy"), (status = 503, description = "The database does not answer")))]
+/// `GET /healthz`: the database answers reads, takes a write and stored the last worker report
+/// it was sent (503 otherwise, with the reason: a store whose disk is full reads but cannot
+/// write).
+#[utoipa::path(get, path = "/healthz", tag = "service", summary = "Health: the database answers and can write",
+    responses((status = 200, description = "Healthy"), (status = 503, description = "The database does not answer, or cannot write")))]
 pub(crate) async fn healthz(State(st): State<AppState>) -> Response {
-    match st.store.count_by_state().await {
-        Ok(_) => (StatusCode::OK, Json(json!({"status": "ok"}))).into_response(),
-        Err(e) => (StatusCode::SERVICE_UNAVAILABLE, Json(json!({"status": "unavailable", "reason": e.to_string()}))).into_response(),
+    let checked = match st.store.count_by_state().await {
+        Ok(_) => st.store.probe_write().await.map_err(|e| ("cannot write", e)),
+        Err(e) => Err(("cannot read", e)),
+    };
+    match checked {
+        Ok(()) => match st.store.report_failure() {
+            None => (StatusCode::OK, Json(json!({"status": "ok"}))).into_response(),
+            Some(why) => (
+                StatusCode::SERVICE_UNAVAILABLE,
+                Json(json!({"status": "unavailable", "reason": format!("the store cannot take a worker's samples: its disk is full ({why})")})),
+            )
+                .into_response(),
+        },
+        Err((what, e)) => {
+            let reason = match e.outage() {
+                Some(Outage::DiskFull) => format!("the store {what}: its disk is full ({e})"),
+                _ => format!("the store {what}: {e}"),
+            };
+            (StatusCode::SERVICE_UNAVAILABLE, Json(json!({"status": "unavailable", "reason": reason}))).into_response()
+        }
     }
 }
 

@@ -121,7 +121,7 @@ impl Server {
     /// left running, starts the workers, the reaper and both listeners.
     pub async fn start(cfg: ServeConfig) -> Result<Self, ServeError> {
         crate::auth::check_exposure(&cfg.tokens, &[cfg.http, cfg.grpc], cfg.no_auth).map_err(ServeError::Exposed)?;
-        let store = JobStore::open(&cfg.db, LeaseConfig { ttl: cfg.lease_ttl }).await?;
+        let store = JobStore::open(&cfg.db, LeaseConfig { ttl: cfg.lease_ttl }).await?.with_job_limits(cfg.limits.job());
         // A local worker of an earlier run of this server cannot be alive any more. (On
         // PostgreSQL other servers' local workers may be: their jobs go back to the queue
         // when their leases expire.)

@@ -77,7 +77,14 @@ fn config(db: DbLocation, workers: usize) -> ServeConfig {
         lease_ttl: Duration::from_secs(2),
         report_interval: Duration::from_millis(100),
         heartbeat: Duration::from_millis(500),
-        limits: sable_server::api::Limits { max_particles: 10_000, max_steps: 2_000_000_000, max_body_bytes: 64 * 1024, max_watchers: 2 },
+        limits: sable_server::api::Limits {
+            max_particles: 10_000,
+            max_steps: 2_000_000_000,
+            max_body_bytes: 64 * 1024,
+            max_watchers: 2,
+            max_samples: 50_000,
+            max_job_bytes: 1 << 30,
+        },
         ..Default::default()
     }
 }
@@ -279,6 +286,13 @@ async fn the_same_idempotency_key_returns_the_same_job(backend: Backend) {
         .into_inner();
     assert_eq!(Some(j.id), j1["id"].as_i64());
     assert_eq!(h.jobs_in_db().await, 1);
+    // A job named after a long scene description keeps its first 200 characters.
+    let mut described = scene(100, 3);
+    described["name"] = json!("é".repeat(300));
+    let (status, job) = h.post("/v1/jobs", &described, None).await;
+    assert_eq!(status, 201, "{job}");
+    let name = job["name"].as_str().expect("a name");
+    assert_eq!((name.chars().count(), name.ends_with('…')), (200, true), "{name}");
 }
 
 async fn cancelling_a_running_job_stops_it_within_a_second(backend: Backend) {
@@ -454,7 +468,13 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     no_snapshot_interval["snapshots"] = json!({"every_steps": 0});
     let mut long_preparation = compaction_scene();
     long_preparation["experiment"] = json!({"kind": "isotropic", "preparation": {"pressure": 10.0, "max_steps": 3_000_000_000u64}});
+    // A scene name that is a document (a 15 MB one was once accepted and listed with every
+    // page of jobs), and a run that would store more samples than a job may.
+    let mut long_name = scene(10, 1);
+    long_name["name"] = json!("x".repeat(1001));
     let cases: Vec<(Value, &str)> = vec![
+        (json!({"scene": long_name}), "scene.name"),
+        (json!({"scene": scene(10_000_000, 1)}), "scene.sampling.every_steps"),
         (json!({"scene": scene(10, 1), "colour": "red"}), "colour"),
         (json!({"scene": scene(10, 1), "priority": 5000}), "priority"),
         (json!({"scene": scene(10, 1), "max_attempts": 0}), "max_attempts"),

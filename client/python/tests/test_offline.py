@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from sable_client import RejectedScene, flatten, load_scene, read_polydata, samples_frame
-from sable_client.errors import Conflict, NotFound, from_response
+from sable_client.errors import Conflict, NotFound, ServiceBusy, from_response
 from sable_client.sse import events
 
 
@@ -90,6 +90,9 @@ def test_error_bodies_become_typed_exceptions_with_field_paths() -> None:
     assert "materials.glass.friction: must be >= 0, got -0.2" in str(e)
     assert isinstance(from_response(404, {"code": "not_found", "message": "no job 9", "details": []}), NotFound)
     assert isinstance(from_response(409, "plain text"), Conflict)
+    full = {"code": "insufficient_storage", "message": "the job store's disk is full", "details": []}
+    assert isinstance(from_response(507, full), ServiceBusy)
+    assert isinstance(from_response(503, {"code": "unavailable", "message": "x", "details": []}), ServiceBusy)
 
 
 def test_the_vtk_reader_reads_points_arrays_and_cells() -> None:

@@ -40,6 +40,10 @@ pub fn validate(spec: &SceneSpec) -> Result<Scene, Vec<Violation>> {
     }
 }
 
+/// Longest scene `name`, characters: a description of a few sentences, not a document (a job
+/// named after its scene keeps the first 200 of them).
+pub const MAX_SCENE_NAME: usize = 1000;
+
 /// Checks a parsed scene, every broken rule reported to `c`; the scene is returned whole even
 /// then (with placeholders where a value was refused), so that a method can add its own rules
 /// on it and every violation is reported at once.
@@ -52,6 +56,12 @@ pub(crate) fn check(spec: &SceneSpec, c: &mut Checker) -> Scene {
             3
         }
     };
+
+    if let Some(name) = &spec.name {
+        if name.trim().is_empty() || name.chars().count() > MAX_SCENE_NAME || name.chars().any(char::is_control) {
+            c.fail("name", format!("must be 1 to {MAX_SCENE_NAME} printable characters (got {} bytes)", name.len()));
+        }
+    }
 
     let names: Vec<String> = spec.materials.keys().cloned().collect();
     let materials = check_materials(c, spec);

@@ -50,6 +50,12 @@ pub struct ServeArgs {
     /// Largest request body (scene), bytes.
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_body_bytes)]
     pub max_body_bytes: usize,
+    /// Largest number of samples one job may store.
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_samples)]
+    pub max_samples: u64,
+    /// Largest number of bytes one job may store (samples, their events, snapshots).
+    #[arg(long, default_value_t = sable_server::api::Limits::default().max_job_bytes)]
+    pub max_job_bytes: u64,
     /// Largest number of event streams open at once.
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_watchers)]
     pub max_watchers: usize,
@@ -136,6 +142,8 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         max_steps: a.max_steps,
         max_body_bytes: a.max_body_bytes,
         max_watchers: a.max_watchers,
+        max_samples: a.max_samples,
+        max_job_bytes: a.max_job_bytes,
     };
     runtime()?.block_on(async move {
         let server = Server::start(cfg.clone()).await.with_context(|| format!("cannot start the server on {}", a.db))?;

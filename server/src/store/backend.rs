@@ -162,6 +162,22 @@ pub(super) struct Pools {
     pub reader: AnyPool,
 }
 
+/// Whether a pooled connection may serve another request: not if it is still inside a
+/// transaction. That happens when a write fails in a way the database answers by rolling back
+/// on its own (SQLite on a full disk, SQLITE_FULL): sqlx's rollback on drop then fails too, its
+/// count of open transactions never returns to zero, and every later `BEGIN` on that connection
+/// would be refused ("begin_with at non-zero transaction depth") until the process restarts.
+/// The pool runs this after the connection's release has flushed the rollback, so a connection
+/// whose rollback went through is kept; a poisoned one is closed and a fresh one opened.
+fn usable(conn: &mut sqlx::AnyConnection) -> bool {
+    use sqlx::Connection;
+    let clean = !conn.is_in_transaction();
+    if !clean {
+        eprintln!("sable store: a connection was left inside a failed transaction; it is closed and a new one opened");
+    }
+    clean
+}
+
 /// Connects to `at`, applies the migrations, and returns the pools.
 pub(super) async fn connect(at: &DbLocation) -> Result<Pools, StoreError> {
     sqlx::any::install_default_drivers();
@@ -172,6 +188,7 @@ pub(super) async fn connect(at: &DbLocation) -> Result<Pools, StoreError> {
             // All writes go through one connection (SQLite has one writer).
             let writer = AnyPoolOptions::new()
                 .max_connections(1)
+                .before_acquire(|conn, _| Box::pin(async move { Ok(usable(conn)) }))
                 .after_connect(|conn, _| {
                     Box::pin(async move {
                         conn.execute(
@@ -203,7 +220,12 @@ pub(super) async fn connect(at: &DbLocation) -> Result<Pools, StoreError> {
             // While PostgreSQL is unreachable a request fails after the acquire timeout (a
             // submission is refused with 503 rather than left hanging); the pool reconnects
             // when it is back.
-            let pool = AnyPoolOptions::new().max_connections(16).acquire_timeout(Duration::from_secs(10)).connect_with(options).await?;
+            let pool = AnyPoolOptions::new()
+                .max_connections(16)
+                .acquire_timeout(Duration::from_secs(10))
+                .before_acquire(|conn, _| Box::pin(async move { Ok(usable(conn)) }))
+                .connect_with(options)
+                .await?;
             // sqlx's PostgreSQL migrator holds an advisory lock: servers starting together
             // apply each migration once.
             POSTGRES_MIGRATOR.run(&pool).await?;

@@ -13,6 +13,8 @@
 //! ([`listen`]).
 
 mod backend;
+#[cfg(test)]
+mod fault_tests;
 mod listen;
 mod rows;
 mod studies;
@@ -60,6 +62,45 @@ pub enum StoreError {
     /// A migration failed.
     #[error("migration failed: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
+}
+
+/// Why the store cannot serve a request for now, read from a database error
+/// ([`StoreError::outage`]): the request is not wrong and may be sent again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outage {
+    /// The database's disk (or its quota) is full: SQLite's SQLITE_FULL, PostgreSQL's class 53
+    /// (insufficient resources, 53100 `disk_full`).
+    DiskFull,
+    /// The database cannot be reached or is shutting down: no connection within the pool's
+    /// timeout, a broken connection, PostgreSQL's classes 08 (connection exception) and 57P
+    /// (operator intervention: shutdown, starting up), SQLite's I/O errors.
+    Unreachable,
+}
+
+impl StoreError {
+    /// The outage this error is a sign of, if any; `None` for errors of the request itself
+    /// (a conflict, a missing job, a constraint) and for bugs.
+    pub fn outage(&self) -> Option<Outage> {
+        let Self::Db(e) = self else { return None };
+        match e {
+            sqlx::Error::PoolTimedOut | sqlx::Error::PoolClosed | sqlx::Error::Io(_) | sqlx::Error::Tls(_) | sqlx::Error::WorkerCrashed => {
+                Some(Outage::Unreachable)
+            }
+            sqlx::Error::Database(d) => {
+                let code = d.code().unwrap_or_default();
+                // SQLite reports its extended result code: the primary code is its low byte.
+                let sqlite = code.parse::<i64>().ok().map(|c| c & 0xff);
+                match (sqlite, code.as_ref()) {
+                    (Some(13), _) => Some(Outage::DiskFull),
+                    (Some(10), _) => Some(Outage::Unreachable),
+                    (None, c) if c.starts_with("53") => Some(Outage::DiskFull),
+                    (None, c) if c.starts_with("08") || c.starts_with("57P") => Some(Outage::Unreachable),
+                    _ => None,
+                }
+            }
+            _ => None,
+        }
+    }
 }
 
 /// A job to insert.
@@ -111,6 +152,57 @@ pub struct LeaseConfig {
     pub ttl: Duration,
 }
 
+/// What one job may store and run to (`sable serve --max-samples`, `--max-job-bytes`,
+/// `--max-steps`), held as its reports arrive: the report that would pass a limit fails the
+/// job with a message that names the limit and what to change, and the samples before it are
+/// kept. A scene's own figures are checked against the same limits at submission where they
+/// bound the run (`stop.steps / sampling.every_steps`); these catch the rest (`stop.time`, an
+/// experiment's own end).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JobLimits {
+    /// Samples one job may store.
+    pub max_samples: u64,
+    /// Bytes one job may store: its samples (each twice, as a row and as an event) and its
+    /// snapshots.
+    pub max_bytes: u64,
+    /// Steps one job may run to (the step of its last sample).
+    pub max_steps: u64,
+}
+
+impl Default for JobLimits {
+    fn default() -> Self {
+        Self { max_samples: 100_000, max_bytes: 1 << 30, max_steps: 10_000_000_000 }
+    }
+}
+
+impl JobLimits {
+    /// Why a job with `samples` samples, `bytes` stored and its last sample at `step` is past
+    /// a limit, if it is.
+    pub fn breach(&self, samples: u64, bytes: u64, step: u64) -> Option<String> {
+        if samples > self.max_samples {
+            Some(format!(
+                "the job reached this server's limit of {} samples per job (--max-samples); sample less often (raise \
+                 sampling.every_steps) or end the run sooner",
+                self.max_samples
+            ))
+        } else if bytes > self.max_bytes {
+            Some(format!(
+                "the job's samples and snapshots reached this server's limit of {} bytes per job (--max-job-bytes); raise \
+                 sampling.every_steps or snapshots.every_steps, or end the run sooner",
+                self.max_bytes
+            ))
+        } else if step > self.max_steps {
+            Some(format!(
+                "the job ran past this server's limit of {} steps (--max-steps, step {step}); end it by stop.steps or a \
+                 shorter stop.time",
+                self.max_steps
+            ))
+        } else {
+            None
+        }
+    }
+}
+
 /// The job store (module documentation).
 #[derive(Debug, Clone)]
 pub struct JobStore {
@@ -128,6 +220,11 @@ pub struct JobStore {
     /// Cancelled when the server shuts down: ends every event stream.
     pub closing: tokio_util::sync::CancellationToken,
     lease: LeaseConfig,
+    limits: JobLimits,
+    /// The last failure to store a worker's report for lack of space, until a report is stored
+    /// again: a nearly full disk may still take the health probe's one row but not a batch of
+    /// samples.
+    report_failure: Arc<std::sync::Mutex<Option<String>>>,
 }
 
 /// Milliseconds since the Unix epoch.
@@ -140,6 +237,12 @@ fn new_lease_id() -> String {
 }
 
 impl JobStore {
+    /// The store with `limits` on what each job may store ([`JobLimits`]).
+    pub fn with_job_limits(mut self, limits: JobLimits) -> Self {
+        self.limits = limits;
+        self
+    }
+
     /// Opens the store at `at` (creating an SQLite file if needed) and applies the migrations.
     /// On PostgreSQL it also starts listening to the other servers' notifications.
     pub async fn open(at: &DbLocation, lease: LeaseConfig) -> Result<Self, StoreError> {
@@ -155,6 +258,8 @@ impl JobStore {
             queued: Default::default(),
             closing: Default::default(),
             lease,
+            limits: JobLimits::default(),
+            report_failure: Default::default(),
         };
         if let DbLocation::Postgres(url) = at {
             listen::start(&store, url).await?;
@@ -484,6 +589,25 @@ impl JobStore {
         .await?)
     }
 
+    /// Writes the health row in a write transaction: `Ok` when the store can write now.
+    /// `GET /healthz` calls it, so that a store which still reads but cannot write (a full
+    /// disk) is not reported healthy.
+    pub async fn probe_write(&self) -> Result<(), StoreError> {
+        let mut tx = self.begin().await?;
+        sqlx::query("INSERT INTO health (id, checked_at) VALUES (1, $1) ON CONFLICT (id) DO UPDATE SET checked_at = excluded.checked_at")
+            .bind(now_ms())
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(())
+    }
+
+    /// Why the last worker report could not be stored for lack of space, if the reports since
+    /// have not been stored either.
+    pub fn report_failure(&self) -> Option<String> {
+        self.report_failure.lock().ok().and_then(|f| f.clone())
+    }
+
     /// Jobs by state, for metrics.
     pub async fn count_by_state(&self) -> Result<Vec<(String, i64)>, StoreError> {
         Ok(sqlx::query_as("SELECT state, COUNT(*) FROM jobs GROUP BY state").fetch_all(&self.reader).await?)
@@ -595,6 +719,24 @@ impl JobStore {
         r.map(|c| c != 0).ok_or_else(|| StoreError::Conflict(format!("lease {} of job {} is no longer held", lease.lease_id, lease.job_id)))
     }
 
+    /// Fails the leased job in `tx` for passing a limit ([`JobLimits`]), with `why`; the
+    /// worker hears a conflict (its lease is gone) and stops the run.
+    async fn stop_at_limit(&self, mut tx: Tx, lease: &Lease, why: &str) -> Result<bool, StoreError> {
+        sqlx::query(
+            "UPDATE jobs SET state = 'failed', error_code = 'limit', error_message = $1, finished_at = $2, \
+             lease_id = NULL, lease_owner = NULL, lease_expires_at = NULL WHERE id = $3",
+        )
+        .bind(why)
+        .bind(now_ms())
+        .bind(lease.job_id)
+        .execute(&mut *tx)
+        .await?;
+        let event = self.state_event(&mut tx, lease.job_id).await?;
+        tx.commit().await?;
+        self.notify(lease.job_id, vec![event]);
+        Err(StoreError::Conflict(format!("job {} stopped: {why}", lease.job_id)))
+    }
+
     /// Stores a worker's report (fenced by its lease). Returns true if the job was cancelled.
     pub async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, StoreError> {
         let mut tx = self.begin().await?;
@@ -608,9 +750,18 @@ impl JobStore {
             .await?;
         let skip = report.first_sample.map_or(0, |first| (seq - first.min(i64::MAX as u64) as i64).clamp(0, report.samples.len() as i64));
         let fresh = &report.samples[skip as usize..];
-        for s in fresh {
+        let rows =
+            fresh.iter().map(serde_json::to_string).collect::<Result<Vec<String>, _>>().map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
+        let snapshot_bytes: usize = report.snapshots.iter().map(|f| f.particles.len() + f.contacts.len() + f.walls.len()).sum();
+        // Each sample is stored twice: as a row and in its event.
+        let adding = (2 * rows.iter().map(String::len).sum::<usize>() + snapshot_bytes) as u64;
+        let stored: i64 = sqlx::query_scalar("SELECT stored_bytes FROM jobs WHERE id = $1").bind(lease.job_id).fetch_one(&mut *tx).await?;
+        let last_step = report.samples.last().map_or(0, |s| s.step);
+        if let Some(why) = self.limits.breach(seq.max(0) as u64 + rows.len() as u64, stored.max(0) as u64 + adding, last_step) {
+            return self.stop_at_limit(tx, lease, &why).await;
+        }
+        for (s, data) in fresh.iter().zip(rows) {
             seq += 1;
-            let data = serde_json::to_string(s).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
             sqlx::query(
                 "INSERT INTO samples (job_id, seq, step, time, phi, z, z_no_rattlers, zeta, mu, p, q, inertial_number, \
                  kinetic_energy, elastic_energy, data) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
@@ -656,10 +807,13 @@ impl JobStore {
             let payload = serde_json::json!({"fraction": report.fraction, "remaining_seconds": report.remaining_seconds, "sample": s});
             events.push(self.insert_event(&mut tx, lease.job_id, first + k as i64, "sample", &payload).await?);
         }
-        sqlx::query("UPDATE jobs SET progress = $1, steps = CASE WHEN steps > $2 THEN steps ELSE $2 END WHERE id = $3")
-            .bind(report.fraction.clamp(0.0, 1.0))
-            .bind(report.samples.last().map_or(0, |s| s.step as i64))
-            .bind(lease.job_id)
+        sqlx::query(
+            "UPDATE jobs SET progress = $1, steps = CASE WHEN steps > $2 THEN steps ELSE $2 END, stored_bytes = stored_bytes + $4 WHERE id = $3",
+        )
+        .bind(report.fraction.clamp(0.0, 1.0))
+        .bind(i64::try_from(last_step).unwrap_or(i64::MAX))
+        .bind(lease.job_id)
+        .bind(i64::try_from(adding).unwrap_or(i64::MAX))
             .execute(&mut *tx)
             .await?;
         tx.commit().await?;
@@ -729,7 +883,7 @@ impl JobStore {
                 .bind(state)
                 .bind(code)
                 .bind(message)
-                .bind(steps.map(|s| s as i64))
+                .bind(steps.map(|s| i64::try_from(s).unwrap_or(i64::MAX)))
                 .bind(wall_seconds)
                 .bind(now_ms())
                 .bind(lease.job_id)
@@ -781,7 +935,16 @@ impl JobSource for JobStore {
     }
 
     async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, SourceError> {
-        JobStore::report(self, lease, report).await.map_err(|e| source_error(e, Some(lease)))
+        let stored = JobStore::report(self, lease, report).await;
+        let failure = match &stored {
+            Err(e) if e.outage() == Some(Outage::DiskFull) => Some(format!("job {}'s last report: {e}", lease.job_id)),
+            Err(_) => return stored.map_err(|e| source_error(e, Some(lease))),
+            Ok(_) => None,
+        };
+        if let Ok(mut last) = self.report_failure.lock() {
+            *last = failure;
+        }
+        stored.map_err(|e| source_error(e, Some(lease)))
     }
 
     async fn finish(&self, lease: &Lease, outcome: Outcome) -> Result<(), SourceError> {

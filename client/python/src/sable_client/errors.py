@@ -68,7 +68,9 @@ class Unauthorized(SableError):
 
 
 class ServiceBusy(SableError):
-    """The service refuses for now (HTTP 429, e.g. too many open event streams); retry later."""
+    """The service refuses for now; retry later: HTTP 429 (e.g. too many open event streams),
+    503 (its database cannot be reached) or 507 (its database's disk is full). Nothing was
+    written."""
 
 
 class JobFailed(Exception):
@@ -103,6 +105,6 @@ def from_response(status: int, body: Any) -> SableError:
         kind = Conflict
     elif status in (401, 403):
         kind = Unauthorized
-    elif status == 429:
+    elif status in (429, 503, 507):
         kind = ServiceBusy
     return kind(status, code, message, violations)

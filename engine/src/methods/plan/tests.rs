@@ -58,6 +58,21 @@ fn aggregates_take_their_defaults_and_run_with_contact_dynamics() {
     assert!(given.is_ok_and(|s| s.params::<CdParams>().is_some_and(|p| p.tolerance == 1e-4)));
 }
 
+/// A scene's name is a description, not a document: a 15 MB name once passed every rule and
+/// became the job's name, stored and listed with each page of jobs.
+#[test]
+fn a_scene_name_is_bounded() {
+    let mut scene: serde_json::Value = serde_json::from_str(&scene_with(serde_json::json!("dem"), 0.5)).expect("json");
+    scene["name"] = serde_json::json!("é".repeat(crate::scene::validate::MAX_SCENE_NAME));
+    assert!(rules(&scene.to_string()).is_empty(), "1000 characters (2000 bytes) pass");
+    for bad in ["x".repeat(15 << 20), String::new(), "two\nlines".into()] {
+        scene["name"] = serde_json::json!(bad);
+        let r = rules(&scene.to_string());
+        assert_eq!(r.len(), 1, "{r:?}");
+        assert!(r[0].starts_with("name: must be 1 to 1000 printable characters"), "{r:?}");
+    }
+}
+
 /// Counts that overflow a machine word once multiplied (by an aggregate's primaries) or
 /// added (over sets) are refused, not wrapped into a small count that passes every limit
 /// and then aborts the process that allocates for it.
