@@ -23,6 +23,7 @@ fn every_shipped_study_expands_into_valid_runs() {
         vec![
             ("biaxial_dem_cd.json".to_string(), 10),
             ("bpm_biaxial.json".to_string(), 4),
+            ("bpm_compaction_law.json".to_string(), 2),
             ("bpm_isotropic.json".to_string(), 6),
             ("bpm_isotropic_periodic.json".to_string(), 3),
             ("bpm_z_phi_periodic.json".to_string(), 9),
