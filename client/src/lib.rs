@@ -205,7 +205,8 @@ impl Client {
         Ok(self.inner.get_final_state(pb::GetFinalStateRequest { id }).await?.into_inner().state_gz)
     }
 
-    /// The job's samples in a step range, at most `max_points` of them evenly spread.
+    /// The job's samples in a step range, at most `max_points` of them evenly spread, or all of
+    /// them (read page by page).
     pub async fn samples(
         &mut self,
         id: i64,
@@ -213,9 +214,21 @@ impl Client {
         to_step: Option<u64>,
         max_points: Option<u32>,
     ) -> Result<Vec<Sample>, ClientError> {
-        let req = pb::GetSamplesRequest { id, from_step, to_step: to_step.unwrap_or(0), max_points: max_points.unwrap_or(0) };
-        let r = self.inner.get_samples(req).await?.into_inner();
-        r.samples_json.iter().map(|s| serde_json::from_str(s).map_err(|e| ClientError::Decode(e.to_string()))).collect()
+        let mut out = Vec::new();
+        let mut from = from_step;
+        loop {
+            let req =
+                pb::GetSamplesRequest { id, from_step: from, to_step: to_step.unwrap_or(0), max_points: max_points.unwrap_or(0), limit: 0 };
+            let r = self.inner.get_samples(req).await?.into_inner();
+            for s in &r.samples_json {
+                out.push(serde_json::from_str(s).map_err(|e| ClientError::Decode(e.to_string()))?);
+            }
+            // A page ends where the next starts (the server reads at most 10,000 a call).
+            if r.next_from_step == 0 || r.next_from_step <= from {
+                return Ok(out);
+            }
+            from = r.next_from_step;
+        }
     }
 
     /// The job's events after `after_seq`, live, until its final state. Heartbeats are passed

@@ -215,8 +215,10 @@ pub struct JobView {
     pub progress: f64,
     /// Why it failed.
     pub error: Option<ErrorView>,
-    /// The scene as stored (canonical JSON: keys sorted; docs/scene-format.md).
+    /// The scene as stored (canonical JSON: keys sorted; docs/scene-format.md). Absent in
+    /// lists of jobs, which are summaries: `GET /v1/jobs/{id}` has it.
     #[schema(value_type = Object)]
+    #[serde(skip_serializing_if = "serde_json::Value::is_null")]
     pub scene: serde_json::Value,
     /// SHA-256 of the stored scene, hex.
     pub scene_hash: String,
@@ -597,6 +599,10 @@ pub async fn list(store: &JobStore, q: ListQuery) -> Result<(Vec<JobView>, Optio
     Ok((rows.into_iter().map(JobView::from).collect(), next))
 }
 
+/// Samples one read returns at most (and by default), whatever `max_points`: a longer run is
+/// read in pages, each ending with the `from_step` of the next.
+pub const SAMPLE_PAGE: u32 = 10_000;
+
 /// A job's samples as read: the scene's dimension, the samples, and the job's last event
 /// sequence number at the read ([`JobStore::samples_and_seq`]).
 #[derive(Debug)]
@@ -607,28 +613,37 @@ pub struct SampleRead {
     pub samples: Vec<Sample>,
     /// Resume the job's event stream after it for the samples stored since.
     pub events_seq: i64,
+    /// The `from_step` of the next page, when there are more samples in the range.
+    pub next_from_step: Option<u64>,
 }
 
-/// A job's samples in a step range, keeping at most `max_points` evenly spread (the last one
-/// always kept).
+/// A job's samples in a step range: at most `max_points` evenly spread over it (the last one
+/// always kept), or else the first `limit` (at most and by default [`SAMPLE_PAGE`]) with where
+/// the next page starts.
 pub async fn samples(
     store: &JobStore,
     id: i64,
     from_step: u64,
     to_step: Option<u64>,
     max_points: Option<u32>,
+    limit: Option<u32>,
 ) -> Result<SampleRead, ApiError> {
     if let Some(to) = to_step {
         if to < from_step {
             return Err(ApiError::invalid("to_step", format!("must be >= from_step ({from_step}), got {to}")));
         }
     }
+    let limit = match limit {
+        None | Some(0) => SAMPLE_PAGE,
+        Some(n) if n <= SAMPLE_PAGE => n,
+        Some(n) => return Err(ApiError::invalid("limit", format!("must be at most {SAMPLE_PAGE} samples a page, got {n}"))),
+    };
     let job = store.get(id).await?;
     let dim =
         serde_json::from_str::<serde_json::Value>(&job.scene).ok().and_then(|v| v.get("dimension").and_then(|d| d.as_u64())).unwrap_or(3)
             as usize;
-    let (samples, events_seq) = store.samples_and_seq(id, from_step, to_step, max_points.unwrap_or(0) as usize).await?;
-    Ok(SampleRead { dim, samples, events_seq })
+    let read = store.samples_and_seq(id, from_step, to_step, max_points.unwrap_or(0) as usize, limit as usize).await?;
+    Ok(SampleRead { dim, samples: read.samples, events_seq: read.events_seq, next_from_step: read.next_from_step })
 }
 
 #[cfg(test)]

@@ -57,7 +57,8 @@ pub fn pb_job(j: JobView) -> pb::Job {
         progress: j.progress,
         error_code: j.error.as_ref().map(|e| e.code.clone()).unwrap_or_default(),
         error_message: j.error.map(|e| e.message).unwrap_or_default(),
-        scene_json: j.scene.to_string(),
+        // Empty in lists (summaries): GetJob has the scene.
+        scene_json: if j.scene.is_null() { String::new() } else { j.scene.to_string() },
         scene_hash: j.scene_hash,
         engine_version: j.engine_version,
         seed: j.seed,
@@ -257,9 +258,13 @@ impl pb::simulations_server::Simulations for SimulationsService {
     async fn get_samples(&self, req: Request<pb::GetSamplesRequest>) -> Result<Response<pb::GetSamplesResponse>, Status> {
         let r = req.into_inner();
         let to = (r.to_step > 0).then_some(r.to_step);
-        let read = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points)).await?;
+        let read = api::samples(&self.store, r.id, r.from_step, to, Some(r.max_points), Some(r.limit)).await?;
         let samples_json = read.samples.iter().map(|s| serde_json::to_string(s).unwrap_or_default()).collect();
-        Ok(Response::new(pb::GetSamplesResponse { samples_json, events_seq: read.events_seq.max(0) as u64 }))
+        Ok(Response::new(pb::GetSamplesResponse {
+            samples_json,
+            events_seq: read.events_seq.max(0) as u64,
+            next_from_step: read.next_from_step.unwrap_or(0),
+        }))
     }
 
     async fn get_final_state(&self, req: Request<pb::GetFinalStateRequest>) -> Result<Response<pb::FinalState>, Status> {

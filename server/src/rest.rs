@@ -4,10 +4,10 @@
 //! | method | path | what |
 //! |---|---|---|
 //! | POST | `/v1/jobs` | submit (body: a scene, or `{"scene", "name", "priority", "max_attempts"}`; `Idempotency-Key` header) |
-//! | GET | `/v1/jobs` | list (`state, name, method, created_after, created_before, page_size, page_token`) |
+//! | GET | `/v1/jobs` | list, summaries without scenes (`state, name, method, created_after, created_before, page_size, page_token`) |
 //! | GET | `/v1/jobs/{id}` | one job |
 //! | POST | `/v1/jobs/{id}:cancel` | cancel |
-//! | GET | `/v1/jobs/{id}/samples` | samples (`from_step, to_step, max_points, format=json|csv`) |
+//! | GET | `/v1/jobs/{id}/samples` | samples, 10,000 a page (`from_step, to_step, max_points, limit, format=json|csv`; `next_from_step`) |
 //! | GET | `/v1/jobs/{id}/events` | Server-Sent Events (`after_seq` or `Last-Event-ID` to resume) |
 //! | GET | `/v1/jobs/{id}/snapshots` | the job's VTK snapshots (index, step, time, file URLs) |
 //! | GET | `/v1/jobs/{id}/snapshots/{index}/{part}` | one file: `particles`, `contacts` or `walls` (`.vtp`) |
@@ -313,8 +313,12 @@ pub(crate) struct SampleParams {
     from_step: Option<u64>,
     /// Last step (inclusive).
     to_step: Option<u64>,
-    /// Keep at most this many samples, evenly spread (first and last kept).
+    /// Keep at most this many samples, evenly spread (first and last kept; at most 10,000).
     max_points: Option<u32>,
+    /// Without `max_points`: at most this many samples (default and largest 10,000); a longer
+    /// range is read in pages, each giving the `from_step` of the next (`next_from_step`, and
+    /// the `Sable-Next-From-Step` header in CSV).
+    limit: Option<u32>,
     /// json (default) or csv.
     format: Option<String>,
 }
@@ -329,6 +333,9 @@ pub(crate) struct SamplePage {
     /// The job's last event sequence number when the samples were read: the event stream
     /// resumed after it (`after_seq`) brings exactly the samples stored since.
     events_seq: i64,
+    /// The `from_step` of the next page, when the range holds more samples than this one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    next_from_step: Option<u64>,
 }
 
 /// `GET /v1/jobs/{id}/samples`.
@@ -357,12 +364,17 @@ pub(crate) async fn samples(
         Some("csv") => true,
         Some(f) => return Err(ApiError::invalid("format", format!("must be json or csv, got '{f}'"))),
     };
-    let read = api::samples(&st.store, id, p.from_step.unwrap_or(0), p.to_step, p.max_points).await?;
-    if csv {
-        Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(read.dim, &read.samples)).into_response())
+    let read = api::samples(&st.store, id, p.from_step.unwrap_or(0), p.to_step, p.max_points, p.limit).await?;
+    let mut response = if csv {
+        ([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], samples_csv(read.dim, &read.samples)).into_response()
     } else {
-        Ok(Json(SamplePage { job_id: id, samples: read.samples, events_seq: read.events_seq }).into_response())
+        Json(SamplePage { job_id: id, samples: read.samples, events_seq: read.events_seq, next_from_step: read.next_from_step })
+            .into_response()
+    };
+    if let Some(next) = read.next_from_step {
+        response.headers_mut().insert("sable-next-from-step", header::HeaderValue::from(next));
     }
+    Ok(response)
 }
 
 /// One stored snapshot.

@@ -204,7 +204,7 @@ async fn samples_chart(
     for (k, id) in ids.into_iter().enumerate() {
         let y = &ys[if ys.len() == 1 { 0 } else { k }];
         let job = st.store.get(id).await?;
-        let samples = api::samples(&st.store, id, 0, None, Some(2000)).await?.samples;
+        let samples = api::samples(&st.store, id, 0, None, Some(2000), None).await?.samples;
         // Strains restart at every stage: by default a strain axis shows the last stage.
         let stage = p.stage.clone().or_else(|| if x == "strain" { samples.iter().rev().find_map(|s| s.stage.clone()) } else { None });
         let samples: Vec<_> = samples.into_iter().filter(|s| stage.is_none() || s.stage == stage).collect();

@@ -110,8 +110,14 @@ async fn the_queue_behaves_the_same_on_both_backends() {
         let all = s.samples(b.id, 0, None).await.expect("samples");
         assert_eq!(all.iter().map(|x| x.step).collect::<Vec<_>>(), vec![100, 200, 300, 400, 500, 600], "{at}");
         assert_eq!(all[2], sample(300, 0.53), "{at}: a sample reads back whole");
-        let (few, seq) = s.samples_and_seq(b.id, 200, Some(600), 3).await.expect("downsampled");
-        assert_eq!(few.iter().map(|x| x.step).collect::<Vec<_>>(), vec![200, 400, 600], "{at}");
+        let read = s.samples_and_seq(b.id, 200, Some(600), 3, 0).await.expect("downsampled");
+        let (few, seq) = (read.samples, read.events_seq);
+        assert_eq!((few.iter().map(|x| x.step).collect::<Vec<_>>(), read.next_from_step), (vec![200, 400, 600], None), "{at}");
+        // A page of two, then the rest from where it says.
+        let page = s.samples_and_seq(b.id, 0, None, 0, 2).await.expect("a page");
+        assert_eq!((page.samples.iter().map(|x| x.step).collect::<Vec<_>>(), page.next_from_step), (vec![100, 200], Some(300)), "{at}");
+        let rest = s.samples_and_seq(b.id, 300, None, 0, 4).await.expect("the rest");
+        assert_eq!((rest.samples.len(), rest.next_from_step), (4, None), "{at}");
         // Events: queued, running, six samples, numbered 1.. without gaps.
         let events = s.events_after(b.id, 0, 100).await.expect("events");
         assert_eq!(events.iter().map(|e| e.seq).collect::<Vec<_>>(), (1..=8).collect::<Vec<_>>(), "{at}");

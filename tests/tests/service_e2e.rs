@@ -433,8 +433,11 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing(backend: Backend)
     assert_eq!(tail.first().map(|e| e.seq), Some(5));
     // A samples read says where its events end (here the ended job's last event), so that a
     // watch resumed there misses nothing and repeats nothing; gRPC and REST alike.
-    let read =
-        client.get_samples(pb::GetSamplesRequest { id, from_step: 0, to_step: 0, max_points: 3 }).await.expect("samples").into_inner();
+    let read = client
+        .get_samples(pb::GetSamplesRequest { id, from_step: 0, to_step: 0, max_points: 3, limit: 0 })
+        .await
+        .expect("samples")
+        .into_inner();
     assert_eq!(read.samples_json.len(), 3);
     assert_eq!(Some(read.events_seq), all.last().map(|e| e.seq));
     let (_, page) = h.get(&format!("/v1/jobs/{id}/samples?max_points=3")).await;
@@ -459,6 +462,47 @@ async fn a_watch_resumed_from_a_sequence_number_misses_nothing(backend: Backend)
         .expect("body");
     let ids: Vec<u64> = text.lines().filter_map(|l| l.strip_prefix("id:")).filter_map(|s| s.trim().parse().ok()).collect();
     assert_eq!(ids, tail.iter().map(|e| e.seq).collect::<Vec<_>>());
+}
+
+/// A long run is read in pages, and a list of jobs is a list of summaries: before, one call
+/// returned every sample (312 MB for 394,510 of them) and every listed job's whole scene
+/// (492 MB for a page of 50 jobs of 12 MB), on both APIs.
+async fn long_runs_are_read_in_pages_and_lists_are_summaries(backend: Backend) {
+    let Some(h) = Harness::start(backend, 1).await else { return };
+    let mut long = scene(12_000, 1);
+    long["sampling"] = json!({"every_steps": 1});
+    long["gravity"] = json!([0, 0]);
+    let (status, job) = h.post("/v1/jobs", &long, None).await;
+    assert_eq!(status, 201, "{job}");
+    let id = job["id"].as_i64().expect("id");
+    h.wait_state(id, &["succeeded"], Duration::from_secs(120)).await;
+
+    let (status, first) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    assert_eq!(status, 200, "{first}");
+    let page = first["samples"].as_array().expect("samples");
+    assert_eq!((page.len(), first["next_from_step"].as_u64()), (10_000, Some(10_000)));
+    let (_, second) = h.get(&format!("/v1/jobs/{id}/samples?from_step=10000")).await;
+    let rest = second["samples"].as_array().expect("samples");
+    assert_eq!((rest.len(), rest[0]["step"].as_u64(), second.get("next_from_step")), (2_001, Some(10_000), None));
+    let (status, err) = h.get(&format!("/v1/jobs/{id}/samples?limit=10001")).await;
+    assert_eq!((status, err["details"][0]["field"].as_str()), (422, Some("limit")), "{err}");
+    let (_, few) = h.get(&format!("/v1/jobs/{id}/samples?max_points=50000")).await;
+    assert_eq!(few["samples"].as_array().map(Vec::len), Some(10_000), "max_points is held to a page");
+    // The Rust client reads every page.
+    let mut client = sable_client::Client::connect(&format!("http://{}", h.server().grpc_addr)).await.expect("client");
+    assert_eq!(client.samples(id, 0, None, None).await.expect("samples").len(), 12_001);
+
+    // Lists leave the scenes out, on both APIs; the job itself has its scene.
+    let (_, list) = h.get("/v1/jobs").await;
+    let listed = &list["jobs"][0];
+    assert_eq!((listed["id"].as_i64(), listed.get("scene")), (Some(id), None), "{listed}");
+    let (_, one) = h.get(&format!("/v1/jobs/{id}")).await;
+    assert_eq!(one["scene"]["sampling"]["every_steps"], 1);
+    let mut grpc = h.grpc().await;
+    let jobs = grpc.list_jobs(pb::ListJobsRequest::default()).await.expect("list").into_inner().jobs;
+    assert_eq!((jobs[0].id, jobs[0].scene_json.as_str()), (id, ""));
+    let got = grpc.get_job(pb::GetJobRequest { id }).await.expect("get").into_inner();
+    assert!(got.scene_json.contains("every_steps"), "{}", got.scene_json);
 }
 
 async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
@@ -1275,6 +1319,7 @@ on_both_backends!(
     fifty_concurrent_submissions_all_finish_once,
     a_watch_resumed_from_a_sequence_number_misses_nothing,
     bad_input_gets_a_clear_error_and_writes_nothing,
+    long_runs_are_read_in_pages_and_lists_are_summaries,
     health_metrics_and_openapi_describe_the_service,
     snapshots_are_stored_and_served_from_local_and_remote_workers,
     an_experiments_results_are_stored_with_its_job,

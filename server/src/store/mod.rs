@@ -103,6 +103,17 @@ impl StoreError {
     }
 }
 
+/// A read of a job's samples ([`JobStore::samples_and_seq`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleSlice {
+    /// The samples, in order.
+    pub samples: Vec<Sample>,
+    /// The job's last event sequence number when they were read.
+    pub events_seq: i64,
+    /// Where the next page starts (`from_step`) when the read stopped at its limit.
+    pub next_from_step: Option<u64>,
+}
+
 /// A job to insert.
 #[derive(Debug, Clone)]
 pub struct NewJob {
@@ -405,14 +416,15 @@ impl JobStore {
         sqlx::query_as::<_, JobRow>(&sql).bind(id).fetch_optional(&self.reader).await?.ok_or(StoreError::NotFound(id))
     }
 
-    /// Jobs matching the filter, newest first.
+    /// Jobs matching the filter, newest first, without their scenes (`scene` empty: read one
+    /// with [`JobStore::get`]).
     pub async fn list(&self, f: &ListFilter) -> Result<Vec<JobRow>, StoreError> {
         // The filters as `$n` parameters (both back-ends read that form), each bound in turn.
         enum Arg {
             Text(String),
             Int(i64),
         }
-        let mut sql = format!("{} WHERE 1 = 1", rows::JOB_SELECT);
+        let mut sql = format!("{} WHERE 1 = 1", rows::JOB_SUMMARY_SELECT);
         let mut args = Vec::new();
         let mut push = |clause: &str, arg: Arg| {
             args.push(arg);
@@ -478,36 +490,49 @@ impl JobStore {
 
     /// Samples of a job in a step range, in order.
     pub async fn samples(&self, id: i64, from_step: u64, to_step: Option<u64>) -> Result<Vec<Sample>, StoreError> {
-        Ok(self.samples_and_seq(id, from_step, to_step, 0).await?.0)
+        Ok(self.samples_and_seq(id, from_step, to_step, 0, 0).await?.samples)
     }
 
-    /// Samples of a job in a step range, in order, at most `max_points` of them evenly spread
-    /// ([`downsample`]; 0 = all), with the sequence number of the job's last event when they
-    /// were read (one read transaction; a worker stores its samples and their events in one
-    /// write): the job's event stream resumed after it brings exactly the samples stored since.
-    /// Only the kept samples are read and decoded (a 2,000-point view of 100,000 samples).
+    /// Samples of a job in a step range, in order ([`SampleSlice`]): at most `max_points` of
+    /// them evenly spread over the range ([`downsample`]; 0 = not downsampled), and at most
+    /// `limit` in all (0 = no limit): past it the slice ends with the step the next page starts
+    /// from. With the sequence number of the job's last event when they were read (one read
+    /// transaction; a worker stores its samples and their events in one write): the job's event
+    /// stream resumed after it brings exactly the samples stored since. Only the kept samples
+    /// are read and decoded (a 2,000-point view of 100,000 samples).
     pub async fn samples_and_seq(
         &self,
         id: i64,
         from_step: u64,
         to_step: Option<u64>,
         max_points: usize,
-    ) -> Result<(Vec<Sample>, i64), StoreError> {
+        limit: usize,
+    ) -> Result<SampleSlice, StoreError> {
         self.get(id).await?;
-        let to = to_step.map_or(i64::MAX, |s| s.min(i64::MAX as u64) as i64);
+        let from = i64::try_from(from_step).unwrap_or(i64::MAX);
+        let to = to_step.map_or(i64::MAX, |s| i64::try_from(s).unwrap_or(i64::MAX));
         let mut tx = self.reader.begin_with(self.backend.begin_read()).await?;
-        let seqs: Vec<i64> = sqlx::query_scalar("SELECT seq FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
-            .bind(id)
-            .bind(from_step as i64)
-            .bind(to)
-            .fetch_all(&mut *tx)
-            .await?;
-        let all = seqs.len();
-        let keep = downsample(seqs, max_points);
+        let marks: Vec<(i64, i64)> =
+            sqlx::query_as("SELECT seq, step FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
+                .bind(id)
+                .bind(from)
+                .bind(to)
+                .fetch_all(&mut *tx)
+                .await?;
+        let all = marks.len();
+        let limit = if limit == 0 { usize::MAX } else { limit };
+        let (keep, next_from_step) = if max_points > 0 {
+            (downsample(marks, max_points.min(limit)), None)
+        } else if all > limit {
+            let next = u64::try_from(marks[limit].1).ok();
+            (marks.into_iter().take(limit).collect(), next)
+        } else {
+            (marks, None)
+        };
         let rows: Vec<String> = if keep.len() == all {
             sqlx::query_scalar("SELECT data FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
                 .bind(id)
-                .bind(from_step as i64)
+                .bind(from)
                 .bind(to)
                 .fetch_all(&mut *tx)
                 .await?
@@ -517,21 +542,21 @@ impl JobStore {
                 let marks = (2..chunk.len() + 2).map(|k| format!("${k}")).collect::<Vec<_>>().join(",");
                 let sql = format!("SELECT data FROM samples WHERE job_id = $1 AND seq IN ({marks}) ORDER BY seq");
                 let mut q = sqlx::query_scalar::<_, String>(&sql).bind(id);
-                for s in chunk {
-                    q = q.bind(*s);
+                for (seq, _) in chunk {
+                    q = q.bind(*seq);
                 }
                 rows.extend(q.fetch_all(&mut *tx).await?);
             }
             rows
         };
-        let seq: i64 =
+        let events_seq: i64 =
             sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM job_events WHERE job_id = $1").bind(id).fetch_one(&mut *tx).await?;
         tx.commit().await?;
-        let mut out = Vec::with_capacity(rows.len());
+        let mut samples = Vec::with_capacity(rows.len());
         for r in rows {
-            out.push(serde_json::from_str(&r).map_err(|e| sqlx::Error::Decode(Box::new(e)))?);
+            samples.push(serde_json::from_str(&r).map_err(|e| sqlx::Error::Decode(Box::new(e)))?);
         }
-        Ok((out, seq))
+        Ok(SampleSlice { samples, events_seq, next_from_step })
     }
 
     /// The snapshots of a job, in order, without their files.

@@ -47,6 +47,13 @@ pub(crate) const JOB_SELECT: &str = "SELECT j.id, j.name, j.state, j.priority, j
      j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.cancel_requested, j.result, \
      (SELECT COUNT(*) FROM samples s WHERE s.job_id = j.id) AS sample_count FROM jobs j";
 
+/// The columns of a job in a list: its scene left out (`''`), which may be megabytes and is
+/// read by its own route; a page of jobs stays a page of summaries.
+pub(crate) const JOB_SUMMARY_SELECT: &str = "SELECT j.id, j.name, j.state, j.priority, j.method, j.method_reason, '' AS scene, \
+     j.scene_hash, j.engine_version, j.seed, j.attempts, j.max_attempts, j.progress, j.created_at, j.started_at, j.finished_at, \
+     j.error_code, j.error_message, j.steps, j.wall_seconds, j.cpu_seconds, j.solver_iterations, j.cancel_requested, j.result, \
+     (SELECT COUNT(*) FROM samples s WHERE s.job_id = j.id) AS sample_count FROM jobs j";
+
 /// One job.
 #[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
 pub struct JobRow {

@@ -365,11 +365,21 @@ class Client:
         Args:
             from_step: First step (inclusive).
             to_step: Last step (inclusive).
-            max_points: At most this many rows, evenly spread, the last sample kept (the server
-                downsamples).
+            max_points: At most this many rows (up to 10,000), evenly spread, the last sample
+                kept (the server downsamples). Without it every sample in the range is read,
+                page by page.
         """
-        query = {"from_step": from_step, "to_step": to_step, "max_points": max_points, "format": "json"}
-        return frames.samples_frame(self._json("samples", path={"id": _id(job)}, query=query).get("samples", []))
+        rows: list[dict[str, Any]] = []
+        start = from_step
+        while True:
+            query = {"from_step": start, "to_step": to_step, "max_points": max_points, "format": "json"}
+            page = self._json("samples", path={"id": _id(job)}, query=query)
+            rows.extend(page.get("samples", []))
+            # The service reads at most 10,000 samples a call; a page ends where the next starts.
+            after = page.get("next_from_step")
+            if after is None or (start is not None and after <= start):
+                return frames.samples_frame(rows)
+            start = after
 
     def result(self, job: JobRef) -> dict[str, Any]:
         """The derived results of a succeeded job's experiment (docs/scene-format.md §13:

@@ -29,7 +29,8 @@ class Job:
         cpu_seconds: CPU seconds of the job's threads.
         error: ``{"code", "message"}`` of a failed job, else ``None``.
         result: The experiment's derived results (docs/scene-format.md §13) of a succeeded job.
-        scene: The scene as stored (canonical JSON).
+        scene: The scene as stored (canonical JSON); empty in lists of jobs (``jobs()``),
+            which are summaries: ``job(id)`` has it.
         raw: The whole JSON object.
     """
 
