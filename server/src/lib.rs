@@ -11,6 +11,7 @@ pub mod auth;
 pub mod charts;
 pub mod dashboard;
 pub mod grpc;
+pub mod idle;
 pub mod metrics;
 pub mod openapi;
 pub mod rest;

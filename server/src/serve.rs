@@ -49,6 +49,8 @@ pub struct ServeConfig {
     pub no_auth: bool,
     /// The certificate and key to serve REST and gRPC over TLS with (None: plain; `crate::tls`).
     pub tls: Option<crate::tls::TlsIdentity>,
+    /// A connection with no byte either way for this long is closed (`crate::idle`).
+    pub idle_timeout: Duration,
 }
 
 impl Default for ServeConfig {
@@ -67,6 +69,7 @@ impl Default for ServeConfig {
             token_reload: Duration::from_secs(5),
             no_auth: false,
             tls: None,
+            idle_timeout: crate::idle::DEFAULT_IDLE_TIMEOUT,
         }
     }
 }
@@ -98,7 +101,7 @@ pub enum ServeError {
 
 /// The REST listener: plain, or over TLS.
 enum Rest {
-    Plain(TcpListener),
+    Plain(crate::idle::IdleListener),
     Tls(crate::tls::TlsListener),
 }
 
@@ -205,21 +208,16 @@ impl Server {
         let app = router(state).layer(axum::middleware::from_fn_with_state(cfg.tokens.clone(), crate::auth::http_layer));
         let http_stop = stop.clone();
         let http = match &cfg.tls {
-            Some(id) => Rest::Tls(id.listener(http, stop.clone()).map_err(|source| ServeError::Bind { addr: cfg.http, source })?),
-            None => Rest::Plain(http),
+            Some(id) => {
+                Rest::Tls(id.listener(http, cfg.idle_timeout, stop.clone()).map_err(|source| ServeError::Bind { addr: cfg.http, source })?)
+            }
+            None => Rest::Plain(crate::idle::IdleListener::new(http, cfg.idle_timeout)),
         };
         tasks.spawn(async move {
             let shutdown = async move { http_stop.cancelled().await };
             let served = match http {
                 Rest::Tls(tls) => axum::serve(tls, app).with_graceful_shutdown(shutdown).await,
-                Rest::Plain(http) => {
-                    // No Nagle delay on small answers (axum leaves the accepted sockets as they
-                    // come).
-                    let http = axum::serve::ListenerExt::tap_io(http, |tcp| {
-                        let _ = tcp.set_nodelay(true);
-                    });
-                    axum::serve(http, app).with_graceful_shutdown(shutdown).await
-                }
+                Rest::Plain(http) => axum::serve(http, app).with_graceful_shutdown(shutdown).await,
             };
             if let Err(e) = served {
                 eprintln!("sable serve: HTTP server: {e}");
@@ -242,6 +240,7 @@ impl Server {
         let (user, worker) = (GrpcGuard::new(cfg.tokens.clone(), Role::User), GrpcGuard::new(cfg.tokens.clone(), Role::Worker));
         // Room for the largest scene accepted plus the rest of the request.
         let max_message = cfg.limits.max_body_bytes + 64 * 1024;
+        let idle_timeout = cfg.idle_timeout;
         let mut grpc_server = tonic::transport::Server::builder();
         if let Some(id) = &cfg.tls {
             grpc_server = grpc_server.tls_config(id.grpc()).map_err(|e| ServeError::Tls(e.to_string()))?;
@@ -250,9 +249,11 @@ impl Server {
             // tonic ignores its tcp_nodelay setting for incoming streams given to it: without
             // this each small gRPC answer waited for the peer's delayed ACK, about 40 ms (a
             // remote worker ran at most 23 tiny jobs a second, whatever their number).
-            let incoming = tokio_stream::StreamExt::map(tokio_stream::wrappers::TcpListenerStream::new(grpc), |s| {
-                s.inspect(|tcp| {
+            // Each connection is closed once quiet for the idle timeout (crate::idle).
+            let incoming = tokio_stream::StreamExt::map(tokio_stream::wrappers::TcpListenerStream::new(grpc), move |s| {
+                s.map(|tcp| {
                     let _ = tcp.set_nodelay(true);
+                    crate::idle::Idle::new(tcp, idle_timeout)
                 })
             });
             let r = grpc_server

@@ -22,6 +22,8 @@ use tokio_rustls::server::TlsStream;
 use tokio_rustls::TlsAcceptor;
 use tokio_util::sync::CancellationToken;
 
+use crate::idle::Idle;
+
 /// How long a client has to finish its TLS handshake.
 pub const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -78,8 +80,9 @@ impl TlsIdentity {
     }
 
     /// The REST listener over TLS: accepts on `tcp` until `stop`, without Nagle's delay
-    /// (small answers), each handshake in its own task.
-    pub fn listener(&self, tcp: TcpListener, stop: CancellationToken) -> std::io::Result<TlsListener> {
+    /// (small answers), each handshake in its own task, each connection closed once quiet for
+    /// `idle` (`crate::idle`).
+    pub fn listener(&self, tcp: TcpListener, idle: Duration, stop: CancellationToken) -> std::io::Result<TlsListener> {
         let local = tcp.local_addr()?;
         let (tx, rx) = mpsc::channel(READY_BACKLOG);
         let acceptor = TlsAcceptor::from(self.config.clone());
@@ -100,6 +103,7 @@ impl TlsIdentity {
                 let (acceptor, tx) = (acceptor.clone(), tx.clone());
                 tokio::spawn(async move {
                     // A failed or slow handshake only loses its own connection.
+                    let stream = Idle::new(stream, idle);
                     if let Ok(Ok(tls)) = tokio::time::timeout(HANDSHAKE_TIMEOUT, acceptor.accept(stream)).await {
                         let _ = tx.send((tls, peer)).await;
                     }
@@ -113,12 +117,12 @@ impl TlsIdentity {
 /// The REST listener over TLS ([`TlsIdentity::listener`]): connections whose handshake is done.
 #[derive(Debug)]
 pub struct TlsListener {
-    ready: mpsc::Receiver<(TlsStream<TcpStream>, SocketAddr)>,
+    ready: mpsc::Receiver<(TlsStream<Idle<TcpStream>>, SocketAddr)>,
     local: SocketAddr,
 }
 
 impl axum::serve::Listener for TlsListener {
-    type Io = TlsStream<TcpStream>;
+    type Io = TlsStream<Idle<TcpStream>>;
     type Addr = SocketAddr;
 
     async fn accept(&mut self) -> (Self::Io, Self::Addr) {

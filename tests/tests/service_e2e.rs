@@ -505,6 +505,55 @@ async fn long_runs_are_read_in_pages_and_lists_are_summaries(backend: Backend) {
     assert!(got.scene_json.contains("every_steps"), "{}", got.scene_json);
 }
 
+/// Whether the server closes `tcp` within `within` (a read ends or fails).
+async fn closed_within(tcp: &mut tokio::net::TcpStream, within: Duration) -> bool {
+    use tokio::io::AsyncReadExt;
+    let mut buf = [0u8; 256];
+    let start = Instant::now();
+    while start.elapsed() < within {
+        match tokio::time::timeout(within.saturating_sub(start.elapsed()), tcp.read(&mut buf)).await {
+            Ok(Ok(0)) | Ok(Err(_)) => return true,
+            Ok(Ok(_)) => continue,
+            Err(_) => return false,
+        }
+    }
+    false
+}
+
+/// A connection quiet for the idle timeout is closed, before any request is complete, on the
+/// REST and the gRPC port: 19,990 half-open requests once held the server at its descriptor
+/// limit for as long as the client pleased. An event stream, with its heartbeats, stays open.
+async fn quiet_connections_are_closed_and_live_streams_are_not(backend: Backend) {
+    use tokio::io::AsyncWriteExt;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let Some(db) = location(backend, &dir).await else { return };
+    let idle = Duration::from_millis(1500);
+    let server = Server::start(ServeConfig { idle_timeout: idle, ..config(db, 0) }).await.expect("server starts");
+    let mut half = tokio::net::TcpStream::connect(server.http_addr).await.expect("connect");
+    half.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n").await.expect("half a request");
+    let mut silent = tokio::net::TcpStream::connect(server.grpc_addr).await.expect("connect");
+    let (rest_closed, grpc_closed) =
+        tokio::join!(closed_within(&mut half, idle + Duration::from_secs(3)), closed_within(&mut silent, idle + Duration::from_secs(3)));
+    assert!(rest_closed && grpc_closed, "REST closed: {rest_closed}, gRPC closed: {grpc_closed}");
+
+    // A job's event stream outlives the timeout on its heartbeats (every 0.5 s here).
+    let base = format!("http://{}", server.http_addr);
+    let http = reqwest::Client::new();
+    let job: Value = http.post(format!("{base}/v1/jobs")).json(&scene(10, 1)).send().await.expect("submit").json().await.expect("job");
+    let id = job["id"].as_i64().expect("id");
+    let mut stream = http.get(format!("{base}/v1/jobs/{id}/events")).send().await.expect("events");
+    let start = Instant::now();
+    let mut chunks = 0;
+    while start.elapsed() < idle * 2 {
+        let chunk =
+            tokio::time::timeout(idle, stream.chunk()).await.expect("a heartbeat within the timeout").expect("the stream stays open");
+        assert!(chunk.is_some(), "the stream ended after {:?}", start.elapsed());
+        chunks += 1;
+    }
+    assert!(chunks >= 3, "{chunks} chunks");
+    server.shutdown(Duration::from_secs(5)).await;
+}
+
 async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     let Some(h) = Harness::start(backend, 0).await else { return };
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
@@ -1320,6 +1369,7 @@ on_both_backends!(
     a_watch_resumed_from_a_sequence_number_misses_nothing,
     bad_input_gets_a_clear_error_and_writes_nothing,
     long_runs_are_read_in_pages_and_lists_are_summaries,
+    quiet_connections_are_closed_and_live_streams_are_not,
     health_metrics_and_openapi_describe_the_service,
     snapshots_are_stored_and_served_from_local_and_remote_workers,
     an_experiments_results_are_stored_with_its_job,

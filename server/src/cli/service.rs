@@ -56,6 +56,10 @@ pub struct ServeArgs {
     /// Largest number of bytes one job may store (samples, their events, snapshots).
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_job_bytes)]
     pub max_job_bytes: u64,
+    /// Seconds after which a connection with no byte either way is closed (REST and gRPC,
+    /// TLS included; event streams and gRPC send heartbeats well within it).
+    #[arg(long, default_value_t = sable_server::idle::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
+    pub idle_timeout: f64,
     /// Largest number of event streams open at once.
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_watchers)]
     pub max_watchers: usize,
@@ -137,6 +141,10 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         cfg.workers = w;
     }
     cfg.lease_ttl = Duration::from_secs_f64(a.lease_seconds);
+    if !(a.idle_timeout.is_finite() && a.idle_timeout >= 1.0) {
+        bail!("--idle-timeout: must be at least 1 second, got {}", a.idle_timeout);
+    }
+    cfg.idle_timeout = Duration::from_secs_f64(a.idle_timeout);
     cfg.limits = sable_server::api::Limits {
         max_particles: a.max_particles,
         max_steps: a.max_steps,
