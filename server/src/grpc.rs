@@ -209,9 +209,11 @@ impl pb::simulations_server::Simulations for SimulationsService {
 
     async fn list_jobs(&self, req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
         let r = req.into_inner();
-        let state = match r.state() {
-            pb::JobState::Unspecified => None,
-            s => Some(s.as_str_name().trim_start_matches("JOB_STATE_").to_lowercase()),
+        // `r.state()` reads an unknown number as unspecified, which listed every state.
+        let state = match pb::JobState::try_from(r.state) {
+            Ok(pb::JobState::Unspecified) => None,
+            Ok(s) => Some(s.as_str_name().trim_start_matches("JOB_STATE_").to_lowercase()),
+            Err(_) => return Err(Status::invalid_argument(format!("state: {} is not a JobState", r.state))),
         };
         let (jobs, next) = api::list(
             &self.store,
@@ -320,6 +322,14 @@ impl pb::workers_server::Workers for WorkersService {
 
     async fn report_progress(&self, req: Request<pb::ReportProgressRequest>) -> Result<Response<pb::ReportProgressResponse>, Status> {
         let r = req.into_inner();
+        // Worker-supplied figures are checked like a user's: a NaN fraction once broke a NOT
+        // NULL constraint and was answered UNAVAILABLE, so the worker retried it for good.
+        if !(0.0..=1.0).contains(&r.fraction) {
+            return Err(Status::invalid_argument(format!("fraction: must be between 0 and 1, got {}", r.fraction)));
+        }
+        if r.remaining_seconds.is_nan() {
+            return Err(Status::invalid_argument("remaining_seconds: must be a number (negative: unknown)"));
+        }
         let mut samples = Vec::with_capacity(r.samples_json.len());
         for (i, s) in r.samples_json.iter().enumerate() {
             let s: Sample =

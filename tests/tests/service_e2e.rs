@@ -554,6 +554,41 @@ async fn quiet_connections_are_closed_and_live_streams_are_not(backend: Backend)
     server.shutdown(Duration::from_secs(5)).await;
 }
 
+/// What a worker sends is checked like a user's request: a NaN fraction once broke a NOT NULL
+/// constraint and was answered UNAVAILABLE (the worker retried it for good), and ListJobs with
+/// a state number it does not know listed every state.
+async fn worker_figures_and_unknown_enums_are_refused_by_name(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
+    let (status, job) = h.post("/v1/jobs", &scene(100, 1), None).await;
+    assert_eq!(status, 201, "{job}");
+    let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");
+    let mut workers = sable_proto::v1::workers_client::WorkersClient::new(channel);
+    let lease = workers
+        .lease_job(pb::LeaseJobRequest { worker: "fuzz".into() })
+        .await
+        .expect("lease")
+        .into_inner()
+        .lease
+        .expect("the job is leased");
+    let report = |fraction: f64, remaining_seconds: f64| pb::ReportProgressRequest {
+        job_id: lease.job_id,
+        lease_id: lease.lease_id.clone(),
+        fraction,
+        remaining_seconds,
+        ..Default::default()
+    };
+    for (bad, field) in [(report(f64::NAN, 1.0), "fraction"), (report(1.5, 1.0), "fraction"), (report(0.5, f64::NAN), "remaining_seconds")]
+    {
+        let e = workers.report_progress(bad).await.expect_err("refused");
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+        assert!(e.message().starts_with(field), "{e}");
+    }
+    workers.report_progress(report(0.5, 1.0)).await.expect("a good report is taken");
+    let mut client = h.grpc().await;
+    let e = client.list_jobs(pb::ListJobsRequest { state: 99, ..Default::default() }).await.expect_err("refused");
+    assert_eq!((e.code(), e.message()), (tonic::Code::InvalidArgument, "state: 99 is not a JobState"));
+}
+
 async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     let Some(h) = Harness::start(backend, 0).await else { return };
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
@@ -1370,6 +1405,7 @@ on_both_backends!(
     bad_input_gets_a_clear_error_and_writes_nothing,
     long_runs_are_read_in_pages_and_lists_are_summaries,
     quiet_connections_are_closed_and_live_streams_are_not,
+    worker_figures_and_unknown_enums_are_refused_by_name,
     health_metrics_and_openapi_describe_the_service,
     snapshots_are_stored_and_served_from_local_and_remote_workers,
     an_experiments_results_are_stored_with_its_job,
