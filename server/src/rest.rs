@@ -430,6 +430,55 @@ pub(crate) async fn snapshots(State(st): State<AppState>, Path(id): Path<String>
 /// Largest file served once decompressed, bytes (a snapshot of a million particles is ~0.6 GB).
 const MAX_SNAPSHOT_FILE: u64 = 4 << 30;
 
+/// Size of the pieces a stored gzip file is served in once decompressed, bytes.
+const UNZIP_CHUNK: usize = 64 << 10;
+
+/// The decompressed text of a stored gzip file (a worker's snapshot, a final state) as a
+/// streamed body: decompressed on a blocking thread a piece at a time while the client reads,
+/// so a request holds a few pieces however large the file, and ended with an error past
+/// `limit` bytes. A file that does not start as gzip is an error before anything is sent.
+/// Before, the whole text was built in memory first: a 1.5 MB "snapshot" from a worker's
+/// token became a 1.5 GiB allocation on a user's download.
+fn unzipped_body(gz: Vec<u8>, limit: u64, what: String) -> Result<axum::body::Body, ApiError> {
+    use std::io::Read;
+    let mut decoder = flate2::read::GzDecoder::new(std::io::Cursor::new(gz));
+    let mut first = vec![0u8; UNZIP_CHUNK];
+    let n = decoder.read(&mut first).map_err(|e| ApiError::Internal(format!("{what} cannot be read: {e}")))?;
+    first.truncate(n);
+    let (tx, rx) = tokio::sync::mpsc::channel::<std::io::Result<Vec<u8>>>(4);
+    tokio::task::spawn_blocking(move || {
+        let mut sent = first.len() as u64;
+        if tx.blocking_send(Ok(first)).is_err() {
+            return;
+        }
+        loop {
+            let mut piece = vec![0u8; UNZIP_CHUNK];
+            let piece = match decoder.read(&mut piece) {
+                Ok(0) => return,
+                Ok(n) => {
+                    sent += n as u64;
+                    piece.truncate(n);
+                    if sent > limit {
+                        Err(std::io::Error::new(
+                            std::io::ErrorKind::InvalidData,
+                            format!("{what}: more than {limit} bytes once decompressed"),
+                        ))
+                    } else {
+                        Ok(piece)
+                    }
+                }
+                Err(e) => Err(e),
+            };
+            let failed = piece.is_err();
+            // The client went away: stop decompressing.
+            if tx.blocking_send(piece).is_err() || failed {
+                return;
+            }
+        }
+    });
+    Ok(axum::body::Body::from_stream(tokio_stream::wrappers::ReceiverStream::new(rx)))
+}
+
 /// `GET /v1/jobs/{id}/snapshots/{index}/{part}`.
 #[utoipa::path(
     get,
@@ -456,12 +505,9 @@ pub(crate) async fn snapshot_file(
     let part = SnapshotPart::parse(&part)
         .ok_or_else(|| ApiError::malformed("part", format!("must be particles, contacts or walls (optionally .vtp), got '{part}'")))?;
     let gz = st.store.snapshot_file(id, index, part).await?;
-    let text = tokio::task::spawn_blocking(move || sable_worker::source::gunzip(&gz, MAX_SNAPSHOT_FILE))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))?
-        .map_err(|e| ApiError::Internal(format!("snapshot {index} of job {id} cannot be read: {e}")))?;
+    let body = unzipped_body(gz, MAX_SNAPSHOT_FILE, format!("snapshot {index} of job {id}"))?;
     let disposition = format!("attachment; filename=\"job{id}_{}_{index:06}.vtp\"", part.name());
-    Ok(([(header::CONTENT_TYPE, "application/xml".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
+    Ok(([(header::CONTENT_TYPE, "application/xml".to_string()), (header::CONTENT_DISPOSITION, disposition)], body).into_response())
 }
 
 /// `GET /v1/jobs/{id}/state`.
@@ -480,12 +526,9 @@ pub(crate) async fn snapshot_file(
 pub(crate) async fn final_state(State(st): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
     let id = parse_id(&id)?;
     let gz = st.store.final_state(id).await?;
-    let text = tokio::task::spawn_blocking(move || sable_worker::source::gunzip(&gz, crate::start_from::MAX_STATE_BYTES))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))?
-        .map_err(|e| ApiError::Internal(format!("the final state of job {id} cannot be read: {e}")))?;
+    let body = unzipped_body(gz, crate::start_from::MAX_STATE_BYTES, format!("the final state of job {id}"))?;
     let disposition = format!("attachment; filename=\"job{id}_state.json\"");
-    Ok(([(header::CONTENT_TYPE, "application/json".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
+    Ok(([(header::CONTENT_TYPE, "application/json".to_string()), (header::CONTENT_DISPOSITION, disposition)], body).into_response())
 }
 
 /// Samples as CSV with the engine's column names.

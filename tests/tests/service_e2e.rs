@@ -583,7 +583,20 @@ async fn worker_figures_and_unknown_enums_are_refused_by_name(backend: Backend) 
         assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
         assert!(e.message().starts_with(field), "{e}");
     }
-    workers.report_progress(report(0.5, 1.0)).await.expect("a good report is taken");
+    // A "snapshot" that decompresses to 64 MB of one byte (65 kB of gzip) is served as a
+    // stream, never built in memory first (a 1.5 MB one once became a 1.5 GiB allocation on a
+    // user's download): no Content-Length, and every byte arrives.
+    let bomb = sable_worker::source::gzip(&"0".repeat(64 << 20));
+    let small = sable_worker::source::gzip("<VTKFile/>");
+    let snapshot = pb::SnapshotFiles { index: 0, step: 1, time: 0.0, particles_gz: bomb, contacts_gz: small.clone(), walls_gz: small };
+    workers
+        .report_progress(pb::ReportProgressRequest { snapshots: vec![snapshot], ..report(0.5, 1.0) })
+        .await
+        .expect("a good report is taken");
+    let response = h.http.get(format!("{}/v1/jobs/{}/snapshots/0/particles", h.base, lease.job_id)).send().await.expect("download");
+    assert_eq!(response.status(), 200);
+    assert!(response.headers().get("content-length").is_none(), "{:?}", response.headers());
+    assert_eq!(response.bytes().await.expect("the file").len(), 64 << 20);
     let mut client = h.grpc().await;
     let e = client.list_jobs(pb::ListJobsRequest { state: 99, ..Default::default() }).await.expect_err("refused");
     assert_eq!((e.code(), e.message()), (tonic::Code::InvalidArgument, "state: 99 is not a JobState"));
