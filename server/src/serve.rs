@@ -141,12 +141,26 @@ impl Server {
         let reaper_stop = stop.clone();
         let every = (cfg.lease_ttl / 4).max(Duration::from_millis(50));
         tasks.spawn(async move {
+            // Set while the database is away: when it is back, the leases that ran out
+            // meanwhile are renewed rather than their jobs run again (JobStore::renew_running_leases).
+            let mut outage = false;
             loop {
                 tokio::select! {
                     _ = tokio::time::sleep(every) => {}
                     _ = reaper_stop.cancelled() => return,
                 }
+                if outage {
+                    match reaper_store.renew_running_leases().await {
+                        Ok(n) => {
+                            eprintln!("sable serve: the database is back; the leases of {n} running job(s) renewed");
+                            outage = false;
+                        }
+                        Err(e) => eprintln!("sable serve: lease reaper: {e}"),
+                    }
+                    continue;
+                }
                 if let Err(e) = reaper_store.requeue_expired(None).await {
+                    outage = e.outage().is_some();
                     eprintln!("sable serve: lease reaper: {e}");
                 }
             }

@@ -60,6 +60,19 @@ pub async fn watch(
                         let full = e.len() == 256;
                         (e, full)
                     }
+                    // The database is away: the stream waits for it, heartbeats keeping the
+                    // client, and goes on from where it stood (it was ended with an error, and
+                    // a client waiting for the job gave up while the job went on).
+                    Err(e) if e.outage().is_some() => {
+                        if tx.send(Ok(WatchItem::Heartbeat)).await.is_err() {
+                            return;
+                        }
+                        tokio::select! {
+                            _ = tokio::time::sleep(heartbeat.min(Duration::from_secs(1))) => continue,
+                            _ = tx.closed() => return,
+                            _ = store.closing.cancelled() => return,
+                        }
+                    }
                     Err(e) => {
                         let _ = tx.send(Err(e.into())).await;
                         return;

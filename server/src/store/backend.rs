@@ -218,11 +218,11 @@ pub(super) async fn connect(at: &DbLocation) -> Result<Pools, StoreError> {
         DbLocation::Postgres(url) => {
             let options = AnyConnectOptions::from_str(url)?;
             // While PostgreSQL is unreachable a request fails after the acquire timeout (a
-            // submission is refused with 503 rather than left hanging); the pool reconnects
-            // when it is back.
+            // submission is refused with 503 rather than left hanging: it was 10 s); the pool
+            // reconnects when it is back.
             let pool = AnyPoolOptions::new()
                 .max_connections(16)
-                .acquire_timeout(Duration::from_secs(10))
+                .acquire_timeout(Duration::from_secs(3))
                 .before_acquire(|conn, _| Box::pin(async move { Ok(usable(conn)) }))
                 .connect_with(options)
                 .await?;
