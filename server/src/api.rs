@@ -500,13 +500,13 @@ fn sample_bound(scene: &sable_engine::scene::Scene, max: u64) -> Option<Violatio
     let (field, samples, every) = match scene.sampling {
         Sampling::Steps(n) => {
             let steps = scene.stop.steps?;
-            ("sampling.every_steps", steps / n.max(1) + 1, format!("{} steps", steps.div_ceil(max.max(1))))
+            ("sampling.every_steps", steps / n.max(1) + 1, format!("{} steps", steps.div_ceil(max.saturating_sub(1).max(1))))
         }
         Sampling::Time(t) => {
             let time = scene.stop.time?;
             let samples = time / t + 1.0;
             let samples = if samples.is_finite() && samples < u64::MAX as f64 { samples as u64 } else { u64::MAX };
-            ("sampling.every_time", samples, format!("{:e} s", time / max.max(1) as f64))
+            ("sampling.every_time", samples, format!("{:e} s", time / max.saturating_sub(1).max(1) as f64))
         }
     };
     (samples > max).then(|| Violation {

@@ -246,11 +246,21 @@ pub async fn execute<S: JobSource>(
             match flush(source, lease, &mut pending).await {
                 Ok(_) => break,
                 Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
-                Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
+                Err(SourceError::Unavailable(_)) => tokio::time::sleep(retry_pause(attempt)).await,
             }
         }
     }
     finish(source, lease, outcome).await
+}
+
+/// The longest pause between two tries of a worker to store its last samples or its outcome
+/// while the store is unreachable: the store gives running jobs at least this much beyond a
+/// lease when it comes back, so that a worker between two tries does not lose its job.
+pub const MAX_RETRY_PAUSE: Duration = Duration::from_millis(100 << 5);
+
+/// The pause before try `attempt + 1`: 0.1 s, doubling up to [`MAX_RETRY_PAUSE`].
+fn retry_pause(attempt: u32) -> Duration {
+    Duration::from_millis(100 << attempt.min(5))
 }
 
 /// Sends the pending samples and progress (also when there is no sample: the report renews the
@@ -283,7 +293,7 @@ async fn finish<S: JobSource>(source: &S, lease: &Lease, outcome: Outcome) -> Op
         match source.finish(lease, outcome.clone()).await {
             Ok(()) => return Some(outcome),
             Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
-            Err(SourceError::Unavailable(_)) => tokio::time::sleep(Duration::from_millis(100 << attempt.min(5))).await,
+            Err(SourceError::Unavailable(_)) => tokio::time::sleep(retry_pause(attempt)).await,
         }
     }
     None

@@ -647,16 +647,19 @@ impl JobStore {
         .await?)
     }
 
-    /// Renews the lease of every running job for one lease duration from now, and returns how
+    /// Renews the lease of every running job for one lease duration from now plus twice the
+    /// longest pause between a worker's tries ([`sable_worker::execute::MAX_RETRY_PAUSE`]: a
+    /// worker backing off when the database came back reports within it), and returns how
     /// many. The reaper calls it when the database comes back after an outage, in place of
     /// putting back the jobs whose leases ran out meanwhile: their workers could not report
     /// while the database was away, and a job run again from its start (spending an attempt)
     /// for the database's fault loses hours on a long run. A worker that really died meanwhile
-    /// loses its job one lease later.
+    /// loses its job that much later.
     pub async fn renew_running_leases(&self) -> Result<u64, StoreError> {
+        let grace = self.lease.ttl + 2 * sable_worker::execute::MAX_RETRY_PAUSE;
         let mut tx = self.begin().await?;
         let n = sqlx::query("UPDATE jobs SET lease_expires_at = $1 WHERE state = 'running' AND lease_id IS NOT NULL")
-            .bind(now_ms() + self.lease.ttl.as_millis() as i64)
+            .bind(now_ms() + grace.as_millis() as i64)
             .execute(&mut *tx)
             .await?
             .rows_affected();
