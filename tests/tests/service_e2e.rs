@@ -82,7 +82,7 @@ fn config(db: DbLocation, workers: usize) -> ServeConfig {
             max_steps: 2_000_000_000,
             max_body_bytes: 64 * 1024,
             max_watchers: 2,
-            max_samples: 50_000,
+            max_samples: 20_000_000,
             max_job_bytes: 1 << 30,
         },
         ..Default::default()
@@ -613,9 +613,11 @@ async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     // page of jobs), and a run that would store more samples than a job may.
     let mut long_name = scene(10, 1);
     long_name["name"] = json!("x".repeat(1001));
+    let mut many_samples = scene(1_900_000_000, 1);
+    many_samples["sampling"] = json!({"every_steps": 10});
     let cases: Vec<(Value, &str)> = vec![
         (json!({"scene": long_name}), "scene.name"),
-        (json!({"scene": scene(10_000_000, 1)}), "scene.sampling.every_steps"),
+        (json!({"scene": many_samples}), "scene.sampling.every_steps"),
         (json!({"scene": scene(10, 1), "colour": "red"}), "colour"),
         (json!({"scene": scene(10, 1), "priority": 5000}), "priority"),
         (json!({"scene": scene(10, 1), "max_attempts": 0}), "max_attempts"),
