@@ -744,9 +744,7 @@ impl JobStore {
         // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
         sqlx::query("DELETE FROM samples WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
         sqlx::query("DELETE FROM snapshots WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
-        let event = self.state_event(&mut tx, id).await?;
-        tx.commit().await?;
-        self.notify(id, vec![event]);
+        self.commit_state(tx, id).await?;
         let scene = self.resolve_start(scene).await?;
         Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32 }))
     }
@@ -764,6 +762,15 @@ impl JobStore {
         r.map(|c| c != 0).ok_or_else(|| StoreError::Conflict(format!("lease {} of job {} is no longer held", lease.lease_id, lease.job_id)))
     }
 
+    /// Appends job `id`'s state event to `tx`, commits, and tells the watchers: how every
+    /// change of a job's state ends.
+    async fn commit_state(&self, mut tx: Tx, id: i64) -> Result<(), StoreError> {
+        let event = self.state_event(&mut tx, id).await?;
+        tx.commit().await?;
+        self.notify(id, vec![event]);
+        Ok(())
+    }
+
     /// Fails the leased job in `tx` for passing a limit ([`JobLimits`]), with `why`; the
     /// worker hears a conflict (its lease is gone) and stops the run.
     async fn stop_at_limit(&self, mut tx: Tx, lease: &Lease, why: &str) -> Result<bool, StoreError> {
@@ -776,9 +783,7 @@ impl JobStore {
         .bind(lease.job_id)
         .execute(&mut *tx)
         .await?;
-        let event = self.state_event(&mut tx, lease.job_id).await?;
-        tx.commit().await?;
-        self.notify(lease.job_id, vec![event]);
+        self.commit_state(tx, lease.job_id).await?;
         Err(StoreError::Conflict(format!("job {} stopped: {why}", lease.job_id)))
     }
 
@@ -957,9 +962,7 @@ impl JobStore {
                 .await?;
             }
         }
-        let event = self.state_event(&mut tx, lease.job_id).await?;
-        tx.commit().await?;
-        self.notify(lease.job_id, vec![event]);
+        self.commit_state(tx, lease.job_id).await?;
         if matches!(outcome, Outcome::Released) {
             self.queued.notify_one();
         }
