@@ -40,6 +40,7 @@ pub mod methods;
 pub mod nscd;
 pub mod observe;
 pub mod particles;
+pub mod resume;
 pub mod run;
 pub mod scene;
 pub mod study;

@@ -11,6 +11,7 @@ use crate::math::Vec3;
 use crate::observe::Sample;
 use crate::observe::Snapshot;
 use crate::observe::{Analysis, ExperimentResult, StrainSample};
+use crate::resume::{Checkpoint, Clock, StagePoint, CHECKPOINT_FORMAT, CHECKPOINT_VERSION};
 use crate::scene::{Controls, Equilibrium, Sampling, Scene, Stage, StateFile, Stop};
 
 /// A running simulation of one method.
@@ -72,6 +73,17 @@ pub trait Simulation: Send {
     fn grain_scales(&self) -> (Real, Real);
     /// The current particles and box, to start another run from ([`crate::scene::state`]).
     fn saved_state(&self) -> StateFile;
+    /// The run's clock: steps, time, the strain's origin, running totals (a checkpoint's,
+    /// [`crate::resume`]).
+    fn clock(&self) -> Clock;
+    /// Sets the clock of a simulation built from a checkpoint's state, so that it counts on
+    /// from the checkpoint's step.
+    fn set_clock(&mut self, clock: &Clock);
+    /// Whether a run could go on from a checkpoint taken now; why not if its state holds what a
+    /// saved state cannot (the runner then takes no checkpoint).
+    fn resumable(&self) -> Result<(), String> {
+        Ok(())
+    }
     /// Sends a record of every Newton iteration to `sink` from now on
     /// ([`crate::methods::soft::trace`]); false (and nothing sent) for a method without Newton
     /// iterations.
@@ -195,6 +207,16 @@ pub struct RunSummary {
     pub result: Option<ExperimentResult>,
 }
 
+/// A run to go on from ([`Runner::run_resumable`]): a checkpoint and the samples the run took
+/// before it, in order.
+#[derive(Debug, Clone, Copy)]
+pub struct Resume<'a> {
+    /// Where the run stood.
+    pub checkpoint: &'a Checkpoint,
+    /// Every sample taken before the checkpoint.
+    pub samples: &'a [Sample],
+}
+
 /// Drives a simulation through the stages of its scene to its stop criteria.
 #[derive(Debug, Clone)]
 pub struct Runner {
@@ -206,6 +228,10 @@ pub struct Runner {
     pub sampling: Sampling,
     /// Set to true from another thread to cancel; checked every step.
     pub cancel: Arc<AtomicBool>,
+    /// Set to true from another thread to ask for a checkpoint ([`crate::resume`]) before the
+    /// next step; cleared when it is taken. Asked for together with `cancel` (set first), the
+    /// checkpoint is taken before the run stops.
+    pub checkpoint: Arc<AtomicBool>,
     /// Take a snapshot every this many steps, or with every sample if 0, plus the initial and
     /// final states; `None`: no snapshots.
     pub snapshot_every: Option<u64>,
@@ -232,6 +258,7 @@ impl Runner {
             stages: scene.stages.clone(),
             sampling: scene.sampling,
             cancel: Arc::new(AtomicBool::new(false)),
+            checkpoint: Arc::new(AtomicBool::new(false)),
             snapshot_every: scene.snapshots,
             analysis: Analysis::new(scene),
             dim: scene.dim,
@@ -348,6 +375,23 @@ impl Runner {
         on_sample: &mut dyn FnMut(&Sample, &Progress),
         on_snapshot: &mut dyn FnMut(&Snapshot),
     ) -> Result<RunSummary, EngineError> {
+        self.run_resumable(sim, None, on_sample, on_snapshot, &mut |_| {})
+    }
+
+    /// As [`Runner::run_with_snapshots`], calling `on_checkpoint` with a checkpoint whenever
+    /// [`Runner::checkpoint`] is set, and, with `resume`, going on from a checkpoint instead of
+    /// starting: `sim` must then have been built from the checkpoint's state
+    /// ([`Checkpoint::scene_to_resume`]); its clock is set back, the samples taken before the
+    /// checkpoint feed the analysis again, and the run takes no initial sample or snapshot (the
+    /// first it reports are the first due after the checkpoint's step).
+    pub fn run_resumable(
+        &self,
+        sim: &mut dyn Simulation,
+        resume: Option<Resume>,
+        on_sample: &mut dyn FnMut(&Sample, &Progress),
+        on_snapshot: &mut dyn FnMut(&Snapshot),
+        on_checkpoint: &mut dyn FnMut(&Checkpoint),
+    ) -> Result<RunSummary, EngineError> {
         let mut analysis = self.analysis.clone();
         analysis.for_grains(sim.grain_model());
         let started = std::time::Instant::now();
@@ -356,7 +400,11 @@ impl Runner {
             analysis,
             on_sample,
             on_snapshot,
+            on_checkpoint,
             last_snapshot: None,
+            samples: 0,
+            snapshots: 0,
+            settled: 0,
             started,
             phi0: sim.packing_fraction(),
             annotate: self.stages.len() > 1 || self.stages.iter().any(|s| !s.name.is_empty()),
@@ -365,9 +413,15 @@ impl Runner {
                 Sampling::Steps(_) => Real::INFINITY,
             },
         };
-        let mut start = self.begin(sim, 0)?;
-        let mut last = run.take(sim, &start)?;
-        run.snapshot(sim);
+        let (mut start, mut last) = match resume {
+            None => {
+                let start = self.begin(sim, 0)?;
+                let last = run.take(sim, &start)?;
+                run.snapshot(sim);
+                (start, last)
+            }
+            Some(r) => self.resume(&mut run, sim, r)?,
+        };
         let reason = loop {
             let stage = &self.stages[start.index];
             let ended = match self.run_stage(&mut run, sim, &start, &mut last)? {
@@ -382,6 +436,7 @@ impl Runner {
                 break ended;
             }
             start = self.begin(sim, start.index + 1)?;
+            run.settled = 0;
             // And every later stage starts with one (same step, zero strain), the origin of its curves.
             last = run.take(sim, &start)?;
         };
@@ -406,6 +461,49 @@ impl Runner {
         })
     }
 
+    /// Sets `sim` and `run` where checkpoint `r` left them; returns where its stage started and
+    /// the last sample before it.
+    fn resume(&self, run: &mut RunState, sim: &mut dyn Simulation, r: Resume) -> Result<(StageStart, Sample), EngineError> {
+        let cp = r.checkpoint;
+        let refuse = |reason: String| EngineError::Build { field: "checkpoint".into(), reason };
+        if cp.stage.index >= self.stages.len() {
+            return Err(refuse(format!("stage {} does not exist: the scene has {}", cp.stage.index, self.stages.len())));
+        }
+        let Some(last) = r.samples.last() else {
+            return Err(refuse("no sample before the checkpoint was given".into()));
+        };
+        if r.samples.len() as u64 != cp.samples {
+            return Err(refuse(format!("{} samples came before it, {} were given", cp.samples, r.samples.len())));
+        }
+        // The controls of the stages up to the checkpoint's, in order (a stage keeps what the
+        // ones before it set), without what acts once when a stage starts and is already in
+        // the state (walls closed onto the grains, a shear profile imposed, grains glued); then
+        // the clock, which sets back the walls' servos the controls reset.
+        let quiet = |stage: &Stage| Stage {
+            controls: Controls { close_walls: None, glue: None, shear_rate: None, ..stage.controls.clone() },
+            ..stage.clone()
+        };
+        for stage in &self.stages[..cp.stage.index] {
+            sim.apply_controls(&quiet(stage).controls)?;
+        }
+        sim.begin_stage(&quiet(&self.stages[cp.stage.index]))?;
+        sim.set_clock(&cp.clock);
+        for s in r.samples {
+            run.analysis.push(s);
+        }
+        run.samples = cp.samples;
+        run.snapshots = cp.snapshots;
+        run.settled = cp.settled;
+        run.last_snapshot = cp.last_snapshot;
+        run.phi0 = cp.phi0;
+        if let Some(t) = cp.next_sample_time {
+            run.next_time = t;
+        }
+        let p = &cp.stage;
+        let start = StageStart { index: p.index, step: p.step, time: p.time, lengths: Vec3::from(p.lengths), strain: p.strain };
+        Ok((start, last.clone()))
+    }
+
     /// Applies stage `index`'s controls and notes where it starts.
     fn begin(&self, sim: &mut dyn Simulation, index: usize) -> Result<StageStart, EngineError> {
         sim.begin_stage(&self.stages[index])?;
@@ -422,7 +520,6 @@ impl Runner {
         last: &mut Sample,
     ) -> Result<ControlFlow<StopReason, StopReason>, EngineError> {
         let stage = &self.stages[start.index];
-        let mut settled = 0u32;
         let mut balance = None;
         loop {
             if let Some(r) = self.reached_global(sim) {
@@ -431,9 +528,9 @@ impl Runner {
             if let Some(eq) = &stage.equilibrium {
                 if (sim.steps_done() - start.step).is_multiple_of(eq.check_every) {
                     let b = sim.balance();
-                    settled = if b.satisfies(eq) { settled + 1 } else { 0 };
+                    run.settled = if b.satisfies(eq) { run.settled + 1 } else { 0 };
                     balance = Some(b);
-                    if settled >= eq.consecutive.unwrap_or_else(|| sim.equilibrium_checks()) {
+                    if run.settled >= eq.consecutive.unwrap_or_else(|| sim.equilibrium_checks()) {
                         return Ok(ControlFlow::Continue(StopReason::Equilibrium));
                     }
                 }
@@ -444,7 +541,11 @@ impl Runner {
                 }
                 return Ok(ControlFlow::Continue(r));
             }
-            if self.cancel.load(Ordering::Relaxed) {
+            // The checkpoint first: a worker that stops asks for both.
+            if self.checkpoint.swap(false, Ordering::SeqCst) {
+                run.checkpoint(sim, start);
+            }
+            if self.cancel.load(Ordering::SeqCst) {
                 return Err(EngineError::Cancelled { step: sim.steps_done() });
             }
             sim.step()?;
@@ -471,8 +572,16 @@ struct RunState<'a> {
     on_sample: &'a mut dyn FnMut(&Sample, &Progress),
     /// Called with every snapshot.
     on_snapshot: &'a mut dyn FnMut(&Snapshot),
+    /// Called with every checkpoint.
+    on_checkpoint: &'a mut dyn FnMut(&Checkpoint),
     /// Step of the last snapshot taken.
     last_snapshot: Option<u64>,
+    /// Samples taken since the run started (before a checkpoint it resumes from included).
+    samples: u64,
+    /// Snapshots taken, counted likewise.
+    snapshots: u64,
+    /// Equilibrium checks passed in a row in the current stage.
+    settled: u32,
     /// When the run started.
     started: std::time::Instant,
     /// Packing fraction at the start.
@@ -495,6 +604,7 @@ impl RunState<'_> {
             s.strain = Some(StrainSample::between(runner.dim, a.as_slice(), b.as_slice()));
         }
         self.analysis.push(&s);
+        self.samples += 1;
         let fraction = runner.fraction(sim, self.phi0, start);
         let elapsed = self.started.elapsed().as_secs_f64();
         let remaining = (fraction > 1e-6).then(|| elapsed * (1.0 - fraction) / fraction);
@@ -506,8 +616,31 @@ impl RunState<'_> {
     fn snapshot(&mut self, sim: &dyn Simulation) {
         if self.runner.snapshot_every.is_some() && self.last_snapshot != Some(sim.steps_done()) {
             self.last_snapshot = Some(sim.steps_done());
+            self.snapshots += 1;
             (self.on_snapshot)(&sim.snapshot());
         }
+    }
+
+    /// Reports a checkpoint of the run now, within the stage that began at `start`.
+    fn checkpoint(&mut self, sim: &dyn Simulation, start: &StageStart) {
+        if sim.resumable().is_err() {
+            return;
+        }
+        let l = start.lengths;
+        let cp = Checkpoint {
+            format: CHECKPOINT_FORMAT.into(),
+            version: CHECKPOINT_VERSION,
+            clock: sim.clock(),
+            stage: StagePoint { index: start.index, step: start.step, time: start.time, lengths: [l[0], l[1], l[2]], strain: start.strain },
+            phi0: self.phi0,
+            next_sample_time: self.next_time.is_finite().then_some(self.next_time),
+            samples: self.samples,
+            snapshots: self.snapshots,
+            settled: self.settled,
+            last_snapshot: self.last_snapshot,
+            state: sim.saved_state(),
+        };
+        (self.on_checkpoint)(&cp);
     }
 
     /// Whether a sample is due after the step just taken (moving on the next sampling time).

@@ -7,7 +7,7 @@ use std::time::Duration;
 use sable_engine::observe::Sample;
 use sable_proto::v1 as pb;
 use sable_proto::v1::finish_job_request::Outcome as PbOutcome;
-use sable_worker::{Lease, Outcome, Report, SnapshotFiles};
+use sable_worker::{CheckpointFile, Lease, Outcome, Report, SnapshotFiles};
 use tokio_stream::Stream;
 use tonic::{Request, Response, Status};
 
@@ -286,7 +286,7 @@ pub struct WorkersService {
 }
 
 fn lease_of(job_id: i64, lease_id: String) -> Lease {
-    Lease { job_id, lease_id, scene_json: String::new(), attempt: 0 }
+    Lease { job_id, lease_id, scene_json: String::new(), attempt: 0, resume: None }
 }
 
 fn worker_status(e: StoreError) -> Status {
@@ -309,15 +309,30 @@ impl pb::workers_server::Workers for WorkersService {
             return Err(Status::invalid_argument("worker: must be 1 to 200 characters and not start with 'local:' (reserved)"));
         }
         let lease = self.store.lease_next(&format!("remote:{worker}")).await.map_err(worker_status)?;
-        Ok(Response::new(pb::LeaseJobResponse {
-            lease: lease.map(|l| pb::Lease {
-                job_id: l.job_id,
-                lease_id: l.lease_id,
-                scene_json: l.scene_json,
-                attempt: l.attempt,
-                lease_seconds: self.lease_seconds,
-            }),
-        }))
+        let lease = match lease {
+            Some(l) => {
+                let resume = match l.resume {
+                    Some(r) => {
+                        let mut samples_json = Vec::with_capacity(r.samples.len());
+                        for s in &r.samples {
+                            samples_json.push(serde_json::to_string(s).map_err(|e| Status::internal(format!("a stored sample: {e}")))?);
+                        }
+                        Some(pb::ResumeFrom { step: r.step, checkpoint_gz: r.checkpoint, samples_json })
+                    }
+                    None => None,
+                };
+                Some(pb::Lease {
+                    job_id: l.job_id,
+                    lease_id: l.lease_id,
+                    scene_json: l.scene_json,
+                    attempt: l.attempt,
+                    lease_seconds: self.lease_seconds,
+                    resume,
+                })
+            }
+            None => None,
+        };
+        Ok(Response::new(pb::LeaseJobResponse { lease }))
     }
 
     async fn report_progress(&self, req: Request<pb::ReportProgressRequest>) -> Result<Response<pb::ReportProgressResponse>, Status> {
@@ -356,12 +371,23 @@ impl pb::workers_server::Workers for WorkersService {
                 walls: f.walls_gz,
             });
         }
+        let checkpoint = match r.checkpoint {
+            // The header only, as for snapshots: it is decompressed, with a bound, when a
+            // worker goes on from it.
+            Some(c) if !c.data_gz.starts_with(&[0x1f, 0x8b]) => {
+                return Err(Status::invalid_argument("checkpoint.data_gz: not a gzip stream"))
+            }
+            Some(c) => Some(CheckpointFile { step: c.step, samples: c.samples, snapshots: c.snapshots, data: c.data_gz }),
+            None => None,
+        };
         let report = Report {
             fraction: r.fraction,
             remaining_seconds: (r.remaining_seconds >= 0.0).then_some(r.remaining_seconds),
             samples,
             snapshots,
             first_sample: r.first_sample,
+            checkpoint,
+            from_start: r.from_start,
         };
         let cancel = self.store.report(&lease_of(r.job_id, r.lease_id), &report).await.map_err(worker_status)?;
         Ok(Response::new(pb::ReportProgressResponse { cancel_requested: cancel }))

@@ -37,6 +37,8 @@ pub struct ServeConfig {
     pub lease_ttl: Duration,
     /// Interval of worker reports (samples, lease renewal, cancellation check).
     pub report_interval: Duration,
+    /// Interval of the local workers' checkpoints (None: only when the server stops).
+    pub checkpoint_interval: Option<Duration>,
     /// Heartbeat interval of idle event streams.
     pub heartbeat: Duration,
     /// Request limits.
@@ -63,6 +65,7 @@ impl Default for ServeConfig {
             threads_per_job: 0,
             lease_ttl: Duration::from_secs(30),
             report_interval: Duration::from_millis(250),
+            checkpoint_interval: Some(sable_worker::DEFAULT_CHECKPOINT_INTERVAL),
             heartbeat: Duration::from_secs(15),
             limits: crate::api::Limits::default(),
             tokens: Arc::default(),
@@ -203,6 +206,7 @@ impl Server {
                 pc.threads_per_job = cfg.threads_per_job;
             }
             pc.report_interval = cfg.report_interval;
+            pc.checkpoint_interval = cfg.checkpoint_interval;
             Pool::start(Arc::new(store.clone()), pc, store.queued.clone())
         });
 

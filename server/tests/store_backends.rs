@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use sable_engine::observe::Sample;
 use sable_server::store::{Backend, DbLocation, JobLimits, JobStore, LeaseConfig, ListFilter, NewJob, NewRun, StoreError};
-use sable_worker::{Lease, Outcome, Report, SnapshotFiles};
+use sable_worker::{CheckpointFile, Lease, Outcome, Report, SnapshotFiles};
 
 use common::postgres;
 
@@ -55,7 +55,7 @@ fn sample(step: u64, phi: f64) -> Sample {
 }
 
 fn report(samples: Vec<Sample>, fraction: f64) -> Report {
-    Report { fraction, remaining_seconds: Some(1.0), samples, snapshots: Vec::new(), first_sample: None }
+    Report { fraction, remaining_seconds: Some(1.0), samples, ..Report::default() }
 }
 
 fn succeeded(steps: u64) -> Outcome {
@@ -251,6 +251,80 @@ async fn a_job_stores_no_more_than_the_servers_limits() {
         r.snapshots = vec![snapshot(1)];
         assert!(s.report(&l, &r).await.is_err(), "{at}");
         assert_eq!(ended("--max-job-bytes")(&s, l.job_id).await, 1, "{at}");
+        s.close().await;
+    }
+}
+
+/// Checkpoints: stored with the report that carries them (once its samples are); a job leased
+/// again after its worker died goes on from its last checkpoint, with the samples and snapshots
+/// stored after it dropped, those before it handed to the worker, and the step it goes on from
+/// in its state event; its new samples are numbered on from there. A worker that cannot use
+/// the checkpoint says so and everything earlier goes; an ended job's checkpoint goes. Before,
+/// every new attempt started from step 0.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_run_again_goes_on_from_its_last_checkpoint() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for at in locations(&dir).await {
+        let s = open(&at, 200).await;
+        let (j, _) = s.submit(job("long", 0, None)).await.expect("submit");
+        let l1 = s.lease_next("w1").await.expect("lease").expect("a job");
+        assert_eq!(l1.resume, None, "{at}: a first attempt starts from step 0");
+        let snapshot = |index: u32| SnapshotFiles { index, step: u64::from(index) * 100, ..SnapshotFiles::default() };
+        let checkpoint =
+            |step: u64, samples: u64| CheckpointFile { step, samples, snapshots: 1, data: format!("state at {step}").into_bytes() };
+        let mut r = report((1..=3).map(|k| sample(k * 100, 0.5)).collect(), 0.3);
+        r.first_sample = Some(0);
+        r.snapshots = vec![snapshot(0)];
+        r.checkpoint = Some(checkpoint(300, 3));
+        s.report(&l1, &r).await.expect("report with a checkpoint");
+        // A checkpoint that claims samples not stored is not kept.
+        let mut r = report(vec![sample(400, 0.5)], 0.4);
+        r.first_sample = Some(3);
+        r.snapshots = vec![snapshot(1)];
+        r.checkpoint = Some(checkpoint(900, 9));
+        s.report(&l1, &r).await.expect("report");
+
+        // The worker dies; its lease runs out.
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert_eq!(s.requeue_expired(None).await.expect("reaper"), 1, "{at}");
+        let l2 = s.lease_next("w2").await.expect("lease").expect("the job again");
+        let resume = l2.resume.clone().expect("a checkpoint to go on from");
+        assert_eq!((resume.step, resume.checkpoint.as_slice()), (300, b"state at 300".as_slice()), "{at}");
+        assert_eq!(resume.samples.iter().map(|x| x.step).collect::<Vec<_>>(), vec![100, 200, 300], "{at}");
+        assert_eq!(s.samples(j.id, 0, None).await.expect("samples").len(), 3, "{at}: the sample after the checkpoint is dropped");
+        assert_eq!(s.snapshots(j.id).await.expect("snapshots").len(), 1, "{at}: so is the snapshot");
+        let events = s.events_after(j.id, 0, 100).await.expect("events");
+        let running = events.iter().rev().find(|e| e.kind == "state").expect("a state event");
+        let payload: serde_json::Value = serde_json::from_str(&running.payload).expect("JSON");
+        assert_eq!(payload["resumed_from_step"], 300, "{at}: {payload}");
+        // The resumed attempt numbers its samples on from the checkpoint's.
+        let mut r = report(vec![sample(400, 0.51), sample(500, 0.52)], 0.5);
+        r.first_sample = Some(3);
+        s.report(&l2, &r).await.expect("resumed report");
+        s.report(&l2, &r).await.expect("the same report again");
+        let all = s.samples(j.id, 0, None).await.expect("samples");
+        assert_eq!(all.iter().map(|x| x.step).collect::<Vec<_>>(), vec![100, 200, 300, 400, 500], "{at}: each sample once");
+        assert_eq!(all[3].phi, 0.51, "{at}: the resumed attempt's sample");
+        s.finish(&l2, &succeeded(500)).await.expect("finish");
+        // Ended: nothing to go on from any more (a new lease of another job does not see it).
+        s.submit(job("next", 0, None)).await.expect("submit");
+        let l3 = s.lease_next("w3").await.expect("lease").expect("the next job");
+        assert_eq!(l3.resume, None, "{at}");
+
+        // A worker that cannot go on from the checkpoint starts over: everything earlier goes.
+        let mut r = report(vec![sample(100, 0.5), sample(200, 0.5)], 0.2);
+        r.first_sample = Some(0);
+        r.checkpoint = Some(checkpoint(200, 2));
+        s.report(&l3, &r).await.expect("report");
+        s.finish(&l3, &Outcome::Released).await.expect("hand back");
+        let l4 = s.lease_next("w4").await.expect("lease").expect("the job again");
+        assert_eq!(l4.resume.as_ref().map(|r| r.step), Some(200), "{at}: a job handed back goes on from its checkpoint");
+        let mut r = report(vec![sample(0, 0.4)], 0.0);
+        r.first_sample = Some(0);
+        r.from_start = true;
+        s.report(&l4, &r).await.expect("from the start");
+        let all = s.samples(l4.job_id, 0, None).await.expect("samples");
+        assert_eq!(all.iter().map(|x| x.step).collect::<Vec<_>>(), vec![0], "{at}");
         s.close().await;
     }
 }

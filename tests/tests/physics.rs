@@ -8,6 +8,8 @@
 
 mod common;
 
+#[path = "checkpoints.rs"]
+mod checkpoints;
 #[path = "experiments.rs"]
 mod experiments;
 #[path = "golden_samples.rs"]

@@ -344,6 +344,121 @@ async fn a_worker_that_stops_reporting_loses_its_job_to_another(backend: Backend
     pool.shutdown(Duration::from_secs(2)).await;
 }
 
+/// A remote worker pool over gRPC with checkpoints every `checkpoint` (None: only when it stops).
+fn remote_pool(h: &Harness, name: &str, checkpoint: Option<Duration>) -> sable_worker::Pool {
+    let remote = sable_worker::remote::RemoteSource::new(&format!("http://{}", h.server().grpc_addr)).expect("client");
+    let mut pc = sable_worker::PoolConfig::new(name, 1);
+    pc.report_interval = Duration::from_millis(100);
+    pc.threads_per_job = 1;
+    pc.checkpoint_interval = checkpoint;
+    sable_worker::Pool::start(Arc::new(remote), pc, Arc::new(tokio::sync::Notify::new()))
+}
+
+/// The step each attempt of job `id` went on from, from its `running` state events (0: from
+/// the start).
+async fn resumed_steps(h: &Harness, id: i64) -> Vec<i64> {
+    let events = h.server().store.events_after(id, 0, 10_000).await.expect("events");
+    events
+        .iter()
+        .filter(|e| e.kind == "state")
+        .filter_map(|e| serde_json::from_str::<Value>(&e.payload).ok())
+        .filter(|p| p["state"] == "running")
+        .map(|p| p["resumed_from_step"].as_i64().unwrap_or(0))
+        .collect()
+}
+
+/// Waits until job `id` has done at least `fraction` of its run.
+async fn wait_progress(h: &Harness, id: i64, fraction: f64) {
+    let start = Instant::now();
+    loop {
+        let (_, job) = h.get(&format!("/v1/jobs/{id}")).await;
+        if job["progress"].as_f64().unwrap_or(0.0) >= fraction {
+            return;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "job {id} stayed at {}", job["progress"]);
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// Issue 71, finding 8: a job whose worker dies (a crash: nothing more is written) goes on from
+/// its last checkpoint when another worker leases it, and a worker that stops (the Slurm
+/// example's hand-back, SIGTERM before the allocation ends) saves one as it hands the job back.
+/// The samples before each checkpoint are kept, none is stored twice, and the run ends at its
+/// steps with every sample. Before, each new attempt ran from step 0.
+async fn a_job_goes_on_from_its_checkpoint_after_a_crash_and_a_hand_back(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
+    // About 3 s of DEM on one thread; a sample every 10,000 steps.
+    let mut long = scene(900_000, 3);
+    long["sampling"] = json!({"every_steps": 10_000});
+    let (_, job) = h.post("/v1/jobs", &long, None).await;
+    let id = job["id"].as_i64().expect("id");
+
+    // A worker with checkpoints every 0.2 s dies a third of the way.
+    let first = remote_pool(&h, "crashes", Some(Duration::from_millis(200)));
+    wait_progress(&h, id, 0.33).await;
+    first.abort();
+    h.wait_state(id, &["queued"], Duration::from_secs(8)).await;
+
+    // The next one saves no checkpoint on its own but one as it is stopped, two thirds of the way.
+    let second = remote_pool(&h, "handed-back", None);
+    wait_progress(&h, id, 0.66).await;
+    second.shutdown(Duration::from_secs(10)).await;
+    let (_, queued) = h.get(&format!("/v1/jobs/{id}")).await;
+    assert_eq!(
+        (queued["state"].as_str(), queued["attempts"].as_i64()),
+        (Some("queued"), Some(1)),
+        "a hand-back is not an attempt: {queued}"
+    );
+
+    let third = remote_pool(&h, "finishes", None);
+    let done = h.wait_state(id, &["succeeded"], Duration::from_secs(30)).await;
+    third.shutdown(Duration::from_secs(2)).await;
+    assert_eq!((done["steps"].as_i64(), done["sample_count"].as_i64()), (Some(900_000), Some(91)), "{done}");
+    let from = resumed_steps(&h, id).await;
+    assert_eq!(from.len(), 3, "three attempts ran: {from:?}");
+    assert_eq!(from[0], 0);
+    assert!(from[1] >= 200_000 && from[1] < from[2] && from[2] >= 500_000, "attempts went on from steps {from:?}");
+    let (_, samples) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    let steps: Vec<i64> = samples["samples"].as_array().expect("samples").iter().map(|s| s["step"].as_i64().expect("step")).collect();
+    assert_eq!(steps, (0..=90).map(|k| k * 10_000).collect::<Vec<_>>(), "each sample once, in order");
+    eprintln!("attempts went on from steps {from:?} of 900,000");
+}
+
+/// A checkpoint the next worker cannot go on from (here not a checkpoint at all: another
+/// engine's format would be the same) does not cost the job: the worker says so with its first
+/// report, the store drops what the earlier attempt stored, and the run goes from step 0 to its
+/// end with every sample once.
+async fn a_checkpoint_a_worker_cannot_use_makes_the_job_start_over(backend: Backend) {
+    let Some(h) = Harness::start(backend, 0).await else { return };
+    let (_, job) = h.post("/v1/jobs", &scene(500, 1), None).await;
+    let id = job["id"].as_i64().expect("id");
+    let store = h.server().store.clone();
+    let dead = store.lease_next("remote:dead").await.expect("lease").expect("a job");
+    let samples: Vec<sable_engine::observe::Sample> =
+        (0..3).map(|k| sable_engine::observe::Sample { step: k * 100, ..Default::default() }).collect();
+    let report = sable_worker::Report {
+        fraction: 0.4,
+        samples,
+        first_sample: Some(0),
+        checkpoint: Some(sable_worker::CheckpointFile {
+            step: 200,
+            samples: 3,
+            snapshots: 0,
+            data: sable_worker::source::gzip("{\"format\": \"something else\"}"),
+        }),
+        ..Default::default()
+    };
+    store.report(&dead, &report).await.expect("a report with a checkpoint");
+    h.wait_state(id, &["queued"], Duration::from_secs(6)).await;
+    let pool = remote_pool(&h, "fresh", None);
+    let done = h.wait_state(id, &["succeeded"], Duration::from_secs(20)).await;
+    pool.shutdown(Duration::from_secs(2)).await;
+    assert_eq!((done["steps"].as_i64(), done["sample_count"].as_i64()), (Some(500), Some(6)), "{done}");
+    let (_, samples) = h.get(&format!("/v1/jobs/{id}/samples")).await;
+    let phis: Vec<f64> = samples["samples"].as_array().expect("samples").iter().map(|s| s["phi"].as_f64().unwrap_or(0.0)).collect();
+    assert!(phis.iter().all(|&phi| phi > 0.0), "a sample of the dead attempt was kept: {phis:?}");
+}
+
 async fn a_restarted_server_finishes_the_job_that_was_running(backend: Backend) {
     let Some(h) = Harness::start(backend, 1).await else { return };
     // Long enough (about 2 s) to be caught running; a sample every 20,000 steps.
@@ -1413,6 +1528,8 @@ on_both_backends!(
     the_same_idempotency_key_returns_the_same_job,
     cancelling_a_running_job_stops_it_within_a_second,
     a_worker_that_stops_reporting_loses_its_job_to_another,
+    a_job_goes_on_from_its_checkpoint_after_a_crash_and_a_hand_back,
+    a_checkpoint_a_worker_cannot_use_makes_the_job_start_over,
     a_restarted_server_finishes_the_job_that_was_running,
     a_stopped_server_hands_back_its_running_job_without_counting_an_attempt,
     fifty_concurrent_submissions_all_finish_once,

@@ -7,12 +7,17 @@ use std::time::{Duration, Instant};
 use sable_engine::methods::soft::trace::NewtonSink;
 use sable_engine::methods::{plan_scene, Plan};
 use sable_engine::observe::{Sample, Snapshot};
-use sable_engine::run::{Progress, RunSummary, Runner};
+use sable_engine::resume::Checkpoint;
+use sable_engine::run::{Progress, Resume, RunSummary, Runner};
 use sable_engine::scene::{format_violations, StateFile};
 use sable_engine::EngineError;
 use tokio_util::sync::CancellationToken;
 
-use crate::source::{gzip, JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
+use crate::source::{gunzip, gzip, CheckpointFile, JobSource, Lease, Outcome, Report, ResumeFrom, SnapshotFiles, SourceError};
+
+/// Largest checkpoint read back from a lease, bytes once decompressed (as a final state:
+/// about two million particles in 3D).
+pub const MAX_CHECKPOINT_BYTES: u64 = 1 << 30;
 
 /// Builds the plan's method on its scene and runs it to its stop criteria with `runner`.
 pub fn run_scene(scene: &Plan, runner: &Runner, on_sample: &mut dyn FnMut(&Sample, &Progress)) -> Result<RunSummary, EngineError> {
@@ -43,6 +48,60 @@ pub fn run_scene_traced(
         sim.trace_newton(sink);
     }
     let summary = runner.run_with_snapshots(sim.as_mut(), on_sample, on_snapshot)?;
+    Ok((summary, sim.saved_state()))
+}
+
+/// Runs a leased job: from `resume` when given (falling back to the scene's start, with
+/// [`Msg::FromStart`] sent, if the checkpoint's state cannot be built), else from the start;
+/// snapshots numbered from the checkpoint's count, checkpoints sent gzip-compressed.
+#[allow(clippy::too_many_arguments)]
+fn run_job(
+    job: i64,
+    scene: &Plan,
+    resume: Option<Resumable>,
+    runner: &Runner,
+    on_sample: &mut dyn FnMut(&Sample, &Progress),
+    on_snapshot: &mut dyn FnMut(u32, &Snapshot),
+    on_checkpoint: &mut dyn FnMut(Msg),
+) -> Result<(RunSummary, StateFile), EngineError> {
+    let resumed = match resume {
+        Some(r) => match r.plan.build() {
+            Ok(sim) => Some((sim, r)),
+            Err(e) => {
+                on_checkpoint(Msg::FromStart(format!(
+                    "job {job}: the state of the checkpoint at step {} cannot be built: {e}",
+                    r.checkpoint.clock.steps
+                )));
+                None
+            }
+        },
+        None => None,
+    };
+    let (mut sim, resume) = match resumed {
+        Some((sim, r)) => (sim, Some(r)),
+        None => (scene.build()?, None),
+    };
+    let mut index = resume.as_ref().map_or(0, |r| u32::try_from(r.checkpoint.snapshots).unwrap_or(u32::MAX));
+    let summary = runner.run_resumable(
+        sim.as_mut(),
+        resume.as_ref().map(|r| Resume { checkpoint: &r.checkpoint, samples: &r.samples }),
+        on_sample,
+        &mut |s| {
+            on_snapshot(index, s);
+            index = index.saturating_add(1);
+        },
+        &mut |c| {
+            // Written here, off the async threads; a checkpoint that cannot be written is skipped.
+            if let Ok(text) = serde_json::to_string(c) {
+                on_checkpoint(Msg::Checkpoint(CheckpointFile {
+                    step: c.clock.steps,
+                    samples: c.samples,
+                    snapshots: c.snapshots,
+                    data: gzip(&text),
+                }));
+            }
+        },
+    )?;
     Ok((summary, sim.saved_state()))
 }
 
@@ -90,6 +149,9 @@ impl Drop for CancelOnDrop {
 enum Msg {
     Sample(Box<Sample>, Progress),
     Snapshot(SnapshotFiles),
+    Checkpoint(CheckpointFile),
+    /// The lease's checkpoint could not be gone on from (why): the run starts from step 0.
+    FromStart(String),
 }
 
 /// Timing of the reports of one job.
@@ -97,6 +159,37 @@ enum Msg {
 pub struct ReportTiming {
     /// Samples and progress are flushed (and the lease renewed) at this interval.
     pub interval: Duration,
+    /// A checkpoint is saved at this interval of wall time (None: only when the worker stops).
+    pub checkpoint: Option<Duration>,
+}
+
+/// A lease's checkpoint, ready to go on from: the scene made to start from its state (with
+/// the thread budget applied), the checkpoint, and the samples before it.
+struct Resumable {
+    plan: Plan,
+    checkpoint: Checkpoint,
+    samples: Vec<Sample>,
+}
+
+/// Reads the checkpoint of `from` and makes `scene_json` go on from it, on `threads` threads;
+/// why not if this engine cannot (another version of the format, a state the scene refuses).
+fn resumable(from: &ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
+    let text = gunzip(&from.checkpoint, MAX_CHECKPOINT_BYTES).map_err(|e| format!("cannot be read: {e}"))?;
+    let checkpoint = Checkpoint::from_json(&text)?;
+    let json = checkpoint.scene_to_resume(scene_json)?;
+    let mut plan = plan_scene(&json).map_err(|v| format!("the scene does not go on from its state: {}", format_violations(&v)))?;
+    apply_thread_budget(&mut plan, threads);
+    Ok(Resumable { plan, checkpoint, samples: from.samples.clone() })
+}
+
+/// Waits for the next tick of `t`, or for ever without one.
+async fn tick_of(t: &mut Option<tokio::time::Interval>) {
+    match t {
+        Some(t) => {
+            t.tick().await;
+        }
+        None => std::future::pending().await,
+    }
 }
 
 /// Runs a leased job to its end and reports its outcome. Returns the outcome reported (or
@@ -123,6 +216,15 @@ pub async fn execute<S: JobSource>(
         }
     };
     let threads = apply_thread_budget(&mut scene, threads);
+    // Why the lease's checkpoint cannot be gone on from, if it cannot.
+    let mut unusable = None;
+    let resume = lease.resume.as_ref().and_then(|from| match resumable(from, &lease.scene_json, threads) {
+        Ok(r) => Some(r),
+        Err(why) => {
+            unusable = Some(format!("job {}: cannot go on from the checkpoint at step {}: {why}", lease.job_id, from.step));
+            None
+        }
+    });
     let pool = match job_pool(threads) {
         Ok(p) => p,
         Err(message) => {
@@ -136,27 +238,37 @@ pub async fn execute<S: JobSource>(
     };
     let runner = Runner::for_scene(&scene);
     let cancel = runner.cancel.clone();
+    let checkpoint = runner.checkpoint.clone();
     // If this future is dropped (the pool aborted), the engine stops too.
     let _guard = CancelOnDrop(cancel.clone());
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Msg>();
+    if let Some(why) = unusable {
+        let _ = tx.send(Msg::FromStart(why));
+    }
+    // The first sample this attempt reports, and the step it starts from.
+    let (first_sample, mut last_step) = resume.as_ref().map_or((0, 0), |r| (r.checkpoint.samples, r.checkpoint.clock.steps));
     let started = Instant::now();
+    let job = lease.job_id;
     let mut engine = tokio::task::spawn_blocking(move || {
         std::panic::catch_unwind(AssertUnwindSafe(|| {
-            let snapshots_tx = tx.clone();
-            let mut index = 0u32;
+            let (snapshots_tx, checkpoints_tx) = (tx.clone(), tx.clone());
             pool.install(|| {
                 // The CPU time of every thread of the job's pool, before and after the run.
                 let cpu_start = pool_cpu_seconds();
-                let run = run_scene_with_snapshots(
+                let run = run_job(
+                    job,
                     &scene,
+                    resume,
                     &runner,
                     &mut |s, p| {
                         // Never blocks: the physics does not wait for the reports.
                         let _ = tx.send(Msg::Sample(Box::new(s.clone()), *p));
                     },
-                    &mut |s| {
+                    &mut |index, s| {
                         let _ = snapshots_tx.send(Msg::Snapshot(SnapshotFiles::encode(index, s)));
-                        index += 1;
+                    },
+                    &mut |c| {
+                        let _ = checkpoints_tx.send(c);
                     },
                 )
                 // Compressed here, off the async threads.
@@ -166,15 +278,20 @@ pub async fn execute<S: JobSource>(
         }))
     });
 
-    let mut pending = Report::default();
+    let mut pending = Report { first_sample: Some(first_sample), ..Report::default() };
     let mut tick = tokio::time::interval(timing.interval);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut checkpoints = timing.checkpoint.map(|every| {
+        let mut t = tokio::time::interval_at(tokio::time::Instant::now() + every, every);
+        t.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        t
+    });
     let mut released = false;
     let mut lost = false;
-    let mut last_step = 0;
     let result = loop {
         tokio::select! {
             r = &mut engine => break r,
+            _ = tick_of(&mut checkpoints) => checkpoint.store(true, Ordering::SeqCst),
             Some(msg) = rx.recv() => receive(msg, &mut pending, &mut last_step),
             _ = tick.tick() => {
                 if lost {
@@ -193,8 +310,11 @@ pub async fn execute<S: JobSource>(
                 }
             }
             _ = shutdown.cancelled(), if !released => {
+                // A checkpoint first, stored with the last report: the next attempt goes on
+                // from it.
                 released = true;
-                cancel.store(true, Ordering::Relaxed);
+                checkpoint.store(true, Ordering::SeqCst);
+                cancel.store(true, Ordering::SeqCst);
             }
         }
     };
@@ -240,14 +360,13 @@ pub async fn execute<S: JobSource>(
             cpu_seconds: 0.0,
         },
     };
-    if outcome != Outcome::Released {
-        // The last samples go in before the outcome; retried while the store is unreachable.
-        for attempt in 0..20 {
-            match flush(source, lease, &mut pending).await {
-                Ok(_) => break,
-                Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
-                Err(SourceError::Unavailable(_)) => tokio::time::sleep(retry_pause(attempt)).await,
-            }
+    // The last samples (and a job handed back: its checkpoint) go in before the outcome;
+    // retried while the store is unreachable.
+    for attempt in 0..20 {
+        match flush(source, lease, &mut pending).await {
+            Ok(_) => break,
+            Err(SourceError::LeaseLost { .. } | SourceError::Refused(_)) => return None,
+            Err(SourceError::Unavailable(_)) => tokio::time::sleep(retry_pause(attempt)).await,
         }
     }
     finish(source, lease, outcome).await
@@ -272,6 +391,8 @@ async fn flush<S: JobSource>(source: &S, lease: &Lease, pending: &mut Report) ->
     pending.first_sample = Some(sent);
     pending.samples.clear();
     pending.snapshots.clear();
+    pending.checkpoint = None;
+    pending.from_start = false;
     Ok(cancelled)
 }
 
@@ -285,6 +406,12 @@ fn receive(msg: Msg, pending: &mut Report, last_step: &mut u64) {
             pending.samples.push(*s);
         }
         Msg::Snapshot(f) => pending.snapshots.push(f),
+        // A newer checkpoint replaces one not sent yet.
+        Msg::Checkpoint(c) => pending.checkpoint = Some(c),
+        Msg::FromStart(why) => {
+            eprintln!("{why}; the job runs from step 0");
+            pending.from_start = true;
+        }
     }
 }
 

@@ -16,5 +16,5 @@ pub mod remote;
 pub mod source;
 
 pub use execute::run_scene;
-pub use pool::{Pool, PoolConfig, PoolStats};
-pub use source::{JobSource, Lease, Outcome, Report, SnapshotFiles, SourceError};
+pub use pool::{Pool, PoolConfig, PoolStats, DEFAULT_CHECKPOINT_INTERVAL};
+pub use source::{CheckpointFile, JobSource, Lease, Outcome, Report, ResumeFrom, SnapshotFiles, SourceError};

@@ -11,6 +11,10 @@ use tokio_util::sync::CancellationToken;
 use crate::execute::{execute, ReportTiming};
 use crate::source::{JobSource, SourceError};
 
+/// How often a running job saves a checkpoint unless told otherwise: ten minutes, so that a
+/// worker lost costs at most that much of a job's run.
+pub const DEFAULT_CHECKPOINT_INTERVAL: Duration = Duration::from_secs(600);
+
 /// Settings of a worker pool.
 #[derive(Debug, Clone)]
 pub struct PoolConfig {
@@ -25,6 +29,9 @@ pub struct PoolConfig {
     /// How often a running job reports samples and renews its lease (also bounds how long a
     /// cancellation takes to reach the engine).
     pub report_interval: Duration,
+    /// How often a running job saves a checkpoint (wall time; None: only when the pool stops),
+    /// from which a later attempt goes on if this one does not finish ([`crate::execute`]).
+    pub checkpoint_interval: Option<Duration>,
 }
 
 impl PoolConfig {
@@ -39,6 +46,7 @@ impl PoolConfig {
             threads_per_job: (cores / workers).max(1),
             poll_interval: Duration::from_millis(500),
             report_interval: Duration::from_millis(250),
+            checkpoint_interval: Some(DEFAULT_CHECKPOINT_INTERVAL),
         }
     }
 }
@@ -75,7 +83,7 @@ impl Pool {
             let (source, config, wake, shutdown, stats) = (source.clone(), config.clone(), wake.clone(), shutdown.clone(), stats.clone());
             tasks.spawn(async move {
                 let me = format!("{}/{k}", config.name);
-                let timing = ReportTiming { interval: config.report_interval };
+                let timing = ReportTiming { interval: config.report_interval, checkpoint: config.checkpoint_interval };
                 while !shutdown.is_cancelled() {
                     match source.lease(&me).await {
                         Ok(Some(lease)) => {

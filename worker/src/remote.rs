@@ -5,7 +5,7 @@ use sable_proto::v1::workers_client::WorkersClient;
 use sable_proto::v1::{FinishJobRequest, LeaseJobRequest, ReportProgressRequest};
 use tonic::transport::Channel;
 
-use crate::source::{JobSource, Lease, Outcome, Report, SourceError};
+use crate::source::{JobSource, Lease, Outcome, Report, ResumeFrom, SourceError};
 
 /// Largest progress report a worker sends and the server accepts, and largest lease the worker
 /// reads, bytes (snapshots of large scenes make large reports; a scene that starts from a saved
@@ -59,7 +59,21 @@ fn status_error(s: tonic::Status, lease: Option<&Lease>) -> SourceError {
 impl JobSource for RemoteSource {
     async fn lease(&self, worker: &str) -> Result<Option<Lease>, SourceError> {
         let r = self.client.clone().lease_job(LeaseJobRequest { worker: worker.to_string() }).await.map_err(|s| status_error(s, None))?;
-        Ok(r.into_inner().lease.map(|l| Lease { job_id: l.job_id, lease_id: l.lease_id, scene_json: l.scene_json, attempt: l.attempt }))
+        let Some(l) = r.into_inner().lease else { return Ok(None) };
+        let resume = match l.resume {
+            Some(r) => {
+                let mut samples = Vec::with_capacity(r.samples_json.len());
+                for text in &r.samples_json {
+                    samples.push(
+                        serde_json::from_str(text)
+                            .map_err(|e| SourceError::Unavailable(format!("a sample of the lease is not valid: {e}")))?,
+                    );
+                }
+                Some(ResumeFrom { step: r.step, checkpoint: r.checkpoint_gz, samples })
+            }
+            None => None,
+        };
+        Ok(Some(Lease { job_id: l.job_id, lease_id: l.lease_id, scene_json: l.scene_json, attempt: l.attempt, resume }))
     }
 
     async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, SourceError> {
@@ -74,6 +88,13 @@ impl JobSource for RemoteSource {
             remaining_seconds: report.remaining_seconds.unwrap_or(-1.0),
             samples_json,
             first_sample: report.first_sample,
+            checkpoint: report.checkpoint.as_ref().map(|c| sable_proto::v1::Checkpoint {
+                step: c.step,
+                samples: c.samples,
+                snapshots: c.snapshots,
+                data_gz: c.data.clone(),
+            }),
+            from_start: report.from_start,
             snapshots: report
                 .snapshots
                 .iter()

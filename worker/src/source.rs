@@ -17,6 +17,34 @@ pub struct Lease {
     pub scene_json: String,
     /// Attempt number, from 1.
     pub attempt: u32,
+    /// The checkpoint an earlier attempt left, to go on from (None: run from step 0).
+    pub resume: Option<ResumeFrom>,
+}
+
+/// What a leased job goes on from ([`Lease::resume`]): the last checkpoint an earlier attempt
+/// stored, and the samples stored before it (the store has dropped the later ones).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResumeFrom {
+    /// Step of the checkpoint.
+    pub step: u64,
+    /// The checkpoint ([`sable_engine::resume::Checkpoint`]), gzip-compressed JSON.
+    pub checkpoint: Vec<u8>,
+    /// Every sample stored before it, in order.
+    pub samples: Vec<Sample>,
+}
+
+/// A checkpoint of the running attempt, stored with the report that carries it
+/// ([`Report::checkpoint`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CheckpointFile {
+    /// Step it was taken at.
+    pub step: u64,
+    /// Samples the run had taken before it (all stored by the report that carries it).
+    pub samples: u64,
+    /// Snapshots the run had taken before it.
+    pub snapshots: u64,
+    /// The checkpoint ([`sable_engine::resume::Checkpoint`]), gzip-compressed JSON.
+    pub data: Vec<u8>,
 }
 
 /// A batch of progress: the samples taken since the last report and where the run stands.
@@ -35,6 +63,13 @@ pub struct Report {
     /// answer was lost, stores its samples once: the store numbers them from it and skips
     /// those it has.
     pub first_sample: Option<u64>,
+    /// A checkpoint taken after this report's samples, stored in their place as the job's
+    /// last (None: none new).
+    pub checkpoint: Option<CheckpointFile>,
+    /// The attempt could not go on from its lease's checkpoint and runs from step 0: the store
+    /// drops what earlier attempts stored (samples, snapshots, checkpoint) before this report's
+    /// samples (sent with the first report only).
+    pub from_start: bool,
 }
 
 /// One snapshot as its three VTK files, each gzip-compressed

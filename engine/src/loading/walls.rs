@@ -80,6 +80,18 @@ impl Wall {
         self.integral = 0.0;
     }
 
+    /// What moves the wall on from one step to the next: its velocity (m/s) and its servo's
+    /// integral part (m/s), for a checkpoint ([`crate::resume::Clock`]).
+    pub fn servo_state(&self) -> [Real; 4] {
+        [self.velocity.x, self.velocity.y, self.velocity.z, self.integral]
+    }
+
+    /// Sets what [`Wall::servo_state`] returned.
+    pub fn set_servo_state(&mut self, s: [Real; 4]) {
+        self.velocity = Vec3::new(s[0], s[1], s[2]);
+        self.integral = s[3];
+    }
+
     /// Target of a stress-controlled wall, Pa.
     pub fn target_stress(&self) -> Option<Real> {
         match self.motion {

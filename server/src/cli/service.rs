@@ -56,6 +56,10 @@ pub struct ServeArgs {
     /// Largest number of bytes one job may store (samples, their events, snapshots).
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_job_bytes)]
     pub max_job_bytes: u64,
+    /// Seconds of wall time between two checkpoints of a running job, from which a later
+    /// attempt goes on if this one does not finish (0: only when the workers stop).
+    #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
+    pub checkpoint_every: f64,
     /// Seconds after which a connection with no byte either way is closed (REST and gRPC,
     /// TLS included; event streams and gRPC send heartbeats well within it).
     #[arg(long, default_value_t = sable_server::idle::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
@@ -145,6 +149,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         bail!("--idle-timeout: must be at least 1 second, got {}", a.idle_timeout);
     }
     cfg.idle_timeout = Duration::from_secs_f64(a.idle_timeout);
+    cfg.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
     cfg.limits = sable_server::api::Limits {
         max_particles: a.max_particles,
         max_steps: a.max_steps,
@@ -179,6 +184,10 @@ pub struct WorkerArgs {
     /// Threads per job (default: cores / workers).
     #[arg(long, default_value_t = 0)]
     pub threads_per_job: usize,
+    /// Seconds of wall time between two checkpoints of a running job, from which a later
+    /// attempt goes on if this one does not finish (0: only when the workers stop).
+    #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
+    pub checkpoint_every: f64,
     /// Name of this worker pool, as shown in the job store (default: host name and process id).
     #[arg(long)]
     pub name: Option<String>,
@@ -192,6 +201,14 @@ pub struct WorkerArgs {
 }
 
 /// `sable worker --server URL`.
+/// The interval of `--checkpoint-every SECONDS` (0: none but at the stop).
+fn checkpoint_interval(seconds: f64) -> anyhow::Result<Option<Duration>> {
+    if !(seconds.is_finite() && seconds >= 0.0) {
+        bail!("--checkpoint-every: must be 0 (only when the workers stop) or a number of seconds, got {seconds}");
+    }
+    Ok((seconds > 0.0).then(|| Duration::from_secs_f64(seconds.max(0.1))))
+}
+
 pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let name = a.name.clone().unwrap_or_else(|| {
@@ -205,6 +222,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         if a.threads_per_job > 0 {
             pc.threads_per_job = a.threads_per_job;
         }
+        pc.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
         let workers = pc.workers;
         let pool = sable_worker::Pool::start(Arc::new(source), pc, Arc::new(tokio::sync::Notify::new()));
         eprintln!("sable worker {name}: {workers} worker(s) leasing from {}; Ctrl-C to stop", a.server);

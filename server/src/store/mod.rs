@@ -23,7 +23,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use sable_engine::observe::Sample;
-use sable_worker::{JobSource, Lease, Outcome, Report, SourceError};
+use sable_worker::{JobSource, Lease, Outcome, Report, ResumeFrom, SourceError};
 use sqlx::{Any, AnyPool, Row, Transaction};
 use tokio::sync::{broadcast, Notify};
 
@@ -333,14 +333,20 @@ impl JobStore {
 
     /// Appends a state event carrying the job's current state, attempt and error.
     async fn state_event(&self, tx: &mut Tx, job: i64) -> Result<EventRow, StoreError> {
-        let r =
-            sqlx::query("SELECT state, attempts, error_code, error_message FROM jobs WHERE id = $1").bind(job).fetch_one(&mut **tx).await?;
-        let payload = serde_json::json!({
+        let r = sqlx::query("SELECT state, attempts, error_code, error_message, resumed_from_step FROM jobs WHERE id = $1")
+            .bind(job)
+            .fetch_one(&mut **tx)
+            .await?;
+        let mut payload = serde_json::json!({
             "state": r.get::<String, _>("state"),
             "attempt": r.get::<i64, _>("attempts"),
             "error_code": r.get::<Option<String>, _>("error_code"),
             "error_message": r.get::<Option<String>, _>("error_message"),
         });
+        // A running attempt that goes on from a checkpoint says from which step.
+        if let Some(step) = r.get::<Option<i64>, _>("resumed_from_step") {
+            payload["resumed_from_step"] = step.into();
+        }
         let seq = Self::next_seq(tx, job).await?;
         self.insert_event(tx, job, seq, "state", &payload).await
     }
@@ -471,6 +477,7 @@ impl JobStore {
                     .bind(id)
                     .execute(&mut *tx)
                     .await?;
+                Self::drop_checkpoint(&mut tx, id).await?;
                 events.push(self.state_event(&mut tx, id).await?);
             }
             Some(JobState::Running) => {
@@ -705,6 +712,7 @@ impl JobStore {
                 .bind(id)
                 .execute(&mut *tx)
                 .await?;
+                Self::drop_checkpoint(&mut tx, id).await?;
             }
             events.push((id, self.state_event(&mut tx, id).await?));
         }
@@ -741,12 +749,47 @@ impl JobStore {
             tx.rollback().await?;
             return Ok(None);
         };
-        // A new attempt starts from scratch: samples and snapshots of an earlier attempt are dropped.
-        sqlx::query("DELETE FROM samples WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
-        sqlx::query("DELETE FROM snapshots WHERE job_id = $1").bind(id).execute(&mut *tx).await?;
+        let resume = Self::resume_point(&mut tx, id).await?;
+        sqlx::query("UPDATE jobs SET resumed_from_step = $1 WHERE id = $2")
+            .bind(resume.as_ref().map(|r| i64::try_from(r.step).unwrap_or(i64::MAX)))
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
         self.commit_state(tx, id).await?;
         let scene = self.resolve_start(scene).await?;
-        Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32 }))
+        Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32, resume }))
+    }
+
+    /// Drops job `id`'s checkpoint in `tx`: an ended job is not run again.
+    async fn drop_checkpoint(tx: &mut Tx, id: i64) -> Result<(), StoreError> {
+        sqlx::query("DELETE FROM checkpoints WHERE job_id = $1").bind(id).execute(&mut **tx).await?;
+        Ok(())
+    }
+
+    /// Where a new attempt of job `id` starts, in `tx`: from the last checkpoint an earlier
+    /// attempt stored, with what was stored after it dropped and the samples before it read
+    /// back; else (none, or one whose samples are not all there) from scratch, everything
+    /// earlier attempts stored dropped.
+    async fn resume_point(tx: &mut Tx, id: i64) -> Result<Option<ResumeFrom>, StoreError> {
+        let checkpoint: Option<(i64, i64, i64, Vec<u8>)> =
+            sqlx::query_as("SELECT step, samples, snapshots, data FROM checkpoints WHERE job_id = $1")
+                .bind(id)
+                .fetch_optional(&mut **tx)
+                .await?;
+        if let Some((step, samples, snapshots, data)) = checkpoint {
+            sqlx::query("DELETE FROM samples WHERE job_id = $1 AND seq > $2").bind(id).bind(samples).execute(&mut **tx).await?;
+            sqlx::query("DELETE FROM snapshots WHERE job_id = $1 AND idx >= $2").bind(id).bind(snapshots).execute(&mut **tx).await?;
+            let rows: Vec<String> =
+                sqlx::query_scalar("SELECT data FROM samples WHERE job_id = $1 ORDER BY seq").bind(id).fetch_all(&mut **tx).await?;
+            let before: Vec<Sample> = rows.iter().filter_map(|r| serde_json::from_str(r).ok()).collect();
+            if before.len() as i64 == samples && samples > 0 {
+                return Ok(Some(ResumeFrom { step: step.max(0) as u64, checkpoint: data, samples: before }));
+            }
+        }
+        Self::drop_checkpoint(tx, id).await?;
+        sqlx::query("DELETE FROM samples WHERE job_id = $1").bind(id).execute(&mut **tx).await?;
+        sqlx::query("DELETE FROM snapshots WHERE job_id = $1").bind(id).execute(&mut **tx).await?;
+        Ok(None)
     }
 
     /// Checks the lease inside a transaction; renews it.
@@ -783,6 +826,7 @@ impl JobStore {
         .bind(lease.job_id)
         .execute(&mut *tx)
         .await?;
+        Self::drop_checkpoint(&mut tx, lease.job_id).await?;
         self.commit_state(tx, lease.job_id).await?;
         Err(StoreError::Conflict(format!("job {} stopped: {why}", lease.job_id)))
     }
@@ -791,6 +835,14 @@ impl JobStore {
     pub async fn report(&self, lease: &Lease, report: &Report) -> Result<bool, StoreError> {
         let mut tx = self.begin().await?;
         let cancel = self.hold(&mut tx, lease).await?;
+        if report.from_start {
+            // The worker could not go on from the checkpoint it was given: what earlier
+            // attempts stored goes, as for an attempt without one.
+            for table in ["checkpoints", "samples", "snapshots"] {
+                sqlx::query(&format!("DELETE FROM {table} WHERE job_id = $1")).bind(lease.job_id).execute(&mut *tx).await?;
+            }
+            sqlx::query("UPDATE jobs SET resumed_from_step = NULL WHERE id = $1").bind(lease.job_id).execute(&mut *tx).await?;
+        }
         // The samples of an attempt are numbered 1, 2, ... without gaps. A report sent again
         // because its answer was lost starts at or before the last one stored: those are
         // skipped, so every sample is stored once.
@@ -807,7 +859,12 @@ impl JobStore {
         let adding = (2 * rows.iter().map(String::len).sum::<usize>() + snapshot_bytes) as u64;
         let stored: i64 = sqlx::query_scalar("SELECT stored_bytes FROM jobs WHERE id = $1").bind(lease.job_id).fetch_one(&mut *tx).await?;
         let last_step = report.samples.last().map_or(0, |s| s.step);
-        if let Some(why) = self.limits.breach(seq.max(0) as u64 + rows.len() as u64, stored.max(0) as u64 + adding, last_step) {
+        // A checkpoint replaces the last one: it counts against the bytes a job may store
+        // while it is held, not added to them.
+        let checkpoint_bytes = report.checkpoint.as_ref().map_or(0, |c| c.data.len() as u64);
+        if let Some(why) =
+            self.limits.breach(seq.max(0) as u64 + rows.len() as u64, stored.max(0) as u64 + adding + checkpoint_bytes, last_step)
+        {
             return self.stop_at_limit(tx, lease, &why).await;
         }
         for (s, data) in fresh.iter().zip(rows) {
@@ -849,6 +906,25 @@ impl JobStore {
             .bind(&f.walls)
             .execute(&mut *tx)
             .await?;
+        }
+        if let Some(c) = &report.checkpoint {
+            // Stored only once every sample before it is (the report that carries it stores
+            // them): a resumed attempt numbers its samples from there.
+            if c.samples > 0 && seq >= i64::try_from(c.samples).unwrap_or(i64::MAX) {
+                sqlx::query(
+                    "INSERT INTO checkpoints (job_id, step, samples, snapshots, data, saved_at) VALUES ($1, $2, $3, $4, $5, $6) \
+                     ON CONFLICT (job_id) DO UPDATE SET step = excluded.step, samples = excluded.samples, \
+                     snapshots = excluded.snapshots, data = excluded.data, saved_at = excluded.saved_at",
+                )
+                .bind(lease.job_id)
+                .bind(i64::try_from(c.step).unwrap_or(i64::MAX))
+                .bind(c.samples as i64)
+                .bind(i64::try_from(c.snapshots).unwrap_or(i64::MAX))
+                .bind(&c.data)
+                .bind(now_ms())
+                .execute(&mut *tx)
+                .await?;
+            }
         }
         // One sample event per sample, carrying the progress of the batch.
         let mut events = Vec::with_capacity(fresh.len());
@@ -942,6 +1018,7 @@ impl JobStore {
                 .bind(solver_iterations.map(|n| n as i64))
                 .execute(&mut *tx)
                 .await?;
+                Self::drop_checkpoint(&mut tx, lease.job_id).await?;
                 if let Outcome::Succeeded { state: Some(gz), .. } = outcome {
                     sqlx::query(
                         "INSERT INTO job_states (job_id, state) VALUES ($1, $2) ON CONFLICT (job_id) DO UPDATE SET state = excluded.state",

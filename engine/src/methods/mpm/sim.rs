@@ -48,6 +48,10 @@ impl SoftSystem for System {
         &self.progress
     }
 
+    fn progress_mut(&mut self) -> &mut Progress {
+        &mut self.progress
+    }
+
     fn gravity(&self) -> V2 {
         self.settings.gravity
     }

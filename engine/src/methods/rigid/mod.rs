@@ -14,6 +14,7 @@ use crate::error::EngineError;
 use crate::math::{Real, Vec3};
 use crate::methods::world::in_own_pool;
 use crate::observe::{ContactRecord, Sample, Snapshot};
+use crate::resume::Clock;
 use crate::run::{Balance, GrainModel, Simulation};
 use crate::scene::{Controls, Stage, StateFile};
 
@@ -166,5 +167,36 @@ impl<M: RigidMethod> Simulation for M {
 
     fn saved_state(&self) -> StateFile {
         self.world().saved_state()
+    }
+
+    fn clock(&self) -> Clock {
+        let w = self.world();
+        Clock {
+            steps: w.step,
+            time: w.time,
+            len0: [w.len0[0], w.len0[1], w.len0[2]],
+            totals: Vec::new(),
+            shear_rate: w.domain.shear_rate,
+            walls: w.walls.iter().map(|wall| wall.servo_state()).collect(),
+        }
+    }
+
+    fn set_clock(&mut self, clock: &Clock) {
+        let w = self.world_mut();
+        w.step = clock.steps;
+        w.time = clock.time;
+        w.len0 = Vec3::from(clock.len0);
+        for (wall, s) in w.walls.iter_mut().zip(&clock.walls) {
+            wall.set_servo_state(*s);
+        }
+        // The grains' velocities are the state's: only the cell's rate is set back.
+        w.domain.shear_rate = clock.shear_rate;
+    }
+
+    fn resumable(&self) -> Result<(), String> {
+        match self.world().glued.len() {
+            0 => Ok(()),
+            n => Err(format!("{n} grains are glued to the walls, which a saved state does not record")),
+        }
     }
 }

@@ -28,6 +28,7 @@ use crate::observe::{
     measure, rattler_threshold, ContactRecord, DeformableSample, DeformableView, MaterialPoints, Sample, Snapshot, SystemView,
 };
 use crate::particles::Particles;
+use crate::resume::Clock;
 use crate::run::{Balance, Simulation};
 use crate::scene::{Controls, Material, Scene, StateFile, WallMotion};
 
@@ -39,6 +40,8 @@ pub trait SoftSystem: Send {
     fn advance(&mut self) -> Result<(u32, u32), InstabilityCause>;
     /// Steps, time and costs so far, the walls' loads of the last step.
     fn progress(&self) -> &Progress;
+    /// The same, to set the clock of a run that resumes from a checkpoint.
+    fn progress_mut(&mut self) -> &mut Progress;
     /// Steps done.
     fn steps(&self) -> u64 {
         self.progress().steps
@@ -415,6 +418,31 @@ impl<S: SoftSystem> Simulation for SoftSim<S> {
         let mut st = world::saved_state(self.sys.time(), self.sys.steps(), &self.domain, &self.materials, &disks);
         self.sys.save_grains(&mut st);
         st
+    }
+
+    fn clock(&self) -> Clock {
+        Clock {
+            steps: self.sys.steps(),
+            time: self.sys.time(),
+            len0: [self.len0[0], self.len0[1], 0.0],
+            totals: vec![self.work, self.energy0],
+            shear_rate: 0.0,
+            walls: self.walls.iter().map(|w| w.servo_state()).collect(),
+        }
+    }
+
+    fn set_clock(&mut self, clock: &Clock) {
+        let p = self.sys.progress_mut();
+        p.steps = clock.steps;
+        p.time = clock.time;
+        self.len0 = [clock.len0[0], clock.len0[1]];
+        if let [work, energy0] = clock.totals[..] {
+            self.work = work;
+            self.energy0 = energy0;
+        }
+        for (wall, s) in self.walls.iter_mut().zip(&clock.walls) {
+            wall.set_servo_state(*s);
+        }
     }
 
     fn trace_newton(&mut self, sink: NewtonSink) -> bool {
