@@ -45,6 +45,9 @@ enum Command {
     State(cli::service::StateArgs),
     /// Submit a study (speed against accuracy, or a stability search), follow it, get its chart.
     Study(cli::study::StudyArgs),
+    /// Run one job given on standard input (started by `serve` and `worker` for each job).
+    #[command(hide = true)]
+    JobRun,
 }
 
 fn main() -> std::process::ExitCode {
@@ -63,6 +66,7 @@ fn main() -> std::process::ExitCode {
         Command::Samples(a) => cli::service::samples(a),
         Command::State(a) => cli::service::state(a),
         Command::Study(a) => cli::study::study(a),
+        Command::JobRun => return std::process::ExitCode::from(sable_worker::child::job_process_main()),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -39,6 +39,8 @@ pub struct ServeConfig {
     pub report_interval: Duration,
     /// Interval of the local workers' checkpoints (None: only when the server stops).
     pub checkpoint_interval: Option<Duration>,
+    /// Where the local workers run each job's engine.
+    pub job_process: sable_worker::JobProcess,
     /// Heartbeat interval of idle event streams.
     pub heartbeat: Duration,
     /// Request limits.
@@ -66,6 +68,7 @@ impl Default for ServeConfig {
             lease_ttl: Duration::from_secs(30),
             report_interval: Duration::from_millis(250),
             checkpoint_interval: Some(sable_worker::DEFAULT_CHECKPOINT_INTERVAL),
+            job_process: sable_worker::JobProcess::InWorker,
             heartbeat: Duration::from_secs(15),
             limits: crate::api::Limits::default(),
             tokens: Arc::default(),
@@ -207,6 +210,7 @@ impl Server {
             }
             pc.report_interval = cfg.report_interval;
             pc.checkpoint_interval = cfg.checkpoint_interval;
+            pc.job_process = cfg.job_process.clone();
             Pool::start(Arc::new(store.clone()), pc, store.queued.clone())
         });
 

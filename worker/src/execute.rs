@@ -54,21 +54,18 @@ pub fn run_scene_traced(
 /// Runs a leased job: from `resume` when given (falling back to the scene's start, with
 /// [`Msg::FromStart`] sent, if the checkpoint's state cannot be built), else from the start;
 /// snapshots numbered from the checkpoint's count, checkpoints sent gzip-compressed.
-#[allow(clippy::too_many_arguments)]
 fn run_job(
     job: i64,
     scene: &Plan,
     resume: Option<Resumable>,
     runner: &Runner,
-    on_sample: &mut dyn FnMut(&Sample, &Progress),
-    on_snapshot: &mut dyn FnMut(u32, &Snapshot),
-    on_checkpoint: &mut dyn FnMut(Msg),
+    send: &(dyn Fn(Msg) + Sync),
 ) -> Result<(RunSummary, StateFile), EngineError> {
     let resumed = match resume {
         Some(r) => match r.plan.build() {
             Ok(sim) => Some((sim, r)),
             Err(e) => {
-                on_checkpoint(Msg::FromStart(format!(
+                send(Msg::FromStart(format!(
                     "job {job}: the state of the checkpoint at step {} cannot be built: {e}",
                     r.checkpoint.clock.steps
                 )));
@@ -85,15 +82,16 @@ fn run_job(
     let summary = runner.run_resumable(
         sim.as_mut(),
         resume.as_ref().map(|r| Resume { checkpoint: &r.checkpoint, samples: &r.samples }),
-        on_sample,
+        // Never blocks: the physics does not wait for the reports.
+        &mut |s, p| send(Msg::Sample(Box::new(s.clone()), *p)),
         &mut |s| {
-            on_snapshot(index, s);
+            send(Msg::Snapshot(SnapshotFiles::encode(index, s)));
             index = index.saturating_add(1);
         },
         &mut |c| {
             // Written here, off the async threads; a checkpoint that cannot be written is skipped.
             if let Ok(text) = serde_json::to_string(c) {
-                on_checkpoint(Msg::Checkpoint(CheckpointFile {
+                send(Msg::Checkpoint(CheckpointFile {
                     step: c.clock.steps,
                     samples: c.samples,
                     snapshots: c.snapshots,
@@ -103,6 +101,61 @@ fn run_job(
         },
     )?;
     Ok((summary, sim.saved_state()))
+}
+
+/// Runs job `job` of `scene` (its JSON `scene_json`, the thread budget applied: `threads`)
+/// on `pool`, from the checkpoint `resume` when it can be gone on from: how it ended and its
+/// final state (gzip-compressed JSON), every message sent to `send`. A panic of the engine is
+/// caught and reported as a failure.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn engine_run(
+    job: i64,
+    scene: Plan,
+    scene_json: &str,
+    threads: usize,
+    resume: Option<ResumeFrom>,
+    runner: Runner,
+    pool: rayon::ThreadPool,
+    send: &(dyn Fn(Msg) + Sync),
+) -> (Ended, Option<Vec<u8>>) {
+    let resume = resume.and_then(|from| match resumable(&from, scene_json, threads) {
+        Ok(r) => Some(r),
+        Err(why) => {
+            send(Msg::FromStart(format!("job {job}: cannot go on from the checkpoint at step {}: {why}", from.step)));
+            None
+        }
+    });
+    let caught = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        pool.install(|| {
+            // The CPU time of every thread of the job's pool, before and after the run.
+            let cpu_start = pool_cpu_seconds();
+            let run = run_job(job, &scene, resume, &runner, send)
+                // Compressed here, off the async threads.
+                .map(|(summary, state)| (summary, serde_json::to_string(&state).ok().map(|text| gzip(&text))));
+            (run, pool_cpu_seconds() - cpu_start)
+        })
+    }));
+    match caught {
+        Ok((Ok((summary, state)), cpu_seconds)) => (
+            Ended::Ran {
+                steps: summary.steps,
+                solver_iterations: summary.solver_iterations,
+                result: summary.result.as_ref().and_then(|r| serde_json::to_string(r).ok()),
+                cpu_seconds,
+            },
+            state,
+        ),
+        Ok((Err(EngineError::Cancelled { step }), cpu_seconds)) => (Ended::Cancelled { step, cpu_seconds }, None),
+        Ok((Err(e), cpu_seconds)) => {
+            // The step the engine stopped at, where it says.
+            let step = match &e {
+                EngineError::Unstable { step, .. } => Some(*step),
+                _ => None,
+            };
+            (Ended::Failed { code: e.code().into(), message: e.to_string(), step, cpu_seconds }, None)
+        }
+        Err(panic) => (Ended::Failed { code: "internal".into(), message: panic_message(&panic), step: None, cpu_seconds: 0.0 }, None),
+    }
 }
 
 /// The threads a scene's method will use under a budget of `budget` threads: the scene's own
@@ -146,7 +199,7 @@ impl Drop for CancelOnDrop {
 }
 
 /// What the engine thread sends to the async side.
-enum Msg {
+pub(crate) enum Msg {
     Sample(Box<Sample>, Progress),
     Snapshot(SnapshotFiles),
     Checkpoint(CheckpointFile),
@@ -163,9 +216,32 @@ pub struct ReportTiming {
     pub checkpoint: Option<Duration>,
 }
 
+/// Where a job's engine runs.
+#[derive(Debug, Clone, Default)]
+pub enum JobProcess {
+    /// On a thread of the worker's process (a job that aborts its process takes the worker
+    /// down with it).
+    #[default]
+    InWorker,
+    /// In a process of its own: this executable run as `EXE job-run` ([`crate::child`]).
+    Own(std::path::PathBuf),
+}
+
+/// How a job's engine ended (in the worker's process or in a job process of its own,
+/// [`crate::child`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(crate) enum Ended {
+    /// Ran to its stop criteria.
+    Ran { steps: u64, solver_iterations: u64, result: Option<String>, cpu_seconds: f64 },
+    /// Stopped by its cancel flag.
+    Cancelled { step: u64, cpu_seconds: f64 },
+    /// Stopped with an error; `step`: where, when the error says.
+    Failed { code: String, message: String, step: Option<u64>, cpu_seconds: f64 },
+}
+
 /// A lease's checkpoint, ready to go on from: the scene made to start from its state (with
 /// the thread budget applied), the checkpoint, and the samples before it.
-struct Resumable {
+pub(crate) struct Resumable {
     plan: Plan,
     checkpoint: Checkpoint,
     samples: Vec<Sample>,
@@ -173,7 +249,7 @@ struct Resumable {
 
 /// Reads the checkpoint of `from` and makes `scene_json` go on from it, on `threads` threads;
 /// why not if this engine cannot (another version of the format, a state the scene refuses).
-fn resumable(from: &ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
+pub(crate) fn resumable(from: &ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
     let text = gunzip(&from.checkpoint, MAX_CHECKPOINT_BYTES).map_err(|e| format!("cannot be read: {e}"))?;
     let checkpoint = Checkpoint::from_json(&text)?;
     let json = checkpoint.scene_to_resume(scene_json)?;
@@ -199,6 +275,7 @@ pub async fn execute<S: JobSource>(
     lease: &Lease,
     threads: usize,
     timing: ReportTiming,
+    process: &JobProcess,
     shutdown: &CancellationToken,
 ) -> Option<Outcome> {
     let mut scene = match plan_scene(&lease.scene_json) {
@@ -216,15 +293,6 @@ pub async fn execute<S: JobSource>(
         }
     };
     let threads = apply_thread_budget(&mut scene, threads);
-    // Why the lease's checkpoint cannot be gone on from, if it cannot.
-    let mut unusable = None;
-    let resume = lease.resume.as_ref().and_then(|from| match resumable(from, &lease.scene_json, threads) {
-        Ok(r) => Some(r),
-        Err(why) => {
-            unusable = Some(format!("job {}: cannot go on from the checkpoint at step {}: {why}", lease.job_id, from.step));
-            None
-        }
-    });
     let pool = match job_pool(threads) {
         Ok(p) => p,
         Err(message) => {
@@ -242,41 +310,28 @@ pub async fn execute<S: JobSource>(
     // If this future is dropped (the pool aborted), the engine stops too.
     let _guard = CancelOnDrop(cancel.clone());
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<Msg>();
-    if let Some(why) = unusable {
-        let _ = tx.send(Msg::FromStart(why));
-    }
-    // The first sample this attempt reports, and the step it starts from.
-    let (first_sample, mut last_step) = resume.as_ref().map_or((0, 0), |r| (r.checkpoint.samples, r.checkpoint.clock.steps));
+    // The first sample this attempt reports, and the step it starts from (both back to 0 if
+    // the checkpoint cannot be gone on from: Msg::FromStart).
+    let (first_sample, mut last_step) = lease.resume.as_ref().map_or((0, 0), |r| (r.samples.len() as u64, r.step));
     let started = Instant::now();
-    let job = lease.job_id;
-    let mut engine = tokio::task::spawn_blocking(move || {
-        std::panic::catch_unwind(AssertUnwindSafe(|| {
-            let (snapshots_tx, checkpoints_tx) = (tx.clone(), tx.clone());
-            pool.install(|| {
-                // The CPU time of every thread of the job's pool, before and after the run.
-                let cpu_start = pool_cpu_seconds();
-                let run = run_job(
-                    job,
-                    &scene,
-                    resume,
-                    &runner,
-                    &mut |s, p| {
-                        // Never blocks: the physics does not wait for the reports.
-                        let _ = tx.send(Msg::Sample(Box::new(s.clone()), *p));
-                    },
-                    &mut |index, s| {
-                        let _ = snapshots_tx.send(Msg::Snapshot(SnapshotFiles::encode(index, s)));
-                    },
-                    &mut |c| {
-                        let _ = checkpoints_tx.send(c);
-                    },
-                )
-                // Compressed here, off the async threads.
-                .map(|(summary, state)| (summary, serde_json::to_string(&state).ok().map(|text| gzip(&text))));
-                (run, pool_cpu_seconds() - cpu_start)
+    let (job, scene_json, resume) = (lease.job_id, lease.scene_json.clone(), lease.resume.clone());
+    let mut engine = match process {
+        JobProcess::InWorker => tokio::task::spawn_blocking(move || {
+            engine_run(job, scene, &scene_json, threads, resume, runner, pool, &|m| {
+                let _ = tx.send(m);
             })
-        }))
-    });
+        }),
+        JobProcess::Own(exe) => {
+            let exe = exe.clone();
+            drop(pool);
+            tokio::spawn(async move {
+                crate::child::run_in_process(&exe, job, &scene_json, threads, resume.as_ref(), &runner, &mut |m| {
+                    let _ = tx.send(m);
+                })
+                .await
+            })
+        }
+    };
 
     let mut pending = Report { first_sample: Some(first_sample), ..Report::default() };
     let mut tick = tokio::time::interval(timing.interval);
@@ -326,36 +381,21 @@ pub async fn execute<S: JobSource>(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     let outcome = match result {
-        Ok(Ok((Ok((summary, state)), cpu_seconds))) => {
+        Ok((Ended::Ran { steps, solver_iterations, result, cpu_seconds }, state)) => {
             pending.fraction = 1.0;
             pending.remaining_seconds = Some(0.0);
-            let result = summary.result.as_ref().and_then(|r| serde_json::to_string(r).ok());
-            Outcome::Succeeded {
-                steps: summary.steps,
-                wall_seconds,
-                cpu_seconds,
-                solver_iterations: summary.solver_iterations,
-                result,
-                state,
-            }
+            Outcome::Succeeded { steps, wall_seconds, cpu_seconds, solver_iterations, result, state }
         }
-        Ok(Ok((Err(EngineError::Cancelled { .. }), _))) if released => Outcome::Released,
-        Ok(Ok((Err(EngineError::Cancelled { step }), cpu_seconds))) => Outcome::Cancelled { steps: step, wall_seconds, cpu_seconds },
-        Ok(Ok((Err(e), cpu_seconds))) => {
-            // The step the engine stopped at, or the last one sampled.
-            let steps = match &e {
-                EngineError::Unstable { step, .. } => *step,
-                _ => last_step,
-            };
-            Outcome::Failed { code: e.code().into(), message: e.to_string(), steps, wall_seconds, cpu_seconds }
-        }
-        Ok(Err(panic)) => {
-            Outcome::Failed { code: "internal".into(), message: panic_message(&panic), steps: 0, wall_seconds, cpu_seconds: 0.0 }
+        Ok((Ended::Cancelled { .. }, _)) if released => Outcome::Released,
+        Ok((Ended::Cancelled { step, cpu_seconds }, _)) => Outcome::Cancelled { steps: step, wall_seconds, cpu_seconds },
+        // The step the engine stopped at, or the last one sampled.
+        Ok((Ended::Failed { code, message, step, cpu_seconds }, _)) => {
+            Outcome::Failed { code, message, steps: step.unwrap_or(last_step), wall_seconds, cpu_seconds }
         }
         Err(join) => Outcome::Failed {
             code: "internal".into(),
             message: format!("the engine thread failed: {join}"),
-            steps: 0,
+            steps: last_step,
             wall_seconds,
             cpu_seconds: 0.0,
         },
@@ -409,8 +449,11 @@ fn receive(msg: Msg, pending: &mut Report, last_step: &mut u64) {
         // A newer checkpoint replaces one not sent yet.
         Msg::Checkpoint(c) => pending.checkpoint = Some(c),
         Msg::FromStart(why) => {
+            // Sent before any sample: this attempt numbers its samples from 1 again.
             eprintln!("{why}; the job runs from step 0");
             pending.from_start = true;
+            pending.first_sample = Some(0);
+            *last_step = 0;
         }
     }
 }

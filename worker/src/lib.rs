@@ -10,11 +10,12 @@
 //! (it checks its cancel flag every step), and a lost lease (the job was given to another
 //! worker) stops it without writing anything more.
 
+pub mod child;
 pub mod execute;
 pub mod pool;
 pub mod remote;
 pub mod source;
 
-pub use execute::run_scene;
+pub use execute::{run_scene, JobProcess};
 pub use pool::{Pool, PoolConfig, PoolStats, DEFAULT_CHECKPOINT_INTERVAL};
 pub use source::{CheckpointFile, JobSource, Lease, Outcome, Report, ResumeFrom, SnapshotFiles, SourceError};

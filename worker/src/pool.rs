@@ -8,7 +8,7 @@ use tokio::sync::Notify;
 use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
 
-use crate::execute::{execute, ReportTiming};
+use crate::execute::{execute, JobProcess, ReportTiming};
 use crate::source::{JobSource, SourceError};
 
 /// How often a running job saves a checkpoint unless told otherwise: ten minutes, so that a
@@ -32,6 +32,9 @@ pub struct PoolConfig {
     /// How often a running job saves a checkpoint (wall time; None: only when the pool stops),
     /// from which a later attempt goes on if this one does not finish ([`crate::execute`]).
     pub checkpoint_interval: Option<Duration>,
+    /// Where each job's engine runs: in a process of its own for `sable serve` and
+    /// `sable worker`, so that a job that aborts its process leaves the others running.
+    pub job_process: JobProcess,
 }
 
 impl PoolConfig {
@@ -47,6 +50,7 @@ impl PoolConfig {
             poll_interval: Duration::from_millis(500),
             report_interval: Duration::from_millis(250),
             checkpoint_interval: Some(DEFAULT_CHECKPOINT_INTERVAL),
+            job_process: JobProcess::InWorker,
         }
     }
 }
@@ -88,7 +92,7 @@ impl Pool {
                     match source.lease(&me).await {
                         Ok(Some(lease)) => {
                             stats.busy.fetch_add(1, Ordering::Relaxed);
-                            execute(source.as_ref(), &lease, config.threads_per_job, timing, &shutdown).await;
+                            execute(source.as_ref(), &lease, config.threads_per_job, timing, &config.job_process, &shutdown).await;
                             stats.busy.fetch_sub(1, Ordering::Relaxed);
                             // Another job may be waiting: ask again at once.
                             continue;

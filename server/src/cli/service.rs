@@ -56,6 +56,10 @@ pub struct ServeArgs {
     /// Largest number of bytes one job may store (samples, their events, snapshots).
     #[arg(long, default_value_t = sable_server::api::Limits::default().max_job_bytes)]
     pub max_job_bytes: u64,
+    /// Run each job's engine on a thread of this process instead of a process of its own (a
+    /// job that aborts its process then takes the others down with it).
+    #[arg(long)]
+    pub jobs_in_worker: bool,
     /// Seconds of wall time between two checkpoints of a running job, from which a later
     /// attempt goes on if this one does not finish (0: only when the workers stop).
     #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
@@ -150,6 +154,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     }
     cfg.idle_timeout = Duration::from_secs_f64(a.idle_timeout);
     cfg.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
+    cfg.job_process = job_process(a.jobs_in_worker)?;
     cfg.limits = sable_server::api::Limits {
         max_particles: a.max_particles,
         max_steps: a.max_steps,
@@ -184,6 +189,10 @@ pub struct WorkerArgs {
     /// Threads per job (default: cores / workers).
     #[arg(long, default_value_t = 0)]
     pub threads_per_job: usize,
+    /// Run each job's engine on a thread of this process instead of a process of its own (a
+    /// job that aborts its process then takes the others down with it).
+    #[arg(long)]
+    pub jobs_in_worker: bool,
     /// Seconds of wall time between two checkpoints of a running job, from which a later
     /// attempt goes on if this one does not finish (0: only when the workers stop).
     #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
@@ -201,6 +210,16 @@ pub struct WorkerArgs {
 }
 
 /// `sable worker --server URL`.
+/// Where jobs run: in processes of this executable (`sable job-run`), unless `in_worker`.
+fn job_process(in_worker: bool) -> anyhow::Result<sable_worker::JobProcess> {
+    if in_worker {
+        return Ok(sable_worker::JobProcess::InWorker);
+    }
+    let exe =
+        std::env::current_exe().context("cannot find this executable to run jobs in processes of their own (or give --jobs-in-worker)")?;
+    Ok(sable_worker::JobProcess::Own(exe))
+}
+
 /// The interval of `--checkpoint-every SECONDS` (0: none but at the stop).
 fn checkpoint_interval(seconds: f64) -> anyhow::Result<Option<Duration>> {
     if !(seconds.is_finite() && seconds >= 0.0) {
@@ -223,6 +242,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             pc.threads_per_job = a.threads_per_job;
         }
         pc.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
+        pc.job_process = job_process(a.jobs_in_worker)?;
         let workers = pc.workers;
         let pool = sable_worker::Pool::start(Arc::new(source), pc, Arc::new(tokio::sync::Notify::new()));
         eprintln!("sable worker {name}: {workers} worker(s) leasing from {}; Ctrl-C to stop", a.server);
