@@ -232,19 +232,23 @@ impl Client {
     }
 
     /// The job's events after `after_seq`, live, until its final state. Heartbeats are passed
-    /// on. A dropped connection is resumed from the last event seen (up to 5 tries in a row).
+    /// on. A dropped connection, or a server that cannot serve it for now (restarting, its
+    /// database away), is tried again from the last event seen for up to
+    /// [`WATCH_RECONNECT_FOR`] without an event.
     pub fn watch(&self, id: i64, after_seq: u64) -> impl Stream<Item = Result<JobEvent, ClientError>> + Send + 'static {
         let mut inner = self.inner.clone();
         let (tx, rx) = tokio::sync::mpsc::channel(32);
         tokio::spawn(async move {
             let mut last = after_seq;
-            let mut failures = 0;
+            // Since when the stream cannot be had (None: it can).
+            let mut down: Option<tokio::time::Instant> = None;
+            let mut failures = 0u32;
             loop {
                 let mut stream = match inner.watch_job(pb::WatchJobRequest { id, after_seq: last }).await {
                     Ok(s) => s.into_inner(),
-                    Err(s) if retryable(&s) && failures < 5 => {
+                    Err(s) if retryable(&s) && down.get_or_insert_with(tokio::time::Instant::now).elapsed() < WATCH_RECONNECT_FOR => {
                         failures += 1;
-                        tokio::time::sleep(Duration::from_millis(200 << failures)).await;
+                        tokio::time::sleep(Duration::from_millis(200 << failures.min(4))).await;
                         continue;
                     }
                     Err(s) => {
@@ -256,6 +260,7 @@ impl Client {
                     match stream.message().await {
                         Ok(Some(ev)) => {
                             failures = 0;
+                            down = None;
                             if ev.seq > 0 {
                                 last = ev.seq;
                             }
@@ -265,9 +270,9 @@ impl Client {
                         }
                         // The server ends the stream after the final state.
                         Ok(None) => return,
-                        Err(s) if retryable(&s) && failures < 5 => {
+                        Err(s) if retryable(&s) && down.get_or_insert_with(tokio::time::Instant::now).elapsed() < WATCH_RECONNECT_FOR => {
                             failures += 1;
-                            tokio::time::sleep(Duration::from_millis(200 << failures)).await;
+                            tokio::time::sleep(Duration::from_millis(200 << failures.min(4))).await;
                             break;
                         }
                         Err(s) => {
@@ -281,6 +286,10 @@ impl Client {
         tokio_stream::wrappers::ReceiverStream::new(rx)
     }
 }
+
+/// How long [`Client::watch`] tries to get its stream back (a server restarting, its database
+/// away: UNAVAILABLE) before it gives up with the last error.
+pub const WATCH_RECONNECT_FOR: Duration = Duration::from_secs(120);
 
 fn retryable(s: &tonic::Status) -> bool {
     matches!(s.code(), tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Internal | tonic::Code::Cancelled)

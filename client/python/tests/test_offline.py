@@ -144,3 +144,32 @@ def test_a_stream_ended_without_the_final_state_is_resumed_after_the_last_event(
     with Client("http://sable.test", transport=httpx.MockTransport(failing)) as c:
         with pytest.raises(SableError, match="the store is closing"):
             list(c.events(7))
+
+
+def test_waiting_goes_on_through_an_outage(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 71, finding 6: while the service's database is away it answers 503; ``wait()``
+    keeps waiting (the job goes on) instead of raising, and returns the job as it ended."""
+    import httpx
+
+    from sable_client import Client, client as client_module
+
+    monkeypatch.setattr(client_module.time, "sleep", lambda _s: None)
+    calls = {"events": 0, "job": 0}
+    busy = {"code": "unavailable", "message": "the job store cannot be reached"}
+
+    def answer(request: httpx.Request) -> httpx.Response:
+        if request.url.path.endswith("/events"):
+            calls["events"] += 1
+            if calls["events"] <= 2:
+                return httpx.Response(503, json=busy)
+            body = 'id: 5\nevent: state\ndata: {"state":"succeeded"}\n\n'
+            return httpx.Response(200, text=body, headers={"content-type": "text/event-stream"})
+        calls["job"] += 1
+        if calls["job"] == 1:
+            return httpx.Response(503, json=busy)
+        return httpx.Response(200, json={"id": 7, "name": "settle", "state": "succeeded", "method": "dem"})
+
+    with Client("http://sable.test", transport=httpx.MockTransport(answer)) as c:
+        done = c.wait(7)
+    assert done.state == "succeeded"
+    assert calls == {"events": 3, "job": 2}

@@ -266,10 +266,12 @@ class Client:
 
         A stream that drops, or that the service ends without the job's final state (a server
         stopping), is resumed after the last event seen, for as long as ``reconnect_for``
-        seconds pass without a connection.
+        seconds pass without a connection; so is one the service refuses for now
+        (:class:`~sable_client.errors.ServiceBusy`: its database unreachable, its disk full).
 
         Raises:
             SableError: The service reports an error in the stream, or an error answer.
+            ServiceBusy: Still refused after ``reconnect_for`` seconds.
             httpx.TransportError: No connection for ``reconnect_for`` seconds.
         """
         jid = _id(job)
@@ -291,7 +293,7 @@ class Client:
                         yield event
                         if event.kind == "state" and event.data.get("state") in TERMINAL_STATES:
                             return
-            except httpx.TransportError:
+            except (httpx.TransportError, errors.ServiceBusy):
                 now = time.monotonic()
                 down_since = now if down_since is None else down_since
                 if now - down_since > reconnect_for:
@@ -336,7 +338,7 @@ class Client:
                         bar.refresh()
                 elif event.kind == "state" and bar is not None:
                     bar.set_description(f"job {_id(job)} {event.data.get('state')}")
-            done = self.job(job)
+            done = self._through_outage(lambda: self.job(job))
             if bar is not None and done.state == "succeeded":
                 bar.n = 1.0
                 bar.refresh()
@@ -346,6 +348,19 @@ class Client:
         if raise_on_failure and done.state != "succeeded":
             raise errors.JobFailed(done)
         return done
+
+    @staticmethod
+    def _through_outage(call: Callable[[], Job], *, retry_for: float = 120.0) -> Job:
+        """``call()``, tried again every half second while the service is busy or unreachable,
+        for at most ``retry_for`` seconds."""
+        since = time.monotonic()
+        while True:
+            try:
+                return call()
+            except (httpx.TransportError, errors.ServiceBusy):
+                if time.monotonic() - since > retry_for:
+                    raise
+            time.sleep(0.5)
 
     def wait(self, job: JobRef, *, raise_on_failure: bool = True) -> Job:
         """:meth:`watch` without the progress bar."""
