@@ -218,7 +218,7 @@ async fn postgres_restarted_under_load_loses_no_accepted_job() {
     let db = postgres::fresh_database(&cluster.server()).await;
     let mut procs = Procs::default();
     let http = reqwest::Client::new();
-    let (base, _, server) = serve(&db, 2);
+    let (base, grpc, server) = serve(&db, 2);
     procs.0.push(server);
     ready(&http, &base).await;
 
@@ -272,6 +272,34 @@ async fn postgres_restarted_under_load_loses_no_accepted_job() {
     }
     let health = http.get(format!("{base}/healthz")).send().await.expect("healthz").status().as_u16();
     assert_eq!(health, 503, "/healthz while the database is down");
+    // A gRPC client (as `sable submit --watch`) that starts following the last job while the
+    // database is down: its stream is refused (UNAVAILABLE) until the database is back, and it
+    // keeps asking (it gave up after five tries, about 12 s, before).
+    let grpc_follow = {
+        let client = sable_client::Client::connect(&grpc).await.expect("gRPC client");
+        tokio::spawn(async move {
+            use tokio_stream::StreamExt;
+            let events = client.watch(last, 0);
+            tokio::pin!(events);
+            let mut ended = None;
+            while let Some(e) = events.next().await {
+                match e {
+                    Ok(ev) => {
+                        if let Some(sable_proto::v1::job_event::Kind::State(st)) = ev.kind {
+                            if st.state == sable_client::JobState::Succeeded as i32 {
+                                ended = Some(Ok(()));
+                            }
+                        }
+                    }
+                    Err(err) => {
+                        ended = Some(Err(err.to_string()));
+                        break;
+                    }
+                }
+            }
+            ended
+        })
+    };
     eprintln!("down: {refused} refused in {:?}", t0.elapsed());
     // Down for longer than the lease (2 s) and an event stream's heartbeat (15 s).
     tokio::time::sleep(Duration::from_secs(16).saturating_sub(t0.elapsed())).await;
@@ -300,6 +328,8 @@ async fn postgres_restarted_under_load_loses_no_accepted_job() {
         .await
         .expect("attempts");
     assert!(!attempts.is_empty() && attempts.iter().all(|&(_, n)| n == 1), "attempts of the jobs running at the stop: {attempts:?}");
+    let through = grpc_follow.await.expect("the gRPC follower");
+    assert_eq!(through, Some(Ok(())), "the gRPC watch begun during the outage");
     let seen = follow.await.expect("the follower");
     assert!(seen.contains("\"succeeded\"") && !seen.contains("event: error"), "the event stream through the outage: {seen}");
     let stored: Vec<i64> = sqlx::query_scalar("SELECT id FROM jobs ORDER BY id").fetch_all(&pool).await.expect("ids");
