@@ -40,6 +40,10 @@ pub enum ApiError {
     /// 507, gRPC RESOURCE_EXHAUSTED.
     #[error("the job store's disk is full: nothing was written; free space on the database's disk, then try again ({0})")]
     StorageFull(String),
+    /// The token the request came with is no longer valid (revoked while an event stream was
+    /// open). HTTP 401, gRPC UNAUTHENTICATED.
+    #[error("{0}")]
+    Unauthenticated(String),
     /// The server failed; the message is logged, the client gets a generic one.
     #[error("internal error")]
     Internal(String),
@@ -75,6 +79,7 @@ impl ApiError {
             Self::Conflict(_) => "conflict",
             Self::Unavailable(_) => "unavailable",
             Self::StorageFull(_) => "insufficient_storage",
+            Self::Unauthenticated(_) => "unauthenticated",
             Self::Internal(_) => "internal",
         }
     }

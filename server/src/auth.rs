@@ -283,7 +283,8 @@ pub async fn http_layer(State(tokens): State<Arc<Tokens>>, mut req: Request, nex
     let path = req.uri().path();
     let guarded = path.starts_with("/v1/") || path == "/metrics";
     if guarded {
-        if let Err(r) = tokens.check(Role::User, http_token(&req).as_deref()) {
+        let given = http_token(&req);
+        if let Err(r) = tokens.check(Role::User, given.as_deref()) {
             let status = match r {
                 Refusal::WrongRole(_) => StatusCode::FORBIDDEN,
                 _ => StatusCode::UNAUTHORIZED,
@@ -295,6 +296,7 @@ pub async fn http_layer(State(tokens): State<Arc<Tokens>>, mut req: Request, nex
             let body = serde_json::json!({"code": code, "message": r.message(), "details": []});
             return (status, [(header::WWW_AUTHENTICATE, "Bearer")], Json(body)).into_response();
         }
+        req.extensions_mut().insert(Admitted { tokens: tokens.clone(), role: Role::User, token: given });
     }
     without_access_token(&mut req);
     next.run(req).await
@@ -321,6 +323,30 @@ fn without_access_token(req: &mut Request) {
     }
 }
 
+/// The token a request was admitted with, kept with the request so that a long-lived answer
+/// (an event stream) can check that it is still valid.
+#[derive(Clone)]
+pub struct Admitted {
+    tokens: Arc<Tokens>,
+    role: Role,
+    token: Option<String>,
+}
+
+impl std::fmt::Debug for Admitted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Never the token itself.
+        f.debug_struct("Admitted").field("role", &self.role).finish_non_exhaustive()
+    }
+}
+
+impl Admitted {
+    /// Whether the token is still valid for its role, as a closure an event stream calls.
+    pub fn checker(&self) -> crate::watch::StillAdmitted {
+        let me = self.clone();
+        Arc::new(move || me.tokens.check(me.role, me.token.as_deref()).is_ok())
+    }
+}
+
 /// A gRPC interceptor admitting requests of `role`.
 #[derive(Debug, Clone)]
 pub struct GrpcGuard {
@@ -340,6 +366,9 @@ impl tonic::service::Interceptor for GrpcGuard {
         let given =
             req.metadata().get("authorization").and_then(|v| v.to_str().ok()).and_then(|v| v.strip_prefix("Bearer ")).map(str::trim);
         self.tokens.check(self.role, given).map_err(Refusal::status)?;
+        let admitted = Admitted { tokens: self.tokens.clone(), role: self.role, token: given.map(str::to_string) };
+        let mut req = req;
+        req.extensions_mut().insert(admitted);
         Ok(req)
     }
 }

@@ -24,6 +24,7 @@ impl From<ApiError> for Status {
             ApiError::Conflict(m) => Status::failed_precondition(m),
             ApiError::Unavailable(_) => Status::unavailable(e.to_string()),
             ApiError::StorageFull(_) => Status::resource_exhausted(e.to_string()),
+            ApiError::Unauthenticated(m) => Status::unauthenticated(m),
             ApiError::Internal(_) => Status::internal("internal error"),
         }
     }
@@ -239,11 +240,12 @@ impl pb::simulations_server::Simulations for SimulationsService {
     type WatchJobStream = EventStream;
 
     async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
+        let still = req.extensions().get::<crate::auth::Admitted>().map(|a| a.checker());
         let r = req.into_inner();
         let after = i64::try_from(r.after_seq).map_err(|_| Status::from(ApiError::invalid("after_seq", "is too large")))?;
         let slot = take_slot(&self.watchers, self.limits.max_watchers)?;
         let id = r.id;
-        let stream = watch_stream(&self.store, id, after, self.heartbeat, slot, move |item| match item {
+        let stream = watch_stream(&self.store, id, after, self.heartbeat, slot, still, move |item| match item {
             Ok(WatchItem::Event(e)) => Ok(pb_event(&e)),
             Ok(WatchItem::Heartbeat) => Ok(pb::JobEvent {
                 seq: 0,

@@ -61,6 +61,7 @@ impl IntoResponse for ApiError {
             ApiError::Conflict(_) => StatusCode::CONFLICT,
             ApiError::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
             ApiError::StorageFull(_) => StatusCode::INSUFFICIENT_STORAGE,
+            ApiError::Unauthenticated(_) => StatusCode::UNAUTHORIZED,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
         (status, Json(api::ErrorBody::from(&self))).into_response()
@@ -570,6 +571,7 @@ pub(crate) async fn events(
     State(st): State<AppState>,
     Path(id): Path<String>,
     headers: HeaderMap,
+    admitted: Option<axum::Extension<crate::auth::Admitted>>,
     q: Result<Query<EventParams>, QueryRejection>,
 ) -> Result<Response, ApiError> {
     let id = parse_id(&id)?;
@@ -582,7 +584,8 @@ pub(crate) async fn events(
         return Err(ApiError::invalid("after_seq", "must be >= 0"));
     }
     let slot = take_slot(&st.watchers, st.limits.max_watchers)?;
-    let stream = watch_stream(&st.store, id, after, st.heartbeat, slot, |item| {
+    let still = admitted.map(|axum::Extension(a)| a.checker());
+    let stream = watch_stream(&st.store, id, after, st.heartbeat, slot, still, |item| {
         Ok::<_, Infallible>(match item {
             Ok(WatchItem::Event(e)) => Event::default().id(e.seq.to_string()).event(e.kind.clone()).data(e.payload),
             Ok(WatchItem::Heartbeat) => Event::default().event("heartbeat").data("{}"),

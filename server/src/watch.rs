@@ -142,15 +142,21 @@ pub fn take_slot(slots: &Arc<Semaphore>, limit: usize) -> Result<OwnedSemaphoreP
         .map_err(|_| ApiError::Exhausted(format!("too many open event streams (limit {limit}); try again later")))
 }
 
+/// Whether the token a stream was opened with is still valid (checked before each item).
+pub type StillAdmitted = Arc<dyn Fn() -> bool + Send + Sync>;
+
 /// [`watch`] as a stream of `convert`ed items, holding the watcher slot `slot` while it lives.
-/// The stream ends after the job's final state, at server shutdown, or as soon as its consumer
-/// drops it (even while the job is quiet).
+/// The stream ends after the job's final state, at server shutdown, as soon as its consumer
+/// drops it (even while the job is quiet), or with an `Unauthenticated` error once `still`
+/// says its token was revoked (within a heartbeat of the token files' reload).
+#[allow(clippy::too_many_arguments)]
 pub async fn watch_stream<T: Send + 'static>(
     store: &JobStore,
     id: i64,
     after: i64,
     heartbeat: Duration,
     slot: OwnedSemaphorePermit,
+    still: Option<StillAdmitted>,
     convert: impl Fn(Result<WatchItem, ApiError>) -> T + Send + 'static,
 ) -> Result<ReceiverStream<T>, ApiError> {
     let mut rx = watch(store, id, after, heartbeat).await?;
@@ -163,6 +169,11 @@ pub async fn watch_stream<T: Send + 'static>(
                 _ = tx.closed() => return,
             };
             let Some(item) = item else { return };
+            if still.as_ref().is_some_and(|still| !still()) {
+                let revoked = ApiError::Unauthenticated("the token this stream was opened with has been revoked".into());
+                let _ = tx.send(convert(Err(revoked))).await;
+                return;
+            }
             if tx.send(convert(item)).await.is_err() {
                 return;
             }

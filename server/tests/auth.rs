@@ -168,3 +168,56 @@ async fn edited_token_files_grant_and_revoke_without_a_restart() {
     assert_eq!(http.get(format!("{base}/v1/jobs")).send().await.expect("answer").status(), 401, "a removed file opened the API");
     server.shutdown(Duration::from_secs(2)).await;
 }
+
+/// Issue 71, finding 7: an event stream opened with a token that is then revoked ends with an
+/// `unauthenticated` error, on REST and gRPC, within a heartbeat of the token files' reload.
+/// Before, it went on streaming for as long as the job ran.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_event_stream_ends_when_its_token_is_revoked() {
+    let dir = tempfile::tempdir().expect("dir");
+    let users = dir.path().join("users");
+    let (alice, bob) = ("alice-token-0123456789abcdef", "bob-token-0123456789abcdef");
+    std::fs::write(&users, format!("{alice}\n{bob}\n")).expect("write");
+    let mut cfg = config(&dir, Tokens::from_files(Some(&users), None).expect("token file"));
+    cfg.token_reload = Duration::from_millis(100);
+    cfg.heartbeat = Duration::from_millis(200);
+    let server = Server::start(cfg).await.expect("starts");
+    let base = format!("http://{}", server.http_addr);
+    let http = reqwest::Client::new();
+    // No workers: the job stays queued and its streams stay open, beating.
+    let job: serde_json::Value =
+        http.post(format!("{base}/v1/jobs")).bearer_auth(alice).json(&scene(1)).send().await.expect("submit").json().await.expect("job");
+    let id = job["id"].as_i64().expect("id");
+    let mut sse = http.get(format!("{base}/v1/jobs/{id}/events")).bearer_auth(alice).send().await.expect("events");
+    assert_eq!(sse.status(), 200);
+    let grpc = sable_client::Client::connect_with_token(&format!("http://{}", server.grpc_addr), Some(alice)).await.expect("gRPC");
+    let mut watch = grpc.watch(id, 0);
+    // Bob keeps his stream.
+    let mut kept = http.get(format!("{base}/v1/jobs/{id}/events")).bearer_auth(bob).send().await.expect("events");
+
+    std::fs::write(&users, format!("{bob}\n")).expect("revoke alice");
+    let revoked = std::time::Instant::now();
+    let mut text = String::new();
+    while let Ok(Some(chunk)) = tokio::time::timeout(Duration::from_secs(5), sse.chunk()).await.expect("the stream went on for 5 s") {
+        text.push_str(&String::from_utf8_lossy(&chunk));
+    }
+    assert!(text.contains("event: error") && text.contains("unauthenticated"), "{text}");
+    let ended = tokio::time::timeout(Duration::from_secs(5), async {
+        use tokio_stream::StreamExt;
+        loop {
+            match watch.next().await {
+                Some(Ok(_)) => continue,
+                Some(Err(e)) => return Some(e.to_string()),
+                None => return None,
+            }
+        }
+    })
+    .await
+    .expect("the gRPC stream went on for 5 s");
+    assert!(ended.as_deref().is_some_and(|e| e.contains("revoked")), "{ended:?}");
+    eprintln!("streams ended {:?} after the revocation", revoked.elapsed());
+    // Bob's stream beats on.
+    let beat = tokio::time::timeout(Duration::from_secs(2), kept.chunk()).await.expect("Bob's stream beats").expect("a chunk");
+    assert!(beat.is_some(), "Bob's stream ended");
+    server.shutdown(Duration::from_secs(2)).await;
+}
