@@ -185,8 +185,17 @@ async fn an_event_stream_ends_when_its_token_is_revoked() {
     let base = format!("http://{}", server.http_addr);
     let http = reqwest::Client::new();
     // No workers: the job stays queued and its streams stay open, beating.
-    let job: serde_json::Value =
-        http.post(format!("{base}/v1/jobs")).bearer_auth(alice).json(&scene(1)).send().await.expect("submit").json().await.expect("job");
+    let job: serde_json::Value = http
+        .post(format!("{base}/v1/jobs"))
+        .bearer_auth(alice)
+        .header("content-type", "application/json")
+        .body(scene())
+        .send()
+        .await
+        .expect("submit")
+        .json()
+        .await
+        .expect("job");
     let id = job["id"].as_i64().expect("id");
     let mut sse = http.get(format!("{base}/v1/jobs/{id}/events")).bearer_auth(alice).send().await.expect("events");
     assert_eq!(sse.status(), 200);
