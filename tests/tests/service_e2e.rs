@@ -717,6 +717,148 @@ async fn worker_figures_and_unknown_enums_are_refused_by_name(backend: Backend) 
     assert_eq!((e.code(), e.message()), (tonic::Code::InvalidArgument, "state: 99 is not a JobState"));
 }
 
+/// A scene JSON text mutated by `rng`: a byte changed, a number replaced by one of the values
+/// that broke servers (huge, negative, NaN, 1e999), a part cut, or nested deep.
+fn mutated(rng: &mut impl rand::Rng, text: &str) -> String {
+    let mut bytes = text.as_bytes().to_vec();
+    match rng.gen_range(0..5) {
+        0 => {
+            let i = rng.gen_range(0..bytes.len());
+            bytes[i] = rng.gen();
+        }
+        1 => {
+            let odd = ["1e999", "-1", "18446744073709551615", "NaN", "-0", "1e-320", "\"x\"", "null", "[]", "{}"];
+            let text = String::from_utf8_lossy(&bytes).into_owned();
+            let numbers: Vec<usize> = text.match_indices(|c: char| c.is_ascii_digit()).map(|(i, _)| i).collect();
+            if let Some(&at) = numbers.get(rng.gen_range(0..numbers.len().max(1))) {
+                let end = text[at..].find(|c: char| !c.is_ascii_digit() && c != '.' && c != 'e' && c != '-').map_or(text.len(), |k| at + k);
+                return format!("{}{}{}", &text[..at], odd[rng.gen_range(0..odd.len())], &text[end..]);
+            }
+        }
+        2 => bytes.truncate(rng.gen_range(0..bytes.len())),
+        3 => return format!("{}{}{}", "[".repeat(rng.gen_range(1..20_000)), text, "]".repeat(rng.gen_range(0..3))),
+        _ => {
+            let i = rng.gen_range(0..bytes.len());
+            let j = rng.gen_range(0..bytes.len());
+            bytes.swap(i, j);
+        }
+    }
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// Issue 71: random and mutated requests to every RPC of the user's and the workers' services
+/// (the REST entry has its own cases below). Each is answered with a status that says what was
+/// wrong (never INTERNAL or UNKNOWN, which would be a bug of the server), the server stays
+/// healthy, runs a good job afterwards, and stores no job, sample or outcome from a refused
+/// request.
+async fn random_grpc_requests_are_answered_and_change_nothing(backend: Backend) {
+    use rand::{Rng, SeedableRng};
+    let Some(h) = Harness::start(backend, 0).await else { return };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(71);
+    let mut client = h.grpc().await;
+    let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");
+    let mut workers = sable_proto::v1::workers_client::WorkersClient::new(channel);
+    let good = scene(200, 1).to_string();
+    let bad_codes = [tonic::Code::Internal, tonic::Code::Unknown, tonic::Code::DataLoss];
+    let check = |what: &str, r: Result<(), tonic::Status>| {
+        if let Err(e) = r {
+            assert!(!bad_codes.contains(&e.code()), "{what}: {:?} {}", e.code(), e.message());
+        }
+    };
+    let odd_i64 = |rng: &mut rand::rngs::StdRng| [i64::MIN, -1, 0, 1, 2, i64::MAX, rng.gen()][rng.gen_range(0..7)];
+    let odd_u64 = |rng: &mut rand::rngs::StdRng| [0, 1, u64::MAX, u64::MAX / 2, rng.gen()][rng.gen_range(0..5)];
+    let odd_f64 = |rng: &mut rand::rngs::StdRng| [f64::NAN, f64::INFINITY, -1.0, 0.0, 1e308, rng.gen()][rng.gen_range(0..6)];
+    let mut accepted = 0;
+    for k in 0..300 {
+        let scene_json = mutated(&mut rng, &good);
+        let submitted = client
+            .submit_job(pb::SubmitJobRequest {
+                scene_json,
+                name: if rng.gen_bool(0.1) { "n".repeat(rng.gen_range(0..5000)) } else { String::new() },
+                priority: [i32::MIN, -1, 0, 5, i32::MAX][rng.gen_range(0..5)],
+                request_id: if rng.gen_bool(0.2) { format!("key-{k}") } else { String::new() },
+                max_attempts: [0, 1, 3, u32::MAX][rng.gen_range(0..4)],
+            })
+            .await;
+        if submitted.is_ok() {
+            accepted += 1;
+        }
+        check("SubmitJob", submitted.map(|_| ()));
+        check("GetJob", client.get_job(pb::GetJobRequest { id: odd_i64(&mut rng) }).await.map(|_| ()));
+        check("CancelJob", client.cancel_job(pb::CancelJobRequest { id: odd_i64(&mut rng) }).await.map(|_| ()));
+        let list = pb::ListJobsRequest {
+            state: rng.gen_range(-2..9),
+            name: mutated(&mut rng, "settle"),
+            method: ["", "dem", "nope", "\u{0}"][rng.gen_range(0..4)].into(),
+            created_after: ["", "2026-01-01T00:00:00Z", "yesterday", "9999-99-99"][rng.gen_range(0..4)].into(),
+            created_before: String::new(),
+            page_size: [0, 1, 50, u32::MAX][rng.gen_range(0..4)],
+            page_token: ["", "abc", "-1", "99999999999999999999"][rng.gen_range(0..4)].into(),
+        };
+        check("ListJobs", client.list_jobs(list).await.map(|_| ()));
+        let samples = pb::GetSamplesRequest {
+            id: odd_i64(&mut rng),
+            from_step: odd_u64(&mut rng),
+            to_step: odd_u64(&mut rng),
+            max_points: [0, 1, 10_001, u32::MAX][rng.gen_range(0..4)],
+            limit: [0, 1, 10_001, u32::MAX][rng.gen_range(0..4)],
+        };
+        check("GetSamples", client.get_samples(samples).await.map(|_| ()));
+        check("GetFinalState", client.get_final_state(pb::GetFinalStateRequest { id: odd_i64(&mut rng) }).await.map(|_| ()));
+        let garbage: Vec<u8> = (0..rng.gen_range(0..64)).map(|_| rng.gen()).collect();
+        let report = pb::ReportProgressRequest {
+            job_id: odd_i64(&mut rng),
+            lease_id: mutated(&mut rng, "lease-0123"),
+            fraction: odd_f64(&mut rng),
+            remaining_seconds: odd_f64(&mut rng),
+            samples_json: vec![mutated(&mut rng, r#"{"step": 1, "time": 0.0, "phi": 0.5}"#)],
+            snapshots: vec![pb::SnapshotFiles { index: rng.gen(), step: odd_u64(&mut rng), time: odd_f64(&mut rng), particles_gz: garbage.clone(), ..Default::default() }],
+            first_sample: rng.gen_bool(0.5).then(|| odd_u64(&mut rng)),
+            checkpoint: rng.gen_bool(0.5).then(|| pb::Checkpoint { step: odd_u64(&mut rng), samples: odd_u64(&mut rng), snapshots: odd_u64(&mut rng), data_gz: garbage.clone() }),
+            from_start: rng.gen(),
+        };
+        check("ReportProgress", workers.report_progress(report).await.map(|_| ()));
+        let finish = pb::FinishJobRequest {
+            job_id: odd_i64(&mut rng),
+            lease_id: mutated(&mut rng, "lease-0123"),
+            outcome: rng.gen_range(-1..7),
+            error_code: mutated(&mut rng, "unstable"),
+            error_message: String::new(),
+            steps: odd_u64(&mut rng),
+            wall_seconds: odd_f64(&mut rng),
+            result_json: mutated(&mut rng, r#"{"peak": 1}"#),
+            final_state_gz: garbage,
+            ..Default::default()
+        };
+        check("FinishJob", workers.finish_job(finish).await.map(|_| ()));
+        let worker = if rng.gen_bool(0.5) { mutated(&mut rng, "fuzz-worker") } else { "local:x".into() };
+        // Leases are what workers are for: a job it takes is handed back at once.
+        match workers.lease_job(pb::LeaseJobRequest { worker }).await {
+            Ok(r) => {
+                if let Some(l) = r.into_inner().lease {
+                    let back = pb::FinishJobRequest { job_id: l.job_id, lease_id: l.lease_id, outcome: 4, ..Default::default() };
+                    workers.finish_job(back).await.expect("hand back");
+                }
+            }
+            Err(e) => check("LeaseJob", Err(e)),
+        }
+    }
+    // Still healthy, and a good job runs to its end on a worker pool started now.
+    let (status, _) = h.get("/healthz").await;
+    assert_eq!(status, 200);
+    let (_, job) = h.post("/v1/jobs", &scene(200, 2), None).await;
+    let pool = remote_pool(&h, "after-fuzz", None);
+    let done = h.wait_state(job["id"].as_i64().expect("id"), &["succeeded"], Duration::from_secs(60)).await;
+    pool.shutdown(Duration::from_secs(2)).await;
+    assert_eq!(done["sample_count"], 3, "{done}");
+    // Only accepted scenes made jobs; no refused request finished or failed one.
+    let (_, page) = h.get("/v1/jobs?page_size=500").await;
+    let jobs = page["jobs"].as_array().expect("jobs");
+    let ended: Vec<&Value> = jobs.iter().filter(|j| j["id"] != job["id"] && j["state"] != "queued").collect();
+    assert!(ended.is_empty(), "a refused request ended a job: {ended:?}");
+    eprintln!("{accepted} of 300 mutated scenes were valid and queued; {} jobs in all", jobs.len());
+}
+
 async fn bad_input_gets_a_clear_error_and_writes_nothing(backend: Backend) {
     let Some(h) = Harness::start(backend, 0).await else { return };
     // Rule violations: 422 with every violation in `details`, one error body everywhere.
@@ -1530,6 +1672,7 @@ on_both_backends!(
     a_worker_that_stops_reporting_loses_its_job_to_another,
     a_job_goes_on_from_its_checkpoint_after_a_crash_and_a_hand_back,
     a_checkpoint_a_worker_cannot_use_makes_the_job_start_over,
+    random_grpc_requests_are_answered_and_change_nothing,
     a_restarted_server_finishes_the_job_that_was_running,
     a_stopped_server_hands_back_its_running_job_without_counting_an_attempt,
     fifty_concurrent_submissions_all_finish_once,
