@@ -812,9 +812,20 @@ async fn random_grpc_requests_are_answered_and_change_nothing(backend: Backend) 
             fraction: odd_f64(&mut rng),
             remaining_seconds: odd_f64(&mut rng),
             samples_json: vec![mutated(&mut rng, r#"{"step": 1, "time": 0.0, "phi": 0.5}"#)],
-            snapshots: vec![pb::SnapshotFiles { index: rng.gen(), step: odd_u64(&mut rng), time: odd_f64(&mut rng), particles_gz: garbage.clone(), ..Default::default() }],
+            snapshots: vec![pb::SnapshotFiles {
+                index: rng.gen(),
+                step: odd_u64(&mut rng),
+                time: odd_f64(&mut rng),
+                particles_gz: garbage.clone(),
+                ..Default::default()
+            }],
             first_sample: rng.gen_bool(0.5).then(|| odd_u64(&mut rng)),
-            checkpoint: rng.gen_bool(0.5).then(|| pb::Checkpoint { step: odd_u64(&mut rng), samples: odd_u64(&mut rng), snapshots: odd_u64(&mut rng), data_gz: garbage.clone() }),
+            checkpoint: rng.gen_bool(0.5).then(|| pb::Checkpoint {
+                step: odd_u64(&mut rng),
+                samples: odd_u64(&mut rng),
+                snapshots: odd_u64(&mut rng),
+                data_gz: garbage.clone(),
+            }),
             from_start: rng.gen(),
         };
         check("ReportProgress", workers.report_progress(report).await.map(|_| ()));
