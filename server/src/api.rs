@@ -375,10 +375,12 @@ async fn learned(
 /// A job's name from its scene's: the first [`MAX_NAME`] characters (the scene's own rule
 /// allows longer descriptions), cut with an ellipsis.
 fn job_name_of(scene_name: &str) -> String {
+    // Control characters (the NUL character, which PostgreSQL's text refuses) are shown as �.
+    let printable = |c: char| if c.is_control() { char::REPLACEMENT_CHARACTER } else { c };
     if scene_name.chars().count() <= MAX_NAME {
-        return scene_name.to_string();
+        return scene_name.chars().map(printable).collect();
     }
-    let mut name: String = scene_name.chars().take(MAX_NAME - 1).collect();
+    let mut name: String = scene_name.chars().take(MAX_NAME - 1).map(printable).collect();
     name.push('…');
     name
 }
@@ -571,6 +573,12 @@ pub async fn list(store: &JobStore, q: ListQuery) -> Result<(Vec<JobView>, Optio
     }
     f.name = q.name.filter(|s| !s.is_empty());
     f.method = q.method.filter(|s| !s.is_empty());
+    // PostgreSQL's text refuses the NUL character (the query failed as an internal error).
+    for (field, v) in [("name", &f.name), ("method", &f.method)] {
+        if v.as_deref().is_some_and(|v| v.chars().any(char::is_control)) {
+            violations.push(Violation { field: field.into(), rule: "must not contain control characters".into() });
+        }
+    }
     for (field, v, slot) in
         [("created_after", q.created_after, &mut f.created_after), ("created_before", q.created_before, &mut f.created_before)]
     {

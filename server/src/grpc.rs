@@ -18,13 +18,15 @@ use crate::watch::{take_slot, watch_stream, WatchItem};
 impl From<ApiError> for Status {
     fn from(e: ApiError) -> Self {
         match e {
-            ApiError::InvalidArgument(_) | ApiError::Malformed(_) | ApiError::TooLarge(_) => Status::invalid_argument(e.to_string()),
-            ApiError::Exhausted(m) => Status::resource_exhausted(m),
-            ApiError::NotFound(m) => Status::not_found(m),
-            ApiError::Conflict(m) => Status::failed_precondition(m),
-            ApiError::Unavailable(_) => Status::unavailable(e.to_string()),
-            ApiError::StorageFull(_) => Status::resource_exhausted(e.to_string()),
-            ApiError::Unauthenticated(m) => Status::unauthenticated(m),
+            ApiError::InvalidArgument(_) | ApiError::Malformed(_) | ApiError::TooLarge(_) => {
+                Status::invalid_argument(bounded(e.to_string()))
+            }
+            ApiError::Exhausted(m) => Status::resource_exhausted(bounded(m)),
+            ApiError::NotFound(m) => Status::not_found(bounded(m)),
+            ApiError::Conflict(m) => Status::failed_precondition(bounded(m)),
+            ApiError::Unavailable(_) => Status::unavailable(bounded(e.to_string())),
+            ApiError::StorageFull(_) => Status::resource_exhausted(bounded(e.to_string())),
+            ApiError::Unauthenticated(m) => Status::unauthenticated(bounded(m)),
             ApiError::Internal(_) => Status::internal("internal error"),
         }
     }
@@ -287,15 +289,38 @@ pub struct WorkersService {
     pub lease_seconds: f64,
 }
 
-fn lease_of(job_id: i64, lease_id: String) -> Lease {
-    Lease { job_id, lease_id, scene_json: String::new(), attempt: 0, resume: None }
+/// The lease a worker names. Its id must be one the store could have issued (32 hexadecimal
+/// digits; at most 64 letters and digits are let through to the store): a 20 kB one came back
+/// in the error's message, which then no longer fit in an HTTP/2 header.
+fn lease_of(job_id: i64, lease_id: String) -> Result<Lease, Status> {
+    if lease_id.is_empty() || lease_id.len() > 64 || !lease_id.bytes().all(|b| b.is_ascii_alphanumeric()) {
+        return Err(Status::invalid_argument("lease_id: must be the id of a lease this server issued (at most 64 letters and digits)"));
+    }
+    Ok(Lease { job_id, lease_id, scene_json: String::new(), attempt: 0, resume: None })
+}
+
+/// Longest message a status carries, bytes: messages that quote a request must still fit in
+/// the HTTP/2 header they travel in.
+const MAX_STATUS_MESSAGE: usize = 4096;
+
+/// `m`, cut to [`MAX_STATUS_MESSAGE`] bytes (at a character boundary) with an ellipsis.
+fn bounded(mut m: String) -> String {
+    if m.len() > MAX_STATUS_MESSAGE {
+        let mut end = MAX_STATUS_MESSAGE - 3;
+        while !m.is_char_boundary(end) {
+            end -= 1;
+        }
+        m.truncate(end);
+        m.push('…');
+    }
+    m
 }
 
 fn worker_status(e: StoreError) -> Status {
     match e {
-        StoreError::Conflict(m) => Status::failed_precondition(m),
+        StoreError::Conflict(m) => Status::failed_precondition(bounded(m)),
         StoreError::NotFound(id) => Status::not_found(format!("job {id} not found")),
-        StoreError::Missing(m) => Status::not_found(m),
+        StoreError::Missing(m) => Status::not_found(bounded(m)),
         e => {
             eprintln!("store error: {e}");
             Status::unavailable("job store unavailable")
@@ -307,8 +332,10 @@ fn worker_status(e: StoreError) -> Status {
 impl pb::workers_server::Workers for WorkersService {
     async fn lease_job(&self, req: Request<pb::LeaseJobRequest>) -> Result<Response<pb::LeaseJobResponse>, Status> {
         let worker = req.into_inner().worker;
-        if worker.is_empty() || worker.len() > 200 || worker.starts_with("local:") {
-            return Err(Status::invalid_argument("worker: must be 1 to 200 characters and not start with 'local:' (reserved)"));
+        if worker.is_empty() || worker.len() > 200 || worker.starts_with("local:") || worker.chars().any(char::is_control) {
+            return Err(Status::invalid_argument(
+                "worker: must be 1 to 200 characters, none a control character, and not start with 'local:' (reserved)",
+            ));
         }
         let lease = self.store.lease_next(&format!("remote:{worker}")).await.map_err(worker_status)?;
         let lease = match lease {
@@ -391,7 +418,7 @@ impl pb::workers_server::Workers for WorkersService {
             checkpoint,
             from_start: r.from_start,
         };
-        let cancel = self.store.report(&lease_of(r.job_id, r.lease_id), &report).await.map_err(worker_status)?;
+        let cancel = self.store.report(&lease_of(r.job_id, r.lease_id)?, &report).await.map_err(worker_status)?;
         Ok(Response::new(pb::ReportProgressResponse { cancel_requested: cancel }))
     }
 
@@ -425,9 +452,10 @@ impl pb::workers_server::Workers for WorkersService {
                     state,
                 }
             }
+            // Stored as text: the NUL character, which PostgreSQL refuses, becomes �.
             PbOutcome::Failed => Outcome::Failed {
-                code: r.error_code.clone(),
-                message: r.error_message.clone(),
+                code: r.error_code.replace('\0', "\u{FFFD}"),
+                message: r.error_message.replace('\0', "\u{FFFD}"),
                 steps: r.steps,
                 wall_seconds: r.wall_seconds,
                 cpu_seconds: r.cpu_seconds,
@@ -436,7 +464,7 @@ impl pb::workers_server::Workers for WorkersService {
             PbOutcome::Released => Outcome::Released,
             PbOutcome::Unspecified => return Err(Status::invalid_argument("outcome: must be set")),
         };
-        self.store.finish(&lease_of(r.job_id, r.lease_id), &outcome).await.map_err(worker_status)?;
+        self.store.finish(&lease_of(r.job_id, r.lease_id)?, &outcome).await.map_err(worker_status)?;
         Ok(Response::new(pb::FinishJobResponse {}))
     }
 }
