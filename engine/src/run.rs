@@ -522,6 +522,11 @@ impl Runner {
         let stage = &self.stages[start.index];
         let mut balance = None;
         loop {
+            // A checkpoint before this step's checks (a run resumed from it makes them again),
+            // and before the cancellation: a worker that stops asks for both.
+            if self.checkpoint.swap(false, Ordering::SeqCst) {
+                run.checkpoint(sim, start);
+            }
             if let Some(r) = self.reached_global(sim) {
                 return Ok(ControlFlow::Break(r));
             }
@@ -540,10 +545,6 @@ impl Runner {
                     return Err(not_converged(stage, sim.steps_done(), balance.unwrap_or_else(|| sim.balance()), eq));
                 }
                 return Ok(ControlFlow::Continue(r));
-            }
-            // The checkpoint first: a worker that stops asks for both.
-            if self.checkpoint.swap(false, Ordering::SeqCst) {
-                run.checkpoint(sim, start);
             }
             if self.cancel.load(Ordering::SeqCst) {
                 return Err(EngineError::Cancelled { step: sim.steps_done() });
