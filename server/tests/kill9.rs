@@ -24,6 +24,20 @@ fn start(db: &std::path::Path, http: u16, grpc: u16) -> Child {
         .expect("sable serve starts")
 }
 
+/// 40 disks settling under gravity for `steps` steps, a sample every `every`.
+fn settle(steps: u64, every: u64) -> Value {
+    json!({
+        "name": "settle", "dimension": 2, "method": "dem",
+        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
+        "particles": [{"material": "glass", "count": 40, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
+        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
+        "gravity": [0, -9.81],
+        "stop": {"steps": steps},
+        "sampling": {"every_steps": every},
+        "seed": 3
+    })
+}
+
 async fn get(client: &reqwest::Client, url: &str) -> Option<Value> {
     client.get(url).send().await.ok()?.json().await.ok()
 }
@@ -49,16 +63,7 @@ async fn a_server_killed_with_sigkill_finishes_its_job_after_restart() {
     let base = format!("http://127.0.0.1:{http}");
     let client = reqwest::Client::new();
     let mut server = start(&db, http, grpc);
-    let scene = json!({
-        "name": "settle", "dimension": 2, "method": "dem",
-        "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-        "particles": [{"material": "glass", "count": 40, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-        "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
-        "gravity": [0, -9.81],
-        "stop": {"steps": 2000000},
-        "sampling": {"every_steps": 200000},
-        "seed": 3
-    });
+    let scene = settle(2_000_000, 200_000);
     // The server needs a moment to listen.
     let start_wait = Instant::now();
     let job = loop {
@@ -131,25 +136,9 @@ async fn a_job_whose_process_is_killed_fails_alone() {
     let base = format!("http://127.0.0.1:{http}");
     let client = reqwest::Client::new();
     let mut server = start(&db, http, grpc);
-    let scene = |steps: u64| {
-        let mut s = json!({
-            "name": "settle", "dimension": 2, "method": "dem",
-            "materials": {"glass": {"density": 2500.0, "contact": {"law": "linear", "k_n": 1e5}, "restitution": 0.5, "friction": 0.3}},
-            "particles": [{"material": "glass", "count": 40, "size": {"kind": "monodisperse", "diameter": 1e-3}, "placement": {"kind": "random"}}],
-            "container": {"min": [0, 0], "max": [0.01, 0.01], "wall_material": "glass"},
-            "gravity": [0, -9.81],
-            "stop": {"steps": steps},
-            "sampling": {"every_steps": 1000},
-            "seed": 3
-        });
-        if steps > 1_000_000 {
-            s["sampling"] = json!({"every_steps": 100_000});
-        }
-        s
-    };
     let start_wait = Instant::now();
     let job = loop {
-        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&scene(1_000_000_000)).send().await {
+        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&settle(1_000_000_000, 100_000)).send().await {
             break r.json::<Value>().await.expect("job");
         }
         assert!(start_wait.elapsed() < Duration::from_secs(20), "sable serve did not start");
@@ -174,8 +163,15 @@ async fn a_job_whose_process_is_killed_fails_alone() {
     assert_eq!(failed["attempts"], 1, "not run again: {failed}");
 
     // The server and its worker go on.
-    let next =
-        client.post(format!("{base}/v1/jobs")).json(&scene(20_000)).send().await.expect("submit").json::<Value>().await.expect("job");
+    let next = client
+        .post(format!("{base}/v1/jobs"))
+        .json(&settle(20_000, 1_000))
+        .send()
+        .await
+        .expect("submit")
+        .json::<Value>()
+        .await
+        .expect("job");
     let done = wait_state(&client, &format!("{base}/v1/jobs/{}", next["id"]), "succeeded", Duration::from_secs(60)).await;
     assert_eq!(done["sample_count"], 21, "{done}");
     server.kill().expect("stop");

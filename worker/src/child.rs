@@ -22,7 +22,7 @@ use sable_engine::observe::Sample;
 use sable_engine::run::{Progress, Runner};
 use sable_engine::scene::format_violations;
 
-use crate::execute::{apply_thread_budget, engine_run, job_pool, Ended, Msg};
+use crate::execute::{apply_thread_budget, engine_run, Ended, Msg};
 use crate::source::{CheckpointFile, ResumeFrom, SnapshotFiles};
 
 /// Largest frame read, bytes (a final state or a checkpoint of about two million particles).
@@ -117,9 +117,10 @@ fn split_header<T: for<'de> Deserialize<'de>>(payload: &[u8]) -> io::Result<(T, 
     Ok((header, &payload[4 + len..]))
 }
 
-fn read_frame_sync(r: &mut impl Read) -> io::Result<Option<(u8, Vec<u8>)>> {
-    let mut head = [0u8; 5];
-    match r.read_exact(&mut head) {
+/// What a frame's header read into `head` says: its kind and an empty payload of its length
+/// to read into; None at the end of the stream (`read`: the header's read).
+fn frame_head(read: io::Result<()>, head: [u8; 5]) -> io::Result<Option<(u8, Vec<u8>)>> {
+    match read {
         Ok(()) => {}
         Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
         Err(e) => return Err(e),
@@ -128,25 +129,23 @@ fn read_frame_sync(r: &mut impl Read) -> io::Result<Option<(u8, Vec<u8>)>> {
     if len > MAX_FRAME {
         return Err(io::Error::new(io::ErrorKind::InvalidData, format!("a frame of {len} bytes")));
     }
-    let mut payload = vec![0; len];
+    Ok(Some((head[0], vec![0; len])))
+}
+
+fn read_frame_sync(r: &mut impl Read) -> io::Result<Option<(u8, Vec<u8>)>> {
+    let mut head = [0u8; 5];
+    let read = r.read_exact(&mut head);
+    let Some((kind, mut payload)) = frame_head(read, head)? else { return Ok(None) };
     r.read_exact(&mut payload)?;
-    Ok(Some((head[0], payload)))
+    Ok(Some((kind, payload)))
 }
 
 async fn read_frame(r: &mut (impl AsyncRead + Unpin)) -> io::Result<Option<(u8, Vec<u8>)>> {
     let mut head = [0u8; 5];
-    match r.read_exact(&mut head).await {
-        Ok(_) => {}
-        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
-        Err(e) => return Err(e),
-    }
-    let len = u32::from_le_bytes([head[1], head[2], head[3], head[4]]) as usize;
-    if len > MAX_FRAME {
-        return Err(io::Error::new(io::ErrorKind::InvalidData, format!("a frame of {len} bytes")));
-    }
-    let mut payload = vec![0; len];
+    let read = r.read_exact(&mut head).await.map(|_| ());
+    let Some((kind, mut payload)) = frame_head(read, head)? else { return Ok(None) };
     r.read_exact(&mut payload).await?;
-    Ok(Some((head[0], payload)))
+    Ok(Some((kind, payload)))
 }
 
 /// The body of `sable job-run`: reads one job from standard input, runs it, writes what it
@@ -203,10 +202,6 @@ fn run_input(
         (Some((step, samples)), Some(data)) => Some(ResumeFrom { step, checkpoint: data, samples }),
         _ => None,
     };
-    let pool = match job_pool(threads) {
-        Ok(p) => p,
-        Err(message) => return (Ended::Failed { code: "internal".into(), message, step: Some(0), cpu_seconds: 0.0 }, None),
-    };
     let runner = Runner::for_scene(&scene);
     let (cancel, take) = (runner.cancel.clone(), runner.checkpoint.clone());
     std::thread::spawn(move || loop {
@@ -221,7 +216,7 @@ fn run_input(
             }
         }
     });
-    engine_run(input.job, scene, &input.scene, threads, resume, runner, pool, &|msg| send_frame(encode(msg)))
+    engine_run(input.job, scene, &input.scene, threads, resume, runner, &|msg| send_frame(encode(msg)))
 }
 
 /// A message of the engine as a frame to the worker.

@@ -104,10 +104,9 @@ fn run_job(
 }
 
 /// Runs job `job` of `scene` (its JSON `scene_json`, the thread budget applied: `threads`)
-/// on `pool`, from the checkpoint `resume` when it can be gone on from: how it ended and its
-/// final state (gzip-compressed JSON), every message sent to `send`. A panic of the engine is
-/// caught and reported as a failure.
-#[allow(clippy::too_many_arguments)]
+/// on a pool of `threads` threads of its own, from the checkpoint `resume` when it can be gone
+/// on from: how it ended and its final state (gzip-compressed JSON), every message sent to
+/// `send`. A panic of the engine is caught and reported as a failure.
 pub(crate) fn engine_run(
     job: i64,
     scene: Plan,
@@ -115,14 +114,20 @@ pub(crate) fn engine_run(
     threads: usize,
     resume: Option<ResumeFrom>,
     runner: Runner,
-    pool: rayon::ThreadPool,
     send: &(dyn Fn(Msg) + Sync),
 ) -> (Ended, Option<Vec<u8>>) {
-    let resume = resume.and_then(|from| match resumable(&from, scene_json, threads) {
-        Ok(r) => Some(r),
-        Err(why) => {
-            send(Msg::FromStart(format!("job {job}: cannot go on from the checkpoint at step {}: {why}", from.step)));
-            None
+    let pool = match job_pool(threads) {
+        Ok(p) => p,
+        Err(message) => return (Ended::Failed { code: "internal".into(), message, step: Some(0), cpu_seconds: 0.0 }, None),
+    };
+    let resume = resume.and_then(|from| {
+        let step = from.step;
+        match resumable(from, scene_json, threads) {
+            Ok(r) => Some(r),
+            Err(why) => {
+                send(Msg::FromStart(format!("job {job}: cannot go on from the checkpoint at step {step}: {why}")));
+                None
+            }
         }
     });
     let caught = std::panic::catch_unwind(AssertUnwindSafe(|| {
@@ -249,13 +254,13 @@ pub(crate) struct Resumable {
 
 /// Reads the checkpoint of `from` and makes `scene_json` go on from it, on `threads` threads;
 /// why not if this engine cannot (another version of the format, a state the scene refuses).
-pub(crate) fn resumable(from: &ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
+pub(crate) fn resumable(from: ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
     let text = gunzip(&from.checkpoint, MAX_CHECKPOINT_BYTES).map_err(|e| format!("cannot be read: {e}"))?;
     let checkpoint = Checkpoint::from_json(&text)?;
     let json = checkpoint.scene_to_resume(scene_json)?;
     let mut plan = plan_scene(&json).map_err(|v| format!("the scene does not go on from its state: {}", format_violations(&v)))?;
     apply_thread_budget(&mut plan, threads);
-    Ok(Resumable { plan, checkpoint, samples: from.samples.clone() })
+    Ok(Resumable { plan, checkpoint, samples: from.samples })
 }
 
 /// Waits for the next tick of `t`, or for ever without one.
@@ -293,17 +298,6 @@ pub async fn execute<S: JobSource>(
         }
     };
     let threads = apply_thread_budget(&mut scene, threads);
-    let pool = match job_pool(threads) {
-        Ok(p) => p,
-        Err(message) => {
-            return finish(
-                source,
-                lease,
-                Outcome::Failed { code: "internal".into(), message, steps: 0, wall_seconds: 0.0, cpu_seconds: 0.0 },
-            )
-            .await
-        }
-    };
     let runner = Runner::for_scene(&scene);
     let cancel = runner.cancel.clone();
     let checkpoint = runner.checkpoint.clone();
@@ -317,13 +311,12 @@ pub async fn execute<S: JobSource>(
     let (job, scene_json, resume) = (lease.job_id, lease.scene_json.clone(), lease.resume.clone());
     let mut engine = match process {
         JobProcess::InWorker => tokio::task::spawn_blocking(move || {
-            engine_run(job, scene, &scene_json, threads, resume, runner, pool, &|m| {
+            engine_run(job, scene, &scene_json, threads, resume, runner, &|m| {
                 let _ = tx.send(m);
             })
         }),
         JobProcess::Own(exe) => {
             let exe = exe.clone();
-            drop(pool);
             tokio::spawn(async move {
                 crate::child::run_in_process(&exe, job, &scene_json, threads, resume.as_ref(), &runner, &mut |m| {
                     let _ = tx.send(m);
