@@ -316,6 +316,26 @@ fn bounded(mut m: String) -> String {
     m
 }
 
+/// The start of tonic's message for a request whose bytes are not the protobuf message the
+/// method takes, as it travels in `grpc-message` (percent-encoded).
+const UNPARSED_REQUEST: &[u8] = b"failed%20to%20decode%20Protobuf%20message";
+
+/// A response whose status says the request could not be parsed, with its code made
+/// INVALID_ARGUMENT: tonic answers INTERNAL, after gRPC's table of status codes, but such a
+/// request is the client's error, one it must correct, not the server's, and Sable answers
+/// every other malformed input with INVALID_ARGUMENT. The message is kept. Only
+/// trailers-only responses carry it in their headers; those are the answers to requests
+/// refused before their method ran, which parse errors are while no method streams its
+/// requests (none does: each takes one message).
+pub fn unparsed_request_is_invalid_argument<B>(mut response: axum::http::Response<B>) -> axum::http::Response<B> {
+    let headers = response.headers_mut();
+    let internal = headers.get("grpc-status").is_some_and(|c| c.as_bytes() == b"13");
+    if internal && headers.get("grpc-message").is_some_and(|m| m.as_bytes().starts_with(UNPARSED_REQUEST)) {
+        headers.insert("grpc-status", axum::http::HeaderValue::from_static("3"));
+    }
+    response
+}
+
 fn worker_status(e: StoreError) -> Status {
     match e {
         StoreError::Conflict(m) => Status::failed_precondition(bounded(m)),

@@ -267,6 +267,8 @@ impl Server {
         if let Some(id) = &cfg.tls {
             grpc_server = grpc_server.tls_config(id.grpc()).map_err(|e| ServeError::Tls(e.to_string()))?;
         }
+        let grpc_server =
+            grpc_server.layer(tower::util::MapResponseLayer::new(crate::grpc::unparsed_request_is_invalid_argument::<tonic::body::Body>));
         tasks.spawn(async move {
             // tonic ignores its tcp_nodelay setting for incoming streams given to it: without
             // this each small gRPC answer waited for the peer's delayed ACK, about 40 ms (a

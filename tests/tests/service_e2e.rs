@@ -715,6 +715,72 @@ async fn worker_figures_and_unknown_enums_are_refused_by_name(backend: Backend) 
     let mut client = h.grpc().await;
     let e = client.list_jobs(pb::ListJobsRequest { state: 99, ..Default::default() }).await.expect_err("refused");
     assert_eq!((e.code(), e.message()), (tonic::Code::InvalidArgument, "state: 99 is not a JobState"));
+    // Bytes that are no protobuf message (field number 0 is none) are the client's error, on
+    // every method: INVALID_ARGUMENT, not INTERNAL, and nothing moves.
+    let channel = Channel::from_shared(format!("http://{}", h.server().grpc_addr)).expect("url").connect().await.expect("connect");
+    let mut raw = tonic::client::Grpc::new(channel);
+    let methods = [
+        "Simulations/SubmitJob",
+        "Simulations/GetJob",
+        "Simulations/ListJobs",
+        "Simulations/CancelJob",
+        "Simulations/WatchJob",
+        "Simulations/GetSamples",
+        "Simulations/GetFinalState",
+        "Simulations/Advise",
+        "Studies/CreateStudy",
+        "Studies/GetStudy",
+        "Studies/ListStudies",
+        "Studies/GetStudyChart",
+        "Workers/LeaseJob",
+        "Workers/ReportProgress",
+        "Workers/FinishJob",
+    ];
+    for (k, method) in methods.into_iter().enumerate() {
+        let bytes: Vec<u8> = [0u8, k as u8, 0xff, 0x07].to_vec();
+        raw.ready().await.expect("ready");
+        let path = format!("/sable.v1.{method}").parse::<http::uri::PathAndQuery>().expect("path");
+        let e = raw.unary(tonic::Request::new(bytes), path, RawBytes).await.expect_err("refused");
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "{method}: {}", e.message());
+        assert!(e.message().starts_with("failed to decode Protobuf message"), "{method}: {}", e.message());
+    }
+    let (_, page) = h.get("/v1/jobs").await;
+    assert_eq!(page["jobs"].as_array().map(Vec::len), Some(1), "{page}");
+}
+
+/// A gRPC codec of raw bytes, to send what no generated client would.
+#[derive(Clone, Copy, Default)]
+struct RawBytes;
+
+impl tonic::codec::Codec for RawBytes {
+    type Encode = Vec<u8>;
+    type Decode = Vec<u8>;
+    type Encoder = RawBytes;
+    type Decoder = RawBytes;
+    fn encoder(&mut self) -> RawBytes {
+        RawBytes
+    }
+    fn decoder(&mut self) -> RawBytes {
+        RawBytes
+    }
+}
+
+impl tonic::codec::Encoder for RawBytes {
+    type Item = Vec<u8>;
+    type Error = tonic::Status;
+    fn encode(&mut self, item: Vec<u8>, dst: &mut tonic::codec::EncodeBuf<'_>) -> Result<(), tonic::Status> {
+        bytes::BufMut::put_slice(dst, &item);
+        Ok(())
+    }
+}
+
+impl tonic::codec::Decoder for RawBytes {
+    type Item = Vec<u8>;
+    type Error = tonic::Status;
+    fn decode(&mut self, src: &mut tonic::codec::DecodeBuf<'_>) -> Result<Option<Vec<u8>>, tonic::Status> {
+        let n = bytes::Buf::remaining(src);
+        Ok(Some(bytes::Buf::copy_to_bytes(src, n).to_vec()))
+    }
 }
 
 /// A scene JSON text mutated by `rng`: a byte changed, a number replaced by one of the values
