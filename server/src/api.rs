@@ -430,29 +430,38 @@ async fn check_scene(
         return Err(ApiError::TooLarge(limits.max_body_bytes));
     }
     // A scene that starts from a job's final state is checked with that state in place; the
-    // job keeps the scene as submitted (the state goes in again when a worker leases it).
+    // job keeps the scene as submitted (the state goes in again when a worker leases it). The
+    // state is parsed on a blocking thread, one submission at a time (`JobStore::inlining`).
     let from = start_from::referenced_job(scene_value);
-    let resolved = match from {
-        None => None,
-        Some(job) => match store.final_state(job).await {
-            Ok(gz) => Some(
-                start_from::with_state(scene_value, &gz)
-                    .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?
-                    .to_string(),
-            ),
-            Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
-                violations.push(Violation {
-                    field: format!("{}start_from.job", scene_path),
-                    rule: format!("job {job} has no final state: name a job of this server that succeeded"),
-                });
-                None
+    let planned = match from {
+        None => Some(plan_scene(text)),
+        Some(job) => {
+            let permit = store.inlining().await?;
+            match store.final_state(job).await {
+                Ok(gz) => {
+                    let scene = scene_value.clone();
+                    let planned = tokio::task::spawn_blocking(move || {
+                        let _permit = permit;
+                        start_from::with_state(&scene, &gz).map(|resolved| plan_scene(&resolved.to_string()))
+                    })
+                    .await
+                    .map_err(|e| ApiError::Internal(format!("checking a scene that starts from job {job}: {e}")))?
+                    .map_err(|e| ApiError::Internal(format!("the final state of job {job} {e}")))?;
+                    Some(planned)
+                }
+                Err(StoreError::NotFound(_)) | Err(StoreError::Missing(_)) => {
+                    // (Nothing to parse when the referenced state is missing.)
+                    violations.push(Violation {
+                        field: format!("{}start_from.job", scene_path),
+                        rule: format!("job {job} has no final state: name a job of this server that succeeded"),
+                    });
+                    None
+                }
+                Err(e) => return Err(e.into()),
             }
-            Err(e) => return Err(e.into()),
-        },
+        }
     };
-    // (Nothing to parse when the referenced state is missing: reported above.)
-    let checked = if from.is_some() { resolved.as_deref() } else { Some(text) };
-    let scene = match checked.map(plan_scene) {
+    let scene = match planned {
         None => None,
         Some(Ok(scene)) => {
             let n = scene.particle_count();
@@ -651,12 +660,8 @@ pub async fn samples(
         Some(n) if n <= SAMPLE_PAGE => n,
         Some(n) => return Err(ApiError::invalid("limit", format!("must be at most {SAMPLE_PAGE} samples a page, got {n}"))),
     };
-    let job = store.get(id).await?;
-    let dim =
-        serde_json::from_str::<serde_json::Value>(&job.scene).ok().and_then(|v| v.get("dimension").and_then(|d| d.as_u64())).unwrap_or(3)
-            as usize;
     let read = store.samples_and_seq(id, from_step, to_step, max_points.unwrap_or(0) as usize, limit as usize).await?;
-    Ok(SampleRead { dim, samples: read.samples, events_seq: read.events_seq, next_from_step: read.next_from_step })
+    Ok(SampleRead { dim: read.dim, samples: read.samples, events_seq: read.events_seq, next_from_step: read.next_from_step })
 }
 
 #[cfg(test)]

@@ -106,12 +106,24 @@ impl StoreError {
 /// A read of a job's samples ([`JobStore::samples_and_seq`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleSlice {
+    /// The dimension of the job's scene (3 if it cannot be read).
+    pub dim: usize,
     /// The samples, in order.
     pub samples: Vec<Sample>,
     /// The job's last event sequence number when they were read.
     pub events_seq: i64,
     /// Where the next page starts (`from_step`) when the read stopped at its limit.
     pub next_from_step: Option<u64>,
+}
+
+/// The `dimension` of a scene's JSON text, read without building the rest (3 if it cannot be
+/// read: a stored scene always has one).
+fn scene_dimension(scene: &str) -> usize {
+    #[derive(serde::Deserialize)]
+    struct Dimension {
+        dimension: Option<usize>,
+    }
+    serde_json::from_str::<Dimension>(scene).ok().and_then(|d| d.dimension).unwrap_or(3)
 }
 
 /// A job to insert.
@@ -236,6 +248,11 @@ pub struct JobStore {
     /// again: a nearly full disk may still take the health probe's one row but not a batch of
     /// samples.
     report_failure: Arc<std::sync::Mutex<Option<String>>>,
+    /// Held while a final state is inlined into a scene that starts from it, by a
+    /// submission's check (the first) and by a lease (the second, so that a queue of
+    /// submissions does not hold up the workers): one of each at a time on this server, since
+    /// a state of two million particles takes gigabytes while it is parsed.
+    inlining: [Arc<tokio::sync::Semaphore>; 2],
 }
 
 /// Milliseconds since the Unix epoch.
@@ -271,6 +288,7 @@ impl JobStore {
             lease,
             limits: JobLimits::default(),
             report_failure: Default::default(),
+            inlining: [Arc::new(tokio::sync::Semaphore::new(1)), Arc::new(tokio::sync::Semaphore::new(1))],
         };
         if let DbLocation::Postgres(url) = at {
             listen::start(&store, url).await?;
@@ -515,10 +533,16 @@ impl JobStore {
         max_points: usize,
         limit: usize,
     ) -> Result<SampleSlice, StoreError> {
-        self.get(id).await?;
         let from = i64::try_from(from_step).unwrap_or(i64::MAX);
         let to = to_step.map_or(i64::MAX, |s| i64::try_from(s).unwrap_or(i64::MAX));
         let mut tx = self.reader.begin_with(self.backend.begin_read()).await?;
+        let scene: String = sqlx::query_scalar("SELECT scene FROM jobs WHERE id = $1")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?
+            .ok_or(StoreError::NotFound(id))?;
+        let dim = scene_dimension(&scene);
+        drop(scene);
         let marks: Vec<(i64, i64)> =
             sqlx::query_as("SELECT seq, step FROM samples WHERE job_id = $1 AND step >= $2 AND step <= $3 ORDER BY seq")
                 .bind(id)
@@ -563,7 +587,7 @@ impl JobStore {
         for r in rows {
             samples.push(serde_json::from_str(&r).map_err(|e| sqlx::Error::Decode(Box::new(e)))?);
         }
-        Ok(SampleSlice { samples, events_seq, next_from_step })
+        Ok(SampleSlice { dim, samples, events_seq, next_from_step })
     }
 
     /// The snapshots of a job, in order, without their files.
@@ -597,16 +621,37 @@ impl JobStore {
             .ok_or_else(|| StoreError::Missing(format!("job {id} has no final state (it is {}: only a succeeded job has one)", job.state)))
     }
 
+    /// The right of a submission to inline a final state into its scene, waited for while
+    /// another holds it, held until the permit is dropped (move it into the task that parses:
+    /// a request dropped meanwhile must not free it while the parse goes on).
+    pub async fn inlining(&self) -> Result<tokio::sync::OwnedSemaphorePermit, StoreError> {
+        Self::permit(&self.inlining[0]).await
+    }
+
+    async fn permit(s: &Arc<tokio::sync::Semaphore>) -> Result<tokio::sync::OwnedSemaphorePermit, StoreError> {
+        // The semaphores are never closed; if one were, the store would be shutting down.
+        s.clone().acquire_owned().await.map_err(|_| StoreError::Db(sqlx::Error::PoolClosed))
+    }
+
     /// The scene of a leased job with `start_from.job` replaced by that job's final state (the
     /// scene as stored if it names none, or if the state cannot be read: the engine then
     /// reports the reference it cannot resolve). Reads through the reader pool: states never
-    /// change once written, so this needs no write transaction.
+    /// change once written, so this needs no write transaction. One state at a time is
+    /// inlined ([`JobStore::inlining`]).
     async fn resolve_start(&self, scene: String) -> Result<String, StoreError> {
         let Ok(value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
         let Some(from) = crate::start_from::referenced_job(&value) else { return Ok(scene) };
+        let permit = Self::permit(&self.inlining[1]).await?;
         let gz: Option<Vec<u8>> =
             sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = $1").bind(from).fetch_optional(&self.reader).await?;
-        Ok(gz.and_then(|gz| crate::start_from::with_state(&value, &gz).ok()).map_or(scene, |v| v.to_string()))
+        let Some(gz) = gz else { return Ok(scene) };
+        // Parsed on a blocking thread, one state at a time, the permit held to the end.
+        let inlined = tokio::task::spawn_blocking(move || {
+            let _permit = permit;
+            crate::start_from::with_state(&value, &gz).ok().map(|v| v.to_string())
+        })
+        .await;
+        Ok(inlined.ok().flatten().unwrap_or(scene))
     }
 
     /// Events of a job with seq > `after`, in order (at most `limit`).
@@ -749,15 +794,32 @@ impl JobStore {
             tx.rollback().await?;
             return Ok(None);
         };
-        let resume = Self::resume_point(&mut tx, id).await?;
+        let resume_step = Self::resume_point(&mut tx, id).await?;
         sqlx::query("UPDATE jobs SET resumed_from_step = $1 WHERE id = $2")
-            .bind(resume.as_ref().map(|r| i64::try_from(r.step).unwrap_or(i64::MAX)))
+            .bind(resume_step.map(|step| i64::try_from(step).unwrap_or(i64::MAX)))
             .bind(id)
             .execute(&mut *tx)
             .await?;
         self.commit_state(tx, id).await?;
-        let scene = self.resolve_start(scene).await?;
-        Ok(Some(Lease { job_id: id, lease_id, scene_json: scene, attempt: attempts as u32, resume }))
+        // The checkpoint and the samples before it are read once the write is committed (a
+        // long run's samples are tens of megabytes; nothing else writes them while the job
+        // is leased). If that or the scene's state cannot be read, the job is handed back at
+        // once rather than left to a lease nobody holds (and an attempt spent).
+        let lease = Lease { job_id: id, lease_id, scene_json: String::new(), attempt: attempts as u32, resume: None };
+        let prepared = async {
+            let resume = match resume_step {
+                None => None,
+                Some(step) => self.read_resume(id, &lease.lease_id, step).await?,
+            };
+            Ok::<_, StoreError>((resume, self.resolve_start(scene).await?))
+        };
+        match prepared.await {
+            Ok((resume, scene_json)) => Ok(Some(Lease { scene_json, resume, ..lease })),
+            Err(e) => {
+                let _ = self.finish(&lease, &Outcome::Released).await;
+                Err(e)
+            }
+        }
     }
 
     /// Drops job `id`'s checkpoint in `tx`: an ended job is not run again.
@@ -766,29 +828,59 @@ impl JobStore {
         Ok(())
     }
 
-    /// Where a new attempt of job `id` starts, in `tx`: from the last checkpoint an earlier
-    /// attempt stored, with what was stored after it dropped and the samples before it read
-    /// back; else (none, or one whose samples are not all there) from scratch, everything
-    /// earlier attempts stored dropped.
-    async fn resume_point(tx: &mut Tx, id: i64) -> Result<Option<ResumeFrom>, StoreError> {
-        let checkpoint: Option<(i64, i64, i64, Vec<u8>)> =
-            sqlx::query_as("SELECT step, samples, snapshots, data FROM checkpoints WHERE job_id = $1")
-                .bind(id)
-                .fetch_optional(&mut **tx)
-                .await?;
-        if let Some((step, samples, snapshots, data)) = checkpoint {
+    /// The step from which a new attempt of job `id` starts, in `tx`: that of the last
+    /// checkpoint an earlier attempt stored, with what was stored after it dropped; else
+    /// (none, or one whose samples are not all there) `None`, everything earlier attempts
+    /// stored dropped.
+    async fn resume_point(tx: &mut Tx, id: i64) -> Result<Option<u64>, StoreError> {
+        let checkpoint: Option<(i64, i64, i64)> =
+            sqlx::query_as("SELECT step, samples, snapshots FROM checkpoints WHERE job_id = $1").bind(id).fetch_optional(&mut **tx).await?;
+        if let Some((step, samples, snapshots)) = checkpoint {
             sqlx::query("DELETE FROM samples WHERE job_id = $1 AND seq > $2").bind(id).bind(samples).execute(&mut **tx).await?;
             sqlx::query("DELETE FROM snapshots WHERE job_id = $1 AND idx >= $2").bind(id).bind(snapshots).execute(&mut **tx).await?;
-            let rows: Vec<String> =
-                sqlx::query_scalar("SELECT data FROM samples WHERE job_id = $1 ORDER BY seq").bind(id).fetch_all(&mut **tx).await?;
-            let before: Vec<Sample> = rows.iter().filter_map(|r| serde_json::from_str(r).ok()).collect();
-            if before.len() as i64 == samples && samples > 0 {
-                return Ok(Some(ResumeFrom { step: step.max(0) as u64, checkpoint: data, samples: before }));
+            let kept: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM samples WHERE job_id = $1").bind(id).fetch_one(&mut **tx).await?;
+            if kept == samples && samples > 0 {
+                return Ok(Some(step.max(0) as u64));
             }
         }
-        Self::drop_checkpoint(tx, id).await?;
-        sqlx::query("DELETE FROM samples WHERE job_id = $1").bind(id).execute(&mut **tx).await?;
-        sqlx::query("DELETE FROM snapshots WHERE job_id = $1").bind(id).execute(&mut **tx).await?;
+        Self::forget_attempts(tx, id).await?;
+        Ok(None)
+    }
+
+    /// Drops what earlier attempts of job `id` stored (checkpoint, samples, snapshots), in
+    /// `tx`: the next attempt starts from scratch.
+    async fn forget_attempts(tx: &mut Tx, id: i64) -> Result<(), StoreError> {
+        for table in ["checkpoints", "samples", "snapshots"] {
+            sqlx::query(&format!("DELETE FROM {table} WHERE job_id = $1")).bind(id).execute(&mut **tx).await?;
+        }
+        sqlx::query("UPDATE jobs SET resumed_from_step = NULL WHERE id = $1").bind(id).execute(&mut **tx).await?;
+        Ok(())
+    }
+
+    /// The checkpoint of job `id` at `step` and the samples before it, read through the
+    /// reader pool for the attempt leased as `lease_id`. If they cannot be read back whole (a
+    /// sample that does not parse, the checkpoint gone), the attempt starts from scratch
+    /// instead: what earlier attempts stored is dropped, as long as the lease still holds.
+    async fn read_resume(&self, id: i64, lease_id: &str, step: u64) -> Result<Option<ResumeFrom>, StoreError> {
+        let data: Option<Vec<u8>> =
+            sqlx::query_scalar("SELECT data FROM checkpoints WHERE job_id = $1").bind(id).fetch_optional(&self.reader).await?;
+        let rows: Vec<String> =
+            sqlx::query_scalar("SELECT data FROM samples WHERE job_id = $1 ORDER BY seq").bind(id).fetch_all(&self.reader).await?;
+        let samples: Option<Vec<Sample>> = rows.iter().map(|r| serde_json::from_str(r).ok()).collect();
+        if let (Some(checkpoint), Some(samples)) = (data, samples) {
+            return Ok(Some(ResumeFrom { step, checkpoint, samples }));
+        }
+        let mut tx = self.begin().await?;
+        self.lock_job(&mut tx, id).await?;
+        let held: Option<i64> = sqlx::query_scalar("SELECT id FROM jobs WHERE id = $1 AND lease_id = $2")
+            .bind(id)
+            .bind(lease_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        if held.is_some() {
+            Self::forget_attempts(&mut tx, id).await?;
+        }
+        tx.commit().await?;
         Ok(None)
     }
 
@@ -838,10 +930,7 @@ impl JobStore {
         if report.from_start {
             // The worker could not go on from the checkpoint it was given: what earlier
             // attempts stored goes, as for an attempt without one.
-            for table in ["checkpoints", "samples", "snapshots"] {
-                sqlx::query(&format!("DELETE FROM {table} WHERE job_id = $1")).bind(lease.job_id).execute(&mut *tx).await?;
-            }
-            sqlx::query("UPDATE jobs SET resumed_from_step = NULL WHERE id = $1").bind(lease.job_id).execute(&mut *tx).await?;
+            Self::forget_attempts(&mut tx, lease.job_id).await?;
         }
         // The samples of an attempt are numbered 1, 2, ... without gaps. A report sent again
         // because its answer was lost starts at or before the last one stored: those are
