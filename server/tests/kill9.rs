@@ -13,8 +13,14 @@ fn free_port() -> u16 {
 }
 
 fn start(db: &std::path::Path, http: u16, grpc: u16) -> Child {
+    start_with(db, http, grpc, &[])
+}
+
+/// As [`start`], with `more` arguments.
+fn start_with(db: &std::path::Path, http: u16, grpc: u16, more: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_sable"))
         .args(["serve", "--workers", "1", "--threads-per-job", "1", "--lease-seconds", "2", "--checkpoint-every", "0.3"])
+        .args(more)
         .arg("--db")
         .arg(db)
         .args(["--http", &format!("127.0.0.1:{http}"), "--grpc", &format!("127.0.0.1:{grpc}")])
@@ -174,6 +180,41 @@ async fn a_job_whose_process_is_killed_fails_alone() {
         .expect("job");
     let done = wait_state(&client, &format!("{base}/v1/jobs/{}", next["id"]), "succeeded", Duration::from_secs(60)).await;
     assert_eq!(done["sample_count"], 21, "{done}");
+    server.kill().expect("stop");
+    let _ = server.wait();
+}
+
+/// Issue 71, finding 1: with `--job-memory`, a job that needs more than its bound fails with
+/// code `crashed`, saying it ran out of memory (the allocator's own words quoted), rather than
+/// being killed by the kernel with no word; the next job runs.
+#[tokio::test]
+async fn a_job_past_its_memory_bound_fails_saying_so() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let db = dir.path().join("sable.db");
+    let (http, grpc) = (free_port(), free_port());
+    let base = format!("http://127.0.0.1:{http}");
+    let client = reqwest::Client::new();
+    let mut server = start_with(&db, http, grpc, &["--job-memory", "0.25"]);
+    // A million disks: several hundred megabytes of arrays, more than a quarter of a GiB.
+    let mut big = settle(10, 10);
+    big["particles"][0]["count"] = 1_000_000.into();
+    big["container"]["max"] = serde_json::json!([2.0, 2.0]);
+    let start_wait = Instant::now();
+    let job = loop {
+        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&big).send().await {
+            break r.json::<Value>().await.expect("job");
+        }
+        assert!(start_wait.elapsed() < Duration::from_secs(20), "sable serve did not start");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    assert!(job["id"].is_i64(), "{job}");
+    let failed = wait_state(&client, &format!("{base}/v1/jobs/{}", job["id"]), "failed", Duration::from_secs(60)).await;
+    assert_eq!(failed["error"]["code"], "crashed", "{failed}");
+    let message = failed["error"]["message"].as_str().unwrap_or_default();
+    assert!(message.contains("ran out of memory") && message.contains("memory allocation of"), "{failed}");
+    let next = client.post(format!("{base}/v1/jobs")).json(&settle(2_000, 1_000)).send().await.expect("submit");
+    let next = next.json::<Value>().await.expect("job");
+    wait_state(&client, &format!("{base}/v1/jobs/{}", next["id"]), "succeeded", Duration::from_secs(60)).await;
     server.kill().expect("stop");
     let _ = server.wait();
 }

@@ -59,6 +59,8 @@ struct JobInput {
     threads: usize,
     /// The step of the checkpoint sent next, and the samples before it.
     resume: Option<(u64, Vec<Sample>)>,
+    /// Largest data (heap and written mappings) of the process, bytes.
+    memory: Option<u64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -164,6 +166,16 @@ pub fn job_process_main() -> u8 {
         }
     }
     let Some(input) = input else { return 2 };
+    if let Some(bytes) = input.memory {
+        // Before the engine's threads and allocations, which all count against it. The data
+        // limit counts what is written to (heap, anonymous mappings, thread stacks), not the
+        // address space the allocator reserves and never touches (glibc reserves 64 MiB per
+        // arena), which a bound on the address space (RLIMIT_AS) would count.
+        let limit = bytes as nix::sys::resource::rlim_t;
+        if let Err(e) = nix::sys::resource::setrlimit(nix::sys::resource::Resource::RLIMIT_DATA, limit, limit) {
+            eprintln!("cannot bound the job's memory to {bytes} bytes: {e}; it runs unbounded");
+        }
+    }
     let out = Arc::new(Mutex::new(io::BufWriter::new(io::stdout())));
     let send_frame = {
         let out = out.clone();
@@ -272,11 +284,13 @@ fn decode(kind: u8, payload: &[u8]) -> Option<Msg> {
     }
 }
 
-/// Runs a job in a process of `exe` (`exe job-run`), sending its messages to `send` and the
-/// flags' requests to it; how it ended and its final state.
+/// Runs a job in a process of `exe` (`exe job-run`; its data bounded to `memory` bytes if
+/// given), sending its messages to `send` and the flags' requests to it; how it
+/// ended and its final state.
 #[allow(clippy::too_many_arguments)]
 pub(crate) async fn run_in_process(
     exe: &std::path::Path,
+    memory: Option<u64>,
     job: i64,
     scene: &str,
     threads: usize,
@@ -289,16 +303,18 @@ pub(crate) async fn run_in_process(
         .arg("job-run")
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
         .kill_on_drop(true)
         .spawn()
     {
         Ok(c) => c,
         Err(e) => return failed(format!("cannot start the job's process ({}): {e}", exe.display())),
     };
-    let (Some(mut stdin), Some(mut stdout)) = (child.stdin.take(), child.stdout.take()) else {
+    let (Some(mut stdin), Some(mut stdout), Some(stderr)) = (child.stdin.take(), child.stdout.take(), child.stderr.take()) else {
         return failed("the job's process has no standard input or output".into());
     };
-    let input = JobInput { job, scene: scene.to_string(), threads, resume: resume.map(|r| (r.step, r.samples.clone())) };
+    let last_words = tokio::spawn(last_words(stderr, job));
+    let input = JobInput { job, scene: scene.to_string(), threads, resume: resume.map(|r| (r.step, r.samples.clone())), memory };
     let mut bytes = frame(JOB, &[&serde_json::to_vec(&input).unwrap_or_default()]);
     if let Some(r) = resume {
         bytes.extend(frame(CHECKPOINT_IN, &[&r.checkpoint]));
@@ -342,17 +358,65 @@ pub(crate) async fn run_in_process(
     }
     controls.abort();
     let status = child.wait().await;
+    let said = last_words.await.unwrap_or_default();
     match ended {
         Some(e) => (e, state),
-        None => failed(format!(
-            "the job's process ended without a result ({}): most likely an allocation the machine could not make \
-             (lower the scene's particle count or the workers per machine), else a bug in Sable (please report it with the scene)",
-            match status {
-                Ok(s) => describe(s),
-                Err(e) => format!("its status cannot be read: {e}"),
-            }
-        )),
+        None => failed(why_it_crashed(status.map(describe).unwrap_or_else(|e| format!("its status cannot be read: {e}")), &said)),
     }
+}
+
+/// Most of a job process's standard error kept for the message of a crash, bytes (its end).
+const LAST_WORDS: usize = 2048;
+
+/// Copies what a job process writes to its standard error to the worker's, each line marked
+/// with the job; returns the last [`LAST_WORDS`] bytes of it.
+async fn last_words(stderr: impl AsyncRead + Unpin, job: i64) -> String {
+    use tokio::io::AsyncBufReadExt;
+    let mut lines = tokio::io::BufReader::new(stderr);
+    let mut kept: Vec<u8> = Vec::new();
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        // At most 64 kB at a time: a longer line comes through in pieces.
+        match (&mut lines).take(64 * 1024).read_until(b'\n', &mut line).await {
+            Ok(0) | Err(_) => break,
+            Ok(_) => {}
+        }
+        let text = String::from_utf8_lossy(&line);
+        // The worker's own standard error gone, the line is only kept.
+        let _ = writeln!(io::stderr(), "job {job}: {}", text.trim_end());
+        kept.extend_from_slice(&line);
+        if kept.len() > 2 * LAST_WORDS {
+            kept.drain(..kept.len() - LAST_WORDS);
+        }
+    }
+    let start = kept.len().saturating_sub(LAST_WORDS);
+    String::from_utf8_lossy(&kept[start..]).trim().to_string()
+}
+
+/// The message of a job whose process ended (`how`, [`describe`]) without a result, after
+/// what it last wrote (`said`): an allocation that failed says so (Rust's allocator prints
+/// its size before it aborts); a process killed without a word was most likely killed for
+/// memory by the kernel, or by an operator.
+fn why_it_crashed(how: String, said: &str) -> String {
+    let last_line = said.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("").trim();
+    let out_of_memory = ["memory allocation of", "Cannot allocate memory", "os error 12", "failed to spawn thread"];
+    if let Some(line) = said.lines().find(|l| out_of_memory.iter().any(|m| l.contains(m))) {
+        return format!(
+            "the job's process ran out of memory ({how}; it said \"{}\"): lower the scene's particle count, or run fewer jobs per machine",
+            line.trim()
+        );
+    }
+    if said.contains("has overflowed its stack") {
+        return format!("the job's process overflowed its stack ({how}): a bug in Sable, please report it with the scene");
+    }
+    if last_line.is_empty() {
+        return format!(
+            "the job's process ended without a result or a word ({how}): killed from outside, most likely by the kernel for \
+             lack of memory (lower the scene's particle count, or run fewer jobs per machine) or by an operator"
+        );
+    }
+    format!("the job's process ended without a result ({how}), its last words: \"{last_line}\": a bug in Sable, please report it with the scene")
 }
 
 /// How a process ended, in words.

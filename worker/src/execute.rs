@@ -228,8 +228,16 @@ pub enum JobProcess {
     /// down with it).
     #[default]
     InWorker,
-    /// In a process of its own: this executable run as `EXE job-run` ([`crate::child`]).
-    Own(std::path::PathBuf),
+    /// In a process of its own: this executable (`exe`) run as `EXE job-run`
+    /// ([`crate::child`]), its data (heap and written mappings) bounded to `memory` bytes
+    /// when given (an allocation past it fails the job with code `crashed`, saying it ran out
+    /// of memory, rather than leaving the kernel to kill a process of its choice).
+    Own {
+        /// The executable.
+        exe: std::path::PathBuf,
+        /// Largest data of a job process, bytes.
+        memory: Option<u64>,
+    },
 }
 
 /// How a job's engine ended (in the worker's process or in a job process of its own,
@@ -315,10 +323,10 @@ pub async fn execute<S: JobSource>(
                 let _ = tx.send(m);
             })
         }),
-        JobProcess::Own(exe) => {
-            let exe = exe.clone();
+        JobProcess::Own { exe, memory } => {
+            let (exe, memory) = (exe.clone(), *memory);
             tokio::spawn(async move {
-                crate::child::run_in_process(&exe, job, &scene_json, threads, resume.as_ref(), &runner, &mut |m| {
+                crate::child::run_in_process(&exe, memory, job, &scene_json, threads, resume.as_ref(), &runner, &mut |m| {
                     let _ = tx.send(m);
                 })
                 .await

@@ -60,6 +60,11 @@ pub struct ServeArgs {
     /// job that aborts its process then takes the others down with it).
     #[arg(long)]
     pub jobs_in_worker: bool,
+    /// GiB of memory each job's process may write to (heap and mappings; default:
+    /// unbounded); a job that needs more fails with code `crashed`, saying it ran out of
+    /// memory, and leaves the machine's memory to the other jobs.
+    #[arg(long)]
+    pub job_memory: Option<f64>,
     /// Seconds of wall time between two checkpoints of a running job, from which a later
     /// attempt goes on if this one does not finish (0: only when the workers stop).
     #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
@@ -154,7 +159,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     }
     cfg.idle_timeout = Duration::from_secs_f64(a.idle_timeout);
     cfg.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
-    cfg.job_process = job_process(a.jobs_in_worker)?;
+    cfg.job_process = job_process(a.jobs_in_worker, a.job_memory)?;
     cfg.limits = sable_server::api::Limits {
         max_particles: a.max_particles,
         max_steps: a.max_steps,
@@ -193,6 +198,11 @@ pub struct WorkerArgs {
     /// job that aborts its process then takes the others down with it).
     #[arg(long)]
     pub jobs_in_worker: bool,
+    /// GiB of memory each job's process may write to (heap and mappings; default:
+    /// unbounded); a job that needs more fails with code `crashed`, saying it ran out of
+    /// memory, and leaves the machine's memory to the other jobs.
+    #[arg(long)]
+    pub job_memory: Option<f64>,
     /// Seconds of wall time between two checkpoints of a running job, from which a later
     /// attempt goes on if this one does not finish (0: only when the workers stop).
     #[arg(long, default_value_t = sable_worker::DEFAULT_CHECKPOINT_INTERVAL.as_secs_f64())]
@@ -210,15 +220,28 @@ pub struct WorkerArgs {
 }
 
 /// `sable worker --server URL`.
-/// Where jobs run: in processes of this executable (`sable job-run`), unless `in_worker`.
-fn job_process(in_worker: bool) -> anyhow::Result<sable_worker::JobProcess> {
+/// Where jobs run: in processes of this executable (`sable job-run`), each bounded to
+/// `memory_gib` GiB of data if given, unless `in_worker`.
+fn job_process(in_worker: bool, memory_gib: Option<f64>) -> anyhow::Result<sable_worker::JobProcess> {
+    if let Some(g) = memory_gib {
+        if !(g.is_finite() && g >= MIN_JOB_MEMORY_GIB) {
+            bail!("--job-memory: must be at least {MIN_JOB_MEMORY_GIB} (GiB of memory per job process), got {g}");
+        }
+        if in_worker {
+            bail!("--job-memory: bounds a job's own process; leave it out with --jobs-in-worker");
+        }
+    }
     if in_worker {
         return Ok(sable_worker::JobProcess::InWorker);
     }
     let exe =
         std::env::current_exe().context("cannot find this executable to run jobs in processes of their own (or give --jobs-in-worker)")?;
-    Ok(sable_worker::JobProcess::Own(exe))
+    Ok(sable_worker::JobProcess::Own { exe, memory: memory_gib.map(|g| (g * (1u64 << 30) as f64) as u64) })
 }
+
+/// Smallest `--job-memory`, GiB: below it a job's own set-up (its scene, thread stacks, the
+/// engine's tables) leaves little room for its particles.
+const MIN_JOB_MEMORY_GIB: f64 = 0.25;
 
 /// The interval of `--checkpoint-every SECONDS` (0: none but at the stop).
 fn checkpoint_interval(seconds: f64) -> anyhow::Result<Option<Duration>> {
@@ -242,7 +265,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             pc.threads_per_job = a.threads_per_job;
         }
         pc.checkpoint_interval = checkpoint_interval(a.checkpoint_every)?;
-        pc.job_process = job_process(a.jobs_in_worker)?;
+        pc.job_process = job_process(a.jobs_in_worker, a.job_memory)?;
         let workers = pc.workers;
         let pool = sable_worker::Pool::start(Arc::new(source), pc, Arc::new(tokio::sync::Notify::new()));
         eprintln!("sable worker {name}: {workers} worker(s) leasing from {}; Ctrl-C to stop", a.server);
