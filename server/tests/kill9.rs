@@ -44,6 +44,18 @@ fn settle(steps: u64, every: u64) -> Value {
     })
 }
 
+/// Submits `scene` to the server at `base` as soon as it listens (within 20 s); the job.
+async fn submit_once_up(client: &reqwest::Client, base: &str, scene: &Value) -> Value {
+    let start = Instant::now();
+    loop {
+        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(scene).send().await {
+            return r.json::<Value>().await.expect("job");
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "sable serve did not start");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
 async fn get(client: &reqwest::Client, url: &str) -> Option<Value> {
     client.get(url).send().await.ok()?.json().await.ok()
 }
@@ -70,15 +82,7 @@ async fn a_server_killed_with_sigkill_finishes_its_job_after_restart() {
     let client = reqwest::Client::new();
     let mut server = start(&db, http, grpc);
     let scene = settle(2_000_000, 200_000);
-    // The server needs a moment to listen.
-    let start_wait = Instant::now();
-    let job = loop {
-        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&scene).send().await {
-            break r.json::<Value>().await.expect("job");
-        }
-        assert!(start_wait.elapsed() < Duration::from_secs(20), "sable serve did not start");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    };
+    let job = submit_once_up(&client, &base, &scene).await;
     let url = format!("{base}/v1/jobs/{}", job["id"]);
     wait_state(&client, &url, "running", Duration::from_secs(20)).await;
     // A fifth of the way: checkpoints have been taken.
@@ -142,14 +146,7 @@ async fn a_job_whose_process_is_killed_fails_alone() {
     let base = format!("http://127.0.0.1:{http}");
     let client = reqwest::Client::new();
     let mut server = start(&db, http, grpc);
-    let start_wait = Instant::now();
-    let job = loop {
-        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&settle(1_000_000_000, 100_000)).send().await {
-            break r.json::<Value>().await.expect("job");
-        }
-        assert!(start_wait.elapsed() < Duration::from_secs(20), "sable serve did not start");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    };
+    let job = submit_once_up(&client, &base, &settle(1_000_000_000, 100_000)).await;
     let url = format!("{base}/v1/jobs/{}", job["id"]);
     wait_state(&client, &url, "running", Duration::from_secs(20)).await;
     let started = Instant::now();
@@ -184,7 +181,7 @@ async fn a_job_whose_process_is_killed_fails_alone() {
     let _ = server.wait();
 }
 
-/// Issue 71, finding 1: with `--job-memory`, a job that needs more than its bound fails with
+/// With `--job-memory`, a job that needs more than its bound fails with
 /// code `crashed`, saying it ran out of memory (the allocator's own words quoted), rather than
 /// being killed by the kernel with no word; the next job runs.
 #[tokio::test]
@@ -199,14 +196,7 @@ async fn a_job_past_its_memory_bound_fails_saying_so() {
     let mut big = settle(10, 10);
     big["particles"][0]["count"] = 1_000_000.into();
     big["container"]["max"] = serde_json::json!([2.0, 2.0]);
-    let start_wait = Instant::now();
-    let job = loop {
-        if let Ok(r) = client.post(format!("{base}/v1/jobs")).json(&big).send().await {
-            break r.json::<Value>().await.expect("job");
-        }
-        assert!(start_wait.elapsed() < Duration::from_secs(20), "sable serve did not start");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    };
+    let job = submit_once_up(&client, &base, &big).await;
     assert!(job["id"].is_i64(), "{job}");
     let failed = wait_state(&client, &format!("{base}/v1/jobs/{}", job["id"]), "failed", Duration::from_secs(60)).await;
     assert_eq!(failed["error"]["code"], "crashed", "{failed}");

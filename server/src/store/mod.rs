@@ -248,11 +248,13 @@ pub struct JobStore {
     /// again: a nearly full disk may still take the health probe's one row but not a batch of
     /// samples.
     report_failure: Arc<std::sync::Mutex<Option<String>>>,
-    /// Held while a final state is inlined into a scene that starts from it, by a
-    /// submission's check (the first) and by a lease (the second, so that a queue of
-    /// submissions does not hold up the workers): one of each at a time on this server, since
-    /// a state of two million particles takes gigabytes while it is parsed.
-    inlining: [Arc<tokio::sync::Semaphore>; 2],
+    /// Held while a final state is inlined into a scene that starts from it by a
+    /// submission's check: one at a time on this server, since a state of two million
+    /// particles takes gigabytes while it is parsed.
+    inlining_submissions: Arc<tokio::sync::Semaphore>,
+    /// The same for leases, apart, so that a queue of submissions does not hold up the
+    /// workers.
+    inlining_leases: Arc<tokio::sync::Semaphore>,
 }
 
 /// Milliseconds since the Unix epoch.
@@ -288,7 +290,8 @@ impl JobStore {
             lease,
             limits: JobLimits::default(),
             report_failure: Default::default(),
-            inlining: [Arc::new(tokio::sync::Semaphore::new(1)), Arc::new(tokio::sync::Semaphore::new(1))],
+            inlining_submissions: Arc::new(tokio::sync::Semaphore::new(1)),
+            inlining_leases: Arc::new(tokio::sync::Semaphore::new(1)),
         };
         if let DbLocation::Postgres(url) = at {
             listen::start(&store, url).await?;
@@ -625,7 +628,7 @@ impl JobStore {
     /// another holds it, held until the permit is dropped (move it into the task that parses:
     /// a request dropped meanwhile must not free it while the parse goes on).
     pub async fn inlining(&self) -> Result<tokio::sync::OwnedSemaphorePermit, StoreError> {
-        Self::permit(&self.inlining[0]).await
+        Self::permit(&self.inlining_submissions).await
     }
 
     async fn permit(s: &Arc<tokio::sync::Semaphore>) -> Result<tokio::sync::OwnedSemaphorePermit, StoreError> {
@@ -641,7 +644,7 @@ impl JobStore {
     async fn resolve_start(&self, scene: String) -> Result<String, StoreError> {
         let Ok(value) = serde_json::from_str::<serde_json::Value>(&scene) else { return Ok(scene) };
         let Some(from) = crate::start_from::referenced_job(&value) else { return Ok(scene) };
-        let permit = Self::permit(&self.inlining[1]).await?;
+        let permit = Self::permit(&self.inlining_leases).await?;
         let gz: Option<Vec<u8>> =
             sqlx::query_scalar("SELECT state FROM job_states WHERE job_id = $1").bind(from).fetch_optional(&self.reader).await?;
         let Some(gz) = gz else { return Ok(scene) };
