@@ -11,7 +11,7 @@ use crate::math::Vec3;
 use crate::observe::Sample;
 use crate::observe::Snapshot;
 use crate::observe::{Analysis, ExperimentResult, StrainSample};
-use crate::resume::{Checkpoint, Clock, StagePoint, CHECKPOINT_FORMAT, CHECKPOINT_VERSION};
+use crate::resume::{Carried, Checkpoint, Clock, StagePoint, CHECKPOINT_FORMAT, CHECKPOINT_VERSION};
 use crate::scene::{Controls, Equilibrium, Sampling, Scene, Stage, StateFile, Stop};
 
 /// A running simulation of one method.
@@ -79,10 +79,20 @@ pub trait Simulation: Send {
     /// Sets the clock of a simulation built from a checkpoint's state, so that it counts on
     /// from the checkpoint's step.
     fn set_clock(&mut self, clock: &Clock);
-    /// Whether a run could go on from a checkpoint taken now; why not if its state holds what a
-    /// saved state cannot (the runner then takes no checkpoint).
-    fn resumable(&self) -> Result<(), String> {
-        Ok(())
+    /// What the run carries beside its saved state, particles numbered in the state's order
+    /// ([`crate::resume::Carried`]): nothing for a method without history.
+    fn carried(&self) -> Carried {
+        Carried::default()
+    }
+    /// Sets back what a run carried, in a simulation built from the checkpoint's state with
+    /// [`crate::scene::Scene::continue_saved_run`]. A method without history refuses anything
+    /// but nothing.
+    fn carry_on(&mut self, carried: &Carried) -> Result<(), EngineError> {
+        if carried.is_empty() {
+            Ok(())
+        } else {
+            Err(EngineError::Build { field: "checkpoint".into(), reason: format!("method {} carries no contact history", self.method()) })
+        }
     }
     /// Sends a record of every Newton iteration to `sink` from now on
     /// ([`crate::methods::soft::trace`]); false (and nothing sent) for a method without Newton
@@ -478,7 +488,8 @@ impl Runner {
         // The controls of the stages up to the checkpoint's, in order (a stage keeps what the
         // ones before it set), without what acts once when a stage starts and is already in
         // the state (walls closed onto the grains, a shear profile imposed, grains glued); then
-        // the clock, which sets back the walls' servos the controls reset.
+        // the clock, which sets back the walls' servos the controls reset, and what the run
+        // carried (the grains it glued, its contacts' history).
         let quiet = |stage: &Stage| Stage {
             controls: Controls { close_walls: None, glue: None, shear_rate: None, ..stage.controls.clone() },
             ..stage.clone()
@@ -488,6 +499,7 @@ impl Runner {
         }
         sim.begin_stage(&quiet(&self.stages[cp.stage.index]))?;
         sim.set_clock(&cp.clock);
+        sim.carry_on(&cp.carried)?;
         for s in r.samples {
             run.analysis.push(s);
         }
@@ -624,9 +636,6 @@ impl RunState<'_> {
 
     /// Reports a checkpoint of the run now, within the stage that began at `start`.
     fn checkpoint(&mut self, sim: &dyn Simulation, start: &StageStart) {
-        if sim.resumable().is_err() {
-            return;
-        }
         let l = start.lengths;
         let cp = Checkpoint {
             format: CHECKPOINT_FORMAT.into(),
@@ -640,6 +649,7 @@ impl RunState<'_> {
             settled: self.settled,
             last_snapshot: self.last_snapshot,
             state: sim.saved_state(),
+            carried: sim.carried(),
         };
         (self.on_checkpoint)(&cp);
     }

@@ -122,7 +122,7 @@ pub(crate) fn engine_run(
     };
     let resume = resume.and_then(|from| {
         let step = from.step;
-        match resumable(from, scene_json, threads) {
+        match resumable(from, &scene, scene_json, threads) {
             Ok(r) => Some(r),
             Err(why) => {
                 send(Msg::FromStart(format!("job {job}: cannot go on from the checkpoint at step {step}: {why}")));
@@ -260,13 +260,15 @@ pub(crate) struct Resumable {
     samples: Vec<Sample>,
 }
 
-/// Reads the checkpoint of `from` and makes `scene_json` go on from it, on `threads` threads;
-/// why not if this engine cannot (another version of the format, a state the scene refuses).
-pub(crate) fn resumable(from: ResumeFrom, scene_json: &str, threads: usize) -> Result<Resumable, String> {
+/// Reads the checkpoint of `from` and makes `scene_json` (planned as `original`) go on from it,
+/// on `threads` threads; why not if this engine cannot (another version of the format, a state
+/// the scene refuses).
+pub(crate) fn resumable(from: ResumeFrom, original: &Plan, scene_json: &str, threads: usize) -> Result<Resumable, String> {
     let text = gunzip(&from.checkpoint, MAX_CHECKPOINT_BYTES).map_err(|e| format!("cannot be read: {e}"))?;
     let checkpoint = Checkpoint::from_json(&text)?;
     let json = checkpoint.scene_to_resume(scene_json)?;
     let mut plan = plan_scene(&json).map_err(|v| format!("the scene does not go on from its state: {}", format_violations(&v)))?;
+    plan.continue_saved_run(original);
     apply_thread_budget(&mut plan, threads);
     Ok(Resumable { plan, checkpoint, samples: from.samples })
 }

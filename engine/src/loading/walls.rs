@@ -58,6 +58,22 @@ impl Wall {
         wall
     }
 
+    /// The servo gain used when a stress control gives none, m/(s·Pa).
+    pub fn default_gain(&self) -> Real {
+        self.default_gain
+    }
+
+    /// Sets the servo gain used when a stress control gives none (m/(s·Pa)), and the current
+    /// gain if the wall uses it: a run that goes on from a checkpoint keeps the gain its walls
+    /// had, which was derived from a time step its build would not find again. The wall's
+    /// velocity and servo integral are kept.
+    pub fn set_default_gain(&mut self, gain: Real) {
+        self.default_gain = gain;
+        let (velocity, integral) = (self.velocity, self.integral);
+        self.set_motion(self.motion);
+        (self.velocity, self.integral) = (velocity, integral);
+    }
+
     /// Changes how the wall moves (a new stage of a loading program); it keeps its position.
     pub fn set_motion(&mut self, motion: WallMotion) {
         let (velocity, gain) = match motion {

@@ -55,8 +55,8 @@ pub(crate) fn initial_particles(scene: &Scene) -> Result<(Particles, Domain), En
         }
     }
     // A state's material points and meshes follow its particles' order (`mpm` and `fem` go on
-    // from them).
-    if scene.initial.as_ref().is_none_or(|st| st.points.is_none() && st.meshes.is_none()) {
+    // from them), and so does a checkpoint's contact history.
+    if scene.initial.as_ref().is_none_or(|st| st.points.is_none() && st.meshes.is_none() && !st.continued) {
         sort_by_cell(&mut p, &domain);
     }
     // A state saved from a sheared Lees-Edwards cell keeps its image offset.

@@ -136,6 +136,10 @@ pub struct InitialState {
     /// The grains' meshes (checked), in the order of the particles: a run of `fem` goes on from
     /// them.
     pub meshes: Option<StateMeshes>,
+    /// The state is a checkpoint's, and the run goes on as the one that saved it
+    /// ([`super::Scene::continue_saved_run`]): its particles keep the state's order and its
+    /// aggregates are not relaxed again. False for a scene's `start_from`.
+    pub continued: bool,
 }
 
 impl InitialState {
@@ -197,6 +201,7 @@ pub(crate) fn check_state(
         bondings,
         points: None,
         meshes: None,
+        continued: false,
     };
     if !lengths_ok {
         return out;

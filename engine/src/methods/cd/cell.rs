@@ -32,9 +32,9 @@ pub(super) struct Cell {
     /// What is imposed.
     pub kind: Deformation,
     /// Speed of the free degree of freedom along `direction`, m/s (stress targets).
-    speed: Real,
+    pub(super) speed: Real,
     /// Mass of the free degree of freedom, kg.
-    mass: Real,
+    pub(super) mass: Real,
 }
 
 impl Cell {

@@ -72,6 +72,7 @@
 mod balance;
 mod cell;
 mod detect;
+mod history;
 mod laws;
 pub mod params;
 pub use params::{CdParams, CdParamsSpec, Sweep, AGGREGATE_TOLERANCE};
@@ -290,7 +291,8 @@ impl Cd {
         };
         sim.refresh_neighbors();
         sim.window.open(&sim.w.p.vel, sim.w.walls.len());
-        if sim.w.p.aggregate_count() > 0 {
+        // A checkpoint's aggregates were relaxed by the run that saved them.
+        if sim.w.p.aggregate_count() > 0 && !scene.continues_saved_run() {
             sim.relax_aggregates()?;
         }
         Ok(sim)
@@ -458,6 +460,40 @@ impl RigidMethod for Cd {
 
     fn heap_size(&self) -> usize {
         self.heap_bytes()
+    }
+
+    fn running_values(&self) -> Vec<Real> {
+        let mut v = vec![self.dt, self.wall_mass];
+        if let Some(cell) = &self.cell {
+            v.extend(self.cell_vel.iter());
+            v.push(cell.speed);
+        }
+        v
+    }
+
+    fn set_running_values(&mut self, values: &[Real]) {
+        let Some(&[dt, mass]) = values.get(..2) else { return };
+        if dt.is_finite() && dt > 0.0 {
+            (self.dt, self.h) = (dt, dt);
+        }
+        if mass.is_finite() && mass > 0.0 {
+            self.wall_mass = mass;
+            if let Some(cell) = self.cell.as_mut() {
+                cell.mass = mass;
+            }
+        }
+        if let (Some(cell), Some(&[x, y, z, speed])) = (self.cell.as_mut(), values.get(2..6)) {
+            self.cell_vel = Vec3::new(x, y, z);
+            cell.speed = speed;
+        }
+    }
+
+    fn history(&self) -> crate::resume::ContactHistory {
+        self.impulses()
+    }
+
+    fn restore_history(&mut self, history: Option<&crate::resume::ContactHistory>) -> Result<(), EngineError> {
+        self.set_impulses(history)
     }
 
     fn controls(&mut self, controls: &Controls) -> Result<(), EngineError> {

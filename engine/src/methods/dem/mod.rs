@@ -10,6 +10,7 @@
 pub mod bench_suite;
 mod bonds;
 mod forces;
+mod history;
 mod integrate;
 mod pair_state;
 pub mod params;
@@ -203,7 +204,8 @@ impl Dem {
         };
         sim.refresh_neighbors();
         sim.compute_forces(false);
-        if sim.w.p.aggregate_count() > 0 {
+        // A checkpoint's aggregates were relaxed by the run that saved them.
+        if sim.w.p.aggregate_count() > 0 && !scene.continues_saved_run() {
             sim.relax_aggregates()?;
         }
         sim.budget = EnergyBudget::start(sim.mechanical_energy());

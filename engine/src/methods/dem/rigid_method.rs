@@ -10,6 +10,7 @@ use crate::loading::CellDeformation;
 use crate::math::{Real, Vec3};
 use crate::methods::rigid::RigidMethod;
 use crate::observe::Sample;
+use crate::resume::ContactHistory;
 use crate::run::{Balance, GrainModel};
 use crate::scene::{Controls, Deformation, Material};
 
@@ -35,6 +36,44 @@ impl RigidMethod for Dem {
 
     fn heap_size(&self) -> usize {
         self.heap_bytes()
+    }
+
+    fn running_values(&self) -> Vec<Real> {
+        let mut v = vec![self.dt];
+        v.extend(self.w.walls.iter().map(|w| w.default_gain()));
+        if let Some(d) = &self.deformation {
+            v.extend(d.rate.iter());
+        }
+        v
+    }
+
+    fn set_running_values(&mut self, values: &[Real]) {
+        let Some((&dt, rest)) = values.split_first() else { return };
+        if dt.is_finite() && dt > 0.0 {
+            self.dt = dt;
+            self.kin_current = false;
+        }
+        let walls = self.w.walls.len();
+        if rest.len() < walls {
+            return;
+        }
+        let (gains, rates) = rest.split_at(walls);
+        for (w, &g) in self.w.walls.iter_mut().zip(gains) {
+            if g.is_finite() && g > 0.0 {
+                w.set_default_gain(g);
+            }
+        }
+        if let (Some(d), [x, y, z]) = (self.deformation.as_mut(), rates) {
+            d.rate = Vec3::new(*x, *y, *z);
+        }
+    }
+
+    fn history(&self) -> ContactHistory {
+        self.springs()
+    }
+
+    fn restore_history(&mut self, history: Option<&ContactHistory>) -> Result<(), EngineError> {
+        self.set_springs(history)
     }
 
     fn controls(&mut self, controls: &Controls) -> Result<(), EngineError> {

@@ -14,7 +14,7 @@ use crate::error::EngineError;
 use crate::math::{Real, Vec3};
 use crate::methods::world::in_own_pool;
 use crate::observe::{ContactRecord, Sample, Snapshot};
-use crate::resume::Clock;
+use crate::resume::{Carried, Clock, ContactHistory};
 use crate::run::{Balance, GrainModel, Simulation};
 use crate::scene::{Controls, Stage, StateFile};
 
@@ -58,6 +58,16 @@ pub trait RigidMethod: Send {
     fn sweeps_done(&self) -> u64 {
         0
     }
+    /// The method's own running values ([`Clock::totals`]).
+    fn running_values(&self) -> Vec<Real>;
+    /// Sets back what [`RigidMethod::running_values`] returned (a shorter list, from an older
+    /// checkpoint, sets what it holds).
+    fn set_running_values(&mut self, values: &[Real]);
+    /// The contacts' history now, particles numbered as in the world ([`crate::resume`]).
+    fn history(&self) -> ContactHistory;
+    /// Sets back the contacts' history of a checkpoint (the glued grains are set already) and
+    /// evaluates the forces again, so that the next step goes on as the run that saved it.
+    fn restore_history(&mut self, history: Option<&ContactHistory>) -> Result<(), EngineError>;
 }
 
 /// The items of [`RigidMethod`] every rigid-grain method writes alike, for a method that keeps
@@ -175,13 +185,15 @@ impl<M: RigidMethod> Simulation for M {
             steps: w.step,
             time: w.time,
             len0: [w.len0[0], w.len0[1], w.len0[2]],
-            totals: Vec::new(),
+            totals: self.running_values(),
             shear_rate: w.domain.shear_rate,
             walls: w.walls.iter().map(|wall| wall.servo_state()).collect(),
         }
     }
 
     fn set_clock(&mut self, clock: &Clock) {
+        // The step and the gains first: the walls' servo states below are set on top.
+        self.set_running_values(&clock.totals);
         let w = self.world_mut();
         w.step = clock.steps;
         w.time = clock.time;
@@ -193,10 +205,19 @@ impl<M: RigidMethod> Simulation for M {
         w.domain.shear_rate = clock.shear_rate;
     }
 
-    fn resumable(&self) -> Result<(), String> {
-        match self.world().glued.len() {
-            0 => Ok(()),
-            n => Err(format!("{n} grains are glued to the walls, which a saved state does not record")),
+    fn carried(&self) -> Carried {
+        Carried { glued: self.world().glued.clone(), contacts: Some(self.history()) }
+    }
+
+    fn carry_on(&mut self, carried: &Carried) -> Result<(), EngineError> {
+        let refuse = |reason: String| EngineError::Build { field: "checkpoint".into(), reason };
+        if carried.is_empty() {
+            return Ok(());
         }
+        if !self.world().continued {
+            return Err(refuse("the simulation was not built to continue its state (Scene::continue_saved_run)".into()));
+        }
+        self.world_mut().glue(&carried.glued).map_err(refuse)?;
+        in_own_pool(self, |s| &mut s.world_mut().pool, |s| s.restore_history(carried.contacts.as_ref()))
     }
 }

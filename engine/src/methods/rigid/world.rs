@@ -52,6 +52,9 @@ pub struct RigidWorld {
     pub mean_diameter: Real,
     /// The method's own thread pool (`method.threads`), or none for rayon's global one.
     pub pool: Option<rayon::ThreadPool>,
+    /// Built from a checkpoint's state to go on from it ([`Scene::continue_saved_run`]): the
+    /// particles are in the state's order.
+    pub continued: bool,
 }
 
 impl RigidWorld {
@@ -77,6 +80,7 @@ impl RigidWorld {
             step: 0,
             time: 0.0,
             pool: world::own_pool(threads)?,
+            continued: scene.continues_saved_run(),
         })
     }
 
@@ -231,13 +235,37 @@ impl RigidWorld {
             if let Some(w) = near {
                 *glue = w as u16;
                 self.glued.push((i as u32, w as u16));
-                p.inv_mass[i] = 0.0;
-                p.inv_inertia[i] = 0.0;
-                p.vel[i] = self.walls[w].velocity;
-                p.omega[i] = Vec3::zeros();
+                hold_on_wall(p, i, &self.walls[w]);
             }
         }
         self.glued.sort_unstable();
+    }
+
+    /// Glues the grains of `list` (particle, wall) to their walls, as [`Self::glue_to_walls`]
+    /// left them in the run a checkpoint was taken from; why not if a particle or a wall does
+    /// not exist or a grain is listed twice.
+    pub fn glue(&mut self, list: &[(u32, u16)]) -> Result<(), String> {
+        if list.is_empty() {
+            return Ok(());
+        }
+        let n = self.p.len();
+        if self.glued_to.is_empty() {
+            self.glued_to = vec![NOT_GLUED; n];
+        }
+        for &(i, w) in list {
+            let (k, wall) = (i as usize, w as usize);
+            if k >= n || wall >= self.walls.len() {
+                return Err(format!("grain {i} glued to wall {w}: the state has {n} particles and the scene {} walls", self.walls.len()));
+            }
+            if self.glued_to[k] != NOT_GLUED {
+                return Err(format!("grain {i} is glued twice"));
+            }
+            self.glued_to[k] = w;
+            self.glued.push((i, w));
+            hold_on_wall(&mut self.p, k, &self.walls[wall]);
+        }
+        self.glued.sort_unstable();
+        Ok(())
     }
 
     /// Moves the two walls of `axis` onto the grains' extent along it, so that they touch the
@@ -262,4 +290,12 @@ impl RigidWorld {
     pub fn impose_shear_rate(&mut self, rate: Real) {
         world::impose_shear_rate(&mut self.domain, &mut self.p, rate);
     }
+}
+
+/// Makes grain `i` part of `wall`: infinite mass and inertia, the wall's velocity, no spin.
+fn hold_on_wall(p: &mut Particles, i: usize, wall: &Wall) {
+    p.inv_mass[i] = 0.0;
+    p.inv_inertia[i] = 0.0;
+    p.vel[i] = wall.velocity;
+    p.omega[i] = Vec3::zeros();
 }
