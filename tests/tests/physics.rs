@@ -14,6 +14,8 @@ mod checkpoints;
 mod experiments;
 #[path = "golden_samples.rs"]
 mod golden_samples;
+#[path = "physics_agglomerate.rs"]
+mod physics_agglomerate;
 #[path = "physics_bpm.rs"]
 mod physics_bpm;
 #[path = "physics_cd.rs"]

@@ -39,3 +39,25 @@ fn every_shipped_study_expands_into_valid_runs() {
         ]
     );
 }
+
+/// Every scene shipped in scenes/ passes validation; the small ones without aggregates also
+/// build (their particles placed), as `sable run scenes/NAME.json` would need. (Building an
+/// aggregate relaxes it, minutes for the shipped ones; the full-size scenes take long to place.)
+#[test]
+fn every_shipped_scene_is_valid_and_builds() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes");
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).expect("scenes") {
+        let path = entry.expect("entry").path();
+        if path.extension().and_then(|e| e.to_str()) != Some("json") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("readable");
+        let plan = sable_engine::methods::plan_scene(&text).unwrap_or_else(|v| panic!("{}: {v:?}", path.display()));
+        if plan.particle_count() <= 2_000 && plan.sets.iter().all(|s| s.aggregate.is_none()) {
+            plan.build().unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
+        count += 1;
+    }
+    assert!(count >= 30, "{count} scenes");
+}

@@ -134,6 +134,7 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         deformable: v.deformable.map(|d| Box::new(d.sample)),
         grains: grains.map(Box::new),
         primaries,
+        cluster: super::cluster::measure_cluster(p, dim, v.contacts).map(Box::new),
     }
 }
 

@@ -5,6 +5,7 @@
 //! A method describes its state at sampling time as a [`SystemView`] (bodies and contacts) and
 //! [`measure`] turns it into a [`Sample`].
 
+pub mod cluster;
 pub mod compaction_laws;
 pub mod contacts;
 pub mod drum;
@@ -18,6 +19,7 @@ pub mod sample;
 pub mod snapshot;
 pub mod vtk;
 
+pub use cluster::ClusterSample;
 pub use contacts::{rattler_threshold, ContactRecord};
 pub use drum::{DrumSample, DrumView, ProfileBin};
 pub use grains::{GrainSample, PrimarySample};

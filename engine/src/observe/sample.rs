@@ -104,6 +104,10 @@ pub struct Sample {
     /// primaries (bonded particle method).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub primaries: Option<PrimarySample>,
+    /// The wet grains' largest cluster held by capillary bridges, when some grains are wet
+    /// ([`super::cluster`]: an agglomerate's size, bridges, the grains it lost, its shape).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<Box<super::cluster::ClusterSample>>,
 }
 
 /// The state of deformable grains at a sample (methods `mpm` and `fem`) besides their

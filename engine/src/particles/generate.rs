@@ -34,6 +34,8 @@ pub fn place_particles(scene: &Scene, domain: &Domain) -> Result<Particles, Engi
         let diameters = draw_diameters(set, &mut rng);
         let mat = &scene.materials[set.material];
         let wet = wet_flags(set, &mut rng);
+        // A set placed within a ball of its own (an agglomerate) lies in it, besides the box.
+        let confine = Confinement { ball: set.within.as_ref().or(confine.ball), ..confine };
         let positions: Vec<Vec3> = match &set.placement {
             Placement::Random(region) => random_positions(&diameters, region, domain, confine, &mut grid, &mut out, &mut rng, &path)?,
             Placement::Lattice { kind, region, spacing, random_select } => {
@@ -123,14 +125,23 @@ fn wet_flags(set: &ParticleSet, rng: &mut ChaCha8Rng) -> Vec<bool> {
 fn lattice_spacing(spacing: Option<Real>, diameters: &[Real], path: &str) -> Result<(Real, Real), EngineError> {
     let s = spacing.unwrap_or(1.01 * diameters.iter().copied().fold(0.0, f64::max));
     let dm = diameters.iter().copied().fold(0.0, f64::max);
-    if s < dm {
+    if s < (1.0 - LATTICE_OVERLAP) * dm {
         return Err(EngineError::Build {
             field: format!("{path}.placement.spacing"),
-            reason: format!("{s} m is smaller than the largest diameter {dm} m: particles would overlap"),
+            reason: format!(
+                "{s} m is smaller than {} of the largest diameter {dm} m: neighbours would overlap by more than {}% of it",
+                1.0 - LATTICE_OVERLAP,
+                100.0 * LATTICE_OVERLAP
+            ),
         });
     }
     Ok((s, dm))
 }
+
+/// Largest overlap of lattice neighbours a spacing may ask for, as a fraction of the largest
+/// diameter: wet grains placed overlapping start bridged (a packed agglomerate); beyond 1% the
+/// first steps would throw them apart.
+const LATTICE_OVERLAP: Real = 0.01;
 
 /// Keeps `count` lattice sites: the first ones, or (`random_select`) a random choice in
 /// lattice order.
@@ -263,7 +274,7 @@ fn centre_bounds(region: &Aabb, domain: &Domain, a: usize, r: Real) -> (Real, Re
 }
 
 /// Where the grains of a scene must be placed besides the box: inside its drum, or inside the
-/// ball of its granule.
+/// ball of its granule or of their set (`placement.within`).
 #[derive(Clone, Copy)]
 struct Confinement<'a> {
     drum: Option<&'a DrumDef>,

@@ -97,6 +97,12 @@ pub(super) fn check_set(
         }
     };
     let placement = check_placement(c, path, &p.placement, dim, container);
+    let within = match &p.placement {
+        PlacementSpec::Random { within: Some(b), .. } | PlacementSpec::Lattice { within: Some(b), .. } => {
+            Some(check_ball(c, &format!("{path}.placement.within"), b, dim, container))
+        }
+        _ => None,
+    };
     let count = check_count(c, path, &placement, p.count, count_from_fill);
     let velocity = check_velocity(c, path, p.velocity.as_ref(), dim);
     let has_liquid = materials.get(material).is_some_and(|m| m.liquid.is_some());
@@ -111,16 +117,43 @@ pub(super) fn check_set(
         None => 0.0,
     };
     let aggregate = p.model.as_ref().map(|m| check_grain_model(c, &format!("{path}.model"), m, dim, &size, materials.get(material)));
-    ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate }
+    ParticleSet { material, count, size, placement, velocity, wet_fraction, aggregate, within }
+}
+
+/// Checks a ball a set's grains must lie in: its centre in the box, its radius positive and,
+/// along an axis with walls, the whole ball inside them.
+fn check_ball(c: &mut Checker, path: &str, b: &BallSpec, dim: usize, container: &Container) -> Ball {
+    let radius = if c.positive(&format!("{path}.radius"), b.radius) { b.radius } else { 1.0 };
+    if !c.vector(&format!("{path}.center"), &b.center, dim) {
+        return Ball { center: 0.5 * (container.lo + container.hi), radius };
+    }
+    let center = vec_from_slice(&b.center);
+    for a in 0..dim {
+        let (lo, hi) = (container.lo[a], container.hi[a]);
+        let reach = if container.periodic[a] { 0.0 } else { radius };
+        if center[a] - reach < lo - 1e-12 || center[a] + reach > hi + 1e-12 {
+            let what = if container.periodic[a] { "the centre" } else { "the ball" };
+            c.fail(
+                path.to_string(),
+                format!(
+                    "{what} must lie inside the container along {} ([{lo}, {hi}]), got [{}, {}]",
+                    AXES[a],
+                    center[a] - reach,
+                    center[a] + reach
+                ),
+            );
+        }
+    }
+    Ball { center, radius }
 }
 
 /// Checks a set's placement: at random in a region, on a lattice, or at listed positions.
 fn check_placement(c: &mut Checker, path: &str, placement: &PlacementSpec, dim: usize, container: &Container) -> Placement {
     match placement {
-        PlacementSpec::Random { region } => {
+        PlacementSpec::Random { region, .. } => {
             Placement::Random(check_region(c, &format!("{path}.placement.region"), region.as_ref(), dim, container))
         }
-        PlacementSpec::Lattice { lattice, region, spacing, select } => {
+        PlacementSpec::Lattice { lattice, region, spacing, select, .. } => {
             let kind = check_lattice_kind(c, path, lattice, dim);
             if let Some(s) = spacing {
                 c.positive(&format!("{path}.placement.spacing"), *s);

@@ -20,6 +20,8 @@ pub struct ParticleSet {
     pub wet_fraction: Real,
     /// The grains are aggregates of bonded primaries (`None`: each grain is one particle).
     pub aggregate: Option<AggregateModel>,
+    /// A ball (disk) the grains of a random or lattice placement must lie in (an agglomerate).
+    pub within: Option<super::container::Ball>,
 }
 
 impl ParticleSet {

@@ -18,7 +18,7 @@ pub use experiments::{
     PreparationSpec, TriaxialSpec,
 };
 pub use materials::{CohesionSpec, ContactLawSpec, DeformableSpec, LiquidSpec, MaterialSpec, RollingSpec};
-pub use sets::{BondAttractionSpec, GrainModelSpec, ParticleSetSpec, PlacementSpec, RegionSpec, SizeSpec, VelocitySpec};
+pub use sets::{BallSpec, BondAttractionSpec, GrainModelSpec, ParticleSetSpec, PlacementSpec, RegionSpec, SizeSpec, VelocitySpec};
 
 use std::collections::BTreeMap;
 

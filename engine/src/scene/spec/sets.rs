@@ -104,6 +104,16 @@ pub struct RegionSpec {
     pub max: Vec<f64>,
 }
 
+/// A ball (a disk in 2D).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BallSpec {
+    /// Centre, m (length = dimension).
+    pub center: Vec<f64>,
+    /// Radius, m.
+    pub radius: f64,
+}
+
 /// Placement of a particle set.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -113,6 +123,9 @@ pub enum PlacementSpec {
         /// Region; default the container.
         #[serde(default)]
         region: Option<RegionSpec>,
+        /// A ball (disk in 2D) the grains must lie in, besides the region.
+        #[serde(default)]
+        within: Option<BallSpec>,
     },
     /// Lattice sites in a region (default: the whole container).
     Lattice {
@@ -127,6 +140,10 @@ pub enum PlacementSpec {
         /// `first` (default) fills sites in order; `random` picks a random subset.
         #[serde(default)]
         select: Option<String>,
+        /// A ball (disk in 2D) the grains must lie in, besides the region: a packed
+        /// agglomerate.
+        #[serde(default)]
+        within: Option<BallSpec>,
     },
     /// Explicit positions (and optionally diameters).
     List {
