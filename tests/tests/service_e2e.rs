@@ -1096,7 +1096,8 @@ async fn health_metrics_and_openapi_describe_the_service(backend: Backend) {
         assert!(doc["components"]["schemas"].get(schema).is_some(), "OpenAPI lacks the {schema} schema");
     }
     let sample_fields = doc["components"]["schemas"]["Sample"]["properties"].as_object().map(|m| m.len());
-    assert_eq!(sample_fields, Some(21), "every Sample field is documented");
+    assert_eq!(sample_fields, Some(22), "every Sample field is documented");
+    assert!(doc["components"]["schemas"].get("ClusterSample").is_some(), "the wet grains' cluster in a sample has its schema");
     assert!(doc["components"]["schemas"].get("DrumSample").is_some(), "the drum's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("SolverSample").is_some(), "the contact solver's part of a sample has its schema");
     assert!(doc["components"]["schemas"].get("DeformableSample").is_some(), "the deformable grains' part of a sample has its schema");
