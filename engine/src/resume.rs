@@ -14,7 +14,9 @@
 //! history — DEM's tangential and rolling springs and capillary bridges, contact dynamics'
 //! impulses of the last step (the solver's warm start) and bridges. The simulation that goes on
 //! is built keeping the state's particle order ([`crate::scene::Scene::continue_saved_run`]),
-//! to which the history refers, and without relaxing aggregates again. What is still not carried:
+//! to which the history refers, without relaxing aggregates again, and with the original
+//! scene's loading program; its clock sets back what its build would derive anew from the
+//! state ([`Clock::totals`]: the step, the walls' gains, the plates' masses). What is still not carried:
 //! the contact impulses of soft grains (MPM, FEM: their next solve starts cold) and the window
 //! over which contact dynamics averages its equilibrium checks (the first check after the
 //! checkpoint averages over a shorter one).
@@ -26,8 +28,8 @@ use crate::scene::StateFile;
 
 /// Value of [`Checkpoint::format`].
 pub const CHECKPOINT_FORMAT: &str = "sable-checkpoint";
-/// Version of the checkpoint format written by this engine; a checkpoint of another version is
-/// not resumed from (the run starts over).
+/// Version of the checkpoint format written by this engine; a checkpoint of a version outside
+/// [`CHECKPOINT_OLDEST`]..=[`CHECKPOINT_VERSION`] is not resumed from (the run starts over).
 pub const CHECKPOINT_VERSION: u32 = 2;
 /// Oldest version of the checkpoint format this engine goes on from (version 1 carried no
 /// [`Carried`]: its contacts start afresh).
