@@ -292,10 +292,8 @@ fn a_cd_deposition_resumes_within_what_tells_two_deposits_apart() {
         samples
     };
     let next = a.iter().position(|s| s.step > t.checkpoint_step).expect("samples after the checkpoint");
-    type Field = (&'static str, fn(&Sample) -> f64, bool);
-    let fields: [Field; 3] =
-        [("kinetic energy", |s| s.kinetic_energy, true), ("mean stress", |s| s.p, true), ("coordination", |s| s.z, false)];
-    for (name, f, whole_deposit) in fields {
+    let fields: [(Field, bool); 3] = [(KINETIC_ENERGY, true), (MEAN_STRESS, true), (("coordination", |s| s.z), false)];
+    for ((name, f), whole_deposit) in fields {
         let first = largest_difference(&a[next..=next], &b[next..=next], f);
         let resumed = largest_difference(&a[next..], &b[next..], f);
         let seeds = largest_difference(&a[next..], &other[next..], f);
@@ -312,6 +310,12 @@ fn into_last_stage(samples: &[Sample], k: usize) -> u64 {
     let first = samples.iter().position(|s| s.stage == last).expect("the last stage's samples");
     samples[first + k].step
 }
+
+/// A quantity of the samples, by name.
+type Field = (&'static str, fn(&Sample) -> f64);
+const KINETIC_ENERGY: Field = ("kinetic energy", |s| s.kinetic_energy);
+const MEAN_STRESS: Field = ("mean stress", |s| s.p);
+const PHI: Field = ("phi", |s| s.phi);
 
 /// The first sample after the checkpoint, and the whole run after it, of `f`: how far the
 /// resumed run is from the run never stopped.
@@ -349,7 +353,7 @@ fn a_frictional_compaction_resumes_with_its_springs() {
         assert_same_steps(t);
         assert_eq!(t.checkpoint_step, 3000);
     }
-    for (name, f) in [("kinetic energy", (|s: &Sample| s.kinetic_energy) as fn(&Sample) -> f64), ("mean stress", |s| s.p)] {
+    for (name, f) in [KINETIC_ENERGY, MEAN_STRESS] {
         let (with, with_whole) = after_checkpoint(&carried, f);
         let (without, _) = after_checkpoint(&dropped, f);
         assert!(with < 1e-12 && with_whole < 1e-9, "{name} differs by {with:e} at the first sample, {with_whole:e} over the run");
@@ -376,7 +380,7 @@ fn a_shear_between_rough_walls_resumes_with_its_glued_grains() {
     });
     let t = twins_at(scene, |(samples, _)| into_last_stage(samples, 4), true);
     assert_same_steps(&t);
-    for (name, f) in [("kinetic energy", (|s: &Sample| s.kinetic_energy) as fn(&Sample) -> f64), ("mean stress", |s| s.p), ("q", |s| s.q)] {
+    for (name, f) in [KINETIC_ENERGY, MEAN_STRESS, ("q", |s| s.q)] {
         let (first, _) = after_checkpoint(&t, f);
         assert!(first < 1e-10, "{name} differs by {first:e} at the first sample after the checkpoint");
     }
@@ -395,9 +399,7 @@ fn a_bpm_compaction_resumes_without_relaxing_its_aggregates_again() {
     });
     let t = twins(scene, 2000);
     assert_same_steps(&t);
-    for (name, f) in
-        [("kinetic energy", (|s: &Sample| s.kinetic_energy) as fn(&Sample) -> f64), ("mean stress", |s| s.p), ("phi", |s| s.phi)]
-    {
+    for (name, f) in [KINETIC_ENERGY, MEAN_STRESS, PHI] {
         let (_, whole) = after_checkpoint(&t, f);
         assert!(whole < 1e-7, "{name} differs by {whole:e} after the checkpoint");
     }
@@ -422,7 +424,7 @@ fn a_drum_resumes_with_its_rim_contacts() {
     for t in [&carried, &dropped] {
         assert_same_steps(t);
     }
-    for (name, f) in [("kinetic energy", (|s: &Sample| s.kinetic_energy) as fn(&Sample) -> f64), ("mean stress", |s| s.p)] {
+    for (name, f) in [KINETIC_ENERGY, MEAN_STRESS] {
         let (with, _) = after_checkpoint(&carried, f);
         let (without, _) = after_checkpoint(&dropped, f);
         assert!(with < 1e-10, "{name} differs by {with:e} at the first sample after the checkpoint");
@@ -449,7 +451,7 @@ fn a_cd_biaxial_test_resumes_with_its_plates() {
     let t = twins_at(scene, |(samples, _)| samples[samples.len() / 3].step, true);
     let (a, b) = (&t.whole.0, &t.resumed.0);
     let next = a.iter().position(|s| s.step > t.checkpoint_step).expect("samples after the checkpoint");
-    for (name, f) in [("phi", (|s: &Sample| s.phi) as fn(&Sample) -> f64), ("mean stress", |s| s.p)] {
+    for (name, f) in [PHI, MEAN_STRESS] {
         let first = largest_difference(&a[next..=next], &b[next..=next], f);
         assert!(first < 1e-12, "{name} differs by {first:e} at the first sample after the checkpoint");
     }

@@ -55,8 +55,13 @@ fn an_agglomerate_at_rest_keeps_its_grains_and_bridges() {
     assert!(samples.len() >= 8, "{} samples", samples.len());
     let first = samples[0].cluster.clone().expect("wet grains: a cluster");
     assert_eq!((first.wet, first.count, first.outside, first.clusters), (35, 35, 0, 1));
-    // A packed patch: at least two bridges a grain.
-    assert!(first.bridges >= 70, "{} bridges", first.bridges);
+    // Each overlapping pair of the placed grains bridged at the first evaluation (84 pairs).
+    let placed = common::scene(agglomerate_at_rest()).build().expect("build").snapshot().position;
+    let overlapping = (0..placed.len())
+        .flat_map(|i| (i + 1..placed.len()).map(move |j| (i, j)))
+        .filter(|&(i, j)| (placed[i] - placed[j]).norm() < D)
+        .count();
+    assert_eq!(first.bridges as usize, overlapping, "bridges at the start");
     for s in &samples {
         let c = s.cluster.as_ref().expect("wet grains: a cluster");
         assert_eq!((c.count, c.bridges, c.outside, c.clusters), (35, first.bridges, 0, 1), "at step {}", s.step);
