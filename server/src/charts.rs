@@ -3,6 +3,7 @@
 //! stability search's probes against the theory, and sample fields of jobs against time or
 //! strain.
 
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -110,6 +111,8 @@ pub fn study(name: &str, report: &StudyReport, format: Format) -> Result<Vec<u8>
         fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
             if self.1.limit.is_some() || self.1.points.iter().any(|p| p.value.is_some()) {
                 search_chart(root, self.0, self.1)
+            } else if let Some(f) = self.1.fit.as_ref().filter(|f| !f.panels.is_empty()) {
+                fit_chart(root, self.0, f)
             } else {
                 sweep_chart(root, self.0, self.1)
             }
@@ -280,6 +283,123 @@ fn sweep_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, re
     Ok(())
 }
 
+/// A fitted law: one panel per pair of axes, side by side, the runs as points and each law as a
+/// line; the fitted constants and their published values under the title.
+fn fit_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, f: &sable_engine::study::fit::FitReport) -> Result<(), String> {
+    let constants: Vec<String> = f
+        .constants
+        .iter()
+        .filter(|c| c.published.is_some())
+        .map(|c| match (c.value, c.published) {
+            (Some(v), Some(p)) => format!("{} {} ({})", c.name, brief(v), brief(p)),
+            (None, Some(p)) => format!("{} — ({})", c.name, brief(p)),
+            _ => c.name.clone(),
+        })
+        .collect();
+    let suffix = format!(": the law {} fitted over {} runs", f.law, f.runs.len());
+    let caption = format!("{}{suffix}", fit(name, TITLE_SIZE, suffix.len()));
+    titles(root, &caption, &[format!("fitted (published): {}", constants.join(", ")), format!("published: {}", f.source)])?;
+    let area = root.margin(80, 0, 0, 0);
+    let panels = area.split_evenly((1, f.panels.len().max(1)));
+    for (panel, area) in f.panels.iter().zip(panels.iter()) {
+        let xs: Vec<f64> = panel.points.iter().map(|p| p.1).chain(panel.curves.iter().flat_map(|c| c.1.iter().map(|p| p[0]))).collect();
+        let ys: Vec<f64> = panel.points.iter().map(|p| p.2).chain(panel.curves.iter().flat_map(|c| c.1.iter().map(|p| p[1]))).collect();
+        let lin = |v: &f64| format!("{v:.3}");
+        let log = |v: &f64| format!("{v:.0e}");
+        let ylin = |v: &f64| format!("{v:.2}");
+        let positive = |v: &Vec<f64>| v.iter().copied().filter(|x| *x > 0.0).collect::<Vec<_>>();
+        match (panel.log_x, panel.log_y) {
+            (true, true) => {
+                let ((x0, x1), (y0, y1)) = (log_range(positive(&xs).into_iter()), log_range(positive(&ys).into_iter()));
+                fit_panel(area, panel, (x0..x1).log_scale(), (y0..y1).log_scale(), &log, &log)?;
+            }
+            (true, false) => {
+                let ((x0, x1), (y0, y1)) = (log_range(positive(&xs).into_iter()), linear_range(&ys));
+                fit_panel(area, panel, (x0..x1).log_scale(), y0..y1, &log, &ylin)?;
+            }
+            (false, true) => {
+                let ((x0, x1), (y0, y1)) = (linear_range(&xs), log_range(positive(&ys).into_iter()));
+                fit_panel(area, panel, x0..x1, (y0..y1).log_scale(), &lin, &log)?;
+            }
+            (false, false) => {
+                let ((x0, x1), (y0, y1)) = (linear_range(&xs), linear_range(&ys));
+                fit_panel(area, panel, x0..x1, y0..y1, &lin, &ylin)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A number in four significant figures, in scientific form when it is below 1e-2 or from 1e4
+/// on (a fitted constant that ran away, a small published prefactor).
+pub fn brief(x: f64) -> String {
+    if x != 0.0 && (x.abs() < 1e-2 || x.abs() >= 1e4) {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+/// A linear axis' range: the values' span padded by 5% each side (0..1 without values).
+fn linear_range(values: &[f64]) -> (f64, f64) {
+    let (lo, hi) = values.iter().filter(|y| y.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| (a.min(*y), b.max(*y)));
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = 0.05 * (hi - lo).max(1e-3 * hi.abs().max(1e-12));
+    (lo - pad, hi + pad)
+}
+
+/// One panel of a fitted law: the laws as lines (the first black), the runs as dots.
+fn fit_panel<DB: DrawingBackend, X: AsRangedCoord<Value = f64>, Y: AsRangedCoord<Value = f64>>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &sable_engine::study::fit::Panel,
+    x: X,
+    y: Y,
+    x_label: &dyn Fn(&f64) -> String,
+    y_label: &dyn Fn(&f64) -> String,
+) -> Result<(), String>
+where
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(area).margin(18).x_label_area_size(50).y_label_area_size(64).build_cartesian_2d(x, y).map_err(err)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_labels(5)
+        .y_labels(8)
+        .x_label_formatter(x_label)
+        .y_label_formatter(y_label)
+        .x_desc(panel.x.as_str())
+        .y_desc(panel.y.as_str())
+        .axis_desc_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    for (k, (label, line)) in panel.curves.iter().enumerate() {
+        let colour = if k == 0 { BLACK } else { PALETTE[(k - 1) % PALETTE.len()] };
+        chart
+            .draw_series(LineSeries::new(line.iter().map(|p| (p[0], p[1])), colour.stroke_width(2)))
+            .map_err(err)?
+            .label(label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x - 8, y), (x + 8, y)], colour.stroke_width(2)));
+    }
+    let dot = PALETTE[1 % PALETTE.len()];
+    chart
+        .draw_series(panel.points.iter().map(|p| Circle::new((p.1, p.2), 4, dot.filled())))
+        .map_err(err)?
+        .label("runs")
+        .legend(move |(x, y)| Circle::new((x, y), 4, dot.filled()));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
 fn search_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, report: &StudyReport) -> Result<(), String> {
     let values: Vec<f64> = report.points.iter().filter_map(|p| p.value).chain(report.theory.as_ref().map(|t| t.value)).collect();
     let (x0, x1) = log_range(values.into_iter());
@@ -429,5 +549,42 @@ mod tests {
         assert!(cut.ends_with('…') && cut.chars().count() <= room - 20, "{cut}");
         let kept = cut.trim_end_matches('…');
         assert!(name.starts_with(kept) && name[kept.len()..].starts_with(' '), "not cut at a word: {cut}");
+    }
+
+    /// A study with a fitted law is drawn as the law's panels: each axis named, both laws in
+    /// the legend, the fitted and published constants under the title.
+    #[test]
+    fn a_fitted_law_is_drawn_as_its_panels() {
+        use sable_engine::study::fit::{law, RunResult};
+        // Steady states on μ = 0.3 (1 + 1.1/(1 + 0.095/I_m)), Φ = 0.6/(1 + I_m/2.01), at two
+        // cohesion indices and two Stokes numbers.
+        let mut values = Vec::new();
+        for xi in [0.0f64, 2.0] {
+            for i in [0.003f64, 0.01, 0.03, 0.1] {
+                for st in [1e3f64, 0.1] {
+                    let i_m: f64 = i * ((1.0 + 0.075 / st) / (1.0 + 0.062 * xi)).sqrt();
+                    values
+                        .push(serde_json::json!({"shear": {"mu": 0.3 * (1.0 + 1.1 / (1.0 + 0.095 / i_m)), "phi": 0.6 / (1.0 + i_m / 2.01),
+                        "inertial_number": i, "cohesion_index": xi, "stokes_number": st}}));
+                }
+            }
+        }
+        let runs: Vec<RunResult<'_>> = values.iter().enumerate().map(|(index, result)| RunResult { index, result }).collect();
+        let fitted = law("wet_rheology").expect("a law").fit(&runs).expect("a fit");
+        let report = StudyReport {
+            measure: "result shear.mu".into(),
+            reference: None,
+            reference_source: "none".into(),
+            swept: Vec::new(),
+            points: Vec::new(),
+            limit: None,
+            theory: None,
+            fit: Some(fitted),
+            fit_note: None,
+        };
+        let svg = String::from_utf8(study("wet rheology", &report, Format::Svg).expect("a chart")).expect("UTF-8");
+        for text in ["mu / mu_c", "phi / phi_c", "Vo et al. 2020", "fitted", "alpha 0.0620 (0.0620)", "over 16 runs"] {
+            assert!(svg.contains(text), "no '{text}' in the chart");
+        }
     }
 }

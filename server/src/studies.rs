@@ -244,6 +244,8 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
         points: runs.iter().map(point_of).collect(),
         limit: None,
         theory: None,
+        fit: None,
+        fit_note: None,
     };
     match &study {
         Study::Sweep { measure, reference, points } => {
@@ -259,6 +261,9 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
                     report.reference_source = source;
                     report.score(value);
                 }
+            }
+            if let Some(f) = &spec.fit {
+                fit_runs(&mut report, &f.law, &runs);
             }
         }
         Study::Search { search, scene } => {
@@ -291,6 +296,26 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
     let json = serde_json::to_string(&report).map_err(|e| ApiError::Internal(e.to_string()))?;
     store.set_study_report(row.id, &json, if done { "succeeded" } else { "running" }, None).await?;
     Ok(())
+}
+
+/// Fits the study's law over its succeeded runs' results (recomputed at every change: a fit
+/// takes milliseconds), or says why there is no fit.
+fn fit_runs(report: &mut StudyReport, law: &str, runs: &[RunRow]) {
+    let Some(law) = sable_engine::study::fit::law(law) else {
+        report.fit_note = Some(format!("unknown law '{law}'"));
+        return;
+    };
+    let results: Vec<(usize, serde_json::Value)> = runs
+        .iter()
+        .filter(|r| r.state == "succeeded")
+        .filter_map(|r| Some((r.idx as usize, serde_json::from_str(r.result.as_deref()?).ok()?)))
+        .collect();
+    let runs: Vec<sable_engine::study::fit::RunResult<'_>> =
+        results.iter().map(|(index, result)| sable_engine::study::fit::RunResult { index: *index, result }).collect();
+    match law.fit(&runs) {
+        Ok(f) => report.fit = Some(f),
+        Err(e) => report.fit_note = Some(e),
+    }
 }
 
 /// A failed run's failure mode (a cancelled run counts as another failure).
@@ -364,6 +389,9 @@ async fn reference_value(
 ) -> Result<(Option<f64>, String), ApiError> {
     if let Some(v) = reference.value {
         return Ok((Some(v), "value".into()));
+    }
+    if let (Some(f), None) = (&spec.fit, &reference.finest) {
+        return Ok((None, format!("none: the study fits the law {}", f.law)));
     }
     if reference.analytic.is_some() {
         // The restitution coefficient of the scene's first material.

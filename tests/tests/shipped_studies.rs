@@ -21,6 +21,7 @@ fn every_shipped_study_expands_into_valid_runs() {
     assert_eq!(
         names,
         vec![
+            ("agglomerate_rates_2d.json".to_string(), 16),
             ("biaxial_dem_cd.json".to_string(), 10),
             ("bpm_biaxial.json".to_string(), 4),
             ("bpm_compaction_law.json".to_string(), 2),
@@ -30,12 +31,14 @@ fn every_shipped_study_expands_into_valid_runs() {
             ("dem_time_step_limit.json".to_string(), 2),
             ("disk_between_plates_soft.json".to_string(), 16),
             ("fem_compaction_friction.json".to_string(), 4),
+            ("granule_strength.json".to_string(), 16),
             ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),
             ("restitution_dem.json".to_string(), 9),
             ("soft_compaction_bpm_mpm.json".to_string(), 3),
             ("soft_compaction_mpm_fem.json".to_string(), 5),
             ("soft_compaction_steps.json".to_string(), 8),
+            ("wet_rheology.json".to_string(), 35),
         ]
     );
 }

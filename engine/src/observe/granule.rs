@@ -44,6 +44,41 @@ pub struct GranuleResult {
     /// Prefactor of Nezamabadi 2020, eq. 3.11, `η = 2π σ_p / (s Z Φ σ_c)` (`None` without σ_p or
     /// capillary stress).
     pub eta: Option<f64>,
+    /// Size ratio `α = d_max / d_min` of the grains (0 in results stored before 2026-12-07).
+    #[serde(default)]
+    pub size_ratio: f64,
+    /// Largest grain diameter `d_max`, m (0 in results stored before 2026-12-07).
+    #[serde(default)]
+    pub largest_diameter: f64,
+    /// Rupture distance of the bridges `d_rupt`, m (docs/physics.md §2.8; `None` for results stored
+    /// before 2026-12-07).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rupture_distance: Option<f64>,
+}
+
+/// The grains and the liquid of a granule, for its result.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct GranuleGrains {
+    /// Their solid volume, m³ (m² in 2D).
+    pub(crate) solid: Real,
+    /// Polydispersity factor `s`.
+    pub(crate) s: Real,
+    /// Smallest and largest diameters, m.
+    pub(crate) smallest: Real,
+    pub(crate) largest: Real,
+}
+
+impl GranuleGrains {
+    /// Of the diameters `d` in dimension `dim`.
+    pub(crate) fn of(dim: usize, d: &[Real]) -> Self {
+        let n = d.len().max(1) as Real;
+        let m = |k: Real| d.iter().map(|x| x.powf(k)).sum::<Real>() / n;
+        let s = if m(3.0) > 0.0 { m(0.5) * m(1.0) * m(1.5) / m(3.0) } else { 0.0 };
+        let solid = d.iter().map(|x| Particles::volume_of(dim, 0.5 * x)).sum();
+        let smallest = d.iter().copied().fold(Real::INFINITY, Real::min);
+        let largest = d.iter().copied().fold(0.0, Real::max);
+        GranuleGrains { solid, s, smallest: if smallest.is_finite() { smallest } else { 0.0 }, largest }
+    }
 }
 
 /// The stress-strain curve of a granule compression and what it gives.
@@ -54,10 +89,11 @@ pub(crate) fn granule_result(
     axis: usize,
     plateau: (Real, Real),
     dim: usize,
-    solid: Real,
-    s: Real,
+    grains: GranuleGrains,
     sigma_c: Real,
+    rupture_distance: Option<Real>,
 ) -> Option<GranuleResult> {
+    let GranuleGrains { solid, s, smallest, largest } = grains;
     let first = run.first()?;
     let name = |upper: bool| format!("{}_{}", crate::math::AXES[axis], if upper { "max" } else { "min" });
     let wall = |x: &Sample, upper: bool| x.walls.iter().find(|w| w.name == name(upper)).cloned();
@@ -107,5 +143,8 @@ pub(crate) fn granule_result(
         normalized_strength: plastic_strength.filter(|_| sigma_c > 0.0).map(|p| p / sigma_c),
         eta: plastic_strength.filter(|_| denominator > 0.0).map(|p| 2.0 * std::f64::consts::PI * p / denominator),
         curve,
+        size_ratio: if smallest > 0.0 { largest / smallest } else { 0.0 },
+        largest_diameter: largest,
+        rupture_distance,
     })
 }

@@ -9,6 +9,7 @@
 //! ([`report`]); the service runs the scenes as jobs and stores both. The format is
 //! documented in `docs/studies.md`.
 
+pub mod fit;
 pub mod formula;
 pub mod measure;
 pub mod paths;
@@ -48,6 +49,10 @@ pub struct StudySpec {
     /// A stability search instead of series.
     #[serde(default)]
     pub search: Option<SearchSpec>,
+    /// A law fitted over the succeeded runs' results ([`fit`]); with it the reference may be
+    /// left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<fit::FitSpec>,
 }
 
 /// One series: parameters set for all its runs, and swept ones (every combination is a run).
@@ -217,6 +222,7 @@ fn build(spec: &StudySpec, validate_scenes: bool) -> Result<Study, Vec<Violation
     }
     let measure = check_measure(spec, &mut v);
     let reference = check_reference(spec, &points, &mut v);
+    check_fit(spec, &mut v);
     if v.is_empty() {
         Ok(Study::Sweep { points, measure, reference })
     } else {
@@ -248,6 +254,9 @@ fn build_search(spec: &StudySpec, s: &SearchSpec, validate_scenes: bool, mut v: 
     }
     if spec.measure.is_some() || spec.reference.is_some() {
         fail(&mut v, "measure".into(), "a search measures where runs fail: it takes no measure or reference".into());
+    }
+    if spec.fit.is_some() {
+        fail(&mut v, "fit".into(), "a search has no runs' results to fit a law to: fit over series".into());
     }
     if v.is_empty() && validate_scenes {
         for (end, value) in [("low", s.low), ("high", s.high)] {
@@ -365,7 +374,9 @@ fn check_measure(spec: &StudySpec, v: &mut Vec<Violation>) -> MeasureSpec {
 /// Checks the study's reference: exactly one kind, each well formed for the runs.
 fn check_reference(spec: &StudySpec, points: &[Point], v: &mut Vec<Violation>) -> ReferenceSpec {
     let Some(r) = &spec.reference else {
-        fail(v, "reference".into(), "required: a value, a formula, analytic, a job, or the finest run of a series".into());
+        if spec.fit.is_none() {
+            fail(v, "reference".into(), "required: a value, a formula, analytic, a job, or the finest run of a series (or a fit)".into());
+        }
         return ReferenceSpec::default();
     };
     let given =
@@ -395,6 +406,15 @@ fn check_reference(spec: &StudySpec, points: &[Point], v: &mut Vec<Violation>) -
         }
     }
     r.clone()
+}
+
+/// Checks that the law to fit is known.
+fn check_fit(spec: &StudySpec, v: &mut Vec<Violation>) {
+    if let Some(f) = &spec.fit {
+        if fit::law(&f.law).is_none() {
+            fail(v, "fit.law".into(), format!("unknown law '{}'; known: {}", f.law, fit::names().join(", ")));
+        }
+    }
 }
 
 /// Checks that a reference formula parses and that every run gives every variable a value.
@@ -531,5 +551,35 @@ mod tests {
                 "measure: a job as reference is measured by the study's measure: give one",
             ]
         );
+    }
+
+    /// A study that fits a law needs no reference; the law must be known, and a search takes
+    /// no fit.
+    #[test]
+    fn a_study_may_fit_a_law_instead_of_a_reference() {
+        let study = json!({
+            "scene": base(),
+            "series": [{"label": "DEM", "sweep": [{"parameter": "method.time_step_fraction", "values": [0.01, 0.02]}]}],
+            "measure": {"result": "shear.mu"},
+            "fit": {"law": "wet_rheology"}
+        });
+        let (spec, s) = parse_study(&study.to_string()).expect("valid: the fit stands for the reference");
+        assert_eq!(spec.fit.map(|f| f.law), Some("wet_rheology".to_string()));
+        assert!(matches!(s, Study::Sweep { ref points, .. } if points.len() == 2));
+        let mut bad = study.clone();
+        bad["fit"]["law"] = json!("wet_rheolgy");
+        let v = parse_study(&bad.to_string()).expect_err("rejected");
+        assert_eq!(
+            (v[0].field.as_str(), v[0].rule.as_str()),
+            ("fit.law", "unknown law 'wet_rheolgy'; known: wet_rheology, granule_strength, agglomerate_rates")
+        );
+        let search = json!({"scene": base(), "search": {"parameter": "method.time_step", "low": 1e-4, "high": 1e-3},
+                            "fit": {"law": "wet_rheology"}});
+        let v = parse_study(&search.to_string()).expect_err("rejected");
+        assert_eq!(v[0].field, "fit");
+        let mut none = study;
+        none.as_object_mut().expect("study").remove("fit");
+        let v = parse_study(&none.to_string()).expect_err("rejected");
+        assert!(v[0].field == "reference" && v[0].rule.ends_with("(or a fit)"), "{v:?}");
     }
 }

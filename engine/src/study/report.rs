@@ -92,6 +92,12 @@ pub struct StudyReport {
     /// A search's theory, where there is one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub theory: Option<Theory>,
+    /// The law fitted over the succeeded runs, for a study with a `fit`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<super::fit::FitReport>,
+    /// Why there is no fit (yet): too few runs, or what they lack.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_note: Option<String>,
 }
 
 impl StudyReport {
@@ -175,6 +181,8 @@ mod tests {
             ],
             limit: None,
             theory: None,
+            fit: None,
+            fit_note: None,
         };
         r.score(Some(0.7));
         let err: Vec<Option<f64>> = r.points.iter().map(|p| p.error.map(|e| (e * 1e6).round() / 1e6)).collect();

@@ -139,6 +139,32 @@ pub fn render(r: &StudyReport) -> String {
             out.push_str(&format!("note: {n}\n"));
         }
     }
+    if let Some(f) = &r.fit {
+        out.push_str(&format!("fit: {} over {} runs, rms residual {:.3e}\n  {}\n", f.law, f.runs.len(), f.rms, f.formula));
+        out.push_str(&format!("  {:<18}  {:>11}  {:>10}  {:>10}  {:>10}\n", "constant", "fitted", "± std", "published", "difference"));
+        for c in &f.constants {
+            let num = |x: Option<f64>| x.map_or("—".to_string(), sable_server::charts::brief);
+            out.push_str(&format!(
+                "  {:<18}  {:>11}  {:>10}  {:>10}  {:>10}\n",
+                c.name,
+                num(c.value),
+                num(c.std_error),
+                c.published.map_or(String::new(), sable_server::charts::brief),
+                c.difference.map_or(String::new(), |d| if d.abs() < 10.0 {
+                    format!("{:+.1}%", 100.0 * d)
+                } else {
+                    format!("×{}", sable_server::charts::brief(1.0 + d))
+                })
+            ));
+        }
+        for n in &f.notes {
+            out.push_str(&format!("  note: {n}\n"));
+        }
+        out.push_str(&format!("  published: {}\n", f.source));
+    }
+    if let Some(n) = &r.fit_note {
+        out.push_str(&format!("fit: none yet: {n}\n"));
+    }
     if let Some(t) = &r.theory {
         out.push_str(&format!(
             "theory: {:.5e} ({}){}\n",

@@ -30,6 +30,7 @@
 //! quasi-static (`I > 1e-3`) or not in the rigid limit (`κ < 1e4`: contacts deflect by more than
 //! 1e-4 d; not for deformable grains, which are meant to deform).
 
+mod agglomerate;
 mod compaction;
 mod deposition;
 pub mod drum;
@@ -40,15 +41,15 @@ mod triaxial;
 
 use serde::{Deserialize, Serialize};
 
+pub use agglomerate::AgglomerateResult;
 pub use compaction::CompactionResult;
 pub use deposition::{deposit_of, DepositionResult};
 pub use shear::{ShearResult, I_M_ALPHA, I_M_BETA};
 pub use triaxial::{Dilatancy, Peak, Steady};
 
-use super::granule::{granule_result, GranuleResult};
+use super::granule::{granule_result, GranuleGrains, GranuleResult};
 use super::sample::Sample;
 use crate::math::Real;
-use crate::particles::Particles;
 use crate::scene::{ElasticLaw, Experiment, Scene, StateFile};
 use drum::{drum_result, DrumResult};
 use shear::WetScales;
@@ -130,6 +131,10 @@ pub struct ExperimentResult {
     /// Plane shear results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shear: Option<ShearResult>,
+    /// A plane shear of wet grains: how their cluster (an agglomerate) elongates, loses bridges
+    /// and is eroded per unit strain.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub agglomerate: Option<AgglomerateResult>,
     /// Deposition results.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deposition: Option<DepositionResult>,
@@ -163,6 +168,7 @@ impl ExperimentResult {
             dilatancy: None,
             compaction: None,
             shear: None,
+            agglomerate: None,
             deposition: None,
             granule: None,
             drum: None,
@@ -183,9 +189,9 @@ pub struct Analysis {
     samples: Vec<Sample>,
     /// Height and packing fraction of a deposit, from the final state.
     deposit: Option<(Real, Real)>,
-    /// Solid volume (m³, m² in 2D) and polydispersity factor `s` of the grains, from the final
-    /// state (granule compression).
-    grains: Option<(Real, Real)>,
+    /// The grains' solid volume, polydispersity factor and extreme sizes, from the final state
+    /// (granule compression).
+    grains: Option<GranuleGrains>,
     /// The liquid, when the grains are wet.
     wet: Option<WetScales>,
     /// The grains deform (methods `mpm`, `fem`): they are meant to be far from the rigid limit.
@@ -209,10 +215,11 @@ impl Analysis {
         };
         let material = first_material.and_then(|m| scene.materials.get(m));
         let any_wet = scene.sets.iter().any(|s| s.wet_fraction > 0.0) || scene.initial.as_ref().is_some_and(|st| st.wet.iter().any(|&w| w));
-        let wet = material
-            .and_then(|m| m.liquid)
-            .filter(|_| any_wet)
-            .map(|l| WetScales { kappa: l.capillary_prefactor(), viscosity: l.viscosity });
+        let wet = material.and_then(|m| m.liquid).filter(|_| any_wet).map(|l| WetScales {
+            kappa: l.capillary_prefactor(),
+            viscosity: l.viscosity,
+            rupture_distance: l.rupture_distance(),
+        });
         Self {
             experiment: scene.experiment.clone(),
             dim: scene.dim,
@@ -255,11 +262,7 @@ impl Analysis {
             Some(Experiment::Deposition { axis, floor_upper, .. }) => self.deposit = Some(deposit_of(state, axis, floor_upper)),
             Some(Experiment::GranuleCompression { .. }) => {
                 let d: Vec<Real> = state.particles.radius.iter().map(|r| 2.0 * r).collect();
-                let n = d.len().max(1) as Real;
-                let m = |k: Real| d.iter().map(|x| x.powf(k)).sum::<Real>() / n;
-                let s = if m(3.0) > 0.0 { m(0.5) * m(1.0) * m(1.5) / m(3.0) } else { 0.0 };
-                let solid = d.iter().map(|x| Particles::volume_of(self.dim, 0.5 * x)).sum();
-                self.grains = Some((solid, s));
+                self.grains = Some(GranuleGrains::of(self.dim, &d));
             }
             _ => {}
         }
@@ -306,14 +309,16 @@ impl Analysis {
                 r.stiffness_number = self.stiffness_number(preparation.pressure, mean_diameter);
                 let shear: Vec<&Sample> = stage("shear").collect();
                 self.plane_shear(&mut r, &shear, *shear_rate, *rough_walls, &flow);
+                r.agglomerate = agglomerate::agglomerate_result(&shear, *shear_rate);
             }
             Experiment::GranuleCompression { axis, plateau, strain_rate, .. } => {
                 let relaxed = stage("relaxation").next_back();
                 let run: Vec<&Sample> = stage("compression").collect();
-                let (solid, s) = self.grains.unwrap_or((0.0, 0.0));
                 let f_c = self.wet.map_or(0.0, |w| w.kappa * 0.5 * mean_diameter);
                 let sigma_c = f_c / mean_diameter.powi(self.dim as i32 - 1);
-                r.granule = granule_result(&run, relaxed, *axis, *plateau, self.dim, solid, s, sigma_c);
+                let grains = self.grains.unwrap_or_default();
+                let rupture = self.wet.map(|w| w.rupture_distance);
+                r.granule = granule_result(&run, relaxed, *axis, *plateau, self.dim, grains, sigma_c, rupture);
                 if let Some(g) = &r.granule {
                     if g.plastic_strength.is_none() {
                         r.warnings.push(format!(

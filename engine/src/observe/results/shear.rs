@@ -55,6 +55,8 @@ pub(super) struct WetScales {
     pub(super) kappa: Real,
     /// Viscosity, Pa·s.
     pub(super) viscosity: Real,
+    /// Rupture distance of a bridge, m.
+    pub(super) rupture_distance: Real,
 }
 
 impl Analysis {

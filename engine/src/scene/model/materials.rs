@@ -87,6 +87,12 @@ impl Liquid {
     pub fn capillary_prefactor(&self) -> Real {
         2.0 * std::f64::consts::PI * self.surface_tension * self.contact_angle.cos()
     }
+
+    /// The rupture distance of a bridge `d_rupt = (1 + θ/2) V_b^(1/3)`, m (Lian, Thornton &
+    /// Adams 1993; docs/physics.md §2.8).
+    pub fn rupture_distance(&self) -> Real {
+        (1.0 + 0.5 * self.contact_angle) * self.bridge_volume.cbrt()
+    }
 }
 
 /// Interstitial liquid parameters.
