@@ -298,7 +298,9 @@ fn fit_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, name: &str, f: &
         .collect();
     let suffix = format!(": the law {} fitted over {} runs", f.law, f.runs.len());
     let caption = format!("{}{suffix}", fit(name, TITLE_SIZE, suffix.len()));
-    titles(root, &caption, &[format!("fitted (published): {}", constants.join(", ")), format!("published: {}", f.source)])?;
+    // A law published as trends has no constants to set side by side: its formula instead.
+    let first = if constants.is_empty() { f.formula.clone() } else { format!("fitted (published): {}", constants.join(", ")) };
+    titles(root, &caption, &[first, format!("published: {}", f.source)])?;
     let area = root.margin(80, 0, 0, 0);
     let panels = area.split_evenly((1, f.panels.len().max(1)));
     for (panel, area) in f.panels.iter().zip(panels.iter()) {

@@ -263,7 +263,7 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
                 }
             }
             if let Some(f) = &spec.fit {
-                fit_runs(&mut report, &f.law, &runs);
+                fit_runs(&mut report, f, &runs);
             }
         }
         Study::Search { search, scene } => {
@@ -298,16 +298,16 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
     Ok(())
 }
 
-/// Fits the study's law over its succeeded runs' results (recomputed at every change: a fit
+/// Fits the study's law over its succeeded runs' results (those of the series it names) (recomputed at every change: a fit
 /// takes milliseconds), or says why there is no fit.
-fn fit_runs(report: &mut StudyReport, law: &str, runs: &[RunRow]) {
-    let Some(law) = sable_engine::study::fit::law(law) else {
-        report.fit_note = Some(format!("unknown law '{law}'"));
+fn fit_runs(report: &mut StudyReport, spec: &sable_engine::study::fit::FitSpec, runs: &[RunRow]) {
+    let Some(law) = sable_engine::study::fit::law(&spec.law) else {
+        report.fit_note = Some(format!("unknown law '{}'", spec.law));
         return;
     };
     let results: Vec<(usize, serde_json::Value)> = runs
         .iter()
-        .filter(|r| r.state == "succeeded")
+        .filter(|r| r.state == "succeeded" && spec.fits(&r.series))
         .filter_map(|r| Some((r.idx as usize, serde_json::from_str(r.result.as_deref()?).ok()?)))
         .collect();
     let runs: Vec<sable_engine::study::fit::RunResult<'_>> =

@@ -414,6 +414,11 @@ fn check_fit(spec: &StudySpec, v: &mut Vec<Violation>) {
         if fit::law(&f.law).is_none() {
             fail(v, "fit.law".into(), format!("unknown law '{}'; known: {}", f.law, fit::names().join(", ")));
         }
+        for (k, label) in f.series.iter().enumerate() {
+            if !spec.series.iter().any(|s| &s.label == label) {
+                fail(v, format!("fit.series[{k}]"), format!("no series is labelled '{label}'"));
+            }
+        }
     }
 }
 

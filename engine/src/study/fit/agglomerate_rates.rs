@@ -134,6 +134,7 @@ impl FitLaw for AgglomerateRates {
                 }
             }
         }
+        notes.extend(super::undetermined(&constants));
         let i_es: Vec<f64> = runs.iter().map(|r| r.i_e).collect();
         let (e_lo, e_hi) = (i_es.iter().copied().fold(f64::INFINITY, f64::min) / 1.5, i_es.iter().copied().fold(0.0, f64::max) * 1.5);
         let e_grid = log_space(e_lo, e_hi, 60);

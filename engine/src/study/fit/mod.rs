@@ -42,6 +42,18 @@ pub fn names() -> Vec<&'static str> {
 pub struct FitSpec {
     /// The law's name ([`LAWS`]).
     pub law: String,
+    /// The series whose runs are fitted, by label (default: every series): a study may also
+    /// hold runs that check something else (the grains' friction, the size) the law does not
+    /// take as a variable.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub series: Vec<String>,
+}
+
+impl FitSpec {
+    /// True if the runs of the series `label` are fitted.
+    pub fn fits(&self, label: &str) -> bool {
+        self.series.is_empty() || self.series.iter().any(|s| s == label)
+    }
 }
 
 /// One succeeded run's experiment results.
@@ -95,7 +107,7 @@ pub struct Constant {
 }
 
 impl Constant {
-    fn new(name: impl Into<String>, value: Option<f64>, std_error: Option<f64>, published: Option<f64>) -> Self {
+    pub(crate) fn new(name: impl Into<String>, value: Option<f64>, std_error: Option<f64>, published: Option<f64>) -> Self {
         let difference = match (value, published) {
             (Some(v), Some(p)) if p != 0.0 => Some((v - p) / p),
             _ => None,
@@ -123,6 +135,24 @@ pub struct Panel {
     pub points: Vec<(usize, f64, f64)>,
     /// The laws: a label and its line.
     pub curves: Vec<Curve>,
+}
+
+/// The notes on fitted constants the runs do not determine: a standard error larger than the
+/// value, or none at all (the fit's normal matrix is singular).
+pub(crate) fn undetermined(constants: &[Constant]) -> Vec<String> {
+    constants
+        .iter()
+        .filter_map(|c| match (c.value, c.std_error) {
+            (Some(v), Some(e)) if e > v.abs() => {
+                Some(format!("{} not determined by the runs: its standard error ({e:.3e}) exceeds its value ({v:.3e})", c.name))
+            }
+            (Some(v), None) => Some(format!(
+                "{} not determined by the runs: no standard error (the fit's normal matrix is singular; value {v:.3e})",
+                c.name
+            )),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The field at `path` (dots between names) of a result, as a number.

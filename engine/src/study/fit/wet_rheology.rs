@@ -120,18 +120,7 @@ impl FitLaw for WetRheology {
         // the initial slope Δμ/I_μ is determined.
         let ratio = law.0[2] / law.0[3];
         constants.push(Constant::new("delta_mu/I_mu", Some(ratio), None, Some(PUBLISHED[2] / PUBLISHED[3])));
-        for c in constants.iter().take(5) {
-            match (c.value, c.std_error) {
-                (Some(v), Some(e)) if e > v.abs() => {
-                    notes.push(format!("{} not determined by the runs: its standard error ({e:.3e}) exceeds its value ({v:.3e})", c.name))
-                }
-                (Some(v), None) => notes.push(format!(
-                    "{} not determined by the runs: no standard error (the fit's normal matrix is singular; value {v:.3e})",
-                    c.name
-                )),
-                _ => {}
-            }
-        }
+        notes.extend(super::undetermined(&constants[..5]));
         for (g, xi) in groups.iter().enumerate() {
             let err = |j: usize| best.std_errors.get(k + j).copied().flatten();
             constants.push(Constant::new(format!("mu_c(xi={xi:.3})"), Some(mu_c[g]), err(2 * g), None));
