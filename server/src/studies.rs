@@ -298,8 +298,8 @@ pub async fn advance(store: &JobStore, limits: &Limits, row: &StudyRow) -> Resul
     Ok(())
 }
 
-/// Fits the study's law over its succeeded runs' results (those of the series it names) (recomputed at every change: a fit
-/// takes milliseconds), or says why there is no fit.
+/// Fits the study's law over the succeeded runs of the series it names (recomputed at every
+/// change: a fit takes milliseconds), or says why there is no fit.
 fn fit_runs(report: &mut StudyReport, spec: &sable_engine::study::fit::FitSpec, runs: &[RunRow]) {
     let Some(law) = sable_engine::study::fit::law(&spec.law) else {
         report.fit_note = Some(format!("unknown law '{}'", spec.law));
@@ -390,7 +390,7 @@ async fn reference_value(
     if let Some(v) = reference.value {
         return Ok((Some(v), "value".into()));
     }
-    if let (Some(f), None) = (&spec.fit, &reference.finest) {
+    if let (Some(f), true) = (&spec.fit, reference == &ReferenceSpec::default()) {
         return Ok((None, format!("none: the study fits the law {}", f.law)));
     }
     if reference.analytic.is_some() {

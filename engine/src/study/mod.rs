@@ -558,8 +558,8 @@ mod tests {
         );
     }
 
-    /// A study that fits a law needs no reference; the law must be known, and a search takes
-    /// no fit.
+    /// A study that fits a law needs no reference; the law and the series it names must be
+    /// known, and a search takes no fit.
     #[test]
     fn a_study_may_fit_a_law_instead_of_a_reference() {
         let study = json!({
@@ -573,7 +573,9 @@ mod tests {
         assert!(matches!(s, Study::Sweep { ref points, .. } if points.len() == 2));
         let mut bad = study.clone();
         bad["fit"]["law"] = json!("wet_rheolgy");
+        bad["fit"]["series"] = json!(["DEM", "CD"]);
         let v = parse_study(&bad.to_string()).expect_err("rejected");
+        assert_eq!((v[1].field.as_str(), v[1].rule.as_str()), ("fit.series[1]", "no series is labelled 'CD'"));
         assert_eq!(
             (v[0].field.as_str(), v[0].rule.as_str()),
             ("fit.law", "unknown law 'wet_rheolgy'; known: wet_rheology, granule_strength, agglomerate_rates")
