@@ -41,6 +41,8 @@ pub(crate) struct LineFit {
     pub intercept_error: Real,
     /// Coefficient of determination.
     pub r2: Real,
+    /// Sum of the squared residuals.
+    pub residual: Real,
 }
 
 /// Fits a [`LineFit`] to `points`; `None` with fewer than three points or no spread in `x`.
@@ -69,6 +71,7 @@ pub(crate) fn line_fit(points: &[(Real, Real)]) -> Option<LineFit> {
         slope_error: (variance / sxx).sqrt(),
         intercept_error: (variance * (1.0 / nf + mx * mx / sxx)).sqrt(),
         r2: if syy > 0.0 { 1.0 - residual / syy } else { 1.0 },
+        residual,
     })
 }
 

@@ -47,12 +47,12 @@ pub struct AgglomerateResult {
 }
 
 /// The agglomerate's evolution from the shear stage's samples at shear rate `rate` (1/s); `None`
-/// without two samples carrying a cluster.
+/// without three samples carrying a cluster (a slope and its scatter need three).
 pub(super) fn agglomerate_result(shear: &[&Sample], rate: Real) -> Option<AgglomerateResult> {
     let series: Vec<(Real, &crate::observe::cluster::ClusterSample)> =
         shear.iter().filter_map(|s| s.cluster.as_deref().map(|c| (s.time, c))).collect();
     let (&(t0, first), &(t1, last)) = (series.first()?, series.last()?);
-    if series.len() < 2 || t1 <= t0 {
+    if series.len() < 3 || t1 <= t0 {
         return None;
     }
     let strain = |t: Real| rate * (t - t0);
@@ -60,7 +60,7 @@ pub(super) fn agglomerate_result(shear: &[&Sample], rate: Real) -> Option<Agglom
     let erosion = |out: u64| if first.count > 0 { (out as Real - first.outside as Real) / first.count as Real } else { 0.0 };
     let slope = |f: &dyn Fn(&crate::observe::cluster::ClusterSample) -> Real| {
         let pts: Vec<(Real, Real)> = series.iter().map(|(t, c)| (strain(*t), f(c))).collect();
-        slope_of(&pts)
+        crate::observe::power::line_fit(&pts).map_or(0.0, |l| l.slope)
     };
     Some(AgglomerateResult {
         samples: series.len(),
@@ -77,19 +77,6 @@ pub(super) fn agglomerate_result(shear: &[&Sample], rate: Real) -> Option<Agglom
         damage_rate: slope(&|c| damage(c.bridges)),
         erosion_rate: slope(&|c| erosion(c.outside)),
     })
-}
-
-/// The least-squares slope of `y` against `x` (0 when the x do not vary).
-fn slope_of(p: &[(Real, Real)]) -> Real {
-    let n = p.len() as Real;
-    let mx = p.iter().map(|q| q.0).sum::<Real>() / n;
-    let my = p.iter().map(|q| q.1).sum::<Real>() / n;
-    let sxx: Real = p.iter().map(|q| (q.0 - mx).powi(2)).sum();
-    if sxx > 0.0 {
-        p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum::<Real>() / sxx
-    } else {
-        0.0
-    }
 }
 
 #[cfg(test)]
@@ -130,7 +117,7 @@ mod tests {
         assert!((r.damage_rate - 0.1).abs() < 1e-12, "{}", r.damage_rate);
         assert!((r.erosion_rate - 0.05).abs() < 1e-12, "{}", r.erosion_rate);
         assert!((r.damage - 0.2).abs() < 1e-12 && (r.erosion - 0.1).abs() < 1e-12, "{r:?}");
-        // Without two samples with a cluster there is no result.
-        assert!(agglomerate_result(&refs[..1], 2.0).is_none());
+        // Without three samples with a cluster there is no result.
+        assert!(agglomerate_result(&refs[..2], 2.0).is_none());
     }
 }

@@ -12,8 +12,8 @@
 //! (`observe/results/agglomerate.rs`); the published ones may be defined otherwise.
 
 use super::least_squares::minimise;
-use super::line::line;
 use super::{log_space, number, Constant, FitLaw, FitReport, Panel, RunResult};
+use crate::observe::power::line_fit;
 
 /// Published constants: A_g, n_g, A_b, n_b, A_e, I_0, n_e (Vo et al. 2020, Physical Review E).
 pub const PUBLISHED: [(&str, f64); 7] =
@@ -70,17 +70,17 @@ impl FitLaw for AgglomerateRates {
             let rate: fn(&Run) -> f64 = if k == 0 { |r| r.k_g } else { |r| r.k_b };
             let pts: Vec<(f64, f64)> = runs.iter().filter(|r| rate(r) > 0.0).map(|r| (r.xi_i.ln(), rate(r).ln())).collect();
             let (a_name, n_name) = (PUBLISHED[2 * k].0, PUBLISHED[2 * k + 1].0);
-            match line(&pts) {
+            match line_fit(&pts) {
                 Some(l) => {
                     let (a, n) = (l.intercept.exp(), l.slope);
-                    constants.push(Constant::new(a_name, Some(a), l.intercept_error.map(|e| e * a), published(2 * k)));
-                    constants.push(Constant::new(n_name, Some(n), l.slope_error, published(2 * k + 1)));
+                    constants.push(Constant::new(a_name, Some(a), Some(l.intercept_error * a), published(2 * k)));
+                    constants.push(Constant::new(n_name, Some(n), Some(l.slope_error), published(2 * k + 1)));
                     curves.push(("fitted".to_string(), grid.iter().map(|x| [*x, a * x.powf(n)]).collect()));
-                    squares += l.squares;
+                    squares += l.residual;
                     count += pts.len();
                 }
                 None => {
-                    notes.push(format!("{a_name}, {n_name} not determined: fewer than two runs with a positive rate at distinct xi I"));
+                    notes.push(format!("{a_name}, {n_name} not determined: fewer than three runs with a positive rate at distinct xi I"));
                     constants.push(Constant::new(a_name, None, None, published(2 * k)));
                     constants.push(Constant::new(n_name, None, None, published(2 * k + 1)));
                 }

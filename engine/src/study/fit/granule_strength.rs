@@ -12,8 +12,8 @@
 //! in each group with two rupture distances or more the line `η = η_0 + η_1 d_rupt / d_max` by
 //! least squares; the notes say whether each trend holds.
 
-use super::line::line;
 use super::{Constant, FitLaw, FitReport, Panel, RunResult};
+use crate::observe::power::line_fit;
 
 /// The granule-strength law.
 pub struct GranuleStrength;
@@ -69,33 +69,42 @@ impl FitLaw for GranuleStrength {
         for (g, alpha) in alphas.iter().enumerate() {
             let of: Vec<&Run> = runs.iter().filter(|r| r.group == g).collect();
             let mean_alpha = of.iter().map(|r| r.alpha).sum::<f64>() / of.len() as f64;
-            match line(&of.iter().map(|r| (r.x, r.eta)).collect::<Vec<_>>()) {
+            let points: Vec<(f64, f64)> = of.iter().map(|r| (r.x, r.eta)).collect();
+            match line_fit(&points) {
                 Some(l) => {
-                    constants.push(Constant::new(format!("eta_0(alpha={mean_alpha:.2})"), Some(l.intercept), l.intercept_error, None));
-                    constants.push(Constant::new(format!("eta_1(alpha={mean_alpha:.2})"), Some(l.slope), l.slope_error, None));
-                    squares += l.squares;
+                    constants.push(Constant::new(
+                        format!("eta_0(alpha={mean_alpha:.2})"),
+                        Some(l.intercept),
+                        Some(l.intercept_error),
+                        None,
+                    ));
+                    constants.push(Constant::new(format!("eta_1(alpha={mean_alpha:.2})"), Some(l.slope), Some(l.slope_error), None));
+                    squares += l.residual;
                     count += of.len();
-                    lines.push((mean_alpha, l));
+                    let x_min = points.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+                    let x_max = points.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+                    lines.push((mean_alpha, l, x_min, x_max));
                 }
-                None => notes.push(format!("size ratio {alpha:.2}: fewer than two rupture distances, no line")),
+                None => notes.push(format!("size ratio {alpha:.2}: fewer than three runs at distinct rupture distances, no line")),
             }
         }
-        for (alpha, l) in &lines {
-            let rises = l.slope > 0.0 && l.slope_error.is_none_or(|e| l.slope > 2.0 * e);
+        for (alpha, l, _, _) in &lines {
+            let rises = l.slope > 0.0 && l.slope > 2.0 * l.slope_error;
             notes.push(format!(
-                "size ratio {alpha:.2}: eta {} with d_rupt/d_max (slope {:.3}{})",
+                "size ratio {alpha:.2}: eta {} with d_rupt/d_max (slope {:.3} ± {:.3})",
                 if rises { "rises" } else { "does not clearly rise" },
                 l.slope,
-                l.slope_error.map_or(String::new(), |e| format!(" ± {e:.3}"))
+                l.slope_error
             ));
         }
         if lines.len() >= 2 {
             // Compare the lines at the middle of the rupture distances every group covers.
-            let lo = lines.iter().map(|(_, l)| l.x_min).fold(f64::NEG_INFINITY, f64::max);
-            let hi = lines.iter().map(|(_, l)| l.x_max).fold(f64::INFINITY, f64::min);
+            let lo = lines.iter().map(|(_, _, x_min, _)| *x_min).fold(f64::NEG_INFINITY, f64::max);
+            let hi = lines.iter().map(|(_, _, _, x_max)| *x_max).fold(f64::INFINITY, f64::min);
             if lo <= hi {
                 let x = 0.5 * (lo + hi);
-                let at: Vec<String> = lines.iter().map(|(a, l)| format!("{:.3} at alpha {a:.2}", l.intercept + l.slope * x)).collect();
+                let at: Vec<String> =
+                    lines.iter().map(|(a, l, _, _)| format!("{:.3} at alpha {a:.2}", l.intercept + l.slope * x)).collect();
                 let grows = lines.windows(2).all(|w| w[1].1.intercept + w[1].1.slope * x > w[0].1.intercept + w[0].1.slope * x);
                 notes.push(format!(
                     "at d_rupt/d_max = {x:.3}, eta is {}: {}",
@@ -110,7 +119,7 @@ impl FitLaw for GranuleStrength {
         let (x0, x1) = (xs.iter().copied().fold(f64::INFINITY, f64::min), xs.iter().copied().fold(0.0, f64::max));
         let curves = lines
             .iter()
-            .map(|(a, l)| {
+            .map(|(a, l, _, _)| {
                 (
                     format!("alpha {a:.2}: {:.2} + {:.2} x", l.intercept, l.slope),
                     vec![[x0, l.intercept + l.slope * x0], [x1, l.intercept + l.slope * x1]],

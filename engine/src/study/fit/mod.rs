@@ -7,7 +7,6 @@
 pub mod agglomerate_rates;
 pub mod granule_strength;
 pub mod least_squares;
-pub(crate) mod line;
 pub mod wet_rheology;
 
 use serde::{Deserialize, Serialize};
