@@ -10,7 +10,8 @@
 //! resumes is built from the saved state as a scene's `start_from` is, its clock is set back,
 //! and the samples taken before the checkpoint are fed to its analysis again, so its results
 //! cover the whole run. What the rigid-grain methods carry from step to step beside the state
-//! goes with it ([`Carried`]): the grains glued to the walls (rough walls) and the contacts'
+//! goes with it ([`Carried`]): the grains glued to the walls (rough walls), the wet grains'
+//! followed cluster with its accretion and erosion so far, and the contacts'
 //! history — DEM's tangential and rolling springs and capillary bridges, contact dynamics'
 //! impulses of the last step (the solver's warm start) and bridges. The simulation that goes on
 //! is built keeping the state's particle order ([`crate::scene::Scene::continue_saved_run`]),
@@ -24,15 +25,17 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::Real;
+use crate::observe::cluster::ClusterTrack;
 use crate::scene::StateFile;
 
 /// Value of [`Checkpoint::format`].
 pub const CHECKPOINT_FORMAT: &str = "sable-checkpoint";
 /// Version of the checkpoint format written by this engine; a checkpoint of a version outside
 /// [`CHECKPOINT_OLDEST`]..=[`CHECKPOINT_VERSION`] is not resumed from (the run starts over).
-pub const CHECKPOINT_VERSION: u32 = 2;
+pub const CHECKPOINT_VERSION: u32 = 3;
 /// Oldest version of the checkpoint format this engine goes on from (version 1 carried no
-/// [`Carried`]: its contacts start afresh).
+/// [`Carried`]: its contacts start afresh; version 2 no followed wet cluster: its accretion
+/// and erosion count again from the checkpoint).
 pub const CHECKPOINT_OLDEST: u32 = 1;
 
 /// A run's clock: what a simulation built from a saved state must be told to count on from the
@@ -126,12 +129,15 @@ pub struct Carried {
     /// The contacts' history.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contacts: Option<ContactHistory>,
+    /// The wet grains' followed cluster and its accretion and erosion so far (version 3).
+    #[serde(default, skip_serializing_if = "ClusterTrack::is_empty")]
+    pub cluster: ClusterTrack,
 }
 
 impl Carried {
     /// Nothing carried.
     pub fn is_empty(&self) -> bool {
-        self.glued.is_empty() && self.contacts.is_none()
+        self.glued.is_empty() && self.contacts.is_none() && self.cluster.is_empty()
     }
 }
 
@@ -273,12 +279,14 @@ mod tests {
     fn what_a_run_carries_goes_through_json_and_older_versions_carry_nothing() {
         let carried = serde_json::json!({
             "glued": [[3, 1]],
+            "cluster": {"members": [0, 2, 5], "accreted": 4, "eroded": 1},
             "contacts": {"kind": "springs", "contacts": [{"i": 0, "with": {"particle": 2}, "spring": [1e-6, 0.0, 0.0], "bridge": true},
                                                          {"i": 1, "with": {"boundary": 0}, "spring": [0.0, 2e-6, 0.0]}],
                          "loads": [[1.0, 2.0, 0.0, 0.0, 0.0, 0.5]], "walls": [[0.0, -3.0, 0.0]]}
         });
         let c = Checkpoint::from_json(&checkpoint_json(CHECKPOINT_VERSION, carried)).expect("a checkpoint");
         assert_eq!(c.carried.glued, vec![(3, 1)]);
+        assert_eq!((c.carried.cluster.members.as_slice(), c.carried.cluster.accreted, c.carried.cluster.eroded), (&[0, 2, 5][..], 4, 1));
         let Some(ContactHistory::Springs { contacts, loads, walls }) = &c.carried.contacts else { panic!("springs: {:?}", c.carried) };
         assert_eq!(contacts[0].with, Other::Particle(2));
         assert!(contacts[0].bridge && !contacts[1].bridge);
@@ -297,7 +305,7 @@ mod tests {
         let old = Checkpoint::from_json(&checkpoint_json(1, serde_json::json!({}))).expect("version 1 is read");
         assert!(old.carried.is_empty());
         let err = Checkpoint::from_json(&checkpoint_json(CHECKPOINT_VERSION + 1, serde_json::json!({}))).expect_err("a newer version");
-        assert!(err.contains("versions 1 to 2"), "{err}");
+        assert!(err.contains("versions 1 to 3"), "{err}");
         let err = Checkpoint::from_json(&checkpoint_json(
             CHECKPOINT_VERSION,
             serde_json::json!({"contacts": {"kind": "springs", "contacts": [], "extra": 1}}),

@@ -432,6 +432,42 @@ fn a_drum_resumes_with_its_rim_contacts() {
     }
 }
 
+/// A wet granule in a drum (`scenes/drum_granulation_2d.json`, reduced): the granule the
+/// samples' `cluster` follows, and the grains it gained and lost so far, go into the checkpoint
+/// with the contacts' history (bridges included). The sample after the checkpoint has the same
+/// followed cluster, accretion and erosion as the run never stopped; resumed without what the
+/// checkpoint carried, the counts start again from nothing.
+#[test]
+fn a_drum_granule_resumes_with_its_followed_cluster() {
+    let scene = file("scenes/drum_granulation_2d.json", |v| {
+        v["particles"][0]["count"] = json!(19);
+        v["particles"][0]["size"]["diameter"] = json!(1e-3);
+        v["particles"][0]["placement"]["spacing"] = json!(0.9999e-3);
+        v["particles"][0]["placement"]["within"] = json!({"center": [0.012, 0.0065], "radius": 2.8e-3});
+        v["particles"][1]["count"] = json!(30);
+        v["particles"][2]["count"] = json!(110);
+        for set in 1..3 {
+            v["particles"][set]["size"] = json!({"kind": "uniform", "min": 0.8e-3, "max": 1.2e-3});
+        }
+        v["container"]["max"] = json!([0.024, 0.024]);
+        v["experiment"]["revolutions"] = json!(0.15);
+        v["experiment"]["transient"] = json!(0.05);
+        v["sampling"] = json!({"every_steps": 1000});
+    });
+    let carried = twins_at(scene.clone(), |(samples, _)| into_last_stage(samples, 6), true);
+    let dropped = twins_at(scene, |(samples, _)| into_last_stage(samples, 6), false);
+    for t in [&carried, &dropped] {
+        assert_same_steps(t);
+    }
+    let counts = |s: &Sample| s.cluster.as_ref().map(|c| (c.count, c.accreted, c.eroded)).expect("a wet cluster");
+    let next = carried.whole.0.iter().position(|s| s.step > carried.checkpoint_step).expect("samples after the checkpoint");
+    let before = counts(&carried.whole.0[next - 1]);
+    assert!(before.1 + before.2 > 0, "the granule neither gained nor lost a grain before the checkpoint: {before:?}");
+    assert_eq!(counts(&carried.resumed.0[next]), counts(&carried.whole.0[next]), "at the first sample after the checkpoint");
+    let restarted = counts(&dropped.resumed.0[next]);
+    assert!(restarted.1 + restarted.2 < before.1 + before.2, "without the checkpoint's cluster the counts start again: {restarted:?}");
+}
+
 /// Contact dynamics with stress-controlled walls: each wall is a plate whose mass the build
 /// derives from the box (which the preparation shrinks) and whose velocity comes out of the
 /// contact problem. The checkpoint carries the plates' mass and velocity, the step and the

@@ -31,6 +31,7 @@ fn every_shipped_study_expands_into_valid_runs() {
             ("dem_time_step_limit.json".to_string(), 2),
             ("disk_between_plates_soft.json".to_string(), 16),
             ("fem_compaction_friction.json".to_string(), 4),
+            ("granule_growth_2d.json".to_string(), 8),
             ("granule_strength.json".to_string(), 16),
             ("mpm_compaction_laws.json".to_string(), 8),
             ("plane_shear_stiffness.json".to_string(), 5),

@@ -134,7 +134,9 @@ pub fn measure(v: &SystemView<'_>) -> Sample {
         deformable: v.deformable.map(|d| Box::new(d.sample)),
         grains: grains.map(Box::new),
         primaries,
-        cluster: super::cluster::measure_cluster(p, dim, v.contacts).map(Box::new),
+        // Following a cluster carries a state from sample to sample: the rigid-grain world,
+        // which has wet grains, measures it ([`crate::methods::rigid::RigidWorld::measure`]).
+        cluster: None,
     }
 }
 

@@ -12,6 +12,7 @@ pub mod drum;
 mod drum_surface;
 pub mod grains;
 pub mod granule;
+pub mod least_squares;
 pub mod metrics;
 pub mod power;
 pub mod results;

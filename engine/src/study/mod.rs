@@ -578,7 +578,7 @@ mod tests {
         assert_eq!((v[1].field.as_str(), v[1].rule.as_str()), ("fit.series[1]", "no series is labelled 'CD'"));
         assert_eq!(
             (v[0].field.as_str(), v[0].rule.as_str()),
-            ("fit.law", "unknown law 'wet_rheolgy'; known: wet_rheology, granule_strength, agglomerate_rates")
+            ("fit.law", "unknown law 'wet_rheolgy'; known: wet_rheology, granule_strength, agglomerate_rates, granule_growth")
         );
         let search = json!({"scene": base(), "search": {"parameter": "method.time_step", "low": 1e-4, "high": 1e-3},
                             "fit": {"law": "wet_rheology"}});

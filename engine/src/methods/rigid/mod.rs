@@ -206,7 +206,7 @@ impl<M: RigidMethod> Simulation for M {
     }
 
     fn carried(&self) -> Carried {
-        Carried { glued: self.world().glued.clone(), contacts: Some(self.history()) }
+        Carried { glued: self.world().glued.clone(), contacts: Some(self.history()), cluster: self.world().cluster.clone() }
     }
 
     fn carry_on(&mut self, carried: &Carried) -> Result<(), EngineError> {
@@ -218,6 +218,14 @@ impl<M: RigidMethod> Simulation for M {
             return Err(refuse("the simulation was not built to continue its state (Scene::continue_saved_run)".into()));
         }
         self.world_mut().glue(&carried.glued).map_err(refuse)?;
+        let n = self.world().p.len();
+        if carried.cluster.members.iter().any(|&m| m as usize >= n) {
+            return Err(refuse(format!("the followed cluster names a particle beyond the state's {n}")));
+        }
+        let mut track = carried.cluster.clone();
+        track.members.sort_unstable();
+        track.members.dedup();
+        self.world_mut().cluster = track;
         in_own_pool(self, |s| &mut s.world_mut().pool, |s| s.restore_history(carried.contacts.as_ref()))
     }
 }

@@ -7,6 +7,7 @@ use crate::geometry::Domain;
 use crate::loading::{Drum, Wall};
 use crate::math::{Real, Vec3};
 use crate::methods::world;
+use crate::observe::cluster::{measure_cluster, ClusterTrack};
 use crate::observe::{measure, rattler_threshold, ContactRecord, Sample, ShearGeometry, Snapshot, SystemView};
 use crate::particles::Particles;
 use crate::scene::{Controls, Material, Scene, StateFile};
@@ -55,6 +56,8 @@ pub struct RigidWorld {
     /// Built from a checkpoint's state to go on from it ([`Scene::continue_saved_run`]): the
     /// particles are in the state's order.
     pub continued: bool,
+    /// The wet grains' cluster followed from sample to sample ([`crate::observe::cluster`]).
+    pub cluster: ClusterTrack,
 }
 
 impl RigidWorld {
@@ -81,6 +84,7 @@ impl RigidWorld {
             time: 0.0,
             pool: world::own_pool(threads)?,
             continued: scene.continues_saved_run(),
+            cluster: ClusterTrack::default(),
         })
     }
 
@@ -148,10 +152,11 @@ impl RigidWorld {
     }
 
     /// The metrics of the state with these `contacts`, the stored `elastic_energy` (J) and the
-    /// rattler rule for `frictional` grains.
-    pub fn measure(&self, contacts: &[ContactRecord], elastic_energy: Real, frictional: bool) -> Sample {
+    /// rattler rule for `frictional` grains; the wet grains' followed cluster moves on to this
+    /// sample.
+    pub fn measure(&mut self, contacts: &[ContactRecord], elastic_energy: Real, frictional: bool) -> Sample {
         let walls = world::wall_views(&self.walls, &self.domain);
-        measure(&SystemView {
+        let mut sample = measure(&SystemView {
             dim: self.dim,
             step: self.step,
             time: self.time,
@@ -165,7 +170,9 @@ impl RigidWorld {
             drum: self.drum.as_ref().map(Drum::view),
             deformable: None,
             domain: &self.domain,
-        })
+        });
+        sample.cluster = measure_cluster(&self.p, self.dim, contacts, &mut self.cluster).map(Box::new);
+        sample
     }
 
     /// The particles, `contacts` and walls now; the drum's shell carries `drum_loads`, the

@@ -53,6 +53,10 @@ pub struct DrumResult {
     pub regime: String,
     /// Mean velocity profile across the flowing layer (counts summed over the samples).
     pub profile: Vec<ProfileBin>,
+    /// With wet grains: their granule's accretion and erosion over the whole rotation, and the
+    /// rates of Vo et al.'s law ([`super::granule_growth`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub granule: Option<super::granule_growth::GranuleGrowth>,
 }
 
 /// Mass angle (degrees) below which the bed is not lifted: the drum slips under it.
@@ -153,6 +157,7 @@ pub(crate) fn drum_result(
         flow_inertial_number,
         regime: regime.to_string(),
         profile,
+        granule: None,
     };
     Some((result, bottom))
 }

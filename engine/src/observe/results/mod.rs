@@ -22,7 +22,8 @@
 //! - **Drum** (docs/references.md check 17): means over the rotation after the transient
 //!   revolutions of the surface and mass angles, fill, bed packing fraction, drive torque and
 //!   velocity profile ([`super::drum`]); the flowing layer's depth and inertial number; the flow
-//!   regime ([`drum::drum_regime`]).
+//!   regime ([`drum::drum_regime`]); with wet grains, their granule's accretion and erosion
+//!   against the revolutions and the rates of Vo et al.'s law ([`granule_growth`]).
 //!
 //! Each result states the inertial number `I = ε̇ <d> sqrt(ρ / p)` and the stiffness number
 //! (Roux & Chevoir 2005, §2.3.4; docs/physics.md §8: `κ = k_n / (p d)` in 3D and `k_n / p` in 2D
@@ -34,6 +35,7 @@ mod agglomerate;
 mod compaction;
 mod deposition;
 pub mod drum;
+pub mod granule_growth;
 mod shear;
 #[cfg(test)]
 mod tests;
@@ -204,6 +206,10 @@ pub struct Analysis {
     /// The deformable grains' moduli (the first set's material), for the sources' compaction
     /// laws.
     grain_moduli: Option<crate::observe::compaction_laws::GrainModuli>,
+    /// Largest over smallest grain diameter the scene places (1 for one size).
+    size_ratio: Real,
+    /// Friction coefficient of the first wet grains' material (0 without wet grains).
+    wet_friction: Real,
 }
 
 impl Analysis {
@@ -232,6 +238,8 @@ impl Analysis {
             aggregates: scene.sets.iter().any(|s| s.aggregate.is_some())
                 || scene.initial.as_ref().is_some_and(|st| !st.bondings.is_empty()),
             aggregate_diameter: scene.sets.iter().find(|s| s.aggregate.is_some()).map(|s| s.size.mean_diameter()),
+            size_ratio: size_ratio(scene),
+            wet_friction: wet_material(scene).map_or(0.0, |m| m.friction),
             grain_moduli: material.and_then(|m| m.deformable).map(|law| {
                 let (young, poisson) = law.young_poisson();
                 let lame = crate::constitutive::Lame::from_young(young, poisson);
@@ -334,9 +342,10 @@ impl Analysis {
             }
             Experiment::Drum { .. } => {
                 let rotation: Vec<&Sample> = stage("rotation").collect();
-                if let Some((d, bottom)) = drum_result(experiment, stage("filling").next_back(), &rotation, mean_diameter, density) {
+                if let Some((mut d, bottom)) = drum_result(experiment, stage("filling").next_back(), &rotation, mean_diameter, density) {
                     // The weight on the bottom of the bed sets the stiffness number.
                     r.stiffness_number = self.stiffness_number(bottom, mean_diameter);
+                    d.granule = granule_growth::granule_growth(&rotation, d.angular_velocity, self.size_ratio, self.wet_friction);
                     r.drum = Some(d);
                 }
             }
@@ -403,4 +412,29 @@ impl Flow {
     pub(super) fn inertial(&self, rate: Real, p: Real) -> Option<Real> {
         (p > 0.0).then(|| rate * self.diameter * (self.density / p).sqrt())
     }
+}
+
+/// Largest over smallest grain diameter the scene places: of its saved state's grains, or of
+/// its particle sets' size distributions (1 when it places none).
+fn size_ratio(scene: &Scene) -> Real {
+    let (largest, smallest) = match &scene.initial {
+        Some(st) => st.radius.iter().fold((0.0 as Real, Real::INFINITY), |(a, b), &r| (a.max(r), b.min(r))),
+        None => {
+            scene.sets.iter().fold((0.0 as Real, Real::INFINITY), |(a, b), s| (a.max(s.size.max_diameter()), b.min(s.size.min_diameter())))
+        }
+    };
+    if smallest > 0.0 && smallest.is_finite() {
+        largest / smallest
+    } else {
+        1.0
+    }
+}
+
+/// The material of the scene's first wet grains.
+fn wet_material(scene: &Scene) -> Option<&crate::scene::Material> {
+    let index = match &scene.initial {
+        Some(st) => st.wet.iter().zip(&st.material).find(|(w, _)| **w).map(|(_, &m)| m),
+        None => scene.sets.iter().find(|s| s.wet_fraction > 0.0).map(|s| s.material),
+    };
+    scene.materials.get(index?)
 }

@@ -11,8 +11,8 @@
 //! below `I_0`). The rates are Sable's reductions of the cluster's series
 //! (`observe/results/agglomerate.rs`); the published ones may be defined otherwise.
 
-use super::least_squares::minimise;
 use super::{log_space, number, Constant, FitLaw, FitReport, Panel, RunResult};
+use crate::observe::least_squares::minimise;
 use crate::observe::power::line_fit;
 
 /// Published constants: A_g, n_g, A_b, n_b, A_e, I_0, n_e (Vo et al. 2020, Physical Review E).
@@ -103,7 +103,7 @@ impl FitLaw for AgglomerateRates {
             };
             let i_es: Vec<f64> = runs.iter().map(|r| r.i_e).collect();
             let (e_lo, e_hi) = (i_es.iter().copied().fold(f64::INFINITY, f64::min), i_es.iter().copied().fold(0.0, f64::max));
-            let mut best: Option<super::least_squares::Solution> = None;
+            let mut best: Option<crate::observe::least_squares::Solution> = None;
             for a0 in [0.01, 0.1, 1.0] {
                 for i0 in [e_lo * 0.5, (e_lo * e_hi).sqrt()] {
                     for n0 in [0.7, 1.5, 3.0] {

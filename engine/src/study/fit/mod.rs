@@ -5,8 +5,8 @@
 //! [`LAWS`].
 
 pub mod agglomerate_rates;
+pub mod granule_growth;
 pub mod granule_strength;
-pub mod least_squares;
 pub mod wet_rheology;
 
 use serde::{Deserialize, Serialize};
@@ -23,7 +23,12 @@ pub trait FitLaw: Sync {
 }
 
 /// The laws a study can fit.
-pub static LAWS: &[&dyn FitLaw] = &[&wet_rheology::WetRheology, &granule_strength::GranuleStrength, &agglomerate_rates::AgglomerateRates];
+pub static LAWS: &[&dyn FitLaw] = &[
+    &wet_rheology::WetRheology,
+    &granule_strength::GranuleStrength,
+    &agglomerate_rates::AgglomerateRates,
+    &granule_growth::GranuleGrowthLaw,
+];
 
 /// The law of that name.
 pub fn law(name: &str) -> Option<&'static dyn FitLaw> {

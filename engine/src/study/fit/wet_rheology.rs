@@ -15,8 +15,8 @@
 //! and keep the best minimum. β needs runs with a viscous liquid and α runs at two cohesion
 //! indices or more: without them the constant is left out (reported as not determined).
 
-use super::least_squares::{minimise, Solution};
 use super::{log_space, number, Constant, FitLaw, FitReport, Panel, RunResult};
+use crate::observe::least_squares::{minimise, Solution};
 
 /// The published constants (Vo et al. 2020): α, β, Δμ, I_μ, I_Φ.
 pub const PUBLISHED: [f64; 5] = [0.062, 0.075, 1.1, 0.095, 2.01];
