@@ -46,8 +46,8 @@ pub struct GranuleGrowth {
     /// Its standard error.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub erosion_rate_error: Option<f64>,
-    /// Accretion rate `k⁺`, grains per revolution (absent when the accretion does not
-    /// determine it: no grain accreted, or no free wet grain).
+    /// Accretion rate `k⁺`, grains per revolution: 0 when no grain was accreted (the law's
+    /// `N⁺` vanishes as `k⁺ → 0` whatever `k⁻`); absent when no wet grain was free.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accretion_rate: Option<f64>,
     /// Its standard error.
@@ -57,8 +57,12 @@ pub struct GranuleGrowth {
     pub history: Vec<[f64; 3]>,
 }
 
-/// The accretion law's `N⁺` after `n_r` revolutions (module documentation).
+/// The accretion law's `N⁺` after `n_r` revolutions (module documentation); 0 at `k⁺ = 0`, its
+/// limit whatever `k⁻`.
 pub fn accretion(n_r: Real, k_plus: Real, k_minus: Real, wet: Real, initial: Real) -> Real {
+    if k_plus <= 0.0 {
+        return 0.0;
+    }
     (wet * (1.0 - k_minus / k_plus) - initial) * (1.0 - (-k_plus * n_r / wet).exp()) + k_minus * n_r
 }
 
@@ -115,12 +119,15 @@ fn slope_through_origin(points: &[(Real, Real)]) -> (Real, Option<Real>) {
     (k, error)
 }
 
-/// `k⁺` and its standard error fitted to the history's accretion with erosion rate `k_minus`;
-/// `None` when nothing was accreted or no wet grain was free.
+/// `k⁺` and its standard error fitted to the history's accretion with erosion rate `k_minus`:
+/// 0 (no error) when nothing was accreted, `None` when no wet grain was free.
 fn fit_accretion(history: &[[f64; 3]], k_minus: Real, wet: Real, initial: Real) -> Option<(Real, Option<Real>)> {
     let &[n_end, a_end, _] = history.last()?;
-    if a_end <= 0.0 || wet <= initial || n_end <= 0.0 {
+    if wet <= initial || n_end <= 0.0 {
         return None;
+    }
+    if history.iter().all(|h| h[1] <= 0.0) {
+        return Some((0.0, None));
     }
     let residuals = |q: &[f64], r: &mut Vec<f64>| {
         r.clear();
@@ -190,14 +197,21 @@ mod tests {
         assert_eq!((g.size_ratio, g.friction), (5.0, 0.5));
     }
 
-    /// A granule that neither gains nor loses: no accretion rate, a zero erosion rate.
+    /// A granule that neither gains nor loses has both rates 0; without a free wet grain there
+    /// is no accretion rate.
     #[test]
     fn a_granule_at_rest_has_no_rates() {
         let samples: Vec<Sample> = (0..10).map(|k| sample(0.1 * k as Real, 50, 3, 1)).collect();
         let refs: Vec<&Sample> = samples.iter().collect();
         let g = granule_growth(&refs, 1.0, 1.0, 0.3).expect("a growth");
-        assert_eq!((g.accreted, g.eroded, g.accretion_rate), (0, 0, None));
+        assert_eq!((g.accreted, g.eroded, g.accretion_rate, g.accretion_rate_error), (0, 0, Some(0.0), None));
         assert_eq!(g.erosion_rate, 0.0);
+        // The law at k+ = 0 is its limit, not 0/0.
+        assert_eq!(accretion(3.0, 0.0, 2.0, 200.0, 50.0), 0.0);
+        assert!((accretion(3.0, 1e-9, 2.0, 200.0, 50.0)).abs() < 1e-6);
+        let all_wet: Vec<Sample> = (0..10).map(|k| sample(0.1 * k as Real, 200, 0, 0)).collect();
+        let refs: Vec<&Sample> = all_wet.iter().collect();
+        assert_eq!(granule_growth(&refs, 1.0, 1.0, 0.3).expect("a growth").accretion_rate, None);
         assert!(granule_growth(&refs[..2], 1.0, 1.0, 0.3).is_none());
     }
 }

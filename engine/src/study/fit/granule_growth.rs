@@ -73,7 +73,7 @@ impl FitLaw for GranuleGrowthLaw {
             constants.push(Constant::new(format!("k-({tag})"), Some(r.k_minus), r.k_minus_error, None));
         }
         for r in runs.iter().filter(|r| r.k_plus.is_none()) {
-            notes.push(format!("run {}: no accretion rate (no grain accreted, or no free wet grain)", r.index));
+            notes.push(format!("run {}: no accretion rate (no free wet grain)", r.index));
         }
         let (squares, count) = runs.iter().filter_map(|r| r.k_plus.map(|k| (r, k))).fold((0.0, 0usize), |(s, n), (r, k)| {
             let sum: f64 = r.history.iter().map(|h| (accretion(h[0], k, r.k_minus, r.wet, r.initial) - h[1]).powi(2)).sum();
@@ -155,7 +155,8 @@ fn run_of(r: &RunResult<'_>) -> Option<Run> {
         index: r.index,
         alpha: get("size_ratio")?,
         mu: get("friction")?,
-        k_plus: get("accretion_rate"),
+        // Results stored before a run that accreted nothing reported k+ = 0 have no rate.
+        k_plus: get("accretion_rate").or_else(|| (get("accreted") == Some(0.0)).then_some(0.0)),
         k_plus_error: get("accretion_rate_error"),
         k_minus: get("erosion_rate")?,
         k_minus_error: get("erosion_rate_error"),
@@ -287,6 +288,14 @@ mod tests {
         for (_, line) in &plus.curves {
             assert_eq!(line.first().map(|p| p[1]), Some(0.0));
         }
+        // A run that accreted nothing, stored without a rate, has k+ = 0.
+        let mut still = drum(2.0, 0.1, 1.0, 0.0);
+        still["drum"]["granule"].as_object_mut().map(|g| g.remove("accretion_rate"));
+        still["drum"]["granule"]["accreted"] = json!(0);
+        let r = GranuleGrowthLaw.fit(&[RunResult { index: 0, result: &still }]).expect("a fit");
+        assert_eq!(r.constants[0].value, Some(0.0), "{:?}", r.constants);
+        // Every number of the report is finite (it goes through JSON).
+        assert!(r.rms.is_finite() && r.panels.iter().all(|p| p.curves.iter().all(|c| c.1.iter().all(|x| x[1].is_finite()))));
         // A lone run gives its constants and says there is no trend.
         let r = GranuleGrowthLaw.fit(&runs[..1]).expect("a fit");
         assert!(r.notes.iter().any(|n| n.starts_with("no two runs")), "{:?}", r.notes);
