@@ -24,7 +24,7 @@ pub struct GranuleGrowthLaw;
 const HISTORY_POINTS: usize = 30;
 
 /// One run's granule.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 struct Run {
     index: usize,
     alpha: f64,
@@ -79,13 +79,13 @@ impl FitLaw for GranuleGrowthLaw {
             let sum: f64 = r.history.iter().map(|h| (accretion(h[0], k, r.k_minus, r.wet, r.initial) - h[1]).powi(2)).sum();
             (s + sum, n + r.history.len())
         });
-        let alpha_groups = groups(&runs, |r| r.alpha, 0.1);
-        let mu_groups = groups(&runs, |r| r.mu, 0.01);
+        let alpha_groups = groups(runs.iter().map(|r| r.alpha), 0.1);
+        let mu_groups = groups(runs.iter().map(|r| r.mu), 0.01);
         // The trend with the size ratio at each friction, and with the friction at each size ratio.
         let mut by_alpha = Vec::new();
         for mu in &mu_groups {
             let of: Vec<&Run> = runs.iter().filter(|r| same(r.mu, *mu, 0.01)).collect();
-            if distinct(&of, |r| r.alpha, 0.1) >= 2 {
+            if groups(of.iter().map(|r| r.alpha), 0.1).len() >= 2 {
                 notes.push(trend("size ratio", &format!("friction {mu:.2}"), &of, |r| r.alpha));
                 by_alpha.push((*mu, of));
             }
@@ -93,7 +93,7 @@ impl FitLaw for GranuleGrowthLaw {
         let mut by_mu = Vec::new();
         for alpha in &alpha_groups {
             let of: Vec<&Run> = runs.iter().filter(|r| same(r.alpha, *alpha, 0.1)).collect();
-            if distinct(&of, |r| r.mu, 0.01) >= 2 {
+            if groups(of.iter().map(|r| r.mu), 0.01).len() >= 2 {
                 notes.push(trend("friction", &format!("size ratio {alpha:.2}"), &of, |r| r.mu));
                 by_mu.push((*alpha, of));
             }
@@ -171,9 +171,9 @@ fn same(a: f64, b: f64, tolerance: f64) -> bool {
     (a - b).abs() <= tolerance * a.abs().max(b.abs())
 }
 
-/// The distinct values of `var` among the runs (the first of each group within `tolerance`).
-fn groups(runs: &[Run], var: impl Fn(&Run) -> f64, tolerance: f64) -> Vec<f64> {
-    let mut values: Vec<f64> = runs.iter().map(&var).collect();
+/// The distinct values among `values` (the first of each group within `tolerance`, sorted).
+fn groups(values: impl Iterator<Item = f64>, tolerance: f64) -> Vec<f64> {
+    let mut values: Vec<f64> = values.collect();
     values.sort_by(f64::total_cmp);
     let mut out: Vec<f64> = Vec::new();
     for v in values {
@@ -182,12 +182,6 @@ fn groups(runs: &[Run], var: impl Fn(&Run) -> f64, tolerance: f64) -> Vec<f64> {
         }
     }
     out
-}
-
-/// How many distinct values of `var` the runs have.
-fn distinct(runs: &[&Run], var: impl Fn(&Run) -> f64, tolerance: f64) -> usize {
-    let owned: Vec<Run> = runs.iter().map(|r| (*r).clone()).collect();
-    groups(&owned, var, tolerance).len()
 }
 
 /// The note on the trend of both rates with `what` over the runs `of` (all at `at`).
