@@ -19,9 +19,8 @@
 //! the same momentum on the projected gradient of the contact problem, Chrono's APGD). Plain
 //! Gauss-Seidel crawls on the slow collective modes of a packing moved by free walls — its error
 //! there decays by a few percent per thousand sweeps — and the momentum carries those modes along
-//! (docs/methods/cd.md, "Design measurements"). With a liquid's viscosity `k` the normal bound
-//! is `r_n >= -c - k U_n` at the contact's current normal velocity (the admissible set moves with
-//! the velocity); the rolling blocks keep their plain update.
+//! (docs/methods/cd.md, "Design measurements"). Contacts with a liquid's viscosity keep their
+//! plain update, as the rolling blocks do ([`super::sweep::carry_local`]).
 //!
 //! **Cycles.** Gauss-Seidel on frictional contacts is not bound to converge (Coulomb's law is
 //! not associated: the local problems are not the minimisations of one function). On dense

@@ -256,7 +256,7 @@ impl Turns<'_, '_> {
             Pass::Carry { beta } => {
                 for (c, slot) in slots.iter_mut().enumerate() {
                     let k = self.contacts[c];
-                    if let Some(y) = carry_local(k.r, slot, beta, &k.law, || 0.0) {
+                    if let Some(y) = carry_local(k.r, slot, beta, &k.law) {
                         self.apply(c, &k.frame.to_global(&(y - k.r)));
                         self.contacts[c].r = y;
                     }
