@@ -38,7 +38,7 @@ fn every_shipped_study_expands_into_valid_runs() {
             ("restitution_dem.json".to_string(), 9),
             ("soft_compaction_bpm_mpm.json".to_string(), 3),
             ("soft_compaction_mpm_fem.json".to_string(), 5),
-            ("soft_compaction_steps.json".to_string(), 8),
+            ("soft_compaction_steps.json".to_string(), 10),
             ("wet_rheology.json".to_string(), 35),
         ]
     );
