@@ -246,7 +246,16 @@ async fn postgres_restarted_under_load_loses_no_accepted_job() {
             text
         })
     };
-    let running: Vec<i64> = sqlx::query_scalar("SELECT id FROM jobs WHERE state = 'running'").fetch_all(&pool).await.expect("running");
+    // Jobs under way when the database stops: polled until there is one, since the two workers
+    // may both be between jobs at any one instant (each job starts a process of its own).
+    let start = Instant::now();
+    let running: Vec<i64> = loop {
+        let running: Vec<i64> = sqlx::query_scalar("SELECT id FROM jobs WHERE state = 'running'").fetch_all(&pool).await.expect("running");
+        if !running.is_empty() || start.elapsed() > Duration::from_secs(30) {
+            break running;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
     pool.close().await;
     cluster.stop();
     // Submissions while PostgreSQL is down are refused, not half-written: 503 within the pool's
