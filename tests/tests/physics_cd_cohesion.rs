@@ -302,19 +302,14 @@ fn a_lubricated_bridge_also_takes_the_viscous_work_of_the_liquid() {
 /// speeds: kinetic energy below 1e-6 J (measured 2.3e-8 J at step 60).
 #[test]
 fn a_packing_bound_by_very_viscous_bridges_is_solved_without_blowing_up() {
-    let full = format!("{}/../scenes/studies/wet_rheology.json", env!("CARGO_MANIFEST_DIR"));
-    let study: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(full).expect("study file")).expect("json");
-    let mut v = study["scene"].clone();
-    v["method"] = json!({"kind": "cd", "threads": 1});
-    v["materials"]["glass"]["liquid"]["viscosity"] = json!(0.8);
-    v["stop"] = json!({"steps": 60});
-    v["sampling"] = json!({"every_steps": 10});
-    let s = common::scene(v);
-    let mut sim = s.build().expect("buildable");
-    let runner = sable_engine::run::Runner::for_scene(&s);
-    let mut last = None;
-    runner.run(sim.as_mut(), &mut |x, _| last = Some(x.clone())).expect("the viscous contacts' solves converge");
-    let last = last.expect("samples");
+    let samples = common::run_file_with("scenes/studies/wet_rheology.json", |v| {
+        *v = v["scene"].take();
+        v["method"] = json!({"kind": "cd", "threads": 1});
+        v["materials"]["glass"]["liquid"]["viscosity"] = json!(0.8);
+        v["stop"] = json!({"steps": 60});
+        v["sampling"] = json!({"every_steps": 10});
+    });
+    let last = samples.last().expect("samples");
     assert_eq!(last.step, 60);
     assert!(last.kinetic_energy.is_finite() && last.kinetic_energy < 1e-6, "kinetic energy {:e} J", last.kinetic_energy);
 }
